@@ -1,0 +1,35 @@
+"""diracvi: interconnected Lagrange–Dirac systems and discrete Dirac variational integrators.
+
+import diracvi as dv
+L = lambda q, v: 0.5 * v @ v - 0.5 * q @ q
+system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
+traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
+"""
+
+from . import _config  # noqa: F401  (switches JAX float64 on)
+from ._discretize import Midpoint, QuadratureRule, Retraction
+from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
+from ._simulate import momenta, simulate
+from ._solvers import NewtonSolver, SolveStatus
+from ._system import DiracSystem, LagrangeDiracSystem
+from ._trajectory import Trajectory, load
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "DiracSystem",
+    "DiracviError",
+    "LagrangeDiracSystem",
+    "Midpoint",
+    "ModelError",
+    "NewtonSolver",
+    "QuadratureRule",
+    "Retraction",
+    "SolveStatus",
+    "StepFailure",
+    "Trajectory",
+    "UnsolvableStepError",
+    "load",
+    "momenta",
+    "simulate",
+]

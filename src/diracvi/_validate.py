@@ -1,0 +1,122 @@
+"""Checks shared by the public entry points; each raises ModelError naming argument,
+value and fix."""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ._errors import ModelError
+
+
+def _short(value, limit: int = 80) -> str:
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
+def check_name(arg: str, value) -> str:
+    if not isinstance(value, str) or not value or "." in value or value != value.strip():
+        raise ModelError(
+            f"{arg}={_short(value)} is not a valid name: use a non-empty string without "
+            "dots or surrounding spaces (dots separate subsystem and coordinate names)."
+        )
+    return value
+
+
+def check_names(arg: str, values) -> tuple[str, ...]:
+    if isinstance(values, str) or not isinstance(values, Sequence):
+        raise ModelError(
+            f"{arg}={_short(values)} must be a sequence of names, e.g. {arg}=('x', 'y')."
+        )
+    names = tuple(values)
+    if not names:
+        raise ModelError(f"{arg}=() is empty: a system needs at least one coordinate.")
+    for name in names:
+        if not isinstance(name, str) or not name or name != name.strip():
+            raise ModelError(
+                f"{arg} contains {_short(name)}, which is not a valid name: use non-empty "
+                "strings without surrounding spaces."
+            )
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ModelError(f"{arg} repeats {duplicates}: every name must be unique.")
+    return names
+
+
+def check_callable(arg: str, value) -> Callable:
+    if not callable(value):
+        raise ModelError(
+            f"{arg}={_short(value)} is not callable: pass a function of the documented "
+            "signature that JAX can trace."
+        )
+    return value
+
+
+def eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str):
+    """Trace ``fn`` abstractly on float64 zeros of the given shapes; wrap any failure."""
+    specs = [jax.ShapeDtypeStruct(s, jnp.float64) for s in shapes]
+    try:
+        out = jax.eval_shape(fn, *specs)
+    except Exception as exc:
+        raise ModelError(
+            f"{arg} failed when JAX traced it as {signature} with arrays of shape "
+            f"{', '.join(str(s) for s in shapes)}: {type(exc).__name__}: {exc}. "
+            "Fix: write it with jax.numpy operations on the given 1-D arrays (no Python "
+            "control flow on their values, no NumPy-only functions)."
+        ) from exc
+    if not hasattr(out, "shape"):
+        raise ModelError(
+            f"{arg} returned {_short(out)} (a {type(out).__name__}) when called as "
+            f"{signature}: it must return a JAX array."
+        )
+    return out
+
+
+def check_state(arg: str, value, n: int, coords: Sequence[str]) -> jnp.ndarray:
+    try:
+        arr = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(
+            f"{arg}={_short(value)} is not a numeric array: pass {n} numbers, one per "
+            f"coordinate {tuple(coords)}."
+        ) from exc
+    if arr.shape != (n,):
+        raise ModelError(
+            f"{arg} has shape {arr.shape} but the system has {n} coordinates "
+            f"{tuple(coords)}: pass a 1-D array of length {n} in that order."
+        )
+    bad = [c for c, x in zip(coords, arr, strict=True) if not math.isfinite(x)]
+    if bad:
+        raise ModelError(
+            f"{arg} is not finite at {bad} (value {_short(arr.tolist())}): initial data "
+            "must be finite numbers."
+        )
+    return jnp.asarray(arr)
+
+
+def check_positive_float(arg: str, value) -> float:
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ModelError(f"{arg}={_short(value)} must be a positive real number, e.g. {arg}=0.01.")
+    value = float(value)
+    if not math.isfinite(value) or value <= 0.0:
+        raise ModelError(f"{arg}={value!r} must be a finite number > 0, e.g. {arg}=0.01.")
+    return value
+
+
+def check_positive_int(arg: str, value) -> int:
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) <= 0:
+        raise ModelError(f"{arg}={_short(value)} must be a whole number ≥ 1, e.g. {arg}=1000.")
+    return int(value)
+
+
+def check_choice(arg: str, value, choices: Sequence[str]) -> str:
+    if value not in choices:
+        raise ModelError(
+            f"{arg}={_short(value)} is not one of {tuple(choices)}: pick one of those."
+        )
+    return value

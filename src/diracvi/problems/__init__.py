@@ -1,0 +1,56 @@
+"""Canonical systems: the paper's examples and more, shared by tests, docs, benchmarks
+and the command line.
+
+    from diracvi import problems
+    prob = problems.get("spring-chain")
+    traj = dv.simulate(prob.system, prob.q0, prob.p0, dt=prob.dt, steps=prob.steps)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from .._errors import ModelError
+from ._problem import Problem
+from .circuits import lc_circuit, rlc_circuit
+from .oscillator import damped_oscillator
+from .rolling_disk import rolling_disk
+from .spring_chain import spring_chain
+
+#: name → factory (called with no arguments gives the source's parameters)
+REGISTRY: dict[str, Callable[[], Problem]] = {
+    "spring-chain": spring_chain,
+    "rlc": rlc_circuit,
+    "lc": lc_circuit,
+    "damped-oscillator": damped_oscillator,
+    "rolling-disk": rolling_disk,
+}
+
+
+def available() -> dict[str, str]:
+    """``{name: one-line description}`` of every built-in problem."""
+    return {name: factory().description for name, factory in REGISTRY.items()}
+
+
+def get(name: str) -> Problem:
+    """The built-in problem ``name`` with its source's parameters."""
+    try:
+        factory = REGISTRY[name]
+    except KeyError:
+        raise ModelError(
+            f"problem={name!r} is unknown; built-in problems are {sorted(REGISTRY)}."
+        ) from None
+    return factory()
+
+
+__all__ = [
+    "REGISTRY",
+    "Problem",
+    "available",
+    "damped_oscillator",
+    "get",
+    "lc_circuit",
+    "rlc_circuit",
+    "rolling_disk",
+    "spring_chain",
+]

@@ -1,0 +1,56 @@
+"""A canonical problem: a system, its initial state and step, and what is known about it."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg
+
+from .._system import DiracSystem
+
+
+@dataclass(frozen=True)
+class Problem:
+    """A ready-to-run model.
+
+    Attributes:
+        name: registry name (``diracvi run NAME``).
+        description: one line for ``diracvi list``.
+        system: the Lagrange–Dirac system (single or interconnected).
+        q0, p0: initial state in ``system.coords`` order.
+        dt, steps: the step and horizon the source uses.
+        exact: ``exact(t) -> q`` with shape (len(t), n), where a closed form is known.
+        discretizations: the rules whose step equations are solvable for this model.
+        reference: where the model comes from.
+        notes: anything a user should know (deviations from the source, caveats).
+    """
+
+    name: str
+    description: str
+    system: DiracSystem
+    q0: np.ndarray
+    p0: np.ndarray
+    dt: float
+    steps: int
+    exact: Callable[[np.ndarray], np.ndarray] | None = None
+    discretizations: tuple[str, ...] = ("retraction", "midpoint")
+    reference: str = ""
+    notes: str = ""
+    parameters: dict = field(default_factory=dict)
+
+
+def linear_flow(generator: np.ndarray, state0: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """``x(t) = exp(t G) x0`` for each t (the exact solution of ``ẋ = G x``), shape (T, d)."""
+    t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+    return np.stack([scipy.linalg.expm(ti * generator) @ state0 for ti in t])
+
+
+def mass_spring_generator(mass: np.ndarray, stiffness: np.ndarray) -> np.ndarray:
+    """``G`` of ``d/dt (q, v) = (v, −M⁻¹K q)``."""
+    n = mass.shape[0]
+    gen = np.zeros((2 * n, 2 * n))
+    gen[:n, n:] = np.eye(n)
+    gen[n:, :n] = -np.linalg.solve(mass, stiffness)
+    return gen

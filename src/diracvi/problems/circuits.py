@@ -1,0 +1,138 @@
+r"""Circuits as Lagrange–Dirac systems: charges are coordinates, currents velocities.
+
+``L`` = magnetic energy of the inductors − electric energy of the capacitors; it has no
+velocity term for resistor and capacitor charges, so it is degenerate, and Kirchhoff's
+current law enters as constraint one-forms.
+
+**The resistor's sign.** The resistor force is ``F = (−R v^R, 0, 0)``. By the discrete
+Lagrange–d'Alembert principle the left-point rule gives ``f_d^− = h F(q_k, v_k)``, which
+enters as ``p_k = −D₁L_d − f_d^− + …``, i.e. ``p_k^R = +R (q_{k+1}^R − q_k^R) + μ``. The
+paper (§5.2) prints ``f_d^− = −h F`` and ``p_k^R = −R (q_{k+1}^R − q_k^R) + μ₁``: with that
+sign the resistor *injects* energy (a negative resistance) and the circuit's energy
+grows. diracvi uses the physical sign; ``tests/test_energy.py`` shows both.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._system import LagrangeDiracSystem
+from ._problem import Problem, linear_flow
+
+
+def rlc_circuit(
+    resistance: float = 1.0,
+    inductance: float = 0.75,
+    capacitance: float = 3.0,
+    dt: float = 0.1,
+    steps: int = 400,
+) -> Problem:
+    r"""The paper's parallel RLC circuit (§5.2), monolithic form.
+
+    Coordinates ``(q^R, q^L, q^C)``; ``L = ½ l (v^L)² − (q^C)²/(2C)``; KCL
+    ``v^R − v^L − v^C = 0`` (one-form ``(1, −1, −1)``); resistor force ``(−R v^R, 0, 0)``.
+    Paper data: ``R = 1``, ``l = 0.75``, ``C = 3``, ``q_0 = 0``, ``p_0^L = 10 l``,
+    ``h = 0.1``, 400 steps.
+    """
+    r, ell, cap = float(resistance), float(inductance), float(capacitance)
+
+    def lagrangian(q, v):
+        return 0.5 * ell * v[1] ** 2 - q[2] ** 2 / (2.0 * cap)
+
+    def force(q, v):
+        return jnp.stack([-r * v[0], 0.0 * v[1], 0.0 * v[2]])
+
+    system = LagrangeDiracSystem(
+        ("qR", "qL", "qC"),
+        lagrangian,
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        force=force,
+        name="rlc",
+        constraint_names=("KCL",),
+    )
+    # Exact flow of the index-reduced ODE in (qR, qL, qC, vL): μ = R v^R = −q^C/C,
+    # l v̇^L = −μ, v^C = v^R − v^L.
+    gen = np.zeros((4, 4))
+    gen[0, 2] = -1.0 / (r * cap)
+    gen[1, 3] = 1.0
+    gen[2, 2], gen[2, 3] = -1.0 / (r * cap), -1.0
+    gen[3, 2] = 1.0 / (ell * cap)
+    q0 = np.zeros(3)
+    p0 = np.array([0.0, 10.0 * ell, 0.0])
+
+    def exact(t):
+        return linear_flow(gen, np.array([0.0, 0.0, 0.0, 10.0]), t)[:, :3]
+
+    return Problem(
+        name="rlc",
+        description="Paper §5.2: parallel RLC circuit, monolithic (degenerate L, KCL, resistor)",
+        system=system,
+        q0=q0,
+        p0=p0,
+        dt=dt,
+        steps=steps,
+        exact=exact,
+        reference="Parks & Leok §5.2 (monolithic equations)",
+        notes="The paper's printed resistor sign is anti-dissipative; see module docs.",
+        parameters={"R": r, "l": ell, "C": cap},
+    )
+
+
+def lc_circuit(
+    inductance: float = 0.5,
+    capacitances=(1.0, 3.0),
+    charge: float = 1.0,
+    current: float = 0.0,
+    dt: float = 0.01,
+    steps: int = 1000,
+) -> Problem:
+    r"""One inductor and two capacitors in parallel.
+
+    Coordinates ``(q^L, q^{C1}, q^{C2})``; ``L = ½ l (v^L)² − (q^{C1})²/(2C_1) −
+    (q^{C2})²/(2C_2)``; KCL ``v^L − v^{C1} − v^{C2} = 0``. The capacitor loop forces
+    equal voltages ``q^{C1}/C_1 = q^{C2}/C_2`` (a secondary constraint), and the pair
+    behaves as one capacitor ``C_1 + C_2``: ``ω₀ = 1/√(l (C_1 + C_2))``.
+
+    Only ``"midpoint"`` can step it. Under the left-point rule the capacitor terms of
+    ``L_d`` depend on ``q_k`` alone, so both capacitor momentum equations read
+    ``p_k^{Ci} = h q_k^{Ci}/C_i − μ`` — two equations for the one unknown μ and nothing
+    for ``q_{k+1}``: the step Jacobian is singular, and diracvi says so before stepping.
+    """
+    ell = float(inductance)
+    c1, c2 = (float(c) for c in capacitances)
+
+    def lagrangian(q, v):
+        return 0.5 * ell * v[0] ** 2 - q[1] ** 2 / (2.0 * c1) - q[2] ** 2 / (2.0 * c2)
+
+    system = LagrangeDiracSystem(
+        ("qL", "qC1", "qC2"),
+        lagrangian,
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        name="lc",
+        constraint_names=("KCL",),
+    )
+    ctot = c1 + c2
+    q0 = np.array([0.0, charge * c1 / ctot, charge * c2 / ctot])  # equal voltages
+    p0 = np.array([ell * current, 0.0, 0.0])
+    # Exact flow in (qL, Q = qC1 + qC2, vL): q̇L = vL, Q̇ = vL, l v̇L = −Q/(C1 + C2).
+    gen = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0], [0.0, -1.0 / (ell * ctot), 0.0]])
+
+    def exact(t):
+        x = linear_flow(gen, np.array([0.0, charge, current]), t)
+        return np.stack([x[:, 0], x[:, 1] * c1 / ctot, x[:, 1] * c2 / ctot], axis=1)
+
+    return Problem(
+        name="lc",
+        description="An inductor and two capacitors in parallel (capacitor loop; midpoint only)",
+        system=system,
+        q0=q0,
+        p0=p0,
+        dt=dt,
+        steps=steps,
+        exact=exact,
+        discretizations=("midpoint",),
+        reference="Yoshimura & Marsden 2006 (LC circuits as Lagrange–Dirac systems)",
+        notes="The left-point ('retraction') step is singular for a capacitor loop.",
+        parameters={"l": ell, "C1": c1, "C2": c2},
+    )
