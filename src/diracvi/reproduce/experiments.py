@@ -1,0 +1,301 @@
+"""The paper's §5 experiments, run with diracvi: each torn model beside its monolithic twins.
+
+For each example the torn (interconnected) problem is simulated together with
+
+- ``system.monolithic()`` — the same Lagrangian and constraints on the same ``Q``, as one
+  system (the paper's theorem says the two step maps coincide), and
+- the hand-built reduced model ``problem.reduced`` without port variables (what the
+  paper calls "the monolithic system"), compared on the shared coordinates;
+
+plus the studies the paper lacks: the midpoint rule beside the paper's retraction rule
+(against the exact solution) and, for the circuit, the paper's printed resistor sign.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from .. import problems
+from .._simulate import simulate
+from .._system import LagrangeDiracSystem
+from .._trajectory import Trajectory
+from ..problems import Problem
+from . import metrics, paper
+from .timing import TIMING_PROTOCOL, time_simulation
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How much work ``reproduce`` does: the paper's protocol, or a quick smoke run."""
+
+    quick: bool = False
+    repeats: int = 1000
+    long_steps: int = 100_000
+
+    @classmethod
+    def make(cls, quick: bool = False, repeats: int | None = None) -> Settings:
+        if quick:
+            return cls(quick=True, repeats=repeats or 20, long_steps=10_000)
+        return cls(quick=False, repeats=repeats or 1000, long_steps=100_000)
+
+
+@dataclass(frozen=True)
+class Example:
+    """One §5 example: its torn problem and what its figures show."""
+
+    key: str  # summary key, e.g. "spring_chain"
+    problem: str  # registry name of the torn model
+    paper: dict
+    headline: str | None = None  # reduced coordinate of the "capacitor charge" figure
+    long_run: bool = False  # the 100,000-step energy run (spring chain only)
+    resistor_sign: bool = False  # compare the paper's printed force sign (RLC only)
+
+
+EXAMPLES = (
+    Example("spring_chain", "spring-chain-torn", paper.SPRING_CHAIN, long_run=True),
+    Example("rlc", "rlc-torn", paper.RLC, headline="qC", resistor_sign=True),
+)
+
+
+@dataclass
+class ExampleResult:
+    """Every trajectory and number of one example (the figures and summary read these)."""
+
+    example: Example
+    problem: Problem
+    interconnected: Trajectory
+    monolithic: Trajectory
+    reduced: Trajectory
+    long_run: Trajectory | None = None
+    rules: dict[str, Trajectory] = field(default_factory=dict)
+    exact: Callable | None = None  # reduced-coordinate exact solution q(t)
+    exact_energy: float | None = None
+    sign: dict[str, Trajectory] = field(default_factory=dict)
+    summary: dict = field(default_factory=dict)
+
+    @property
+    def shared(self) -> dict[str, str]:
+        return dict(self.problem.shared)
+
+    @property
+    def ports(self) -> tuple[tuple[str, str], ...]:
+        return tuple(tuple(p) for p in self.problem.ports)
+
+    def torn_name(self, reduced_name: str) -> str:
+        """The torn model's coordinate that the reduced model calls ``reduced_name``."""
+        for torn, red in self.shared.items():
+            if red == reduced_name:
+                return torn
+        raise KeyError(f"{reduced_name!r} is not a shared coordinate of {self.problem.name!r}")
+
+
+def _run(problem_or_system, q0, p0, dt, steps, discretization="retraction") -> Trajectory:
+    return simulate(
+        problem_or_system, q0, p0, dt=dt, steps=steps, discretization=discretization
+    )
+
+
+def interaction_names(system) -> tuple[str, ...]:
+    """Names of the interaction rows (the λ's) among ``system.constraint_names``.
+
+    An interconnection lists each subsystem's constraints first, then the interaction
+    one-forms (DESIGN.md §3), so these are the last ``m − Σ m_i`` names.
+    """
+    own = sum(len(sub.constraint_names) for sub in system.subsystems)
+    return tuple(system.constraint_names[own:])
+
+
+def paper_sign_system(system: LagrangeDiracSystem) -> LagrangeDiracSystem:
+    """``system`` with its force negated, ``F'(q, v) = −F(q, v)``.
+
+    Under the left-point rule this is exactly the paper's printed discrete force
+    ``f_d^− = −h F`` (§5.2), which makes the resistor a negative resistance.
+    """
+
+    def lagrangian(q, v):
+        return system.lagrangian(q, v)
+
+    def forms(q):
+        return system.constraint_forms(q)
+
+    def force(q, v):
+        return -system.force(q, v)
+
+    return LagrangeDiracSystem(
+        system.coords,
+        lagrangian,
+        constraints=forms if system.m else None,
+        force=force,
+        name=f"{getattr(system, 'name', 'system')}-paper-sign",
+        constraint_names=system.constraint_names if system.m else None,
+    )
+
+
+def exact_energy(system, exact: Callable, eps: float = 1e-6) -> float:
+    """``E(q(0), q̇(0))`` of the exact solution (q̇ by a central difference of ``exact``)."""
+    q = exact(np.array([-eps, 0.0, eps]))
+    v0 = (q[2] - q[0]) / (2.0 * eps)
+    return float(jax.jit(system.energy)(jnp.asarray(q[1]), jnp.asarray(v0)))
+
+
+def _error_vs_exact(traj: Trajectory, pairs: dict[str, str], exact: Callable, coords) -> float:
+    """``max_k |q_k − q(t_k)|`` over the shared coordinates, exact in reduced coordinates."""
+    ref = exact(traj.t)
+    return max(metrics.max_abs(traj[t] - ref[:, coords.index(r)]) for t, r in pairs.items())
+
+
+def run_example(example: Example, settings: Settings, progress) -> ExampleResult:
+    """Simulate one example and fill ``ExampleResult.summary`` (see module doc)."""
+    torn = problems.get(example.problem)
+    reduced = torn.reduced
+    dt, steps = torn.dt, torn.steps
+    progress.step(f"{example.key}: interconnected, monolithic and reduced runs")
+    inter = _run(torn.system, torn.q0, torn.p0, dt, steps)
+    mono_system = torn.system.monolithic()
+    mono = _run(mono_system, torn.q0, torn.p0, dt, steps)
+    red = _run(reduced.system, reduced.q0, reduced.p0, dt, steps)
+    result = ExampleResult(example, torn, inter, mono, red, exact=reduced.exact)
+
+    if example.long_run:
+        progress.step(f"{example.key}: {settings.long_steps:,}-step energy run")
+        result.long_run = _run(torn.system, torn.q0, torn.p0, dt, settings.long_steps)
+
+    progress.step(f"{example.key}: retraction vs midpoint against the exact solution")
+    rule_summary = {}
+    if reduced.exact is not None:
+        result.exact_energy = exact_energy(reduced.system, reduced.exact)
+        for rule in ("retraction", "midpoint"):
+            model = torn if rule in torn.discretizations else reduced
+            pairs = result.shared if model is torn else metrics.identity_pairs(reduced.system.coords)
+            dts = [dt, dt / 2, dt / 4]
+            runs = [
+                _run(model.system, model.q0, model.p0, h, steps * 2**i, rule)
+                for i, h in enumerate(dts)
+            ]
+            result.rules[rule] = runs[0]
+            errors = [
+                _error_vs_exact(r, pairs, reduced.exact, reduced.system.coords) for r in runs
+            ]
+            rule_summary[rule] = {
+                "model": model.name,
+                "dts": dts,
+                "max_error_vs_exact": errors,
+                "fitted_order": metrics.fitted_order(errors, dts),
+                "max_energy_error": metrics.max_abs(runs[0].energy - result.exact_energy),
+            }
+
+    if example.resistor_sign:
+        progress.step(f"{example.key}: the paper's printed resistor sign")
+        result.sign = {
+            "physical": red,
+            "paper": _run(paper_sign_system(reduced.system), reduced.q0, reduced.p0, dt, steps),
+        }
+
+    timing = {}
+    for label, system, q0, p0 in (
+        ("reduced", reduced.system, reduced.q0, reduced.p0),
+        ("monolithic", mono_system, torn.q0, torn.p0),
+        ("interconnected", torn.system, torn.q0, torn.p0),
+    ):
+        progress.step(f"{example.key}: timing the {label} model", total=settings.repeats)
+        timing[label] = time_simulation(
+            system, q0, p0, dt=dt, steps=steps, repeats=settings.repeats, tick=progress.tick
+        )
+
+    result.summary = _summarize(result, settings, rule_summary, timing)
+    return result
+
+
+def _summarize(result: ExampleResult, settings: Settings, rules: dict, timing: dict) -> dict:
+    torn, inter, mono, red = result.problem, result.interconnected, result.monolithic, result.reduced
+    same = metrics.identity_pairs(torn.system.coords)
+    ports = metrics.port_deviation(inter, result.ports)
+    interaction = interaction_names(torn.system)
+    pt = result.example.paper["timing"]
+    summary = {
+        "title": result.example.paper["title"],
+        "problem": torn.name,
+        "reduced_problem": torn.reduced.name,
+        "coords": list(torn.system.coords),
+        "reduced_coords": list(torn.reduced.system.coords),
+        "shared": result.shared,
+        "ports": [list(p) for p in result.ports],
+        "constraint_names": list(inter.constraint_names),
+        "interaction_constraints": list(interaction),
+        "parameters": torn.parameters,
+        "q0": np.asarray(torn.q0).tolist(),
+        "p0": np.asarray(torn.p0).tolist(),
+        "dt": torn.dt,
+        "steps": torn.steps,
+        "t_final": float(inter.t[-1]),
+        "paper": {k: result.example.paper[k] for k in ("parameters", "q0", "p0", "dt", "steps")},
+        "max_position_difference": {
+            "interconnected_vs_monolithic": metrics.position_difference(inter, mono, same),
+            "interconnected_vs_reduced": metrics.position_difference(inter, red, result.shared),
+            "monolithic_vs_reduced": metrics.position_difference(mono, red, result.shared),
+        },
+        "max_energy_difference": {
+            "interconnected_vs_monolithic": metrics.max_abs(inter.energy - mono.energy),
+            "interconnected_vs_reduced": metrics.max_abs(inter.energy - red.energy),
+        },
+        "constraint_deviation": {
+            "position": {name: metrics.max_abs(d) for name, d in ports.items()},
+            "position_max": max((metrics.max_abs(d) for d in ports.values()), default=0.0),
+            "discrete_interaction_max": metrics.max_abs(
+                metrics.constraint_rows(inter, interaction)
+            ),
+            "discrete_all_max": metrics.max_abs(inter.constraint_residual),
+        },
+        "energy": {
+            "interconnected": metrics.energy_stats(inter.energy),
+            "monolithic": metrics.energy_stats(mono.energy),
+            "reduced": metrics.energy_stats(red.energy),
+        },
+        "newton_iterations_mean": {
+            "interconnected": float(inter.newton_iterations.mean()),
+            "monolithic": float(mono.newton_iterations.mean()),
+            "reduced": float(red.newton_iterations.mean()),
+        },
+        "discretizations": rules,
+        "exact_energy": result.exact_energy,
+        "timing": {
+            "protocol": TIMING_PROTOCOL,
+            "repeats": settings.repeats,
+            "reduced_s": timing["reduced"]["min_s"],
+            "monolithic_s": timing["monolithic"]["min_s"],
+            "interconnected_s": timing["interconnected"]["min_s"],
+            "median_s": {k: v["median_s"] for k, v in timing.items()},
+            "ratio_interconnected_to_reduced": (
+                timing["interconnected"]["min_s"] / timing["reduced"]["min_s"]
+            ),
+            "ratio_interconnected_to_monolithic": (
+                timing["interconnected"]["min_s"] / timing["monolithic"]["min_s"]
+            ),
+            "paper": {
+                "repeats": pt["repeats"],
+                "monolithic_s": pt["monolithic_s"],
+                "interconnected_s": pt["interconnected_s"],
+                "ratio": pt["interconnected_s"] / pt["monolithic_s"],
+            },
+        },
+    }
+    if result.long_run is not None:
+        summary["long_run"] = {
+            "steps": result.long_run.steps,
+            "t_final": float(result.long_run.t[-1]),
+            "energy": metrics.energy_stats(result.long_run.energy),
+        }
+    if result.sign:
+        physical, printed = result.sign["physical"], result.sign["paper"]
+        summary["resistor_sign"] = {
+            "physical": metrics.energy_stats(physical.energy),
+            "paper_printed": metrics.energy_stats(printed.energy),
+            "physical_energy_nonincreasing": bool(np.all(np.diff(physical.energy) <= 1e-12)),
+            "paper_printed_energy_growth": float(printed.energy[-1] / printed.energy[0]),
+        }
+    return summary

@@ -1,0 +1,229 @@
+"""The paper's seven §5 figures, remade from our runs, plus three it lacks.
+
+Matplotlib's object API with the Agg canvas: no display and no global backend switch.
+Style follows the captions: the monolithic model as lines, the interconnected one as
+hollow markers (every few steps, so the line underneath stays visible).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from . import metrics
+from .experiments import ExampleResult
+
+#: file name → (what it shows, which paper figure it remakes or None)
+FIGURES = {
+    "spring_positions.png": ("Spring positions, monolithic vs interconnected", "Fig. 3"),
+    "spring_energy.png": ("Spring system energy, monolithic vs interconnected", "Fig. 4"),
+    "spring_constraint_deviation.png": ("Deviation q2 − q̄2 of the interconnection", "Fig. 5"),
+    "spring_long_energy.png": ("Interconnected energy over the long run", "Fig. 6"),
+    "rlc_capacitor_charge.png": ("Capacitor charge, monolithic vs interconnected", "Fig. 9"),
+    "rlc_energy.png": ("Circuit energy, monolithic vs interconnected", "Fig. 10"),
+    "rlc_constraint_deviation.png": ("Deviation qS1 − qS2 of the interconnection", "Fig. 11"),
+    "spring_discretizations.png": ("Energy error: retraction (paper) vs midpoint", None),
+    "rlc_discretizations.png": ("Capacitor charge vs exact: retraction vs midpoint", None),
+    "rlc_resistor_sign.png": ("RLC energy: physical vs the paper's printed resistor sign", None),
+}
+
+_MARKERS = ("o", "s", "^", "D", "v", "P")
+
+
+def _figure(rows: int = 1, height: float = 4.0):
+    fig = Figure(figsize=(7.5, height * rows), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = fig.subplots(rows, 1, sharex=True, squeeze=False)[:, 0]
+    return fig, axes
+
+
+def _save(fig, path: Path) -> Path:
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def _every(n: int) -> int:
+    return max(n // 40, 1)
+
+
+def _colors(result: ExampleResult) -> dict[str, str]:
+    """One colour per reduced coordinate; a port variable takes its partner's colour."""
+    reduced = result.reduced.coords
+    color = {r: f"C{i}" for i, r in enumerate(reduced)}
+    for torn, red in result.shared.items():
+        color[torn] = color[red]
+    for a, b in result.ports:
+        if a in color and b not in color:
+            color[b] = color[a]
+        elif b in color and a not in color:
+            color[a] = color[b]
+    return color
+
+
+def positions(result: ExampleResult, path: Path, coords=None, ylabel="position q") -> Path:
+    """Reduced model as lines, interconnected model as hollow markers (caption of Fig. 3)."""
+    red, inter = result.reduced, result.interconnected
+    color = _colors(result)
+    fig, (ax,) = _figure()
+    shown_red = coords or red.coords
+    for r in shown_red:
+        ax.plot(red.t, red[r], "-", color=color[r], lw=1.3, label=f"{r} (monolithic)")
+    torn_coords = (
+        [result.torn_name(r) for r in coords] if coords is not None else list(inter.coords)
+    )
+    for i, c in enumerate(torn_coords):
+        ax.plot(
+            inter.t, inter[c], _MARKERS[i % len(_MARKERS)], color=color.get(c, "k"),
+            mfc="none", ms=6, markevery=_every(inter.steps) + i, label=f"{c} (interconnected)",
+        )
+    ax.set_xlabel("time t")
+    ax.set_ylabel(ylabel)
+    ax.legend(ncols=2, fontsize=8)
+    ax.grid(alpha=0.3)
+    return fig, ax
+
+
+def _energy_axes(result: ExampleResult, title: str):
+    red, inter = result.reduced, result.interconnected
+    fig, (ax,) = _figure()
+    ax.plot(red.t[:-1], red.energy, "-", lw=1.3, label="variational (monolithic, hand-built)")
+    ax.plot(
+        inter.t[:-1], inter.energy, "o", mfc="none", ms=6, markevery=_every(inter.steps),
+        label="interconnected",
+    )
+    ax.set_xlabel("time t")
+    ax.set_ylabel("energy E(q_k, v_k)")
+    ax.set_title(title)
+    ax.legend()
+    ax.grid(alpha=0.3)
+    return fig, ax
+
+
+def _deviation(result: ExampleResult, path: Path, title: str) -> Path:
+    """Position-level port deviation and the discrete interaction residual α_{d+}."""
+    from .experiments import interaction_names
+
+    inter = result.interconnected
+    fig, (top, bottom) = _figure(rows=2, height=3.0)
+    for name, dev in metrics.port_deviation(inter, result.ports).items():
+        top.plot(inter.t, dev, "-", label=f"{name}  (max |·| = {metrics.max_abs(dev):.1e})")
+    top.set_ylabel("position deviation")
+    top.set_title(title)
+    top.legend(fontsize=8)
+    top.grid(alpha=0.3)
+    names = interaction_names(result.problem.system)
+    rows = metrics.constraint_rows(inter, names)
+    for j, name in enumerate(names):
+        bottom.plot(
+            inter.t[:-1], rows[:, j], "-",
+            label=f"α_d+ [{name}]  (max |·| = {metrics.max_abs(rows[:, j]):.1e})",
+        )
+    bottom.set_xlabel("time t")
+    bottom.set_ylabel("discrete constraint α_d+")
+    bottom.legend(fontsize=8)
+    bottom.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def spring_figures(result: ExampleResult, out: Path) -> list[Path]:
+    paths = []
+    fig, ax = positions(result, out)
+    ax.set_title("Spring chain: monolithic (lines) vs interconnected (hollow markers)")
+    paths.append(_save(fig, out / "spring_positions.png"))
+    fig, ax = _energy_axes(result, "Spring chain energy: the markers lie on the line")
+    ax.ticklabel_format(axis="y", useOffset=True)
+    paths.append(_save(fig, out / "spring_energy.png"))
+    paths.append(
+        _deviation(result, out / "spring_constraint_deviation.png", "Spring chain: q2 − q̄2")
+    )
+    long = result.long_run
+    fig, (ax,) = _figure()
+    ax.plot(long.t[:-1], long.energy, "-", lw=0.6, label="interconnected")
+    ax.set_xlabel("time t")
+    ax.set_ylabel("energy E(q_k, v_k)")
+    ax.set_title(f"Interconnected spring chain: {long.steps:,} steps at h = {long.dt}")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    paths.append(_save(fig, out / "spring_long_energy.png"))
+    paths.append(_rules_energy(result, out / "spring_discretizations.png"))
+    return paths
+
+
+def _rules_energy(result: ExampleResult, path: Path) -> Path:
+    fig, (ax,) = _figure()
+    orders = result.summary["discretizations"]
+    for rule, traj in result.rules.items():
+        ax.plot(
+            traj.t[:-1], traj.energy - result.exact_energy, "-", lw=1.0,
+            label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
+        )
+    ax.axhline(0.0, color="k", lw=0.5)
+    ax.set_xlabel("time t")
+    ax.set_ylabel("E(q_k, v_k) − E_exact")
+    ax.set_title(f"Spring chain (interconnected), h = {result.problem.dt}: energy error")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def rlc_figures(result: ExampleResult, out: Path) -> list[Path]:
+    paths = []
+    head = result.example.headline
+    fig, ax = positions(result, out, coords=[head], ylabel=f"capacitor charge {head}")
+    ax.set_title("RLC circuit: capacitor charge, monolithic (line) vs interconnected (markers)")
+    paths.append(_save(fig, out / "rlc_capacitor_charge.png"))
+    fig, _ = _energy_axes(result, "RLC circuit energy: monolithic vs interconnected")
+    paths.append(_save(fig, out / "rlc_energy.png"))
+    paths.append(
+        _deviation(result, out / "rlc_constraint_deviation.png", "RLC circuit: qS1 − qS2")
+    )
+    paths.append(_rules_charge(result, out / "rlc_discretizations.png"))
+    paths.append(_resistor_sign(result, out / "rlc_resistor_sign.png"))
+    return paths
+
+
+def _rules_charge(result: ExampleResult, path: Path) -> Path:
+    head = result.example.headline
+    reduced_coords = result.reduced.coords
+    fig, (top, bottom) = _figure(rows=2, height=3.2)
+    t = np.linspace(0.0, result.interconnected.t[-1], 801)
+    top.plot(t, result.exact(t)[:, reduced_coords.index(head)], "k-", lw=1.0, label="exact")
+    orders = result.summary["discretizations"]
+    for rule, traj in result.rules.items():
+        name = result.torn_name(head) if head not in traj.coords else head
+        top.plot(traj.t, traj[name], "--", lw=1.0, label=rule)
+        err = traj[name] - result.exact(traj.t)[:, reduced_coords.index(head)]
+        bottom.plot(
+            traj.t, err, "-", lw=1.0,
+            label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
+        )
+    top.set_ylabel(f"capacitor charge {head}")
+    top.set_title(f"RLC circuit, h = {result.problem.dt}: retraction (paper) vs midpoint")
+    top.legend()
+    top.grid(alpha=0.3)
+    bottom.set_xlabel("time t")
+    bottom.set_ylabel("error vs exact")
+    bottom.legend()
+    bottom.grid(alpha=0.3)
+    return _save(fig, path)
+
+
+def _resistor_sign(result: ExampleResult, path: Path) -> Path:
+    fig, (ax,) = _figure()
+    physical, printed = result.sign["physical"], result.sign["paper"]
+    ax.semilogy(physical.t[:-1], physical.energy, "-", label="physical sign: f_d⁻ = +hF")
+    ax.semilogy(printed.t[:-1], printed.energy, "-", label="paper's printed sign: f_d⁻ = −hF")
+    ax.set_xlabel("time t")
+    ax.set_ylabel("energy E(q_k, v_k)  (log scale)")
+    ax.set_title("RLC circuit: the printed resistor sign injects energy")
+    ax.legend()
+    ax.grid(alpha=0.3, which="both")
+    return _save(fig, path)
+
+
+def render_all(results: dict[str, ExampleResult], out: Path) -> list[Path]:
+    """Write every figure of :data:`FIGURES` into ``out``; returns their paths."""
+    return spring_figures(results["spring_chain"], out) + rlc_figures(results["rlc"], out)
