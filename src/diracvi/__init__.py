@@ -9,6 +9,7 @@ traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 from . import _config  # noqa: F401  (switches JAX float64 on)
 from ._discretize import Midpoint, QuadratureRule, Retraction
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
+from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
 from ._solvers import NewtonSolver, SolveStatus
 from ._system import DiracSystem, LagrangeDiracSystem
@@ -17,8 +18,11 @@ from ._trajectory import Trajectory, load
 __version__ = "0.1.0"
 
 __all__ = [
+    "Connection",
     "DiracSystem",
     "DiracviError",
+    "Interaction",
+    "InterconnectedSystem",
     "LagrangeDiracSystem",
     "Midpoint",
     "ModelError",
@@ -29,6 +33,8 @@ __all__ = [
     "StepFailure",
     "Trajectory",
     "UnsolvableStepError",
+    "connect",
+    "interconnect",
     "load",
     "momenta",
     "simulate",

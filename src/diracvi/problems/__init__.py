@@ -12,10 +12,12 @@ from collections.abc import Callable
 
 from .._errors import ModelError
 from ._problem import Problem
-from .circuits import lc_circuit, rlc_circuit
+from .circuits import lc_circuit, rlc_circuit, rlc_torn
+from .dc_motor import dc_motor
+from .double_pendulum import double_pendulum_torn
 from .oscillator import damped_oscillator
 from .rolling_disk import rolling_disk
-from .spring_chain import spring_chain
+from .spring_chain import chain_torn, spring_chain, spring_chain_torn
 
 #: name → factory (called with no arguments gives the source's parameters)
 REGISTRY: dict[str, Callable[[], Problem]] = {
@@ -24,6 +26,11 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "lc": lc_circuit,
     "damped-oscillator": damped_oscillator,
     "rolling-disk": rolling_disk,
+    "spring-chain-torn": spring_chain_torn,
+    "rlc-torn": rlc_torn,
+    "chain-torn": chain_torn,
+    "double-pendulum-torn": double_pendulum_torn,
+    "dc-motor": dc_motor,
 }
 
 
@@ -47,10 +54,15 @@ __all__ = [
     "REGISTRY",
     "Problem",
     "available",
+    "chain_torn",
     "damped_oscillator",
+    "dc_motor",
+    "double_pendulum_torn",
     "get",
     "lc_circuit",
     "rlc_circuit",
+    "rlc_torn",
     "rolling_disk",
     "spring_chain",
+    "spring_chain_torn",
 ]

@@ -25,6 +25,11 @@ class Problem:
         discretizations: the rules whose step equations are solvable for this model.
         reference: where the model comes from.
         notes: anything a user should know (deviations from the source, caveats).
+        reduced: for a torn (interconnected) model, the hand-built model without the extra
+            port variables.
+        shared: torn coordinate → the reduced model's coordinate it must equal.
+        ports: coordinate pairs the interconnection keeps equal (position level, given
+            equal initial values).
     """
 
     name: str
@@ -39,6 +44,9 @@ class Problem:
     reference: str = ""
     notes: str = ""
     parameters: dict = field(default_factory=dict)
+    reduced: Problem | None = None
+    shared: dict[str, str] = field(default_factory=dict)
+    ports: tuple[tuple[str, str], ...] = ()
 
 
 def linear_flow(generator: np.ndarray, state0: np.ndarray, t: np.ndarray) -> np.ndarray:

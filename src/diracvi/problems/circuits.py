@@ -17,6 +17,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from .._interconnect import connect, interconnect
 from .._system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow
 
@@ -135,4 +136,58 @@ def lc_circuit(
         reference="Yoshimura & Marsden 2006 (LC circuits as Lagrange–Dirac systems)",
         notes="The left-point ('retraction') step is singular for a capacitor loop.",
         parameters={"l": ell, "C1": c1, "C2": c2},
+    )
+
+
+def rlc_torn(
+    resistance: float = 1.0,
+    inductance: float = 0.75,
+    capacitance: float = 3.0,
+    dt: float = 0.1,
+    steps: int = 400,
+) -> Problem:
+    r"""The paper's RLC circuit torn into two primitive circuits (§5.2).
+
+    ``rl``: ``(q^R, q^L, q^{S1})``, ``L^1 = ½ l (v^L)²``, KCL ``v^R − v^L − v^{S1} = 0``,
+    resistor force. ``cap``: ``(q^{S2}, q^C)``, ``L^2 = −(q^C)²/(2C)``, KCL
+    ``v^C − v^{S2} = 0``. Interaction ``v^{S1} = v^{S2}``.
+
+    The paper writes ``ω₁ = dq^R − dq^L + dq^{S1}`` in words and ``(1, −1, −1)`` in
+    coordinates, and its ``ω_{d+,1}`` has ``+(q^{S1}_{k+1} − q^{S1}_k)``; only
+    ``(1, −1, −1)`` matches its distribution ``v^R − v^L − v^{S1} = 0`` and its step
+    equations, so that is what is used here. Its ``p_k^{S2} = μ₂ − λ``,
+    ``p_k^C = … − μ₂`` use ``ω₂ = (1, −1)`` rather than the stated ``(−1, 1)`` — the same
+    constraint with μ₂ of opposite sign, harmless.
+    """
+    r, ell, cap = float(resistance), float(inductance), float(capacitance)
+    rl = LagrangeDiracSystem(
+        ("qR", "qL", "qS1"),
+        lambda q, v: 0.5 * ell * v[1] ** 2,
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        force=lambda q, v: jnp.stack([-r * v[0], 0.0 * v[1], 0.0 * v[2]]),
+        name="rl",
+        constraint_names=("KCL",),
+    )
+    capacitor = LagrangeDiracSystem(
+        ("qS2", "qC"),
+        lambda q, v: -(q[1] ** 2) / (2.0 * cap),
+        constraints=np.array([[-1.0, 1.0]]),
+        name="cap",
+        constraint_names=("KCL",),
+    )
+    system = interconnect([rl, capacitor], [connect("rl.qS1", "cap.qS2")], name="rlc")
+    return Problem(
+        name="rlc-torn",
+        description="Paper §5.2: the RLC circuit as an RL loop joined to a capacitor",
+        system=system,
+        q0=np.zeros(5),
+        p0=np.array([0.0, 10.0 * ell, 0.0, 0.0, 0.0]),
+        dt=dt,
+        steps=steps,
+        reference="Parks & Leok §5.2, eqs. (forced_int_eqns)",
+        notes="Physical resistor sign (the paper's printed sign is anti-dissipative).",
+        parameters={"R": r, "l": ell, "C": cap},
+        reduced=rlc_circuit(r, ell, cap, dt=dt, steps=steps),
+        shared={"rl.qR": "qR", "rl.qL": "qL", "cap.qC": "qC"},
+        ports=(("rl.qS1", "cap.qS2"),),
     )

@@ -10,6 +10,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
+from .._interconnect import connect, interconnect
 from .._system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow, mass_spring_generator
 
@@ -70,4 +71,106 @@ def spring_chain(
         exact=exact,
         reference="Parks & Leok §5.1, eqs. (mono_springs)",
         parameters={"masses": masses.tolist(), "springs": list(springs)},
+    )
+
+
+def _segment(name, masses, springs, with_port):
+    """One piece of a torn chain: its masses, and (unless it is the wall end) a massless
+    port coordinate ``qbar`` marking where its first spring attaches (the paper's q̄²)."""
+    m = jnp.asarray(masses, dtype=jnp.float64)
+    k = jnp.asarray(springs, dtype=jnp.float64)
+    count = len(masses)
+    coords = tuple(f"q{i}" for i in range(count))
+    if with_port:
+        coords = ("qbar", *coords)
+
+        def lagrangian(q, v):
+            stretch = q[1:] - q[:-1]  # the first spring hangs from the port
+            return 0.5 * jnp.sum(m * v[1:] ** 2) - 0.5 * jnp.sum(k * stretch**2)
+    else:
+
+        def lagrangian(q, v):
+            stretch = jnp.concatenate([q[:1], q[1:] - q[:-1]])  # the first spring: the wall
+            return 0.5 * jnp.sum(m * v**2) - 0.5 * jnp.sum(k * stretch**2)
+
+    return LagrangeDiracSystem(coords, lagrangian, name=name)
+
+
+def spring_chain_torn(dt: float = 0.01, steps: int = 1000) -> Problem:
+    r"""The paper's chain torn in two (§5.1): ``(q^1, q^2)`` and ``(q̄^2, q^3)``, with
+    ``Σ° = span{dq^2 − dq̄^2}``. ``L^2`` has no velocity for ``q̄^2`` (degenerate), so the
+    second piece alone cannot be stepped; joined, it can."""
+    k = (1.0, 1.0, 1.0)
+
+    def l1(q, v):
+        return (
+            0.5 * (v[0] ** 2 + v[1] ** 2) - 0.5 * k[0] * q[0] ** 2 - 0.5 * k[1] * (q[1] - q[0]) ** 2
+        )
+
+    def l2(q, v):
+        return 0.5 * v[1] ** 2 - 0.5 * k[2] * (q[1] - q[0]) ** 2
+
+    left = LagrangeDiracSystem(("q1", "q2"), l1, name="left")
+    right = LagrangeDiracSystem(("q2bar", "q3"), l2, name="right")
+    system = interconnect([left, right], [connect("left.q2", "right.q2bar")], name="chain")
+    return Problem(
+        name="spring-chain-torn",
+        description="Paper §5.1: the three-mass chain as two interconnected subsystems",
+        system=system,
+        q0=np.array([0.0, 1.0, 1.0, 2.0]),
+        p0=np.array([0.0, 0.0, 0.0, 3.0]),
+        dt=dt,
+        steps=steps,
+        reference="Parks & Leok §5.1, eqs. (int_springs)",
+        reduced=spring_chain(dt=dt, steps=steps),
+        shared={"left.q1": "q1", "left.q2": "q2", "right.q3": "q3"},
+        ports=(("left.q2", "right.q2bar"),),
+    )
+
+
+def chain_torn(masses: int = 12, pieces: int = 3, dt: float = 0.01, steps: int = 1000) -> Problem:
+    r"""An N-mass chain torn into M pieces (any ``N ≥ M ≥ 2``), each joined to the next
+    by ``dq_last − dq̄`` as in the paper. Masses and stiffnesses vary along the chain so
+    that no symmetry hides an indexing mistake."""
+    n, m = int(masses), int(pieces)
+    if not 2 <= m <= n:
+        raise ValueError(f"pieces={m} must satisfy 2 ≤ pieces ≤ masses={n}.")
+    mass = 1.0 + 0.5 * np.sin(np.arange(n)) ** 2
+    stiff = 1.0 + 0.3 * np.cos(np.arange(n)) ** 2
+    bounds = np.linspace(0, n, m + 1).round().astype(int)
+    segments, interactions, q0_parts, shared, ports = [], [], [], {}, []
+    q0_full = np.arange(n, dtype=np.float64)
+    p0_full = np.zeros(n)
+    p0_full[-1] = 3.0
+    for j in range(m):
+        lo, hi = bounds[j], bounds[j + 1]
+        name = f"s{j}"
+        segments.append(_segment(name, mass[lo:hi], stiff[lo:hi], with_port=j > 0))
+        if j > 0:
+            prev = f"s{j - 1}.q{bounds[j] - bounds[j - 1] - 1}"
+            interactions.append(connect(prev, f"{name}.qbar"))
+            ports.append((prev, f"{name}.qbar"))
+            q0_parts.append([q0_full[lo - 1]])
+        q0_parts.append(q0_full[lo:hi])
+        for i in range(lo, hi):
+            shared[f"{name}.q{i - lo}"] = f"q{i + 1}"
+    system = interconnect(segments, interactions, name="chain")
+    q0 = np.concatenate(q0_parts)
+    p0 = np.zeros_like(q0)
+    idx = {c: i for i, c in enumerate(system.coords)}
+    for torn, red in shared.items():
+        p0[idx[torn]] = p0_full[int(red[1:]) - 1]
+    return Problem(
+        name="chain-torn",
+        description="An N-mass spring chain torn into M interconnected pieces",
+        system=system,
+        q0=q0,
+        p0=p0,
+        dt=dt,
+        steps=steps,
+        reference="generalizes Parks & Leok §5.1",
+        reduced=spring_chain(mass, stiff, q0_full, p0_full, dt=dt, steps=steps),
+        shared=shared,
+        ports=tuple(ports),
+        parameters={"N": n, "M": m},
     )
