@@ -33,7 +33,9 @@ def _html_inline(text: str) -> str:
     for match in _INLINE.finditer(text):
         out.append(html.escape(text[pos : match.start()]))
         code, bold = match.groups()
-        out.append(f"<code>{html.escape(code)}</code>" if code else f"<strong>{html.escape(bold)}</strong>")
+        out.append(
+            f"<code>{html.escape(code)}</code>" if code else f"<strong>{html.escape(bold)}</strong>"
+        )
         pos = match.end()
     out.append(html.escape(text[pos:]))
     return "".join(out)

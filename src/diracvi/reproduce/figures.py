@@ -14,7 +14,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from . import metrics
-from .experiments import ExampleResult
+from .experiments import ExampleResult, energy_error
 
 #: file name → (what it shows, which paper figure it remakes or None)
 FIGURES = {
@@ -63,7 +63,7 @@ def _colors(result: ExampleResult) -> dict[str, str]:
     return color
 
 
-def positions(result: ExampleResult, path: Path, coords=None, ylabel="position q") -> Path:
+def positions(result: ExampleResult, coords=None, ylabel="position q"):
     """Reduced model as lines, interconnected model as hollow markers (caption of Fig. 3)."""
     red, inter = result.reduced, result.interconnected
     color = _colors(result)
@@ -74,10 +74,17 @@ def positions(result: ExampleResult, path: Path, coords=None, ylabel="position q
     torn_coords = (
         [result.torn_name(r) for r in coords] if coords is not None else list(inter.coords)
     )
+    every = _every(inter.steps)
     for i, c in enumerate(torn_coords):
         ax.plot(
-            inter.t, inter[c], _MARKERS[i % len(_MARKERS)], color=color.get(c, "k"),
-            mfc="none", ms=6, markevery=_every(inter.steps) + i, label=f"{c} (interconnected)",
+            inter.t,
+            inter[c],
+            _MARKERS[i % len(_MARKERS)],
+            color=color.get(c, "k"),
+            mfc="none",
+            ms=6,
+            markevery=(i * every // len(torn_coords), every),
+            label=f"{c} (interconnected)",
         )
     ax.set_xlabel("time t")
     ax.set_ylabel(ylabel)
@@ -91,7 +98,12 @@ def _energy_axes(result: ExampleResult, title: str):
     fig, (ax,) = _figure()
     ax.plot(red.t[:-1], red.energy, "-", lw=1.3, label="variational (monolithic, hand-built)")
     ax.plot(
-        inter.t[:-1], inter.energy, "o", mfc="none", ms=6, markevery=_every(inter.steps),
+        inter.t[:-1],
+        inter.energy,
+        "o",
+        mfc="none",
+        ms=6,
+        markevery=_every(inter.steps),
         label="interconnected",
     )
     ax.set_xlabel("time t")
@@ -118,7 +130,9 @@ def _deviation(result: ExampleResult, path: Path, title: str) -> Path:
     rows = metrics.constraint_rows(inter, names)
     for j, name in enumerate(names):
         bottom.plot(
-            inter.t[:-1], rows[:, j], "-",
+            inter.t[:-1],
+            rows[:, j],
+            "-",
             label=f"α_d+ [{name}]  (max |·| = {metrics.max_abs(rows[:, j]):.1e})",
         )
     bottom.set_xlabel("time t")
@@ -130,10 +144,10 @@ def _deviation(result: ExampleResult, path: Path, title: str) -> Path:
 
 def spring_figures(result: ExampleResult, out: Path) -> list[Path]:
     paths = []
-    fig, ax = positions(result, out)
+    fig, ax = positions(result)
     ax.set_title("Spring chain: monolithic (lines) vs interconnected (hollow markers)")
     paths.append(_save(fig, out / "spring_positions.png"))
-    fig, ax = _energy_axes(result, "Spring chain energy: the markers lie on the line")
+    fig, ax = _energy_axes(result, "Spring chain energy: monolithic vs interconnected")
     ax.ticklabel_format(axis="y", useOffset=True)
     paths.append(_save(fig, out / "spring_energy.png"))
     paths.append(
@@ -157,7 +171,10 @@ def _rules_energy(result: ExampleResult, path: Path) -> Path:
     orders = result.summary["discretizations"]
     for rule, traj in result.rules.items():
         ax.plot(
-            traj.t[:-1], traj.energy - result.exact_energy, "-", lw=1.0,
+            traj.t[:-1],
+            energy_error(traj, result.reduced_system, result.exact),
+            "-",
+            lw=1.0,
             label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
         )
     ax.axhline(0.0, color="k", lw=0.5)
@@ -172,14 +189,12 @@ def _rules_energy(result: ExampleResult, path: Path) -> Path:
 def rlc_figures(result: ExampleResult, out: Path) -> list[Path]:
     paths = []
     head = result.example.headline
-    fig, ax = positions(result, out, coords=[head], ylabel=f"capacitor charge {head}")
+    fig, ax = positions(result, coords=[head], ylabel=f"capacitor charge {head}")
     ax.set_title("RLC circuit: capacitor charge, monolithic (line) vs interconnected (markers)")
     paths.append(_save(fig, out / "rlc_capacitor_charge.png"))
     fig, _ = _energy_axes(result, "RLC circuit energy: monolithic vs interconnected")
     paths.append(_save(fig, out / "rlc_energy.png"))
-    paths.append(
-        _deviation(result, out / "rlc_constraint_deviation.png", "RLC circuit: qS1 − qS2")
-    )
+    paths.append(_deviation(result, out / "rlc_constraint_deviation.png", "RLC circuit: qS1 − qS2"))
     paths.append(_rules_charge(result, out / "rlc_discretizations.png"))
     paths.append(_resistor_sign(result, out / "rlc_resistor_sign.png"))
     return paths
@@ -197,7 +212,10 @@ def _rules_charge(result: ExampleResult, path: Path) -> Path:
         top.plot(traj.t, traj[name], "--", lw=1.0, label=rule)
         err = traj[name] - result.exact(traj.t)[:, reduced_coords.index(head)]
         bottom.plot(
-            traj.t, err, "-", lw=1.0,
+            traj.t,
+            err,
+            "-",
+            lw=1.0,
             label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
         )
     top.set_ylabel(f"capacitor charge {head}")
@@ -218,7 +236,7 @@ def _resistor_sign(result: ExampleResult, path: Path) -> Path:
     ax.semilogy(printed.t[:-1], printed.energy, "-", label="paper's printed sign: f_d⁻ = −hF")
     ax.set_xlabel("time t")
     ax.set_ylabel("energy E(q_k, v_k)  (log scale)")
-    ax.set_title("RLC circuit: the printed resistor sign injects energy")
+    ax.set_title("RLC circuit energy: physical vs the paper's printed resistor sign")
     ax.legend()
     ax.grid(alpha=0.3, which="both")
     return _save(fig, path)

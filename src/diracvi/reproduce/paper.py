@@ -7,9 +7,7 @@ it against the paper in one place.
 from __future__ import annotations
 
 #: The paper's reference, as cited in the report.
-CITATION = (
-    "Parks & Leok, *Variational integrators for interconnected Lagrange–Dirac systems*, §5"
-)
+CITATION = "Parks & Leok, *Variational integrators for interconnected Lagrange–Dirac systems*, §5"
 
 SPRING_CHAIN = {
     "title": "A chain of spring masses (§5.1)",

@@ -46,10 +46,20 @@ def _setup_table(doc: Document, s: dict) -> None:
     p = s["paper"]
     ours = s["parameters"]
     rows = [[k, fmt(v), fmt(ours.get(k, _lookup(ours, k)))] for k, v in p["parameters"].items()]
-    rows.append(["q0", ", ".join(f"{k}={fmt(v)}" for k, v in p["q0"].items()),
-                 ", ".join(f"{c}={fmt(v)}" for c, v in zip(s["coords"], s["q0"], strict=True))])
-    rows.append(["p0", ", ".join(f"{k}={fmt(v)}" for k, v in p["p0"].items()),
-                 ", ".join(f"{c}={fmt(v)}" for c, v in zip(s["coords"], s["p0"], strict=True))])
+    rows.append(
+        [
+            "q0",
+            ", ".join(f"{k}={fmt(v)}" for k, v in p["q0"].items()),
+            ", ".join(f"{c}={fmt(v)}" for c, v in zip(s["coords"], s["q0"], strict=True)),
+        ]
+    )
+    rows.append(
+        [
+            "p0",
+            ", ".join(f"{k}={fmt(v)}" for k, v in p["p0"].items()),
+            ", ".join(f"p[{c}]={fmt(v)}" for c, v in zip(s["coords"], s["p0"], strict=True)),
+        ]
+    )
     rows.append(["step h", fmt(p["dt"]), fmt(s["dt"])])
     rows.append(["steps", fmt(p["steps"]), fmt(s["steps"])])
     doc.table(["quantity", "paper", "diracvi"], rows)
@@ -59,7 +69,7 @@ def _lookup(params: dict, key: str):
     """``m1`` in ``{"masses": [...]}``-style parameter dicts (the spring chain's)."""
     for plural, prefix in (("masses", "m"), ("springs", "k")):
         if key.startswith(prefix) and plural in params:
-            return params[plural][int(key[len(prefix):]) - 1]
+            return params[plural][int(key[len(prefix) :]) - 1]
     return None
 
 
@@ -69,25 +79,48 @@ def _agreement_table(doc: Document, s: dict, claims: dict, ports_label: str) -> 
     doc.table(
         ["quantity", "paper", "diracvi"],
         [
-            ["max |q_interconnected − q_monolithic| (same Q, `system.monolithic()`)",
-             claims["positions"] if "positions" in claims else claims["charge"],
-             _verdict(d["interconnected_vs_monolithic"])],
-            ["max |q_interconnected − q_reduced| (shared coordinates, hand-built model)",
-             "(the paper's comparison)", _verdict(d["interconnected_vs_reduced"])],
-            ["max |E_interconnected − E_reduced|", claims["energy"],
-             _verdict(s["max_energy_difference"]["interconnected_vs_reduced"])],
-            [f"max |{ports_label}| (position level)", claims["constraint"],
-             _verdict(c["position_max"])],
-            ["max |α_d+| (discrete interaction constraint, every step)", "—",
-             _verdict(c["discrete_interaction_max"])],
+            [
+                "max |q_interconnected − q_monolithic| (same Q, `system.monolithic()`)",
+                claims["positions"] if "positions" in claims else claims["charge"],
+                _verdict(d["interconnected_vs_monolithic"]),
+            ],
+            [
+                "max |q_interconnected − q_reduced| (shared coordinates, hand-built model)",
+                "(the paper's comparison)",
+                _verdict(d["interconnected_vs_reduced"]),
+            ],
+            [
+                "max |E_interconnected − E_reduced|",
+                claims["energy"],
+                _verdict(s["max_energy_difference"]["interconnected_vs_reduced"]),
+            ],
+            [
+                f"max |{ports_label}| (position level)",
+                claims["constraint"],
+                _verdict(c["position_max"]),
+            ],
+            [
+                "max |α_d+| (discrete interaction constraint, every step)",
+                "—",
+                _verdict(c["discrete_interaction_max"]),
+            ],
             ["max of all discrete constraint residuals", "—", fmt(c["discrete_all_max"])],
-            ["energy: initial / final", "—",
-             f"{fmt(e['interconnected']['initial'])} / {fmt(e['interconnected']['final'])}"],
-            ["energy: min / max", "—",
-             f"{fmt(e['interconnected']['min'])} / {fmt(e['interconnected']['max'])}"],
+            [
+                "energy: initial / final",
+                "—",
+                f"{fmt(e['interconnected']['initial'])} / {fmt(e['interconnected']['final'])}",
+            ],
+            [
+                "energy: min / max",
+                "—",
+                f"{fmt(e['interconnected']['min'])} / {fmt(e['interconnected']['max'])}",
+            ],
             ["energy: (max − min)/|E0|", "—", fmt(e["interconnected"]["relative_oscillation"])],
-            ["Newton iterations per step (mean)", "fully explicit",
-             fmt(s["newton_iterations_mean"]["interconnected"])],
+            [
+                "Newton iterations per step (mean)",
+                "fully explicit",
+                fmt(s["newton_iterations_mean"]["interconnected"]),
+            ],
         ],
     )
 
@@ -96,17 +129,37 @@ def _timing_table(doc: Document, s: dict) -> None:
     t = s["timing"]
     tp = t["paper"]
     doc.table(
-        ["model", f"paper: min of {tp['repeats']:,} runs (Matlab)",
-         f"diracvi: min of {t['repeats']:,} runs", "diracvi median"],
         [
-            ["monolithic, hand-built (the paper's 'monolithic')", f"{fmt(tp['monolithic_s'])} s",
-             f"{fmt(t['reduced_s'])} s", f"{fmt(t['median_s']['reduced'])} s"],
-            ["monolithic, `system.monolithic()` (same Q)", "—",
-             f"{fmt(t['monolithic_s'])} s", f"{fmt(t['median_s']['monolithic'])} s"],
-            ["interconnected", f"{fmt(tp['interconnected_s'])} s",
-             f"{fmt(t['interconnected_s'])} s", f"{fmt(t['median_s']['interconnected'])} s"],
-            ["ratio interconnected / monolithic", fmt(tp["ratio"]),
-             fmt(t["ratio_interconnected_to_reduced"]), "—"],
+            "model",
+            f"paper: min of {tp['repeats']:,} runs (Matlab)",
+            f"diracvi: min of {t['repeats']:,} runs",
+            "diracvi median",
+        ],
+        [
+            [
+                "monolithic, hand-built (the paper's 'monolithic')",
+                f"{fmt(tp['monolithic_s'])} s",
+                f"{fmt(t['reduced_s'])} s",
+                f"{fmt(t['median_s']['reduced'])} s",
+            ],
+            [
+                "monolithic, `system.monolithic()` (same Q)",
+                "—",
+                f"{fmt(t['monolithic_s'])} s",
+                f"{fmt(t['median_s']['monolithic'])} s",
+            ],
+            [
+                "interconnected",
+                f"{fmt(tp['interconnected_s'])} s",
+                f"{fmt(t['interconnected_s'])} s",
+                f"{fmt(t['median_s']['interconnected'])} s",
+            ],
+            [
+                "ratio interconnected / monolithic",
+                fmt(tp["ratio"]),
+                fmt(t["ratio_interconnected_to_reduced"]),
+                "—",
+            ],
         ],
     )
 
@@ -114,17 +167,25 @@ def _timing_table(doc: Document, s: dict) -> None:
 def _rules_table(doc: Document, s: dict) -> None:
     rows = []
     for rule, r in s["discretizations"].items():
-        rows.append([
-            rule + (" (the paper's)" if rule == "retraction" else ""),
-            r["model"],
-            ", ".join(fmt(h) for h in r["dts"]),
-            ", ".join(fmt(x) for x in r["max_error_vs_exact"]),
-            fmt(r["fitted_order"]),
-            fmt(r["max_energy_error"]),
-        ])
+        rows.append(
+            [
+                rule + (" (the paper's)" if rule == "retraction" else ""),
+                r["model"],
+                ", ".join(fmt(h) for h in r["dts"]),
+                ", ".join(fmt(x) for x in r["max_error_vs_exact"]),
+                fmt(r["fitted_order"]),
+                fmt(r["max_energy_error"]),
+            ]
+        )
     doc.table(
-        ["rule", "model", "h", "max |q − q_exact| (shared coords)", "fitted order",
-         "max |E_k − E_exact| at the paper's h"],
+        [
+            "rule",
+            "model",
+            "h",
+            "max |q − q_exact| (shared coords)",
+            "fitted order",
+            "max |E_k − E_exact| at the paper's h",
+        ],
         rows,
     )
 
@@ -190,19 +251,32 @@ def build(summary: dict, out: Path) -> Document:
     doc.table(
         ["check", "paper", "spring chain", "RLC circuit"],
         [
-            ["interconnected = monolithic (max |Δq|)", "agree (figures)",
-             fmt(spring["max_position_difference"]["interconnected_vs_monolithic"]),
-             fmt(rlc["max_position_difference"]["interconnected_vs_monolithic"])],
-            ["interconnected = hand-built (max |Δq|, shared coords)", "agree (figures)",
-             fmt(spring["max_position_difference"]["interconnected_vs_reduced"]),
-             fmt(rlc["max_position_difference"]["interconnected_vs_reduced"])],
-            ["interconnection constraint (max |Δq| at the port)", "machine precision",
-             fmt(spring["constraint_deviation"]["position_max"]),
-             fmt(rlc["constraint_deviation"]["position_max"])],
-            ["time ratio interconnected / monolithic (paper's)",
-             f"{fmt(spring['timing']['paper']['ratio'])} / {fmt(rlc['timing']['paper']['ratio'])}",
-             fmt(spring["timing"]["ratio_interconnected_to_reduced"]),
-             fmt(rlc["timing"]["ratio_interconnected_to_reduced"])],
+            [
+                "interconnected = monolithic (max |Δq|)",
+                "agree (figures)",
+                fmt(spring["max_position_difference"]["interconnected_vs_monolithic"]),
+                fmt(rlc["max_position_difference"]["interconnected_vs_monolithic"]),
+            ],
+            [
+                "interconnected = hand-built (max |Δq|, shared coords)",
+                "agree (figures)",
+                fmt(spring["max_position_difference"]["interconnected_vs_reduced"]),
+                fmt(rlc["max_position_difference"]["interconnected_vs_reduced"]),
+            ],
+            [
+                "interconnection constraint (max |Δq| at the port)",
+                "machine precision",
+                fmt(spring["constraint_deviation"]["position_max"]),
+                fmt(rlc["constraint_deviation"]["position_max"]),
+            ],
+            [
+                "min-time ratio interconnected / monolithic (hand-built)",
+                "spring {}, RLC {}".format(
+                    fmt(spring["timing"]["paper"]["ratio"]), fmt(rlc["timing"]["paper"]["ratio"])
+                ),
+                fmt(spring["timing"]["ratio_interconnected_to_reduced"]),
+                fmt(rlc["timing"]["ratio_interconnected_to_reduced"]),
+            ],
         ],
     )
 
@@ -219,24 +293,42 @@ def build(summary: dict, out: Path) -> Document:
         ["long run (interconnected)", "paper", "diracvi"],
         [
             ["steps", fmt(paper.SPRING_CHAIN["long_steps"]), fmt(long["steps"])],
-            ["energy min / max", paper.SPRING_CHAIN["claims"]["long_energy"],
-             f"{fmt(long['energy']['min'])} / {fmt(long['energy']['max'])}"],
+            [
+                "energy min / max",
+                paper.SPRING_CHAIN["claims"]["long_energy"],
+                f"{fmt(long['energy']['min'])} / {fmt(long['energy']['max'])}",
+            ],
             ["(max − min)/|E0|", "—", fmt(long["energy"]["relative_oscillation"])],
-            ["drift: mean of last tenth − mean of first tenth, /|E0|", "—",
-             fmt(long["energy"]["relative_drift"])],
+            [
+                "drift: mean of last tenth − mean of first tenth, /|E0|",
+                "—",
+                fmt(long["energy"]["relative_drift"]),
+            ],
         ],
     )
     doc.heading("Timing", level=3)
     _timing_table(doc, spring)
     for name, caption in (
-        ("spring_positions.png", "Positions: hand-built monolithic model as lines, "
-         "interconnected model as hollow markers (q1, q2, q̄2, q3)."),
-        ("spring_energy.png", "Energy of the monolithic ('variational') and interconnected "
-         "discretizations; note the vertical scale."),
-        ("spring_constraint_deviation.png", "The interconnection q2 = q̄2: position "
-         "deviation (top) and the discrete constraint α_d+ at every step (bottom)."),
-        ("spring_long_energy.png", f"Interconnected energy over {long['steps']:,} steps at "
-         f"h = {spring['dt']}: a bounded oscillation, no drift."),
+        (
+            "spring_positions.png",
+            "Positions: hand-built monolithic model as lines, "
+            "interconnected model as hollow markers (q1, q2, q̄2, q3).",
+        ),
+        (
+            "spring_energy.png",
+            "Energy of the monolithic ('variational') and interconnected "
+            "discretizations; note the vertical scale.",
+        ),
+        (
+            "spring_constraint_deviation.png",
+            "The interconnection q2 = q̄2: position "
+            "deviation (top) and the discrete constraint α_d+ at every step (bottom).",
+        ),
+        (
+            "spring_long_energy.png",
+            f"Interconnected energy over {long['steps']:,} steps at "
+            f"h = {spring['dt']}: a bounded oscillation, no drift.",
+        ),
     ):
         _figure(doc, out, name, caption)
 
@@ -252,11 +344,16 @@ def build(summary: dict, out: Path) -> Document:
     doc.heading("Timing", level=3)
     _timing_table(doc, rlc)
     for name, caption in (
-        ("rlc_capacitor_charge.png", "Capacitor charge: monolithic (line) vs "
-         "interconnected (hollow markers)."),
+        (
+            "rlc_capacitor_charge.png",
+            "Capacitor charge: monolithic (line) vs interconnected (hollow markers).",
+        ),
         ("rlc_energy.png", "Circuit energy of the monolithic and interconnected models."),
-        ("rlc_constraint_deviation.png", "The interconnection qS1 = qS2: position "
-         "deviation (top) and the discrete constraint α_d+ (bottom)."),
+        (
+            "rlc_constraint_deviation.png",
+            "The interconnection qS1 = qS2: position "
+            "deviation (top) and the discrete constraint α_d+ (bottom).",
+        ),
     ):
         _figure(doc, out, name, caption)
 
@@ -271,24 +368,44 @@ def build(summary: dict, out: Path) -> Document:
     _rules_table(doc, spring)
     doc.paragraph("RLC circuit:")
     _rules_table(doc, rlc)
-    _figure(doc, out, "spring_discretizations.png",
-            "Spring chain energy error E(q_k, v_k) − E_exact for the two rules.")
-    _figure(doc, out, "rlc_discretizations.png",
-            "RLC capacitor charge of the two rules against the exact solution, and the error.")
+    _figure(
+        doc,
+        out,
+        "spring_discretizations.png",
+        "Spring chain energy error E(q_k, v_k) − E_exact for the two rules.",
+    )
+    _figure(
+        doc,
+        out,
+        "rlc_discretizations.png",
+        "RLC capacitor charge of the two rules against the exact solution, and the error.",
+    )
     doc.heading("The paper's printed resistor sign", level=3)
     sign = rlc["resistor_sign"]
     doc.table(
         ["force sign", "E initial", "E final", "E max"],
         [
-            ["physical, f_d⁻ = +hF (diracvi)", fmt(sign["physical"]["initial"]),
-             fmt(sign["physical"]["final"]), fmt(sign["physical"]["max"])],
-            ["paper's printed, f_d⁻ = −hF", fmt(sign["paper_printed"]["initial"]),
-             fmt(sign["paper_printed"]["final"]), fmt(sign["paper_printed"]["max"])],
+            [
+                "physical, f_d⁻ = +hF (diracvi)",
+                fmt(sign["physical"]["initial"]),
+                fmt(sign["physical"]["final"]),
+                fmt(sign["physical"]["max"]),
+            ],
+            [
+                "paper's printed, f_d⁻ = −hF",
+                fmt(sign["paper_printed"]["initial"]),
+                fmt(sign["paper_printed"]["final"]),
+                fmt(sign["paper_printed"]["max"]),
+            ],
         ],
     )
-    _figure(doc, out, "rlc_resistor_sign.png",
-            "Hand-built RLC model with the physical force F and with F' = −F (the paper's "
-            "printed discrete force): the latter's energy grows.")
+    _figure(
+        doc,
+        out,
+        "rlc_resistor_sign.png",
+        "Hand-built RLC model with the physical force F and with F' = −F (the paper's "
+        "printed discrete force): the latter's energy grows.",
+    )
 
     doc.heading("Deviations from the paper")
     doc.bullets(deviations(summary))

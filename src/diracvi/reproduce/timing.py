@@ -48,7 +48,5 @@ def time_calls(fn: Callable[[], object], repeats: int, tick: Callable[[], None] 
 
 def time_simulation(system, q0, p0, *, dt, steps, repeats, tick=None) -> dict[str, float]:
     """``{min_s, median_s, repeats}`` for a full ``simulate`` of ``system`` (see module doc)."""
-    times = time_calls(
-        lambda: simulate(system, q0, p0, dt=dt, steps=steps), repeats, tick=tick
-    )
+    times = time_calls(lambda: simulate(system, q0, p0, dt=dt, steps=steps), repeats, tick=tick)
     return {"min_s": float(times.min()), "median_s": float(np.median(times)), "repeats": repeats}
