@@ -36,12 +36,13 @@ class Settings:
     quick: bool = False
     repeats: int = 1000
     long_steps: int = 100_000
+    refinements: int = 3  # step sizes h, h/2, h/4 for the order study
 
     @classmethod
     def make(cls, quick: bool = False, repeats: int | None = None) -> Settings:
         if quick:
-            return cls(quick=True, repeats=repeats or 20, long_steps=10_000)
-        return cls(quick=False, repeats=repeats or 1000, long_steps=100_000)
+            return cls(quick=True, repeats=repeats or 20, long_steps=10_000, refinements=2)
+        return cls(quick=False, repeats=repeats or 1000, long_steps=100_000, refinements=3)
 
 
 @dataclass(frozen=True)
@@ -73,6 +74,8 @@ class ExampleResult:
     reduced: Trajectory
     long_run: Trajectory | None = None
     rules: dict[str, Trajectory] = field(default_factory=dict)
+    energy_errors: dict[str, tuple] = field(default_factory=dict)  # rule → (t, E_k − E_exact)
+    exact_samples: tuple | None = None  # (t, exact q(t)) at the sampled steps
     exact: Callable | None = None  # reduced-coordinate exact solution q(t)
     sign: dict[str, Trajectory] = field(default_factory=dict)
     summary: dict = field(default_factory=dict)
@@ -137,23 +140,44 @@ NODE_OFFSET = {"retraction": 0.0, "midpoint": 0.5}
 
 
 def exact_energy(system, exact: Callable, t, eps: float = 1e-6) -> np.ndarray:
-    """``E(q(t), q̇(t))`` along the exact solution (q̇ by a central difference of ``exact``)."""
+    """``E(q(t), q̇(t))`` along the exact solution.
+
+    ``q`` and ``q̇`` come from ``exact`` at ``t ± eps`` (mean and central difference, both
+    accurate to O(eps²)); each call of ``exact`` is a matrix exponential per instant.
+    """
     t = np.asarray(t, dtype=np.float64)
-    v = (exact(t + eps) - exact(t - eps)) / (2.0 * eps)
-    energy = jax.vmap(system.energy)(jnp.asarray(exact(t)), jnp.asarray(v))
+    after, before = exact(t + eps), exact(t - eps)
+    q, v = 0.5 * (after + before), (after - before) / (2.0 * eps)
+    energy = jax.vmap(system.energy)(jnp.asarray(q), jnp.asarray(v))
     return np.asarray(energy)
 
 
-def energy_error(traj: Trajectory, system, exact: Callable) -> np.ndarray:
-    """``E_k − E_exact`` with the exact energy taken at each step's quadrature node."""
-    node = traj.t[:-1] + NODE_OFFSET[traj.discretization] * (traj.t[1:] - traj.t[:-1])
-    return traj.energy - exact_energy(system, exact, node)
+#: the exact solution (a matrix exponential per instant) is evaluated at this many
+#: evenly spaced steps of a run, the same physical instants at every step size
+SAMPLES = 100
 
 
-def _error_vs_exact(traj: Trajectory, pairs: dict[str, str], exact: Callable, coords) -> float:
-    """``max_k |q_k − q(t_k)|`` over the shared coordinates, exact in reduced coordinates."""
-    ref = exact(traj.t)
-    return max(metrics.max_abs(traj[t] - ref[:, coords.index(r)]) for t, r in pairs.items())
+def sample_steps(steps: int, refine: int = 1) -> np.ndarray:
+    """Indices of :data:`SAMPLES` + 1 evenly spaced states of a ``steps``-step run, scaled
+    to the same instants of the run refined ``refine`` times."""
+    base = np.unique(np.linspace(0, steps, SAMPLES + 1).round().astype(int))
+    return base * refine
+
+
+def energy_error(traj: Trajectory, system, exact: Callable):
+    """``(t, E_k − E_exact)`` at sampled steps, the exact energy taken at the quadrature
+    node of each step (``t_k`` for the retraction rule, ``t_k + h/2`` for the midpoint)."""
+    k = sample_steps(traj.steps - 1)
+    node = traj.t[k] + NODE_OFFSET[traj.discretization] * (traj.t[k + 1] - traj.t[k])
+    return node, traj.energy[k] - exact_energy(system, exact, node)
+
+
+def _error_vs_exact(traj: Trajectory, index, reference, pairs: dict[str, str], coords) -> float:
+    """``max |q_k − q(t_k)|`` over the sampled steps ``index`` and the shared coordinates;
+    ``reference`` holds the exact ``q(t_k)`` at those steps, in reduced coordinates."""
+    return max(
+        metrics.max_abs(traj[t][index] - reference[:, coords.index(r)]) for t, r in pairs.items()
+    )
 
 
 def run_example(example: Example, settings: Settings, progress) -> ExampleResult:
@@ -175,26 +199,38 @@ def run_example(example: Example, settings: Settings, progress) -> ExampleResult
     progress.step(f"{example.key}: retraction vs midpoint against the exact solution")
     rule_summary = {}
     if reduced.exact is not None:
+        # the same physical instants in every run, so the exact solution is evaluated once
+        t_sampled = inter.t[sample_steps(steps)]
+        result.exact_samples = (t_sampled, reduced.exact(t_sampled))
         for rule in ("retraction", "midpoint"):
             model = torn if rule in torn.discretizations else reduced
             pairs = (
                 result.shared if model is torn else metrics.identity_pairs(reduced.system.coords)
             )
-            dts = [dt, dt / 2, dt / 4]
+            dts = [dt / 2**i for i in range(settings.refinements)]
             runs = [
                 _run(model.system, model.q0, model.p0, h, steps * 2**i, rule)
                 for i, h in enumerate(dts)
             ]
             result.rules[rule] = runs[0]
-            errors = [_error_vs_exact(r, pairs, reduced.exact, reduced.system.coords) for r in runs]
+            result.energy_errors[rule] = energy_error(runs[0], reduced.system, reduced.exact)
+            errors = [
+                _error_vs_exact(
+                    r,
+                    sample_steps(steps, 2**i),
+                    result.exact_samples[1],
+                    pairs,
+                    reduced.system.coords,
+                )
+                for i, r in enumerate(runs)
+            ]
             rule_summary[rule] = {
                 "model": model.name,
                 "dts": dts,
+                "sampled_times": len(sample_steps(steps)),
                 "max_error_vs_exact": errors,
                 "fitted_order": metrics.fitted_order(errors, dts),
-                "max_energy_error": metrics.max_abs(
-                    energy_error(runs[0], reduced.system, reduced.exact)
-                ),
+                "max_energy_error": metrics.max_abs(result.energy_errors[rule][1]),
             }
 
     if example.resistor_sign:

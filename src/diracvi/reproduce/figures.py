@@ -9,12 +9,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from . import metrics
-from .experiments import ExampleResult, energy_error
+from .experiments import ExampleResult, sample_steps
 
 #: file name → (what it shows, which paper figure it remakes or None)
 FIGURES = {
@@ -169,10 +168,11 @@ def spring_figures(result: ExampleResult, out: Path) -> list[Path]:
 def _rules_energy(result: ExampleResult, path: Path) -> Path:
     fig, (ax,) = _figure()
     orders = result.summary["discretizations"]
-    for rule, traj in result.rules.items():
+    for rule in result.rules:
+        t, err = result.energy_errors[rule]
         ax.plot(
-            traj.t[:-1],
-            energy_error(traj, result.reduced_system, result.exact),
+            t,
+            err,
             "-",
             lw=1.0,
             label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
@@ -204,16 +204,17 @@ def _rules_charge(result: ExampleResult, path: Path) -> Path:
     head = result.example.headline
     reduced_coords = result.reduced.coords
     fig, (top, bottom) = _figure(rows=2, height=3.2)
-    t = np.linspace(0.0, result.interconnected.t[-1], 801)
-    top.plot(t, result.exact(t)[:, reduced_coords.index(head)], "k-", lw=1.0, label="exact")
+    t, exact = result.exact_samples
+    exact = exact[:, reduced_coords.index(head)]
+    k = sample_steps(result.interconnected.steps)
+    top.plot(t, exact, "k-", lw=1.0, label="exact")
     orders = result.summary["discretizations"]
     for rule, traj in result.rules.items():
         name = result.torn_name(head) if head not in traj.coords else head
         top.plot(traj.t, traj[name], "--", lw=1.0, label=rule)
-        err = traj[name] - result.exact(traj.t)[:, reduced_coords.index(head)]
         bottom.plot(
-            traj.t,
-            err,
+            t,
+            traj[name][k] - exact,
             "-",
             lw=1.0,
             label=f"{rule} (fitted order {orders[rule]['fitted_order']:.2f})",
