@@ -1,0 +1,116 @@
+"""Load a user's model file for ``diracvi run path/to/model.py``.
+
+The contract: the file defines ``build()``, called with no arguments, which returns
+
+- a tuple ``(system, q0, p0)``, or
+- a mapping with keys ``"system"``, ``"q0"``, ``"p0"`` and optionally ``"dt"``,
+  ``"steps"``, or
+- any object with those attributes (a :class:`diracvi.problems.Problem` qualifies).
+
+``dt`` and ``steps``, when given, are the defaults for ``--dt`` and ``--steps``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+import traceback
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._errors import ModelError
+from ._system import DiracSystem
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """What a model file provides."""
+
+    name: str
+    system: DiracSystem
+    q0: object
+    p0: object
+    dt: float | None = None
+    steps: int | None = None
+    discretizations: tuple[str, ...] = ("retraction", "midpoint")
+
+
+def _where(exc: BaseException, path: Path) -> str:
+    """``" (model.py, line 12)"`` for the deepest frame of the traceback inside ``path``."""
+    frames = [f for f in traceback.extract_tb(exc.__traceback__) if Path(f.filename) == path]
+    return f" ({path.name}, line {frames[-1].lineno})" if frames else ""
+
+
+def load_model_file(path) -> ModelSpec:
+    """Import ``path`` and call its ``build()``; raise :class:`ModelError` on any problem."""
+    path = Path(path).resolve()
+    name = f"diracvi_model_{path.stem}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ModelError(f"model file {str(path)!r} cannot be imported as Python.")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module  # dataclasses and pickling look modules up by name
+    try:
+        spec.loader.exec_module(module)
+    except Exception as exc:
+        raise ModelError(
+            f"model file {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)} "
+            "while being imported."
+        ) from exc
+    build = getattr(module, "build", None)
+    if not callable(build):
+        raise ModelError(
+            f"model file {str(path)!r} defines no build() function: add "
+            "def build(): return system, q0, p0 (or a dict with system, q0, p0, dt, steps)."
+        )
+    try:
+        built = build()
+    except Exception as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(
+            f"build() in {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)}"
+        ) from exc
+    return _to_spec(built, path)
+
+
+def _to_spec(built, path: Path) -> ModelSpec:
+    fields = {}
+    if isinstance(built, tuple | list) and len(built) == 3:
+        fields = dict(zip(("system", "q0", "p0"), built, strict=True))
+    elif isinstance(built, Mapping):
+        fields = dict(built)
+    elif all(hasattr(built, k) for k in ("system", "q0", "p0")):
+        fields = {
+            k: getattr(built, k) for k in ("system", "q0", "p0", "dt", "steps") if hasattr(built, k)
+        }
+        if hasattr(built, "discretizations"):
+            fields["discretizations"] = tuple(built.discretizations)
+    missing = [k for k in ("system", "q0", "p0") if k not in fields]
+    if missing:
+        raise ModelError(
+            f"build() in {str(path)!r} returned {type(built).__name__}, which lacks "
+            f"{missing}: return (system, q0, p0), or a dict/object with system, q0, p0 "
+            "(and optionally dt, steps)."
+        )
+    if not isinstance(fields["system"], DiracSystem):
+        raise ModelError(
+            f"build() in {str(path)!r} returned system={fields['system']!r}, which is not a "
+            "diracvi system: build it with dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
+        )
+    unknown = sorted(set(fields) - {"system", "q0", "p0", "dt", "steps", "discretizations"})
+    if unknown:
+        raise ModelError(
+            f"build() in {str(path)!r} returned unknown keys {unknown}; the allowed keys "
+            "are system, q0, p0, dt, steps."
+        )
+    return ModelSpec(
+        name=path.stem,
+        system=fields["system"],
+        q0=fields["q0"],
+        p0=fields["p0"],
+        dt=fields.get("dt"),
+        steps=fields.get("steps"),
+        discretizations=fields.get("discretizations", ("retraction", "midpoint")),
+    )

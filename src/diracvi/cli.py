@@ -1,0 +1,369 @@
+"""``diracvi``: the command line.
+
+    diracvi list                         built-in problems
+    diracvi run PROBLEM|model.py [...]   simulate, summarize, save NetCDF, plot
+    diracvi plot FILE.nc [--out PNG]     plot a saved trajectory
+    diracvi reproduce --out DIR          the paper's §5: figures, summary.json, report
+
+Exit codes: 0 success; 1 the model or the simulation failed (its message is printed,
+without a traceback); 2 the command line was wrong (bad option value, unknown problem,
+missing file). The work itself lives in the library (``diracvi.reproduce``,
+``diracvi.plotting``); this module parses, reports and maps errors to exit codes.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.table import Table
+
+EXIT_FAILURE = 1
+EXIT_USAGE = 2
+
+app = typer.Typer(
+    name="diracvi",
+    help="Interconnected Lagrange–Dirac systems and discrete Dirac variational integrators.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+
+
+def _out() -> Console:
+    return Console(highlight=False)
+
+
+def _err() -> Console:
+    return Console(stderr=True, highlight=False)
+
+
+def _fail(message: str, code: int = EXIT_FAILURE):
+    """Print ``Error: message`` to stderr (never wrapped mid-path) and exit with ``code``."""
+    _err().print(f"Error: {message}", markup=False, soft_wrap=True)
+    raise typer.Exit(code)
+
+
+def _note(message: str) -> None:
+    _err().print(message, markup=False, soft_wrap=True)
+
+
+@contextmanager
+def _library_errors(partial_out: Path | None = None):
+    """Turn diracvi's own exceptions into a message and exit code 1, without a traceback.
+
+    A :class:`StepFailure` still carries every step completed before the failure; with
+    ``--out`` that partial trajectory is saved, and the message says so.
+    """
+    from . import DiracviError, StepFailure
+
+    try:
+        yield
+    except StepFailure as exc:
+        message = str(exc)
+        if partial_out is not None:
+            exc.trajectory.save(partial_out)
+            message += (
+                f"\nThe {exc.trajectory.steps} steps completed before the failure were "
+                f"saved to {str(partial_out)!r}."
+            )
+        _fail(message)
+    except DiracviError as exc:
+        _fail(str(exc))
+
+
+# ---------------------------------------------------------------- option parsing
+def _positive_float(ctx: typer.Context, param, value: str | None) -> float | None:
+    if value is None:
+        return None
+    try:
+        number = float(value)
+    except ValueError:
+        raise typer.BadParameter(
+            f"{value!r} is not a number; give a step > 0, e.g. 0.01."
+        ) from None
+    if not math.isfinite(number) or number <= 0.0:
+        raise typer.BadParameter(f"{value} is not a finite number > 0; e.g. 0.01.")
+    return number
+
+
+def _positive_int(ctx: typer.Context, param, value: str | None) -> int | None:
+    if value is None:
+        return None
+    try:
+        number = int(value)
+    except ValueError:
+        raise typer.BadParameter(f"{value!r} is not a whole number; e.g. 1000.") from None
+    if number < 1:
+        raise typer.BadParameter(f"{value} is not ≥ 1; give the number of steps, e.g. 1000.")
+    return number
+
+
+def _choice(options: tuple[str, ...]):
+    def check(ctx: typer.Context, param, value: str | None) -> str | None:
+        if value is not None and value not in options:
+            raise typer.BadParameter(f"{value!r} is not one of {', '.join(options)}.")
+        return value
+
+    return check
+
+
+def _version(value: bool) -> None:
+    if value:
+        from . import __version__
+
+        _out().print(f"diracvi {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def main(
+    version: Annotated[
+        bool,
+        typer.Option("--version", callback=_version, is_eager=True, help="Print the version."),
+    ] = False,
+) -> None:
+    """Interconnected Lagrange–Dirac systems and discrete Dirac variational integrators."""
+
+
+# ---------------------------------------------------------------------- list
+@app.command("list")
+def list_problems() -> None:
+    """List the built-in problems (names for `diracvi run`)."""
+    from . import problems
+
+    table = Table(title="diracvi built-in problems", title_justify="left")
+    table.add_column("name", style="bold", no_wrap=True)
+    table.add_column("description")
+    for name, description in problems.available().items():
+        table.add_row(name, description)
+    _out().print(table)
+
+
+# ----------------------------------------------------------------------- run
+def _resolve_model(target: str):
+    """A built-in problem name or a model file path → a ModelSpec-like object."""
+    from . import problems
+    from ._modelfile import load_model_file
+
+    path = Path(target)
+    looks_like_path = target.endswith(".py") or "/" in target or "\\" in target
+    if looks_like_path or (path.is_file() and target not in problems.REGISTRY):
+        if not path.is_file():
+            _fail(f"model file {target!r} does not exist.", EXIT_USAGE)
+        with _library_errors():
+            return load_model_file(path)
+    if target not in problems.REGISTRY:
+        _fail(
+            f"unknown problem {target!r}. Built-in problems: "
+            f"{', '.join(problems.REGISTRY)} (see `diracvi list`); or give the path to "
+            "a model file ending in .py.",
+            EXIT_USAGE,
+        )
+    return problems.get(target)
+
+
+@app.command()
+def run(
+    problem: Annotated[
+        str,
+        typer.Argument(
+            help="A built-in problem (see `diracvi list`) or a model file path/to/model.py "
+            "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
+            "optionally dt, steps.",
+            show_default=False,
+        ),
+    ],
+    dt: Annotated[
+        str | None,
+        typer.Option(
+            callback=_positive_float, metavar="FLOAT", help="Step size h (default: the problem's)."
+        ),
+    ] = None,
+    steps: Annotated[
+        str | None,
+        typer.Option(
+            callback=_positive_int, metavar="INT", help="Number of steps (default: the problem's)."
+        ),
+    ] = None,
+    scheme: Annotated[
+        str,
+        typer.Option(
+            callback=_choice(("plus", "minus")),
+            metavar="plus|minus",
+            help="(+) forward or (−) backward discrete Dirac equations.",
+        ),
+    ] = "plus",
+    discretization: Annotated[
+        str | None,
+        typer.Option(
+            callback=_choice(("retraction", "midpoint")),
+            metavar="retraction|midpoint",
+            help="Quadrature rule (default: the problem's first solvable one, usually retraction).",
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None, typer.Option(help="Save the trajectory as NetCDF (e.g. run.nc).")
+    ] = None,
+    plot: Annotated[
+        bool, typer.Option("--plot", help="Also write a PNG plot next to --out (or ./NAME.png).")
+    ] = False,
+) -> None:
+    """Simulate a built-in problem or a model file and print a short summary."""
+    if out is not None and not out.parent.exists():
+        _fail(f"--out {str(out)!r}: folder {str(out.parent)!r} does not exist.", EXIT_USAGE)
+    model = _resolve_model(problem)
+    h = dt if dt is not None else getattr(model, "dt", None)
+    n_steps = steps if steps is not None else getattr(model, "steps", None)
+    if h is None or n_steps is None:
+        missing = " and ".join(o for o, v in (("--dt", h), ("--steps", n_steps)) if v is None)
+        _fail(
+            f"model file {problem!r} sets no default for {missing}: pass {missing} or "
+            "return dt/steps from build().",
+            EXIT_USAGE,
+        )
+    rules = tuple(getattr(model, "discretizations", ("retraction", "midpoint")))
+    rule = discretization or rules[0]
+    if rule not in rules:
+        _note(f"note: {model.name!r} lists only {rules} as solvable; trying {rule!r} anyway.")
+
+    from . import simulate
+
+    with _library_errors(partial_out=out):
+        traj = simulate(
+            model.system,
+            model.q0,
+            model.p0,
+            dt=h,
+            steps=n_steps,
+            scheme=scheme,
+            discretization=rule,
+        )
+    _print_summary(model.name, traj)
+    if out is not None:
+        with _library_errors():
+            traj.save(out)
+        _out().print(f"wrote {out}", markup=False, soft_wrap=True)
+    if plot:
+        from .plotting import plot_trajectory
+
+        png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
+        plot_trajectory(traj, png)
+        _out().print(f"wrote {png}", markup=False, soft_wrap=True)
+
+
+def _print_summary(name: str, traj) -> None:
+    import numpy as np
+
+    residual = float(np.max(np.abs(traj.constraint_residual), initial=0.0))
+    table = Table(show_header=False, box=None, pad_edge=False)
+    table.add_column(style="bold")
+    table.add_column()
+    rows = [
+        ("problem", name),
+        ("scheme", f"{traj.scheme}, {traj.discretization}"),
+        ("steps", f"{traj.steps} of {traj.steps_requested}, dt = {traj.dt:g}"),
+        ("time", f"{traj.t[0]:g} → {traj.t[-1]:g}"),
+        ("energy", f"initial {traj.energy[0]:.10g}, final {traj.energy[-1]:.10g}"),
+        ("max |constraint residual|", f"{residual:.3e}"),
+        (
+            "Newton iterations",
+            f"{traj.newton_iterations.sum()} total, "
+            f"{traj.newton_iterations.mean():.2f} per step (max {traj.newton_iterations.max()})",
+        ),
+        ("status", traj.message.splitlines()[0]),
+    ]
+    for key, value in rows:
+        table.add_row(key, value)
+    _out().print(table)
+
+
+# ---------------------------------------------------------------------- plot
+@app.command()
+def plot(
+    file: Annotated[
+        Path, typer.Argument(help="A trajectory saved by `diracvi run --out` (NetCDF).")
+    ],
+    out: Annotated[
+        Path | None, typer.Option(help="Where to write the PNG (default: FILE with .png).")
+    ] = None,
+) -> None:
+    """Plot a saved trajectory: positions, energy and constraint residuals."""
+    if not file.is_file():
+        _fail(f"trajectory file {str(file)!r} does not exist.", EXIT_USAGE)
+    png = out if out is not None else file.with_suffix(".png")
+    if not png.parent.exists():
+        _fail(f"--out {str(png)!r}: folder {str(png.parent)!r} does not exist.", EXIT_USAGE)
+    from . import load
+    from .plotting import plot_trajectory
+
+    with _library_errors():
+        traj = load(file)
+    plot_trajectory(traj, png)
+    _out().print(f"wrote {png}", markup=False, soft_wrap=True)
+
+
+# ----------------------------------------------------------------- reproduce
+@app.command()
+def reproduce(
+    out: Annotated[
+        Path, typer.Option(help="Output folder for the figures, summary.json and report.")
+    ] = Path("reproduce-out"),
+    quick: Annotated[
+        bool,
+        typer.Option("--quick", help="Smoke run: 20 timing repeats and a 10,000-step long run."),
+    ] = False,
+    repeats: Annotated[
+        str | None,
+        typer.Option(
+            callback=_positive_int,
+            metavar="INT",
+            help="Timing repeats (default 1000, or 20 with --quick).",
+        ),
+    ] = None,
+) -> None:
+    """Reproduce the paper's §5 (spring chain, RLC circuit): figures, summary and report."""
+    if out.exists() and not out.is_dir():
+        _fail(f"--out {str(out)!r} exists and is not a folder.", EXIT_USAGE)
+    from .reproduce import reproduce as run_reproduce
+    from .reproduce.progress import RichProgress
+    from .reproduce.report import fmt
+
+    with _library_errors(), RichProgress(console=_err()) as progress:
+        outcome = run_reproduce(out, quick=quick, repeats=repeats, progress=progress)
+
+    table = Table(title=f"Parks & Leok §5 reproduced → {out}", title_justify="left")
+    for col in (
+        "example",
+        "max |Δq| vs monolithic",
+        "vs hand-built",
+        "port deviation",
+        "time ratio (paper)",
+    ):
+        table.add_column(col)
+    for key, s in outcome.summary["examples"].items():
+        d = s["max_position_difference"]
+        t = s["timing"]
+        table.add_row(
+            key,
+            fmt(d["interconnected_vs_monolithic"]),
+            fmt(d["interconnected_vs_reduced"]),
+            fmt(s["constraint_deviation"]["position_max"]),
+            f"{fmt(t['ratio_interconnected_to_reduced'])} ({fmt(t['paper']['ratio'])})",
+        )
+    console = _out()
+    console.print(table)
+    console.print(
+        f"wrote {len(outcome.figures)} figures, {outcome.summary_path.name}, "
+        f"{outcome.report_md.name} and {outcome.report_html.name} in {out}",
+        markup=False,
+        soft_wrap=True,
+    )
+
+
+if __name__ == "__main__":
+    app()

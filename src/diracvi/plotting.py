@@ -1,0 +1,70 @@
+"""A quick look at one trajectory: positions, energy and constraint residuals.
+
+Used by ``diracvi plot`` and ``diracvi run --plot``. Matplotlib's object API with the Agg
+canvas: no display is needed and the caller's pyplot backend is left alone.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ._trajectory import Trajectory
+
+#: more coordinates than this and the legend is left out (it would cover the plot)
+LEGEND_LIMIT = 12
+
+
+def plot_trajectory(traj: Trajectory, path, title: str | None = None) -> Path:
+    """Write a three-panel PNG of ``traj`` to ``path``: q(t), E_k, |ω_d(k)| (log scale)."""
+    path = Path(path)
+    fig = Figure(figsize=(8.0, 9.0), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_q, ax_e, ax_c = fig.subplots(3, 1, sharex=True)
+    heading = title or (
+        f"{traj.system_name}: {traj.steps} steps, h = {traj.dt:g}, "
+        f"{traj.discretization}, scheme {traj.scheme}"
+    )
+    if not traj.success:
+        heading += f"\n(stopped early: {traj.message.splitlines()[0][:90]})"
+    ax_q.set_title(heading, fontsize=10)
+
+    for j, name in enumerate(traj.coords):
+        ax_q.plot(traj.t, traj.q[:, j], lw=1.0, label=name)
+    ax_q.set_ylabel("position q")
+    if traj.q.shape[1] <= LEGEND_LIMIT:
+        ax_q.legend(fontsize=8, ncols=2)
+
+    t_step = traj.t[:-1]
+    ax_e.plot(t_step, traj.energy, lw=1.0)
+    ax_e.set_ylabel("energy E(q_k, v_k)")
+
+    residual = np.abs(traj.constraint_residual)
+    if residual.shape[1] == 0:
+        ax_c.text(0.5, 0.5, "no constraints", ha="center", va="center", transform=ax_c.transAxes)
+    elif not np.any(residual > 0):
+        ax_c.text(
+            0.5,
+            0.5,
+            "every constraint residual is exactly 0",
+            ha="center",
+            va="center",
+            transform=ax_c.transAxes,
+        )
+    else:
+        for j, name in enumerate(traj.constraint_names):
+            # exact zeros cannot be drawn on a log axis; they are below the plotted floor
+            ax_c.semilogy(
+                t_step, np.where(residual[:, j] > 0, residual[:, j], np.nan), lw=1.0, label=name
+            )
+        if residual.shape[1] <= LEGEND_LIMIT:
+            ax_c.legend(fontsize=8, ncols=2)
+    ax_c.set_ylabel("|discrete constraint|")
+    ax_c.set_xlabel("time t")
+    for ax in (ax_q, ax_e, ax_c):
+        ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=100)
+    return path
