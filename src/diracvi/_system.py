@@ -94,6 +94,21 @@ def _zero_force(q, v):
     return jnp.zeros_like(v)
 
 
+def _opaque(fn: Callable) -> Callable:
+    """Wrap a user callable so JAX/equinox see a plain function (hashed by identity).
+
+    A bound method of an equinox Module is itself a PyTree holding the Module's arrays;
+    stored as a static field it would be hashed by value and warn. Wrapping keeps those
+    arrays as compile-time constants of the traced function instead.
+    """
+
+    def call(*args):
+        return fn(*args)
+
+    call.__name__ = getattr(fn, "__name__", "user_function")
+    return call
+
+
 class LagrangeDiracSystem(DiracSystem):
     r"""A Lagrange–Dirac system ``(L, Δ, F)``.
 
@@ -129,7 +144,7 @@ class LagrangeDiracSystem(DiracSystem):
         self._coords = check_names("coords", coords)
         n = len(self._coords)
         self.name = "system" if name is None else check_name("name", name)
-        self._lagrangian = check_callable("lagrangian", lagrangian)
+        self._lagrangian = _opaque(check_callable("lagrangian", lagrangian))
         out = eval_shape("lagrangian", lagrangian, (n,), (n,), signature="L(q, v)")
         if out.shape != ():
             raise ModelError(
@@ -139,7 +154,7 @@ class LagrangeDiracSystem(DiracSystem):
             )
         self._force = None
         if force is not None:
-            self._force = check_callable("force", force)
+            self._force = _opaque(check_callable("force", force))
             out = eval_shape("force", force, (n,), (n,), signature="F(q, v)")
             if out.shape != (n,):
                 raise ModelError(
@@ -150,7 +165,7 @@ class LagrangeDiracSystem(DiracSystem):
         m = 0
         if constraints is not None:
             if callable(constraints):
-                self._forms_fn = constraints
+                self._forms_fn = _opaque(constraints)
                 out = eval_shape("constraints", constraints, (n,), signature="A(q)")
                 if out.ndim != 2 or out.shape[1] != n:
                     raise ModelError(

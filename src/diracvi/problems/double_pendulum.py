@@ -102,5 +102,13 @@ def double_pendulum_torn(
         reference="Jacobs & Yoshimura 2014 (torn multibody systems)",
         reduced=reduced_double_pendulum(m1, m2, l1, l2, g, theta0, omega0, dt, steps),
         shared={"upper.theta1": "theta1", "lower.theta2": "theta2"},
-        parameters={"m1": m1, "m2": m2, "l1": l1, "l2": l2, "g": g},
+        parameters={
+            "m1": m1,
+            "m2": m2,
+            "l1": l1,
+            "l2": l2,
+            "g": g,
+            "theta0": list(theta0),
+            "omega0": list(omega0),
+        },
     )

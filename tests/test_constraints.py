@@ -1,0 +1,36 @@
+"""Discrete constraints hold to round-off at every step, for every built-in problem."""
+
+import numpy as np
+import pytest
+
+from conftest import run
+from diracvi import problems
+
+CASES = [
+    (name, disc)
+    for name, factory in problems.REGISTRY.items()
+    for disc in factory().discretizations
+]
+
+
+@pytest.mark.parametrize(("name", "discretization"), CASES)
+def test_constraint_residual_at_round_off(name, discretization):
+    problem = problems.get(name)
+    traj = run(problem, discretization=discretization, steps=min(problem.steps, 500))
+    assert traj.success
+    assert traj.constraint_residual.shape == (traj.steps, problem.system.m)
+    if problem.system.m:
+        # velocity-level residuals; 1e-12 relative to the largest velocity in the run
+        speed = max(1.0, np.max(np.abs(np.diff(traj.q, axis=0))) / problem.dt)
+        assert np.max(np.abs(traj.constraint_residual)) <= 1e-12 * speed
+    assert np.all(np.isfinite(traj.q)) and np.all(np.isfinite(traj.p))
+
+
+@pytest.mark.parametrize("name", [n for n in problems.REGISTRY if problems.get(n).ports])
+def test_ports_stay_joined(name):
+    """q² = q̄², q^{S1} = q^{S2}, …: the position-level interconnection holds to round-off."""
+    problem = problems.get(name)
+    traj = run(problem)
+    scale = max(1.0, np.max(np.abs(traj.q)))
+    for a, b in problem.ports:
+        assert np.max(np.abs(traj[a] - traj[b])) <= 1e-13 * scale * traj.steps**0.5

@@ -1,0 +1,250 @@
+"""The paper's theorem: interconnected equations = (+) equations of the monolithic system;
+torn models = hand-built models on the shared coordinates."""
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+import scipy.integrate
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import diracvi as dv
+from conftest import loglog_slope, run
+from diracvi import problems
+
+TORN = [name for name in problems.REGISTRY if problems.get(name).reduced is not None]
+
+
+def scale_of(traj):
+    return max(1.0, float(np.max(np.abs(traj.q))))
+
+
+def interconnected_vs_monolithic(problem, discretization, steps):
+    torn = run(problem, discretization=discretization, steps=steps)
+    mono = dv.simulate(
+        problem.system.monolithic(),
+        problem.q0,
+        problem.p0,
+        dt=problem.dt,
+        steps=steps,
+        discretization=discretization,
+    )
+    return torn, mono
+
+
+@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+@pytest.mark.parametrize("name", TORN)
+def test_theorem_on_every_torn_problem(name, discretization):
+    problem = problems.get(name)
+    torn, mono = interconnected_vs_monolithic(problem, discretization, steps=1000)
+    assert torn.success and mono.success
+    assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
+    assert np.max(np.abs(torn.p - mono.p)) <= 1e-12 * max(1.0, np.max(np.abs(torn.p)))
+    assert mono.constraint_names == torn.constraint_names
+
+
+@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+@pytest.mark.parametrize("name", ["spring-chain-torn", "rlc-torn", "chain-torn", "dc-motor"])
+def test_torn_model_equals_hand_built_model(name, discretization):
+    """Paper §5: the extra port variables change nothing on the shared coordinates."""
+    problem = problems.get(name)
+    torn = run(problem, discretization=discretization)
+    reduced = run(problem.reduced, discretization=discretization, steps=problem.steps)
+    scale = scale_of(reduced)
+    for a, b in problem.shared.items():
+        assert np.max(np.abs(torn[a] - reduced[b])) <= 1e-12 * scale, (a, b)
+    for a, b in problem.ports:  # the interconnection constraint, position level
+        assert np.max(np.abs(torn[a] - torn[b])) <= 1e-13 * scale
+
+
+@pytest.mark.parametrize(("masses", "pieces"), [(2, 2), (5, 2), (12, 3), (9, 9), (40, 7)])
+def test_n_mass_chain_torn_into_m_pieces(masses, pieces):
+    problem = problems.chain_torn(masses, pieces, steps=500)
+    assert len(problem.system.subsystems) == pieces
+    torn = run(problem)
+    reduced = run(problem.reduced, steps=500)
+    for a, b in problem.shared.items():
+        assert np.max(np.abs(torn[a] - reduced[b])) <= 1e-12 * scale_of(reduced)
+
+
+def test_hierarchical_interconnection_equals_the_flat_one():
+    flat = problems.chain_torn(9, 3, steps=300)
+    s0, s1, s2 = flat.system.subsystems
+    last0, last1 = s0.coords[-1], s1.coords[-1]
+    front = dv.interconnect([s0, s1], [dv.connect(f"s0.{last0}", "s1.qbar")], name="front")
+    whole = dv.interconnect([front, s2], [dv.connect(f"front.s1.{last1}", "s2.qbar")])
+    assert whole.coords == tuple(f"front.{c}" for c in front.coords) + tuple(
+        f"s2.{c}" for c in s2.coords
+    )
+    nested = dv.simulate(whole, flat.q0, flat.p0, dt=flat.dt, steps=300)
+    np.testing.assert_allclose(nested.q, run(flat).q, rtol=0, atol=1e-12 * scale_of(nested))
+
+
+# ------------------------------------------------------------------ random systems
+@st.composite
+def random_interconnection(draw):
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+    sizes = draw(st.lists(st.integers(1, 3), min_size=2, max_size=5))
+    subsystems = []
+    for i, n in enumerate(sizes):
+        a = rng.normal(size=(n, n))
+        mass = a @ a.T + n * np.eye(n)
+        b = rng.normal(size=(n, n))
+        stiff = b @ b.T
+        nonlin = 0.1 * rng.normal(size=n)
+
+        def lag(q, v, mass=mass, stiff=stiff, nonlin=nonlin):
+            return 0.5 * v @ mass @ v - 0.5 * q @ stiff @ q + nonlin @ jnp.cos(q)
+
+        kind = draw(st.sampled_from(["none", "constant", "q-dependent"])) if n >= 2 else "none"
+        row, tilt = rng.normal(size=(1, n)), 0.3 * rng.normal(size=(1, n))
+        forms = {
+            "none": None,
+            "constant": row,
+            "q-dependent": lambda q, row=row, tilt=tilt: row + tilt * jnp.sin(q)[None, :],
+        }[kind]
+        subsystems.append(
+            dv.LagrangeDiracSystem(
+                [f"x{j}" for j in range(n)], lag, constraints=forms, name=f"s{i}"
+            )
+        )
+    total = sum(sizes)
+    interactions = []
+    for _ in range(draw(st.integers(1, 2))):
+        row, tilt = rng.normal(size=(1, total)), 0.3 * rng.normal(size=(1, total))
+        if draw(st.booleans()):
+            interactions.append(dv.Interaction(row))
+        else:
+            interactions.append(
+                dv.Interaction(lambda q, row=row, tilt=tilt: row + tilt * jnp.cos(q)[None, :])
+            )
+    system = dv.interconnect(subsystems, interactions)
+    q0 = 0.5 * rng.normal(size=total)
+    p0 = rng.normal(size=total)
+    return system, q0, p0
+
+
+@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+@settings(max_examples=8)  # each example compiles two systems (~2 s)
+@given(case=random_interconnection())
+def test_theorem_on_random_interconnections(case, discretization):
+    system, q0, p0 = case
+    kwargs = {"dt": 0.01, "steps": 1000, "discretization": discretization, "throw": False}
+    torn = dv.simulate(system, q0, p0, **kwargs)
+    mono = dv.simulate(system.monolithic(), q0, p0, **kwargs)
+    assert torn.status == mono.status == 0
+    assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
+    assert np.max(np.abs(torn.constraint_residual)) <= 1e-11
+
+
+# ------------------------------------------------------------------ double pendulum
+def reduced_reference(problem, horizon):
+    """Exact solution of the reduced double pendulum: DOP853 at tight tolerance."""
+    import jax
+
+    red = problem.reduced.system
+
+    @jax.jit
+    def acceleration(y):
+        q, v = y[:2], y[2:]
+        mass = jax.hessian(red.lagrangian, argnums=1)(q, v)
+        dldq = jax.grad(red.lagrangian, argnums=0)(q, v)
+        mixed = jax.jacfwd(jax.grad(red.lagrangian, argnums=1), argnums=0)(q, v)
+        return jnp.concatenate([v, jnp.linalg.solve(mass, dldq - mixed @ v)])
+
+    def rhs(_, y):
+        return np.asarray(acceleration(y))
+
+    v0 = np.array(problem.parameters["omega0"])
+    sol = scipy.integrate.solve_ivp(
+        rhs,
+        (0, horizon),
+        np.concatenate([problem.reduced.q0, v0]),
+        method="DOP853",
+        rtol=1e-12,
+        atol=1e-12,
+        dense_output=True,
+    )
+    return sol.sol
+
+
+@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+def test_torn_double_pendulum_converges_to_the_reduced_one(discretization):
+    problem = problems.get("double-pendulum-torn")
+    horizon = 1.0
+    exact = reduced_reference(problem, horizon)
+    hs = np.array([0.02, 0.01, 0.005, 0.0025])
+    errors = []
+    for h in hs:
+        traj = run(problem, dt=h, steps=round(horizon / h), discretization=discretization)
+        angles = np.stack([traj["upper.theta1"], traj["lower.theta2"]], axis=1)
+        errors.append(np.max(np.abs(angles - exact(traj.t)[:2].T)))
+    order = {"retraction": 1, "midpoint": 2}[discretization]
+    assert abs(loglog_slope(hs, errors) - order) < 0.2, errors
+
+
+# ------------------------------------------------------------------ bad input
+def two_masses():
+    free = dv.LagrangeDiracSystem(("x",), lambda q, v: 0.5 * v @ v, name="a")
+    other = dv.LagrangeDiracSystem(("y",), lambda q, v: 0.5 * v @ v, name="b")
+    return free, other
+
+
+@pytest.mark.parametrize(
+    ("interactions", "needles"),
+    [
+        ([dv.connect("c.x", "b.y")], ["'c.x'", "subsystem 'c'", "['a', 'b']"]),
+        ([dv.connect("a.z", "b.y")], ["no coordinate 'z'", "('x',)"]),
+        ([dv.Interaction(np.ones((1, 3)))], ["shape (1, 3)", "2 coordinates", "('a.x', 'b.y')"]),
+        ([dv.Interaction(lambda q: jnp.ones(2))], ["shape (2,)"]),
+        ([dv.Interaction([[1.0, -1.0]], names=("u", "v"))], ["1 one-form rows but 2 names"]),
+        (dv.connect("a.x", "b.y"), ["must be a list"]),
+    ],
+)
+def test_interconnect_rejects_bad_interactions(interactions, needles):
+    with pytest.raises(dv.ModelError) as info:
+        dv.interconnect(list(two_masses()), interactions)
+    for needle in needles:
+        assert needle in str(info.value)
+
+
+def test_connect_rejects_self_and_unqualified_names():
+    with pytest.raises(dv.ModelError, match="to itself"):
+        dv.connect("a.x", "a.x")
+    with pytest.raises(dv.ModelError, match=r"'subsystem\.coordinate'"):
+        dv.connect("x", "b.y")
+
+
+def test_duplicate_and_too_few_subsystems():
+    a, _ = two_masses()
+    with pytest.raises(dv.ModelError, match=r"\['a'\] are used more than once"):
+        dv.interconnect([a, a], [])
+    with pytest.raises(dv.ModelError, match="at least two"):
+        dv.interconnect([a], [])
+
+
+def test_unconnected_massless_port_is_reported_before_stepping():
+    problem = problems.get("spring-chain-torn")
+    left, right = problem.system.subsystems
+    loose = dv.interconnect([left, right], [])
+    with pytest.raises(dv.UnsolvableStepError) as info:
+        dv.simulate(loose, problem.q0, problem.p0, dt=0.01, steps=10)
+    assert "q_{k+1}[right.q2bar]" in str(info.value)
+    assert "q_{k+1}[left.q1]" not in str(info.value)
+
+
+def test_multipliers_report_subsystems_then_interactions():
+    problem = problems.get("dc-motor")
+    system = problem.system
+    assert system.interaction_names == ("armature.qM=gyrator.qe", "rotor.theta=gyrator.phi")
+    assert system.constraint_names[:3] == (
+        "armature.KCL_SR",
+        "armature.KCL_RL",
+        "armature.KCL_LM",
+    )
+    traj = run(problem, steps=100)
+    torque = traj.multiplier("rotor.theta=gyrator.phi")
+    current = np.diff(traj["armature.qL"]) / problem.dt
+    # the rotor-side λ is the gyrator torque impulse: λ = −h K i (per step)
+    k = problem.parameters["K"]
+    np.testing.assert_allclose(torque, -problem.dt * k * current, rtol=1e-9, atol=1e-15)
