@@ -39,6 +39,14 @@ class Outcome:
     report_html: Path
 
 
+def _load() -> list[float] | None:
+    """The 1-, 5- and 15-minute load averages (None where the OS has none)."""
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except (AttributeError, OSError):
+        return None
+
+
 def _json_default(value):
     # NumPy scalars and tuples that slipped into the summary
     if hasattr(value, "item"):
@@ -64,6 +72,7 @@ def reproduce(
     out.mkdir(parents=True, exist_ok=True)
     settings = Settings.make(quick=quick, repeats=repeats)
     progress = progress if progress is not None else Progress()
+    load_before = _load()
     results = {ex.key: run_example(ex, settings, progress) for ex in EXAMPLES}
 
     progress.step(f"writing {len(FIGURES)} figures")
@@ -78,6 +87,9 @@ def reproduce(
             "python": platform.python_version(),
             "jax": jax.__version__,
             "cpus": os.cpu_count(),
+            # other work on the machine inflates timings; record it beside them
+            "load_average_before": load_before,
+            "load_average_after": _load(),
         },
         "figures": {p.name: FIGURES[p.name][0] for p in figures},
         "examples": {key: r.summary for key, r in results.items()},

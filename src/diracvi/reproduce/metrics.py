@@ -54,7 +54,8 @@ def energy_stats(energy) -> dict[str, float]:
 
     ``relative_oscillation`` is ``(max − min)/|E_0|``; ``relative_drift`` is the mean over
     the last tenth of the run minus the mean over the first tenth, divided by ``|E_0|``
-    (a bounded oscillation gives ≈ 0 here, a drift does not).
+    (a bounded oscillation gives ≈ 0 here, a drift does not); ``nonincreasing`` says
+    whether no step gains more than round-off (``1e-12 |E_0|``).
     """
     e = np.asarray(energy, dtype=np.float64)
     e0 = float(e[0])
@@ -67,6 +68,8 @@ def energy_stats(energy) -> dict[str, float]:
         "max": float(e.max()),
         "relative_oscillation": float((e.max() - e.min()) / scale),
         "relative_drift": float((e[-tenth:].mean() - e[:tenth].mean()) / scale),
+        # a dissipative system must never gain energy (up to round-off)
+        "nonincreasing": bool(np.all(np.diff(e) <= 1e-12 * scale)),
     }
 
 
