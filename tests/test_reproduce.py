@@ -145,6 +145,7 @@ def test_progress_is_plain_text_off_a_terminal(run):
     output = run[2]
     assert "timing the interconnected model" in output
     assert "\x1b[" not in output  # no cursor control when not a TTY
+    assert f"wrote {len(FIGURES)} figures, summary.json, report.md and report.html" in output
 
 
 def test_existing_file_as_out_is_refused(tmp_path):
