@@ -151,7 +151,10 @@ def combined_forms(forms: Sequence, sigma, dims: Sequence[int]) -> Callable:
     for ``((Δ₁ ⊕ … ⊕ Δ_N) ∩ Σ)°`` as in the paper's §4.1."""
     from ._forms import as_forms_function
 
-    fns = [as_forms_function(f"forms[{i}]", f, d)[0] for i, (f, d) in enumerate(zip(forms, dims, strict=True))]
+    fns = [
+        as_forms_function(f"forms[{i}]", f, d)[0]
+        for i, (f, d) in enumerate(zip(forms, dims, strict=True))
+    ]
     sig_fn = as_forms_function("sigma", sigma, sum(dims))[0]
     bounds = np.cumsum([0, *dims])
 

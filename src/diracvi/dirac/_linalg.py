@@ -93,7 +93,7 @@ def batched_rowspace_residual(forms: np.ndarray, vecs: np.ndarray, rtol: float =
     """
     forms = np.asarray(forms, dtype=np.float64)
     vecs = np.asarray(vecs, dtype=np.float64)
-    k, m, n = forms.shape
+    k, m, _n = forms.shape
     if m == 0:
         return vecs.copy(), np.zeros((k, 0))
     # A_kᵀ = U S Vᵀ; the least-squares ν = V S⁺ Uᵀ r over the numerically nonzero σ.
