@@ -36,8 +36,9 @@ class StepResiduals(NamedTuple):
     Attributes:
         total: ``max(‖constraint‖∞, ‖base‖∞, ‖fiber‖₂)``, shape (K,).
         constraint: ``ω_{d±}(q_k, q_{k+1})``, shape (K, m).
-        base: the base-point mismatch, ``p_{k+1} − P⁺`` (plus) or ``p_k − P⁻`` (minus)
-            in the momentum slot, shape (K, 2n) in the base point's ordering.
+        base: base point of ``𝔇^±`` minus that of ``X_d^k``: ``P⁺ − p_{k+1}`` (plus) or
+            ``P⁻ − p_k`` (minus) in the momentum slot, zero in the ``q`` slot; shape (K, 2n)
+            in the base point's ordering ``(q, p⁺)`` / ``(p⁻, q)``.
         fiber: the part of ``α − Ω^♭_{d±}(X_d^k)`` outside ``Δ°_{Q×Q*}`` (``Δ°_{Q*×Q}``),
             shape (K, 2n).
         multipliers: the multipliers ``μ`` (least squares) in the library's convention

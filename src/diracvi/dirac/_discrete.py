@@ -23,7 +23,13 @@ import numpy as np
 
 from .._errors import ModelError
 from ._forms import as_forms_function
-from ._linalg import batched_rowspace_residual, distance, row_basis, subspace_gap
+from ._linalg import (
+    batched_rowspace_residual,
+    distance,
+    kernel_basis,
+    row_basis,
+    subspace_gap,
+)
 from ._tulczyjew import _point, as_rule, check_side
 
 #: default tolerance of membership tests, relative to max(1, size of the data)
@@ -33,7 +39,7 @@ ATOL = 1e-9
 class DiscreteDiracStructure:
     """Base class: a distribution condition and an affine α-fibre (see module docs).
 
-    Subclasses implement :meth:`_constraint` (JAX-traceable) and :meth:`fiber`.
+    Subclasses implement :meth:`constraint_matrix` and :meth:`fiber`.
     Build them with :meth:`induced`, :meth:`interaction`, :meth:`direct_sum`,
     :meth:`tensor`.
     """
@@ -67,19 +73,18 @@ class DiscreteDiracStructure:
         return TensorDiscrete(a, b)
 
     # ------------------------------------------------------------ interface
-    def _constraint(self, q0, q1):
-        """The distribution condition as a JAX function of ``(q₀, q₁)``."""
-        raise NotImplementedError
+    def constraint_matrix(self, q0, q1) -> np.ndarray:
+        """``M(q₀, q₁)`` with ``c(q₀, q₁) = M(q₀, q₁) (q₁ − q₀)``, shape (k, n).
 
-    def fiber(self, z0, z1) -> tuple[np.ndarray, np.ndarray]:
-        """``(o, W)``: the α-fibre over ``(z₀, z₁)`` is ``o + span(rows of W)``."""
+        Every discrete distribution here is of that form: the rules evaluate the one-forms
+        at a node and apply them to ``v_k = (q₁ − q₀)/h`` (DESIGN.md §1).
+        """
         raise NotImplementedError
 
     def constraint(self, q0, q1) -> np.ndarray:
         """The discrete distribution condition at ``(q₀, q₁)`` (zero on the structure)."""
-        q0 = jnp.asarray(q0, dtype=jnp.float64)
-        q1 = jnp.asarray(q1, dtype=jnp.float64)
-        return np.asarray(self._constraint(q0, q1), dtype=np.float64).ravel()
+        q0, q1 = np.asarray(q0, dtype=np.float64), np.asarray(q1, dtype=np.float64)
+        return self.constraint_matrix(q0, q1) @ (q1 - q0)
 
     def base_point(self, z0, z1) -> np.ndarray:
         """``ẑ = (q₀, p₁)`` (plus) or ``z̃ = (p₀, q₁)`` (minus)."""
@@ -128,31 +133,31 @@ class DiscreteDiracStructure:
         shift = distance(w1, o1 - o2) / max(1.0, float(np.max(np.abs(o1), initial=0.0)))
         return max(subspace_gap(w1, w2), shift)
 
-    def project(self, z0, z1, *, tol: float = 1e-13, max_steps: int = 50):
-        """Move ``(z₀, z₁)`` onto the discrete distribution (Gauss–Newton).
+    def project(self, z0, z1, *, tol: float = 1e-13, max_steps: int = 100):
+        """Move ``(z₀, z₁)`` onto the discrete distribution ``c = 0``.
 
         The (+) distribution constrains ``q₁`` (the paper: "Δ^{d+} constrains only q⁺")
         and the (−) one ``q₀``, so only that end moves. Returns the projected ``(z₀, z₁)``
-        or ``None`` if Gauss–Newton does not converge.
+        or ``None`` if the iteration does not converge.
         """
         (q0, p0), (q1, p1) = _point("z0", z0), _point("z1", z1)
         plus = self.side == "plus"
-        fixed, moving = (q0, q1) if plus else (q1, q0)
-        fixed_j = jnp.asarray(fixed)
-
-        def con(x):
-            return self._constraint(fixed_j, x) if plus else self._constraint(x, fixed_j)
-
-        jac_fn = jax.jacfwd(con)
-        x = np.array(moving)
         size = max(1.0, float(np.max(np.abs(np.concatenate([q0, q1])), initial=0.0)))
+        a, b = q0.copy(), q1.copy()
         for _ in range(max_steps):
-            c = np.asarray(con(jnp.asarray(x)))
-            if c.size == 0 or np.max(np.abs(c)) <= tol * size:
-                z_fixed, z_moved = (fixed, p0 if plus else p1), (x, p1 if plus else p0)
-                return (z_fixed, z_moved) if plus else (z_moved, z_fixed)
-            jac = np.asarray(jac_fn(jnp.asarray(x)))
-            x = x - np.linalg.lstsq(jac, c, rcond=None)[0]
+            mat = self.constraint_matrix(a, b)
+            c = mat @ (b - a)
+            if c.size == 0 or np.max(np.abs(c)) <= tol * size * max(1.0, np.abs(mat).max()):
+                return (a, p0), (b, p1)
+            # freeze M at the current pair and project the step q₁ − q₀ onto ker M: exact in
+            # one sweep when M does not depend on the moving end (the retraction rule),
+            # a contraction for a short step otherwise (the midpoint rule)
+            ker = kernel_basis(mat)
+            step = ker.T @ (ker @ (b - a))
+            if plus:
+                b = a + step
+            else:
+                a = b - step
         return None
 
     def sample_points(self, samples: int = 12, seed: int = 0, scale: float = 1.0):
@@ -193,7 +198,7 @@ class DiscreteDiracStructure:
         if not projected_any:
             raise ModelError(
                 "discrepancy: no sample could be projected onto either discrete distribution "
-                "(Gauss–Newton did not converge); pass points=[((q0, p0), (q1, p1)), ...] "
+                "(the projection did not converge); pass points=[((q0, p0), (q1, p1)), ...] "
                 "that lie near the distributions."
             )
         return worst
@@ -237,13 +242,19 @@ class _FromForms(DiscreteDiracStructure):
                 "forms is a callable A(q), so dim Q is unknown: pass n=<dim Q> as well."
             )
         self.n = int(n)
-        self._con_batch = jax.jit(jax.vmap(self._constraint))
-        self._forms_batch = jax.jit(jax.vmap(self.forms))
 
     def _constraint(self, q0, q1):
         # ω_{d±}(q₀, q₁): the rule's discrete one-forms (retraction: A(q₀ or q₁) v_k,
         # midpoint: A(q̄) v_k), with v_k = (q₁ − q₀)/h
         return self.rule.discrete_constraints(self.forms, self.side, q0, q1, self.h)
+
+    def constraint(self, q0, q1) -> np.ndarray:
+        q0, q1 = jnp.asarray(q0, dtype=jnp.float64), jnp.asarray(q1, dtype=jnp.float64)
+        return np.asarray(self._constraint(q0, q1), dtype=np.float64).ravel()
+
+    def constraint_matrix(self, q0, q1) -> np.ndarray:
+        node = self.rule.constraint_node(self.side, jnp.asarray(q0), jnp.asarray(q1))
+        return np.asarray(self.forms(node), dtype=np.float64).reshape(-1, self.n) / self.h
 
     def _offset(self, q0, p0, q1, p1):
         raise NotImplementedError
@@ -277,12 +288,13 @@ class _FromForms(DiscreteDiracStructure):
         offset = self._offset(q0, p0, q1, p1)
         diff = alpha - offset
         q = q0 if plus else q1
-        forms = np.asarray(self._forms_batch(jnp.asarray(q)), dtype=np.float64)
+        # eager vmap: a jit here would recompile for every new structure
+        forms = np.asarray(jax.vmap(self.forms)(jnp.asarray(q)), dtype=np.float64)
         # W = Δ°(q) in the q-slot, 0 in the other slot: that slot of α − o must vanish
         inside, other = (diff[:, :n], diff[:, n:]) if plus else (diff[:, n:], diff[:, :n])
         outside, nu = batched_rowspace_residual(forms, inside)
         fiber = np.concatenate([outside, other] if plus else [other, outside], axis=1)
-        constraint = np.asarray(self._con_batch(jnp.asarray(q0), jnp.asarray(q1)))
+        constraint = np.asarray(jax.vmap(self._constraint)(jnp.asarray(q0), jnp.asarray(q1)))
         return {"constraint": constraint, "base": base, "fiber": fiber, "nu": nu}
 
     def residual(self, z0, z1, alpha) -> float:

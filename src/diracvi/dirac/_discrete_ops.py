@@ -6,12 +6,11 @@ Paper §4.2. Both act on structures of the same side; ``⊕`` glues structures o
 
 from __future__ import annotations
 
-import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
 from ._discrete import DiscreteDiracStructure
-from ._linalg import row_basis
+from ._linalg import block_diag, row_basis
 from ._tulczyjew import _point
 
 
@@ -48,10 +47,12 @@ class DirectSumDiscrete(DiscreteDiracStructure):
     def _slices(self):
         return [slice(a, b) for a, b in zip(self._bounds[:-1], self._bounds[1:], strict=True)]
 
-    def _constraint(self, q0, q1):
-        return jnp.concatenate(
-            [p._constraint(q0[s], q1[s]) for p, s in zip(self.parts, self._slices(), strict=True)]
-        )
+    def constraint_matrix(self, q0, q1):
+        blocks = [
+            p.constraint_matrix(q0[s], q1[s])
+            for p, s in zip(self.parts, self._slices(), strict=True)
+        ]
+        return block_diag(*blocks).reshape(-1, self.n)
 
     def fiber(self, z0, z1):
         (q0, p0), (q1, p1) = _point("z0", z0), _point("z1", z1)
@@ -89,8 +90,10 @@ class TensorDiscrete(DiscreteDiracStructure):
         self.a, self.b = a, b
         self.side, self.n = a.side, a.n
 
-    def _constraint(self, q0, q1):
-        return jnp.concatenate([self.a._constraint(q0, q1), self.b._constraint(q0, q1)])
+    def constraint_matrix(self, q0, q1):
+        return np.concatenate(
+            [self.a.constraint_matrix(q0, q1), self.b.constraint_matrix(q0, q1)], axis=0
+        )
 
     def fiber(self, z0, z1):
         o1, w1 = self.a.fiber(z0, z1)
