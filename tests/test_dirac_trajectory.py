@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import copy
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -143,3 +145,63 @@ def test_the_diagnostic_refuses_a_foreign_system():
     other = problems.get("rlc").system
     with pytest.raises(ModelError, match="system"):
         trajectory_residual(other, traj)
+
+
+class _TornDampedChain(dv.DiracSystem):
+    """A bare protocol implementation (not a LagrangeDiracSystem): the torn spring chain
+    (q1, q2 | q2bar, q3) joined by dq2 − dq2bar, a damper on q3, and the discrete momenta
+    assembled piece by piece as an interconnection does."""
+
+    @property
+    def coords(self):
+        return ("left.q1", "left.q2", "right.q2bar", "right.q3")
+
+    @property
+    def constraint_names(self):
+        return ("λ0",)
+
+    @staticmethod
+    def _left(q, v):
+        return 0.5 * (v[0] ** 2 + v[1] ** 2) - 0.5 * q[0] ** 2 - 0.5 * (q[1] - q[0]) ** 2
+
+    @staticmethod
+    def _right(q, v):
+        return 0.5 * v[1] ** 2 - 0.5 * (q[1] - q[0]) ** 2
+
+    def lagrangian(self, q, v):
+        return self._left(q[:2], v[:2]) + self._right(q[2:], v[2:])
+
+    def force(self, q, v):
+        return jnp.array([0.0, 0.0, 0.0, -0.3]) * v
+
+    def constraint_forms(self, q):
+        return jnp.array([[0.0, 1.0, -1.0, 0.0]])
+
+    def discrete_momenta(self, rule, qk, qk1, h):
+        def piece(lag, a, b):
+            return jax.grad(lambda x, y: rule.discrete_lagrangian(lag, x, y, h), argnums=(0, 1))(
+                a, b
+            )
+
+        l1, l2 = piece(self._left, qk[:2], qk1[:2])
+        r1, r2 = piece(self._right, qk[2:], qk1[2:])
+        f_minus, f_plus = rule.discrete_forces(self.force, qk, qk1, h)
+        return -jnp.concatenate([l1, r1]) - f_minus, jnp.concatenate([l2, r2]) + f_plus
+
+
+@pytest.mark.parametrize(("rule", "scheme"), [("retraction", "plus"), ("midpoint", "minus")])
+def test_any_dirac_system_protocol_implementation_works(rule, scheme):
+    system = _TornDampedChain()
+    traj = dv.simulate(
+        system,
+        [0.0, 1.0, 1.0, 2.0],
+        [0.0, 0.0, 0.0, 3.0],
+        dt=0.01,
+        steps=100,
+        scheme=scheme,
+        discretization=rule,
+    )
+    parts = step_residuals(system, traj)
+    assert np.max(parts.total) <= BOUND * _scale(traj)
+    assert np.max(np.abs(parts.multipliers - traj.multipliers)) <= 1e-10
+    assert np.max(trajectory_residual(system, _perturbed(traj, "q", 40, 3))) > 1e-5
