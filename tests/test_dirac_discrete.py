@@ -251,3 +251,37 @@ def test_mismatched_structures_are_refused():
         InducedDiscrete(lambda q: q[None, :])
     with pytest.raises(ModelError, match="rule="):
         InducedDiscrete(np.ones((1, 2)), rule="simpson")
+
+
+@pytest.mark.parametrize("rule", ["retraction", "midpoint"])
+@pytest.mark.parametrize("side", ["plus", "minus"])
+def test_constraint_factorization_and_projection(rule, side):
+    """c = ω_{d±} (the rule's discrete one-forms) = M(q₀, q₁)(q₁ − q₀); projecting a pair
+    onto the discrete distribution moves only q₁ (plus) or q₀ (minus) and zeroes c."""
+    forms = problems.get("rolling-disk").system.constraint_forms
+    d = InducedDiscrete(forms, rule, h=0.01, side=side, n=4)
+    rng = np.random.default_rng(3)
+    q0, q1 = rng.standard_normal(4), rng.standard_normal(4)
+    p0, p1 = rng.standard_normal(4), rng.standard_normal(4)
+    c = d.constraint(q0, q1)
+    np.testing.assert_allclose(c, d.constraint_matrix(q0, q1) @ (q1 - q0), rtol=1e-13)
+    assert np.max(np.abs(c)) > 1.0  # a random pair is far off Δ^{d±}
+    (a, pa), (b, pb) = d.project((q0, p0), (q1 + 0.0, p1))
+    assert np.max(np.abs(d.constraint(a, b))) < 1e-10
+    fixed, moved = (a, b) if side == "plus" else (b, a)
+    np.testing.assert_array_equal(fixed, q0 if side == "plus" else q1)
+    assert np.max(np.abs(moved - (q1 if side == "plus" else q0))) > 1e-3
+    np.testing.assert_array_equal(pa, p0)
+    np.testing.assert_array_equal(pb, p1)
+
+
+def test_fiber_comparison_at_a_given_point():
+    a = InducedDiscrete(np.array([[1.0, -1.0]]), side="plus")
+    b = InducedDiscrete(np.array([[2.0, -2.0], [1.0, -1.0]]), side="plus")  # same Δ°
+    c = InducedDiscrete(np.array([[1.0, 1.0]]), side="plus")
+    z0, z1 = (np.zeros(2), np.ones(2)), (np.ones(2), -np.ones(2))
+    assert a.fiber_gap(b, z0, z1) < 1e-14
+    assert a.fiber_gap(c, z0, z1) == pytest.approx(1.0)
+    interaction = InteractionDiscrete(np.array([[1.0, -1.0]]), side="plus")
+    # same W, different offset (Ω^♭_{d+} vs Ω^{d+}_int = 0): the gap sees the shift
+    assert a.fiber_gap(interaction, z0, z1) > 0.1

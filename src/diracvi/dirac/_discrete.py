@@ -81,6 +81,10 @@ class DiscreteDiracStructure:
         """
         raise NotImplementedError
 
+    def fiber(self, z0, z1) -> tuple[np.ndarray, np.ndarray]:
+        """``(o, W)``: the α-fibre over ``(z₀, z₁)`` is ``o + span(rows of W)``."""
+        raise NotImplementedError
+
     def constraint(self, q0, q1) -> np.ndarray:
         """The discrete distribution condition at ``(q₀, q₁)`` (zero on the structure)."""
         q0, q1 = np.asarray(q0, dtype=np.float64), np.asarray(q1, dtype=np.float64)
