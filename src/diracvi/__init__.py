@@ -7,6 +7,7 @@ traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
 from . import _config  # noqa: F401  (switches JAX float64 on)
+from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
 from ._discretize import Midpoint, QuadratureRule, Retraction
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect

@@ -105,6 +105,16 @@ class Trajectory:
                 f"no constraint named {name!r}; this trajectory has {self.constraint_names}"
             ) from None
 
+    def dirac_residual(self, system) -> np.ndarray:
+        r"""Per-step residual of ``(X_d^k, 𝔇^±L_d) ∈ D^{d±}_Δ``, shape (steps,).
+
+        ``system`` is the system that produced this trajectory; see
+        :func:`diracvi.dirac.trajectory_residual`.
+        """
+        from .dirac import trajectory_residual  # imported here: dirac imports this module
+
+        return trajectory_residual(system, self)
+
     def __repr__(self) -> str:
         return (
             f"Trajectory(system={self.system_name!r}, steps={self.steps}, dt={self.dt}, "
