@@ -31,6 +31,13 @@ CASES = [
     ("rolling-disk", "retraction", "plus"),
     ("rolling-disk", "midpoint", "plus"),
     ("rolling-disk", "retraction", "minus"),
+    # interconnected models: the diagnostic sees only the DiracSystem protocol
+    ("spring-chain-torn", "retraction", "plus"),
+    ("rlc-torn", "retraction", "plus"),
+    ("rlc-torn", "midpoint", "minus"),
+    ("double-pendulum-torn", "retraction", "plus"),
+    ("double-pendulum-torn", "midpoint", "plus"),
+    ("dc-motor", "midpoint", "plus"),
 ]
 
 _CACHE: dict = {}
