@@ -182,7 +182,7 @@ class Trajectory:
             steps_requested=int(ds.attrs.get("steps_requested", ds.sizes["step"])),
         )
 
-    def save(self, path) -> Path:
+    def save(self, path, extra_attrs: dict | None = None) -> Path:
         """Write NetCDF atomically (a temporary file in the same folder, then a rename)."""
         path = Path(path)
         if not path.parent.exists():
@@ -192,7 +192,9 @@ class Trajectory:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         os.close(fd)
         try:
-            self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
+            ds = self.to_xarray()
+            ds.attrs.update(extra_attrs or {})
+            ds.to_netcdf(tmp, engine="h5netcdf")
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):
