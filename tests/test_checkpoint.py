@@ -32,8 +32,13 @@ def assert_bitwise_equal(a, b):
 def run_rlc(path, steps, every):
     problem = problems.get("rlc-torn")
     return dv.simulate(
-        problem.system, problem.q0, problem.p0, dt=0.001, steps=steps,
-        checkpoint=path, checkpoint_every=every,
+        problem.system,
+        problem.q0,
+        problem.p0,
+        dt=0.001,
+        steps=steps,
+        checkpoint=path,
+        checkpoint_every=every,
     )
 
 

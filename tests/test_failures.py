@@ -38,8 +38,14 @@ def test_default_raises_with_the_partial_trajectory():
 def test_newton_iteration_cap_reports_step_and_residual():
     pendulum = dv.LagrangeDiracSystem(("theta",), lambda q, v: 0.5 * v @ v + jnp.cos(q[0]))
     traj = dv.simulate(
-        pendulum, [1.0], [0.0], dt=0.1, steps=10, discretization="midpoint",
-        solver=dv.NewtonSolver(max_steps=1), throw=False,
+        pendulum,
+        [1.0],
+        [0.0],
+        dt=0.1,
+        steps=10,
+        discretization="midpoint",
+        solver=dv.NewtonSolver(max_steps=1),
+        throw=False,
     )
     assert traj.status == dv.SolveStatus.MAX_ITERATIONS and traj.steps == 0
     assert "Newton did not converge at step 0" in traj.message
