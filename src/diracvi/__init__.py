@@ -7,6 +7,9 @@ traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
 from . import _config  # noqa: F401  (switches JAX float64 on)
+from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
+from ._consistency import InconsistentInitialDataWarning
+from ._consistency import project as project_initial_state
 from ._discretize import Midpoint, QuadratureRule, Retraction
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
@@ -21,6 +24,7 @@ __all__ = [
     "Connection",
     "DiracSystem",
     "DiracviError",
+    "InconsistentInitialDataWarning",
     "Interaction",
     "InterconnectedSystem",
     "LagrangeDiracSystem",
@@ -37,5 +41,6 @@ __all__ = [
     "interconnect",
     "load",
     "momenta",
+    "project_initial_state",
     "simulate",
 ]

@@ -8,11 +8,15 @@ carry, so everything computed before it is returned intact.
 
 from __future__ import annotations
 
+from functools import partial
+from pathlib import Path
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from . import _checkpoint, _consistency
 from ._config import ensure_float64
 from ._discretize import RULES, QuadratureRule, get_rule
 from ._equations import SCHEMES, new_momentum, ordered, residual, split
@@ -47,7 +51,8 @@ def _step(system: DiracSystem, rule: QuadratureRule, scheme: str, solver: Newton
 
 
 @eqx.filter_jit
-def _run(system, rule, scheme, solver, steps, q0, p0, h):
+def _run(system, rule, scheme, solver, steps, carry, h):
+    """``steps`` steps from ``carry = (q, p, q_prev, μ_prev)``; returns (carry, outputs)."""
     step = _step(system, rule, scheme, solver, h)
     nan = jnp.nan
 
@@ -75,9 +80,8 @@ def _run(system, rule, scheme, solver, steps, q0, p0, h):
         )
         return new_carry, (q1, p1, mu, *diag)
 
-    init = (q0, p0, q0, jnp.zeros(system.m), jnp.asarray(False))
-    _, out = jax.lax.scan(body, init, None, length=steps)
-    return out
+    final, out = jax.lax.scan(body, (*carry, jnp.asarray(False)), None, length=steps)
+    return final[:4], out
 
 
 @eqx.filter_jit
@@ -124,6 +128,86 @@ def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
     )
 
 
+class _March:
+    """The run so far: host-side arrays of the completed steps and the scan carry."""
+
+    def __init__(self, system, q0, p0):
+        self.system = system
+        self.q, self.p = [np.asarray(q0)[None]], [np.asarray(p0)[None]]
+        self.rest: list[list[np.ndarray]] = [[] for _ in range(6)]
+        self._carry = (q0, p0, q0, jnp.zeros(system.m))
+        self.status, self.failure = 0, None
+
+    @property
+    def done(self) -> int:
+        return sum(len(x) for x in self.q) - 1
+
+    def carry(self):
+        return self._carry
+
+    def resume(self, saved: Trajectory, in_progress: bool):
+        self.q, self.p = [saved.q], [saved.p]
+        self.rest = [
+            [saved.multipliers],
+            [saved.energy],
+            [saved.constraint_residual],
+            [saved.newton_iterations],
+            [np.zeros(saved.steps)],
+            [np.zeros(saved.steps, int)],
+        ]
+        if not in_progress and saved.status:
+            self.status = saved.status
+            self.failure = (saved.message,)
+        prev_q = saved.q[-2] if saved.steps else saved.q[0]
+        prev_mu = saved.multipliers[-1] if saved.steps else np.zeros(self.system.m)
+        self._carry = tuple(jnp.asarray(a) for a in (saved.q[-1], saved.p[-1], prev_q, prev_mu))
+
+    def extend(self, carry, out):
+        q_new, p_new, mu, energy, con, iterations, res_norm, status = (np.asarray(a) for a in out)
+        failed = np.nonzero(status != 0)[0]
+        keep = len(status) if failed.size == 0 else int(failed[0])
+        self.q.append(q_new[:keep])
+        self.p.append(p_new[:keep])
+        for store, arr in zip(
+            self.rest, (mu, energy, con, iterations, res_norm, status), strict=True
+        ):
+            store.append(arr[:keep])
+        self._carry = carry
+        if failed.size:
+            self.status = int(status[keep])
+            self.failure = (int(iterations[keep]), float(res_norm[keep]), q_new[keep])
+
+    def trajectory(self, t0, sign, h, scheme, discretization, steps) -> Trajectory:
+        done = self.done
+        code, message = self.status, STATUS_MESSAGES[0]
+        if code and len(self.failure) == 1:
+            message = self.failure[0]
+        elif code:
+            iterations, res_norm, q_bad = self.failure
+            message = _failure_message(
+                code, done, t0 + sign * h * done, iterations, res_norm, self.system.coords, q_bad
+            )
+        mu, energy, con, iterations = (np.concatenate(x) for x in self.rest[:4])
+        return Trajectory(
+            t=t0 + sign * h * np.arange(done + 1),
+            q=np.concatenate(self.q),
+            p=np.concatenate(self.p),
+            multipliers=mu.reshape(done, self.system.m),
+            energy=energy,
+            constraint_residual=con.reshape(done, self.system.m),
+            newton_iterations=iterations,
+            coords=self.system.coords,
+            constraint_names=self.system.constraint_names,
+            dt=h,
+            scheme=scheme,
+            discretization=discretization,
+            system_name=getattr(self.system, "name", "system"),
+            status=code,
+            message=message,
+            steps_requested=steps,
+        )
+
+
 def simulate(
     system: DiracSystem,
     q0,
@@ -136,6 +220,9 @@ def simulate(
     t0: float = 0.0,
     solver: NewtonSolver | None = None,
     throw: bool = True,
+    checkpoint=None,
+    checkpoint_every: int | None = None,
+    project_initial: bool = False,
 ) -> Trajectory:
     r"""Integrate a Lagrange–Dirac system with a discrete Dirac variational integrator.
 
@@ -146,6 +233,15 @@ def simulate(
 
     Returns a :class:`Trajectory`. If a step fails, raises :class:`StepFailure` carrying the
     partial trajectory (or returns it with ``status != 0`` when ``throw=False``).
+
+    Inconsistent initial data (joined ports at different positions, momenta a degenerate
+    Lagrangian does not allow) raise an ``InconsistentInitialDataWarning`` giving the size
+    of the violation; ``project_initial=True`` starts from the nearest consistent state.
+
+    ``checkpoint=PATH`` writes the run to PATH (NetCDF, atomically) after every
+    ``checkpoint_every`` steps; calling ``simulate`` again with the same arguments resumes
+    from the last completed chunk, and the result is bitwise identical to an
+    uninterrupted run.
     """
     ensure_float64()
     if not isinstance(system, DiracSystem):
@@ -164,46 +260,49 @@ def simulate(
         raise ModelError(f"solver={solver!r} must be a dv.NewtonSolver(...).")
     rule = get_rule(discretization)
     h_arr = jnp.asarray(h)
+    q0, p0 = _consistency.check(system, q0, p0, project_initial=bool(project_initial))
     check_solvable(system, rule, scheme, q0, p0, h_arr)
 
-    out = _run(system, rule, scheme, solver, steps, q0, p0, h_arr)
-    q_new, p_new, mu, energy, con, iterations, res_norm, status = (np.asarray(a) for a in out)
-    failed = np.nonzero(status != 0)[0]
-    done = steps if failed.size == 0 else int(failed[0])
-    sign = 1.0 if scheme == "plus" else -1.0
-    t = t0 + sign * h * np.arange(done + 1)
-    code, message = 0, STATUS_MESSAGES[0]
-    if failed.size:
-        code = int(status[done])
-        message = _failure_message(
-            code,
-            done,
-            t0 + sign * h * done,
-            int(iterations[done]),
-            float(res_norm[done]),
-            system.coords,
-            q_new[done],
+    run_chunk = partial(_run, system, rule, scheme, solver)
+    march = _March(system, q0, p0)
+    path, key, chunk = None, None, steps
+    if checkpoint is not None:
+        chunk = (
+            steps
+            if checkpoint_every is None
+            else check_positive_int("checkpoint_every", checkpoint_every)
         )
-    traj = Trajectory(
-        t=t,
-        q=np.concatenate([np.asarray(q0)[None], q_new[:done]]),
-        p=np.concatenate([np.asarray(p0)[None], p_new[:done]]),
-        multipliers=mu[:done],
-        energy=energy[:done],
-        constraint_residual=con[:done],
-        newton_iterations=iterations[:done],
-        coords=system.coords,
-        constraint_names=system.constraint_names,
-        dt=h,
-        scheme=scheme,
-        discretization=discretization,
-        system_name=getattr(system, "name", "system"),
-        status=code,
-        message=message,
-        steps_requested=steps,
-    )
-    if code and throw:
-        raise StepFailure(message, traj)
+        path = Path(checkpoint)
+        key = _checkpoint.fingerprint(
+            system,
+            q0,
+            p0,
+            dt=h,
+            steps=steps,
+            scheme=scheme,
+            discretization=discretization,
+            solver=solver,
+            chunk=chunk,
+        )
+        saved = _checkpoint.read(path, key)
+        if saved is not None:
+            march.resume(*saved)
+
+    sign = 1.0 if scheme == "plus" else -1.0
+    while march.done < steps and march.status == 0:
+        length = min(chunk - march.done % chunk, steps - march.done)
+        carry, out = run_chunk(length, march.carry(), h_arr)
+        march.extend(carry, out)
+        if path is not None:
+            _checkpoint.write(
+                march.trajectory(t0, sign, h, scheme, discretization, steps),
+                path,
+                key,
+                in_progress=march.status == 0 and march.done < steps,
+            )
+    traj = march.trajectory(t0, sign, h, scheme, discretization, steps)
+    if traj.status and throw:
+        raise StepFailure(traj.message, traj)
     return traj
 
 

@@ -105,6 +105,16 @@ class Trajectory:
                 f"no constraint named {name!r}; this trajectory has {self.constraint_names}"
             ) from None
 
+    def dirac_residual(self, system) -> np.ndarray:
+        r"""Per-step residual of ``(X_d^k, 𝔇^±L_d) ∈ D^{d±}_Δ``, shape (steps,).
+
+        ``system`` is the system that produced this trajectory; see
+        :func:`diracvi.dirac.trajectory_residual`.
+        """
+        from .dirac import trajectory_residual  # imported here: dirac imports this module
+
+        return trajectory_residual(system, self)
+
     def __repr__(self) -> str:
         return (
             f"Trajectory(system={self.system_name!r}, steps={self.steps}, dt={self.dt}, "
@@ -172,7 +182,7 @@ class Trajectory:
             steps_requested=int(ds.attrs.get("steps_requested", ds.sizes["step"])),
         )
 
-    def save(self, path) -> Path:
+    def save(self, path, extra_attrs: dict | None = None) -> Path:
         """Write NetCDF atomically (a temporary file in the same folder, then a rename)."""
         path = Path(path)
         if not path.parent.exists():
@@ -182,7 +192,9 @@ class Trajectory:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         os.close(fd)
         try:
-            self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
+            ds = self.to_xarray()
+            ds.attrs.update(extra_attrs or {})
+            ds.to_netcdf(tmp, engine="h5netcdf")
             os.replace(tmp, path)
         finally:
             if os.path.exists(tmp):

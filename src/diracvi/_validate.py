@@ -69,10 +69,15 @@ def eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str)
             "Fix: write it with jax.numpy operations on the given 1-D arrays (no Python "
             "control flow on their values, no NumPy-only functions)."
         ) from exc
-    if not hasattr(out, "shape"):
+    if not hasattr(out, "shape") or not hasattr(out, "dtype"):
         raise ModelError(
             f"{arg} returned {_short(out)} (a {type(out).__name__}) when called as "
             f"{signature}: it must return a JAX array."
+        )
+    if not jnp.issubdtype(out.dtype, jnp.floating):
+        raise ModelError(
+            f"{arg} returned dtype {out.dtype} when called as {signature}: it must return "
+            "real floating-point values (do not cast to int, bool or complex)."
         )
     return out
 
