@@ -191,6 +191,10 @@ class Trajectory:
             )
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         os.close(fd)
+        # mkstemp creates the file 0600; give the result the permissions a plain open() would
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         try:
             ds = self.to_xarray()
             ds.attrs.update(extra_attrs or {})
