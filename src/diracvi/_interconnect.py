@@ -27,7 +27,7 @@ import numpy as np
 from ._config import ensure_float64
 from ._errors import ModelError
 from ._system import DiracSystem, LagrangeDiracSystem
-from ._validate import check_name, eval_shape
+from ._validate import check_forms_array, check_name, eval_shape
 
 
 class Interaction(eqx.Module):
@@ -51,20 +51,7 @@ class Interaction(eqx.Module):
         if callable(forms):
             self._fn, self._const = forms, None
         else:
-            try:
-                const = np.asarray(forms, dtype=np.float64)
-            except (TypeError, ValueError) as exc:
-                raise ModelError(
-                    f"Interaction(forms={forms!r}): pass a callable B(q) -> (l, N) or a "
-                    "constant (l, N) array over the interconnected coordinates."
-                ) from exc
-            if const.ndim == 1:
-                const = const[None, :]
-            if const.ndim != 2 or not np.all(np.isfinite(const)):
-                raise ModelError(
-                    f"Interaction(forms=...) has shape {const.shape} or non-finite entries: "
-                    "pass a finite (l, N) array, one row per interaction one-form."
-                )
+            const = check_forms_array("Interaction(forms=...)", forms)
             self._fn, self._const = None, jnp.asarray(const)
         self.names = None if names is None else tuple(str(n) for n in names)
 

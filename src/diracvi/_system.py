@@ -19,12 +19,17 @@ from collections.abc import Callable
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from ._config import ensure_float64
 from ._discretize import QuadratureRule
 from ._errors import ModelError
-from ._validate import check_callable, check_name, check_names, eval_shape
+from ._validate import (
+    check_callable,
+    check_forms_array,
+    check_name,
+    check_names,
+    eval_shape,
+)
 
 
 class DiracSystem(eqx.Module):
@@ -174,23 +179,7 @@ class LagrangeDiracSystem(DiracSystem):
                     )
                 m = out.shape[0]
             else:
-                try:
-                    forms = np.asarray(constraints, dtype=np.float64)
-                except (TypeError, ValueError) as exc:
-                    raise ModelError(
-                        f"constraints={constraints!r} is neither callable nor a numeric array: "
-                        f"pass A(q) -> (m, {n}) or a constant (m, {n}) array."
-                    ) from exc
-                if forms.ndim == 1 and forms.shape[0] == n:
-                    forms = forms[None, :]
-                if forms.ndim != 2 or forms.shape[1] != n:
-                    raise ModelError(
-                        f"constraints has shape {forms.shape} but the system has {n} "
-                        f"coordinates {self._coords}: pass an (m, {n}) array, one row per "
-                        "constraint one-form."
-                    )
-                if not np.all(np.isfinite(forms)):
-                    raise ModelError("constraints contains NaN or Inf: one-forms must be finite.")
+                forms = check_forms_array("constraints", constraints, n, self._coords)
                 self._forms_const = jnp.asarray(forms)
                 m = forms.shape[0]
         if constraint_names is None:

@@ -125,3 +125,25 @@ def check_choice(arg: str, value, choices: Sequence[str]) -> str:
             f"{arg}={_short(value)} is not one of {tuple(choices)}: pick one of those."
         )
     return value
+
+
+def check_forms_array(arg: str, value, width: int | None = None, coords=None) -> np.ndarray:
+    """A constant one-form matrix: finite float64 of shape (m, width); a row is promoted."""
+    try:
+        forms = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(
+            f"{arg}={_short(value)} is neither callable nor a numeric array: pass a function "
+            "q -> (m, n) or a constant (m, n) array whose rows are one-forms."
+        ) from exc
+    if forms.ndim == 1:
+        forms = forms[None, :]
+    if forms.ndim != 2 or (width is not None and forms.shape[1] != width):
+        where = f" but there are {width} coordinates {tuple(coords or ())}" if width else ""
+        raise ModelError(
+            f"{arg} has shape {forms.shape}{where}: pass an (m, {width or 'n'}) array, one "
+            "row per one-form" + (", columns in that order." if width else ".")
+        )
+    if not np.all(np.isfinite(forms)):
+        raise ModelError(f"{arg} contains NaN or Inf: one-forms must be finite.")
+    return forms

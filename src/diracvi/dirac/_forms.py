@@ -17,6 +17,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
+from .._validate import check_forms_array
 from ._linalg import rank
 
 
@@ -36,23 +37,7 @@ def as_forms_function(arg: str, forms, n: int | None = None) -> tuple[Callable, 
         return (lambda q: jnp.zeros((0, n), dtype=jnp.float64)), n
     if callable(forms):
         return forms, n
-    try:
-        mat = np.asarray(forms, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise ModelError(
-            f"{arg}={forms!r} is neither callable nor a numeric array: pass A(q) -> (m, n) "
-            "or a constant (m, n) array whose rows are one-forms."
-        ) from exc
-    if mat.ndim == 1:
-        mat = mat[None, :]
-    if mat.ndim != 2:
-        raise ModelError(
-            f"{arg} has shape {mat.shape}: pass an (m, n) array, one row per one-form."
-        )
-    if n is not None and mat.shape[1] != n:
-        raise ModelError(f"{arg} has {mat.shape[1]} columns but n={n}: give one column per q.")
-    if not np.all(np.isfinite(mat)):
-        raise ModelError(f"{arg} contains NaN or Inf: one-forms must be finite.")
+    mat = check_forms_array(arg, forms, n)
     const = jnp.asarray(mat)
     return (lambda q: const), mat.shape[1]
 
