@@ -1,0 +1,38 @@
+"""Long runs (marker ``slow``; run with ``pytest -m slow``)."""
+
+import numpy as np
+import pytest
+
+import diracvi as dv
+from conftest import run
+from diracvi import problems
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+def test_torn_chain_equals_monolithic_over_the_papers_long_run(discretization):
+    """Paper Fig. (IntSprings_LongTimeEnergy): 10^5 steps at h = 0.01."""
+    problem = problems.get("spring-chain-torn")
+    torn = run(problem, steps=100_000, discretization=discretization)
+    mono = dv.simulate(
+        problem.system.monolithic(),
+        problem.q0,
+        problem.p0,
+        dt=0.01,
+        steps=100_000,
+        discretization=discretization,
+    )
+    assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * max(1.0, np.max(np.abs(torn.q)))
+    assert np.max(np.abs(torn["left.q2"] - torn["right.q2bar"])) < 1e-13  # round-off
+    energy = torn.energy
+    n = len(energy) // 10
+    assert abs(energy[-n:].mean() - energy[:n].mean()) < 0.02 * np.ptp(energy) + 1e-12
+
+
+def test_rolling_disk_midpoint_keeps_energy_and_rolling_rate_over_t_1000():
+    problem = problems.get("rolling-disk")
+    traj = run(problem, steps=100_000, discretization="midpoint")
+    assert np.ptp(traj.energy) / traj.energy[0] < 1e-10
+    roll = np.diff(traj["theta"]) / problem.dt
+    assert np.ptp(roll) < 1e-9
