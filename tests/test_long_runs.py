@@ -27,7 +27,9 @@ def test_torn_chain_equals_monolithic_over_the_papers_long_run(discretization):
     assert np.max(np.abs(torn["left.q2"] - torn["right.q2bar"])) < 1e-13  # round-off
     energy = torn.energy
     n = len(energy) // 10
-    assert abs(energy[-n:].mean() - energy[:n].mean()) < 0.02 * np.ptp(energy) + 1e-12
+    # no drift beyond a small fraction of the oscillation (or of round-off, for midpoint)
+    drift = abs(energy[-n:].mean() - energy[:n].mean())
+    assert drift < 0.02 * np.ptp(energy) + 1e-10 * energy.mean()
 
 
 def test_rolling_disk_midpoint_keeps_energy_and_rolling_rate_over_t_1000():
