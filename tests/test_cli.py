@@ -321,3 +321,27 @@ def test_plot_unreadable_file_is_named(tmp_path):
     assert result.exit_code == EXIT_FAILURE
     assert str(path) in result.output
     assert "Traceback" not in result.output
+
+
+def test_warnings_are_printed_as_plain_lines(tmp_path):
+    """An inconsistent initial state runs, with a one-line warning (no file:line prefix)."""
+    path = write_model(
+        tmp_path,
+        "loose.py",
+        """
+        import diracvi as dv
+
+        def build():
+            # an LC circuit with two capacitors: p^{C1} = p^{C2} (= −μ) is required
+            system = dv.LagrangeDiracSystem(
+                ("qL", "qC1", "qC2"),
+                lambda q, v: 0.5 * v[0] ** 2 - 0.5 * q[1] ** 2 - 0.5 * q[2] ** 2,
+                constraints=[[1.0, -1.0, -1.0]], name="loose",
+            )
+            return system, [0.0, 0.0, 0.0], [1.0, 0.3, 0.0]
+        """,
+    )
+    result = invoke("run", path, "--dt", "0.1", "--steps", 5, "--discretization", "midpoint")
+    assert result.exit_code == 0, result.output
+    assert "warning: Inconsistent initial data" in result.output
+    assert "InconsistentInitialDataWarning" not in result.output

@@ -14,6 +14,7 @@ missing file). The work itself lives in the library (``diracvi.reproduce``,
 from __future__ import annotations
 
 import math
+import warnings
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Annotated
@@ -53,6 +54,20 @@ def _note(message: str) -> None:
 
 
 @contextmanager
+def _plain_warnings():
+    """Print each warning raised inside as ``warning: text`` on stderr."""
+    # Warnings (inconsistent initial data, float64 switched back on) are shown as one plain
+    # line each, not in Python's "file:line: Category: text" format.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        try:
+            yield
+        finally:
+            for warning in caught:
+                _note(f"warning: {warning.message}")
+
+
+@contextmanager
 def _library_errors(partial_out: Path | None = None):
     """Turn diracvi's own exceptions into a message and exit code 1, without a traceback.
 
@@ -62,7 +77,8 @@ def _library_errors(partial_out: Path | None = None):
     from . import DiracviError, StepFailure
 
     try:
-        yield
+        with _plain_warnings():
+            yield
     except StepFailure as exc:
         message = str(exc)
         if partial_out is not None:
