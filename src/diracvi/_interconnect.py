@@ -315,20 +315,19 @@ class InterconnectedSystem(DiracSystem):
                 s.lagrangian(a, b) for s, a, b in zip(subsystems, split(q), split(v), strict=True)
             )
 
-        has_force = any(getattr(s, "has_force", True) for s in subsystems)
         forms = self.constraint_forms
         return LagrangeDiracSystem(
             self.coords,
             lagrangian,
             constraints=(lambda q: forms(q)) if self.m else None,
-            force=(lambda q, v, f=self.force: f(q, v)) if has_force else None,
+            force=(lambda q, v, f=self.force: f(q, v)) if self.has_force else None,
             name=self.name,
             constraint_names=self.constraint_names if self.m else None,
         )
 
     @property
     def has_force(self) -> bool:
-        return any(getattr(s, "has_force", True) for s in self.subsystems)
+        return any(s.has_force for s in self.subsystems)
 
     def __repr__(self) -> str:
         subs = ", ".join(f"{s.name}({s.n})" for s in self.subsystems)

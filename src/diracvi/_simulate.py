@@ -134,7 +134,8 @@ class _March:
     def __init__(self, system, q0, p0):
         self.system = system
         self.q, self.p = [np.asarray(q0)[None]], [np.asarray(p0)[None]]
-        self.rest: list[list[np.ndarray]] = [[] for _ in range(6)]
+        # per-step outputs kept: multipliers, energy, constraint residual, Newton iterations
+        self.rest: list[list[np.ndarray]] = [[] for _ in range(4)]
         self._carry = (q0, p0, q0, jnp.zeros(system.m))
         self.status, self.failure = 0, None
 
@@ -152,8 +153,6 @@ class _March:
             [saved.energy],
             [saved.constraint_residual],
             [saved.newton_iterations],
-            [np.zeros(saved.steps)],
-            [np.zeros(saved.steps, int)],
         ]
         if not in_progress and saved.status:
             self.status = saved.status
@@ -168,9 +167,7 @@ class _March:
         keep = len(status) if failed.size == 0 else int(failed[0])
         self.q.append(q_new[:keep])
         self.p.append(p_new[:keep])
-        for store, arr in zip(
-            self.rest, (mu, energy, con, iterations, res_norm, status), strict=True
-        ):
+        for store, arr in zip(self.rest, (mu, energy, con, iterations), strict=True):
             store.append(arr[:keep])
         self._carry = carry
         if failed.size:
@@ -187,7 +184,7 @@ class _March:
             message = _failure_message(
                 code, done, t0 + sign * h * done, iterations, res_norm, self.system.coords, q_bad
             )
-        mu, energy, con, iterations = (np.concatenate(x) for x in self.rest[:4])
+        mu, energy, con, iterations = (np.concatenate(x) for x in self.rest)
         return Trajectory(
             t=t0 + sign * h * np.arange(done + 1),
             q=np.concatenate(self.q),

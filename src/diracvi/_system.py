@@ -87,8 +87,15 @@ class DiracSystem(eqx.Module):
         d1, d2 = jax.grad(
             lambda a, b: rule.discrete_lagrangian(self.lagrangian, a, b, h), argnums=(0, 1)
         )(qk, qk1)
+        if not self.has_force:  # skip tracing a zero force
+            return -d1, d2
         f_minus, f_plus = rule.discrete_forces(self.force, qk, qk1, h)
         return -d1 - f_minus, d2 + f_plus
+
+    @property
+    def has_force(self) -> bool:
+        """Whether ``force`` can be nonzero (systems without one skip its quadrature)."""
+        return True
 
     def discrete_constraints(self, rule: QuadratureRule, side: str, qk, qk1, h):
         """``ω_{d±}(q_k, q_{k+1})``, shape (m,)."""
@@ -219,14 +226,6 @@ class LagrangeDiracSystem(DiracSystem):
         if self._forms_const is not None:
             return self._forms_const
         return jnp.zeros((0, self.n), dtype=q.dtype)
-
-    def discrete_momenta(self, rule, qk, qk1, h):
-        if self._force is None:  # skip tracing a zero force
-            d1, d2 = jax.grad(
-                lambda a, b: rule.discrete_lagrangian(self.lagrangian, a, b, h), argnums=(0, 1)
-            )(qk, qk1)
-            return -d1, d2
-        return super().discrete_momenta(rule, qk, qk1, h)
 
     def __repr__(self) -> str:
         return (
