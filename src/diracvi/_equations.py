@@ -19,6 +19,8 @@ and an interconnection, because both implement :class:`~diracvi._system.DiracSys
 
 from __future__ import annotations
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 
 from ._discretize import QuadratureRule
@@ -62,3 +64,33 @@ def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x
 def ordered(scheme: str, q, q_other):
     """``(q_k, q_{k+1})`` in time order, whichever end the scheme starts from."""
     return (q, q_other) if scheme == "plus" else (q_other, q)
+
+
+class StepEquations(eqx.Module):
+    """One time step's equations, from the known state ``(q, p)``: what a step solver sees.
+
+    ``residual(x)`` is the implicit part (``x = (q_other, μ)``), ``momentum(x)`` the
+    explicit line. Solvers that exploit structure (the partitioned solver) read
+    ``system``, ``rule`` and ``scheme``; plain Newton only calls ``residual``.
+    """
+
+    system: DiracSystem
+    rule: QuadratureRule
+    scheme: str = eqx.field(static=True)
+    h: jax.Array
+    q: jax.Array
+    p: jax.Array
+
+    @property
+    def size(self) -> int:
+        return self.system.n + self.system.m
+
+    def residual(self, x):
+        return residual(self.system, self.rule, self.scheme, self.h, self.q, self.p, x)
+
+    def momentum(self, x):
+        return new_momentum(self.system, self.rule, self.scheme, self.h, self.q, x)
+
+    def scale(self):
+        """The size against which Newton's relative tolerance is measured."""
+        return jnp.max(jnp.abs(self.q), initial=0.0)

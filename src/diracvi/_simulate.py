@@ -19,56 +19,59 @@ import numpy as np
 from . import _checkpoint, _consistency
 from ._config import ensure_float64
 from ._discretize import RULES, QuadratureRule, get_rule
-from ._equations import SCHEMES, new_momentum, ordered, residual, split
+from ._equations import SCHEMES, StepEquations, ordered, residual, split
 from ._errors import ModelError, StepFailure
-from ._solvers.newton import NewtonSolver, SolveStatus
+from ._solvers import NewtonSolver, SolveStatus, StepSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._system import DiracSystem
 from ._trajectory import STATUS_MESSAGES, Trajectory
 from ._validate import check_choice, check_positive_float, check_positive_int, check_state
 
 
-def _step(system: DiracSystem, rule: QuadratureRule, scheme: str, solver: NewtonSolver, h):
+def _step(system: DiracSystem, rule: QuadratureRule, scheme: str, solver: StepSolver, h):
     """One step ``(q, p) → (q_other, p_other)`` plus its diagnostics."""
 
     def step(carry):
-        q, p, q_prev, mu_prev = carry
+        q, p, q_prev, mu_prev, state = carry
+        eqs = StepEquations(system, rule, scheme, h, q, p)
         guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
-        scale = jnp.max(jnp.abs(q), initial=0.0)
-        x, status, iterations, res_norm = solver.solve(
-            lambda x: residual(system, rule, scheme, h, q, p, x), guess, scale
-        )
-        q_other, mu = split(system, x)
-        p_other = new_momentum(system, rule, scheme, h, q, x)
+        res = solver.solve(eqs, guess, state)
+        q_other, mu = split(system, res.x)
+        p_other = eqs.momentum(res.x)
         qk, qk1 = ordered(scheme, q, q_other)
         energy = system.energy(rule.node(qk, qk1), (qk1 - qk) / h)
         con = system.discrete_constraints(rule, scheme, qk, qk1, h)
         finite = jnp.all(jnp.isfinite(q_other)) & jnp.all(jnp.isfinite(p_other))
-        status = jnp.where((status == 0) & ~finite, SolveStatus.NONFINITE, status)
-        return (q_other, p_other, mu), (energy, con, iterations, res_norm, status)
+        status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
+        diag = (energy, con, res.iterations, res.residual_norm, status)
+        return (q_other, p_other, mu, res.state), diag
 
     return step
 
 
 @eqx.filter_jit
 def _run(system, rule, scheme, solver, steps, carry, h):
-    """``steps`` steps from ``carry = (q, p, q_prev, μ_prev)``; returns (carry, outputs)."""
+    """``steps`` steps from ``carry = (q, p, q_prev, μ_prev)``; returns (carry, outputs).
+
+    The solver state (a cached factorization) starts afresh in every chunk, so a resumed
+    run repeats the arithmetic of an uninterrupted one exactly.
+    """
     step = _step(system, rule, scheme, solver, h)
     nan = jnp.nan
+    state0 = solver.init(StepEquations(system, rule, scheme, h, carry[0], carry[1]))
 
     def body(carry, _):
-        q, p, q_prev, mu_prev, failed = carry
+        q, p, q_prev, mu_prev, state, failed = carry
 
         def advance(_):
-            (q1, p1, mu), diag = step((q, p, q_prev, mu_prev))
-            return (q1, p1, mu), diag
+            return step((q, p, q_prev, mu_prev, state))
 
         def frozen(_):
             zeros = jnp.zeros(system.m)
             diag = (jnp.asarray(nan), zeros + nan, jnp.asarray(0), jnp.asarray(nan), -1)
-            return (q, p, mu_prev), jax.tree.map(jnp.asarray, diag)
+            return (q, p, mu_prev, state), jax.tree.map(jnp.asarray, diag)
 
-        (q1, p1, mu), diag = jax.lax.cond(failed, frozen, advance, None)
+        (q1, p1, mu, state1), diag = jax.lax.cond(failed, frozen, advance, None)
         status = diag[4]
         ok = status == 0
         new_carry = (
@@ -76,11 +79,12 @@ def _run(system, rule, scheme, solver, steps, carry, h):
             jnp.where(ok, p1, p),
             jnp.where(ok, q, q_prev),
             jnp.where(ok, mu, mu_prev),
+            state1,
             failed | ~ok,
         )
         return new_carry, (q1, p1, mu, *diag)
 
-    final, out = jax.lax.scan(body, (*carry, jnp.asarray(False)), None, length=steps)
+    final, out = jax.lax.scan(body, (*carry, state0, jnp.asarray(False)), None, length=steps)
     return final[:4], out
 
 
@@ -215,7 +219,7 @@ def simulate(
     scheme: str = "plus",
     discretization: str = "retraction",
     t0: float = 0.0,
-    solver: NewtonSolver | None = None,
+    solver: StepSolver | None = None,
     throw: bool = True,
     checkpoint=None,
     checkpoint_every: int | None = None,
@@ -253,7 +257,7 @@ def simulate(
     q0 = check_state("q0", q0, system.n, system.coords)
     p0 = check_state("p0", p0, system.n, system.coords)
     solver = NewtonSolver() if solver is None else solver
-    if not isinstance(solver, NewtonSolver):
+    if not isinstance(solver, StepSolver):
         raise ModelError(f"solver={solver!r} must be a dv.NewtonSolver(...).")
     rule = get_rule(discretization)
     h_arr = jnp.asarray(h)

@@ -1,5 +1,6 @@
 """Solvers for the implicit step equations."""
 
-from .newton import NewtonSolver, SolveStatus
+from .base import SolveStatus, StepResult, StepSolver
+from .newton import NewtonSolver
 
-__all__ = ["NewtonSolver", "SolveStatus"]
+__all__ = ["NewtonSolver", "SolveStatus", "StepResult", "StepSolver"]

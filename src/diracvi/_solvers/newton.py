@@ -1,74 +1,112 @@
 r"""Newton's method on the step residual ``r(x) = 0`` with the JAX Jacobian.
 
-Iterate ``x ← x − J(x)⁻¹ r(x)`` until the update is below ``rtol · max(‖x‖∞, ‖q‖∞)``
+Iterate ``x ← x − J⁻¹ r(x)`` until the update is below ``rtol · max(‖x‖∞, ‖q‖∞)``
 (ordinary convergence), or until Newton's quadratic contraction stops while the update is
 already tiny (the round-off floor: further iterations cannot improve the answer).
+
+With ``reuse_jacobian=True`` (the default) the LU factors of ``J`` are kept from one
+iteration and one time step to the next — the simplified (chord) Newton method — and
+recomputed only when they stop paying: when an update contracts by less than
+``1/contraction`` against the previous one. A step whose extrapolated guess already
+satisfies the equations therefore costs one residual and one pair of triangular solves;
+a linear problem factorizes once per chunk. The contraction test is also the
+convergence safeguard: an update that grows with stale factors is discarded, and
+round-off stagnation is only accepted with fresh factors.
+
 The outcome is a :class:`SolveStatus` code, never an exception, so it can travel through
 ``lax.scan`` and the driver can stop cleanly at the failing step.
 """
 
 from __future__ import annotations
 
-import enum
-from collections.abc import Callable
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+
+from .base import SolveStatus, StepResult, StepSolver
 
 
-class SolveStatus(enum.IntEnum):
-    SUCCESS = 0
-    MAX_ITERATIONS = 1
-    SINGULAR = 2  # the linear solve produced non-finite values from finite inputs
-    NONFINITE = 3  # the model itself produced NaN/Inf
-
-
-class NewtonSolver(eqx.Module):
+class NewtonSolver(StepSolver):
     """Newton's method with a dense LU solve.
 
     Args:
         rtol: relative tolerance on the Newton update (default 1e-13).
         max_steps: iteration cap per time step (default 40).
-        floor: an update below ``floor · scale`` that fails to contract further is
-            accepted as converged at round-off.
+        floor: an update below ``floor · scale`` that fails to contract further (with a
+            freshly factorized Jacobian) is accepted as converged at round-off.
+        reuse_jacobian: keep the factorized Jacobian across iterations and time steps
+            while it still contracts (default True); False recomputes it every iteration.
+        contraction: with reused factors, an update must shrink at least this much
+            (``‖dx_j‖ ≤ contraction · ‖dx_{j−1}‖``) or the Jacobian is recomputed.
     """
 
     rtol: float = eqx.field(static=True, default=1e-13)
     max_steps: int = eqx.field(static=True, default=40)
     floor: float = eqx.field(static=True, default=1e-9)
+    reuse_jacobian: bool = eqx.field(static=True, default=True)
+    contraction: float = eqx.field(static=True, default=0.25)
 
-    def solve(self, fn: Callable, x0, scale):
-        """Solve ``fn(x) = 0`` from ``x0``; returns ``(x, status, iterations, ‖r‖∞)`` with
-        the residual of the last iterate evaluated."""
+    def init(self, eqs):
+        size = eqs.size
+        return (
+            jnp.zeros((size, size), dtype=eqs.q.dtype),
+            jnp.zeros(size, dtype=jnp.int32),
+            jnp.asarray(False),
+        )
 
-        def body(state):
-            x, _, it, last_dx, _ = state
-            r, jac = fn(x), jax.jacfwd(fn)(x)
-            dx = jnp.linalg.solve(jac, -r)
+    def solve(self, eqs, guess, state) -> StepResult:
+        """Solve ``eqs.residual(x) = 0`` from ``guess``."""
+        fn = eqs.residual
+        scale = eqs.scale()
+
+        def factorize(x):
+            return jsl.lu_factor(jax.jacfwd(fn)(x))
+
+        def body(carry):
+            x, _, it, last_dx, _, lu, piv, valid, fresh = carry
+            r = fn(x)
+            refactor = ~valid
+            if not self.reuse_jacobian:
+                refactor = jnp.asarray(True)
+            lu, piv = jax.lax.cond(refactor, factorize, lambda _: (lu, piv), x)
+            fresh = fresh | refactor
+            dx = jsl.lu_solve((lu, piv), -r)
             dx_norm = jnp.max(jnp.abs(dx), initial=0.0)
-            x_new = x + dx
-            size = jnp.maximum(jnp.max(jnp.abs(x_new), initial=0.0), scale)
+            size = jnp.maximum(jnp.max(jnp.abs(x + dx), initial=0.0), scale)
             finite_r = jnp.all(jnp.isfinite(r))
             finite_dx = jnp.all(jnp.isfinite(dx))
+            # Stale factors that fail to contract are replaced; a growing update is dropped.
+            slow = ~refactor & (dx_norm > self.contraction * last_dx)
+            diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
             small = dx_norm <= self.rtol * size
-            stalled = (dx_norm <= self.floor * size) & (dx_norm >= 0.5 * last_dx)
+            stalled = refactor & (dx_norm <= self.floor * size) & (dx_norm >= 0.5 * last_dx)
+            done = (small & ~diverging) | stalled
             status = jnp.where(
                 ~finite_r,
                 SolveStatus.NONFINITE,
-                jnp.where(~finite_dx, SolveStatus.SINGULAR, jnp.where(small | stalled, 0, -1)),
+                jnp.where(
+                    ~finite_dx & refactor,
+                    SolveStatus.SINGULAR,
+                    jnp.where(done & finite_dx, SolveStatus.SUCCESS, -1),
+                ),
             )
-            x_new = jnp.where(finite_dx & finite_r, x_new, x)
-            return x_new, status, it + 1, dx_norm, jnp.max(jnp.abs(r), initial=0.0)
+            keep = finite_dx & finite_r & ~diverging
+            x_new = jnp.where(keep, x + dx, x)
+            last = jnp.where(keep, dx_norm, last_dx)
+            valid = ~(slow | diverging)
+            return x_new, status, it + 1, last, jnp.max(jnp.abs(r), initial=0.0), lu, piv, valid, fresh
 
-        def cond(state):
-            _, status, it, _, _ = state
+        def cond(carry):
+            _, status, it = carry[:3]
             return (status == -1) & (it < self.max_steps)
 
-        init = (x0, jnp.asarray(-1), jnp.asarray(0), jnp.asarray(jnp.inf), jnp.asarray(jnp.inf))
+        lu, piv, valid = state
+        inf = jnp.asarray(jnp.inf, dtype=guess.dtype)
+        init = (guess, jnp.asarray(-1), jnp.asarray(0), inf, inf, lu, piv, valid, jnp.asarray(False))
         # The residual reported is the one at the last Newton iterate evaluated (before its
         # update): re-evaluating at the final x would cost a residual per time step, and it
         # is only read when a step fails.
-        x, status, iterations, _, res_norm = jax.lax.while_loop(cond, body, init)
+        x, status, iterations, _, res_norm, lu, piv, _, _ = jax.lax.while_loop(cond, body, init)
         status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
-        return x, status, iterations, res_norm
+        return StepResult(x, status, iterations, res_norm, (lu, piv, status == 0))

@@ -1,0 +1,42 @@
+"""What a step solver is: a small immutable object that solves one step's equations.
+
+A solver turns :class:`~diracvi._equations.StepEquations` and an initial guess into the
+unknowns ``x = (q_other, μ)`` and a :class:`SolveStatus`. It may keep a *state* between
+time steps (a factorized Jacobian, say); the driver threads that state through the scan
+and resets it at the start of every chunk, so chunked and checkpointed runs repeat the
+same arithmetic exactly.
+"""
+
+from __future__ import annotations
+
+import enum
+from typing import Any, NamedTuple
+
+import equinox as eqx
+import jax
+
+
+class SolveStatus(enum.IntEnum):
+    SUCCESS = 0
+    MAX_ITERATIONS = 1
+    SINGULAR = 2  # the linear solve produced non-finite values from finite inputs
+    NONFINITE = 3  # the model itself produced NaN/Inf
+
+
+class StepResult(NamedTuple):
+    x: jax.Array  # (q_other, μ)
+    status: jax.Array  # SolveStatus code
+    iterations: jax.Array  # residual evaluations
+    residual_norm: jax.Array  # ‖r‖∞ at the last iterate evaluated
+    state: Any  # carried to the next step
+
+
+class StepSolver(eqx.Module):
+    """Solves ``r(x) = 0`` for one time step."""
+
+    def init(self, eqs) -> Any:
+        """The solver state before the first step of a chunk (traceable)."""
+        raise NotImplementedError
+
+    def solve(self, eqs, guess, state) -> StepResult:
+        raise NotImplementedError
