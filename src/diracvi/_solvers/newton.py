@@ -64,13 +64,12 @@ class NewtonSolver(StepSolver):
             return jsl.lu_factor(jax.jacfwd(fn)(x))
 
         def body(carry):
-            x, _, it, last_dx, _, lu, piv, valid, fresh = carry
+            x, _, it, last_dx, _, lu, piv, valid = carry
             r = fn(x)
             refactor = ~valid
             if not self.reuse_jacobian:
                 refactor = jnp.asarray(True)
             lu, piv = jax.lax.cond(refactor, factorize, lambda _: (lu, piv), x)
-            fresh = fresh | refactor
             dx = jsl.lu_solve((lu, piv), -r)
             dx_norm = jnp.max(jnp.abs(dx), initial=0.0)
             size = jnp.maximum(jnp.max(jnp.abs(x + dx), initial=0.0), scale)
@@ -95,7 +94,8 @@ class NewtonSolver(StepSolver):
             x_new = jnp.where(keep, x + dx, x)
             last = jnp.where(keep, dx_norm, last_dx)
             valid = ~(slow | diverging)
-            return x_new, status, it + 1, last, jnp.max(jnp.abs(r), initial=0.0), lu, piv, valid, fresh
+            r_norm = jnp.max(jnp.abs(r), initial=0.0)
+            return x_new, status, it + 1, last, r_norm, lu, piv, valid
 
         def cond(carry):
             _, status, it = carry[:3]
@@ -103,10 +103,10 @@ class NewtonSolver(StepSolver):
 
         lu, piv, valid = state
         inf = jnp.asarray(jnp.inf, dtype=guess.dtype)
-        init = (guess, jnp.asarray(-1), jnp.asarray(0), inf, inf, lu, piv, valid, jnp.asarray(False))
+        init = (guess, jnp.asarray(-1), jnp.asarray(0), inf, inf, lu, piv, valid)
         # The residual reported is the one at the last Newton iterate evaluated (before its
         # update): re-evaluating at the final x would cost a residual per time step, and it
         # is only read when a step fails.
-        x, status, iterations, _, res_norm, lu, piv, _, _ = jax.lax.while_loop(cond, body, init)
+        x, status, iterations, _, res_norm, lu, piv, _ = jax.lax.while_loop(cond, body, init)
         status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
         return StepResult(x, status, iterations, res_norm, (lu, piv, status == 0))
