@@ -176,6 +176,22 @@ def _saved(raw, checked, k: int, save_states: bool):
     return saved
 
 
+def _saved_every_step(raw, checked, save_states: bool):
+    """:func:`_saved` for ``k = 1``: every step is its own record."""
+    q1s, p1s, mus = raw[:3]
+    energy, con, its, _, status = checked
+    ok = status == 0
+    saved = {
+        "n_good": jnp.cumprod(ok.astype(jnp.int32)),
+        "energy": energy,
+        "violation": jnp.max(jnp.abs(con), axis=-1, initial=0.0),
+        "iterations": its,
+    }
+    if save_states:
+        saved.update(q=q1s, p=p1s, mu=mus, con=con)
+    return saved
+
+
 def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
     """A function ``(h, carry) ↦ (carry, fail, saved)`` for ``blocks`` blocks of ``k``
     steps; ``carry = (q, p, q_prev, μ_prev)``, ``fail`` the first failure's details.
@@ -203,8 +219,7 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 
         if k == 1:
             inner, fail, raw, checked = block(init, fail0, blocks)
-            shape = jax.tree.map(lambda a: a[:, None], (raw, checked))
-            return inner[:4], fail, _saved(*shape, 1, save_states)
+            return inner[:4], fail, _saved_every_step(raw, checked, save_states)
 
         def body(c, _):
             inner, fail = c
