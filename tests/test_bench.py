@@ -17,6 +17,7 @@ from diracvi import problems
 from diracvi.bench import BENCHMARKS, BenchmarkError, Settings, chain_scaling, rlc, spring_chain
 from diracvi.bench._core import Row, Target, interleaved, relative_difference
 from diracvi.bench._paper import AGREEMENT, check_agreement, in_order
+from diracvi.bench.report import markdown
 from diracvi.cli import EXIT_USAGE, app
 from diracvi.reproduce.paper import RLC, SPRING_CHAIN
 
@@ -123,3 +124,6 @@ def test_bench_quick_prints_one_table_and_writes_json(tmp_path):
     assert all(row["status"] == "measured" for row in data["rows"])
     assert set(BENCHMARKS) >= set(data["durations_s"])
     assert Settings(quick=True).paper_repeats == data["settings"]["paper_repeats"]
+    table = markdown(data)
+    assert table.startswith("| benchmark | diracvi | baseline | ratio |")
+    assert len(table.splitlines()) == len(data["rows"]) + 4

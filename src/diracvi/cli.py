@@ -415,7 +415,7 @@ def bench(
         ),
     ] = None,
 ) -> None:
-    """Benchmarks: ratios measured side by side in this process, printed as one table.
+    """Benchmarks: the two sides of each ratio timed interleaved, printed as one table.
 
     A missed target is shown in the table (exit code 0); a benchmark that could not run
     at all is shown as an error and makes the exit code 1.

@@ -100,3 +100,34 @@ def machine_lines(report: Report) -> list[str]:
     for name, message in report.errors.items():
         lines.append(f"error in {name}: {message}")
     return lines
+
+
+def markdown(data: dict) -> str:
+    """The table and machine lines of a ``--json`` file as Markdown (for the README)."""
+    head = "| benchmark | diracvi | baseline | ratio | target | met? | solver | notes |"
+    lines = [head, "|---|---:|---:|---:|---|---|---|---|"]
+    for row in data["rows"]:
+        met = {True: "yes", False: "no", None: "—"}[row["met"]]
+        if row["status"] == "failed":
+            met = "error"
+        cells = [
+            row["label"],
+            fmt_value(row["diracvi"], row["unit"]),
+            fmt_value(row["baseline"], row["unit"]),
+            fmt_ratio(row["ratio"]),
+            row["target"] or "—",
+            met,
+            row["solver"] or "—",
+            row["notes"],
+        ]
+        lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
+    m = data["machine"]
+    mode = "quick" if data["settings"]["quick"] else "full"
+    lines += [
+        "",
+        f"Run: `diracvi bench{' --quick' if mode == 'quick' else ''}` on {m['date']}; "
+        f"{m['cpu']}, {m['cores']} cores; python {m['python']}, jax {m['jax']}, "
+        f"numpy {m['numpy']}, scipy {m['scipy']}, diracvi {m['diracvi']}; load average "
+        f"{m['load_average']} at start, {m.get('load_average_end')} at end.",
+    ]
+    return "\n".join(lines)
