@@ -11,6 +11,7 @@ from typer.testing import CliRunner
 
 from diracvi.cli import app
 from diracvi.reproduce import FIGURES
+from diracvi.reproduce.report import fmt
 
 ROUND_OFF = 1e-12
 
@@ -138,7 +139,7 @@ def test_reports_link_or_embed_every_figure_and_state_deviations(run):
         assert "0.0028" in text and "8.160e-04" in text  # the paper's timings
         assert "Quick run" in text
     spring = summary["examples"]["spring_chain"]
-    assert f"{spring['timing']['reduced_s']:.6g}" in md
+    assert fmt(spring["timing"]["reduced_s"]) in md
 
 
 def test_progress_is_plain_text_off_a_terminal(run):

@@ -14,13 +14,14 @@ from ._discretize import Midpoint, QuadratureRule, Retraction
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
-from ._solvers import NewtonSolver, SolveStatus
+from ._solvers import AffineSolver, NewtonSolver, SolveStatus, StepSolver
 from ._system import DiracSystem, LagrangeDiracSystem
 from ._trajectory import Trajectory, load
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "AffineSolver",
     "Connection",
     "DiracSystem",
     "DiracviError",
@@ -35,6 +36,7 @@ __all__ = [
     "Retraction",
     "SolveStatus",
     "StepFailure",
+    "StepSolver",
     "Trajectory",
     "UnsolvableStepError",
     "connect",

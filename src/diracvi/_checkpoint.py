@@ -24,7 +24,9 @@ from ._errors import ModelError
 from ._trajectory import Trajectory
 
 
-def fingerprint(system, q0, p0, *, dt, steps, scheme, discretization, solver, chunk) -> str:
+def fingerprint(
+    system, q0, p0, *, dt, steps, scheme, discretization, solver, chunk, save=(1, True)
+) -> str:
     """A hash of everything that determines the run's numbers."""
     description = json.dumps(
         {
@@ -37,6 +39,7 @@ def fingerprint(system, q0, p0, *, dt, steps, scheme, discretization, solver, ch
             "discretization": discretization,
             "solver": repr(solver),
             "chunk": int(chunk),
+            "save": [int(save[0]), bool(save[1])],
         },
         sort_keys=True,
     ).encode()
@@ -46,12 +49,14 @@ def fingerprint(system, q0, p0, *, dt, steps, scheme, discretization, solver, ch
     return digest.hexdigest()
 
 
-def write(traj: Trajectory, path: Path, key: str, in_progress: bool) -> None:
-    traj.save(path, extra_attrs={"checkpoint": key, "in_progress": int(in_progress)})
+def write(traj: Trajectory, path: Path, key: str, in_progress: bool, extra=None) -> None:
+    attrs = {"checkpoint": key, "in_progress": int(in_progress), **(extra or {})}
+    traj.save(path, extra_attrs=attrs)
 
 
-def read(path: Path, key: str) -> tuple[Trajectory, bool] | None:
-    """The saved run and whether it is still in progress, or None if there is none yet."""
+def read(path: Path, key: str) -> tuple[Trajectory, bool, dict] | None:
+    """The saved run, whether it is still in progress and the file's attributes, or None
+    if there is none yet."""
     if not path.exists():
         return None
     import xarray as xr
@@ -70,4 +75,4 @@ def read(path: Path, key: str) -> tuple[Trajectory, bool] | None:
             "initial state, dt, steps, scheme, discretization, solver or checkpoint_every); "
             "delete it to start afresh, or choose another path."
         )
-    return Trajectory.from_xarray(ds), bool(ds.attrs.get("in_progress", 0))
+    return Trajectory.from_xarray(ds), bool(ds.attrs.get("in_progress", 0)), dict(ds.attrs)

@@ -60,6 +60,101 @@ def _legendre_pieces(system, q):
     return g, w, system.constraint_forms(q)
 
 
+@jax.jit
+def _legendre_slope(system, q):
+    """``G = ∂/∂q ∂L/∂v(q, 0)``: with W and A constant, ``∂L/∂v(q, 0) = g₀ + G q``."""
+    return jax.jacfwd(lambda x: jax.grad(system.lagrangian, argnums=1)(x, jnp.zeros_like(x)))(q)
+
+
+def _complement(w, forms) -> np.ndarray:
+    """``I − B B⁺`` for ``B = [W, Aᵀ]``: the part of a covector no momentum can reach."""
+    basis = np.concatenate([w, forms.T], axis=1)
+    n = w.shape[0]
+    if basis.size == 0:
+        return np.eye(n)
+    return np.eye(n) - basis @ np.linalg.pinv(basis, rcond=1e-12)
+
+
+class Checker:
+    """Consistency of initial data for one system, with what can be precomputed kept.
+
+    ``linear=True`` (systems whose step equations are affine: W and A constant and
+    ``∂L/∂v(q, 0)`` affine in q) precomputes the complement projector once, so a check
+    is a matrix–vector product; it is verified at ``q_probe`` and otherwise dropped.
+    """
+
+    def __init__(self, system: DiracSystem, linear: bool = False, q_probe=None):
+        self.system = system
+        self.groups = [np.asarray(g) for g in _port_groups(system)]
+        self._linear = None
+        if linear:
+            zero = jnp.zeros(system.n)
+            g0, w, forms = (np.asarray(a) for a in _legendre_pieces(system, zero))
+            slope = np.asarray(_legendre_slope(system, zero))
+            probe = np.zeros(system.n) if q_probe is None else np.asarray(q_probe)
+            g1, w1, forms1 = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(probe)))
+            scale = 1.0 + np.max(np.abs(probe), initial=0.0)
+            same = (
+                np.allclose(w, w1, rtol=1e-12, atol=1e-12)
+                and np.allclose(forms, forms1, rtol=1e-12, atol=1e-12)
+                and np.allclose(g0 + slope @ probe, g1, rtol=1e-12, atol=1e-12 * scale)
+            )
+            if same:
+                self._linear = (g0, slope, _complement(w, forms))
+
+    def _momentum_projection(self, q, p):
+        if self._linear is not None:
+            g0, slope, comp = self._linear
+            return p - comp @ (p - g0 - slope @ q)
+        return _momentum_projection(self.system, q, p)
+
+    def violations(self, q0, p0) -> dict[str, float]:
+        """``{"ports": max |x − y|, "momenta": distance of p₀ from the consistent set}``."""
+        q0, p0 = np.asarray(q0), np.asarray(p0)
+        ports = max((np.ptp(q0[g]) for g in self.groups), default=0.0)
+        proj = self._momentum_projection(q0, p0)
+        return {"ports": float(ports), "momenta": float(np.max(np.abs(p0 - proj), initial=0.0))}
+
+    def project(self, q0, p0):
+        """The nearest consistent state: joined ports at their mean, then p₀ projected."""
+        q = np.array(q0, dtype=np.float64)
+        for group in self.groups:
+            q[group] = q[group].mean()
+        return q, self._momentum_projection(q, np.asarray(p0, dtype=np.float64))
+
+    def check(self, q0, p0, *, project_initial: bool):
+        """Warn about (or, with ``project_initial``, repair) inconsistent initial data."""
+        found = self.violations(q0, p0)
+        q_scale = max(1.0, float(np.max(np.abs(q0))))
+        p_scale = max(1.0, float(np.max(np.abs(p0))))
+        bad_q = found["ports"] > 1e-12 * q_scale
+        bad_p = found["momenta"] > 1e-10 * p_scale
+        if not (bad_q or bad_p):
+            return q0, p0
+        if project_initial:
+            return self.project(q0, p0)
+        parts = []
+        if bad_q:
+            groups = [[self.system.coords[i] for i in g] for g in self.groups]
+            parts.append(
+                f"joined ports differ in position by up to {found['ports']:.3e} "
+                f"(groups {groups}); their interconnection x = y will be off by that forever"
+            )
+        if bad_p:
+            parts.append(
+                f"p0 is {found['momenta']:.3e} away from the momenta a degenerate Lagrangian "
+                "allows (∂L/∂v + Aᵀμ); the scheme will carry a spurious oscillation"
+            )
+        warnings.warn(
+            "Inconsistent initial data: " + "; ".join(parts) + ". Pass project_initial=True "
+            "to simulate() to start from the nearest consistent state "
+            "(dv.project_initial_state).",
+            InconsistentInitialDataWarning,
+            stacklevel=3,  # warn → Checker.check → simulate → the user's call
+        )
+        return q0, p0
+
+
 def _momentum_projection(system, q, p):
     g, w, forms = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(q)))
     basis = np.concatenate([w, forms.T], axis=1)
@@ -71,48 +166,14 @@ def _momentum_projection(system, q, p):
 
 def violations(system: DiracSystem, q0, p0) -> dict[str, float]:
     """``{"ports": max |x − y|, "momenta": distance of p₀ from the consistent set}``."""
-    q0, p0 = np.asarray(q0), np.asarray(p0)
-    ports = max((np.ptp(q0[g]) for g in _port_groups(system)), default=0.0)
-    momenta = float(np.max(np.abs(p0 - _momentum_projection(system, q0, p0)), initial=0.0))
-    return {"ports": float(ports), "momenta": momenta}
+    return Checker(system).violations(q0, p0)
 
 
 def project(system: DiracSystem, q0, p0):
     """The nearest consistent state: joined ports at their mean, then p₀ projected."""
-    q = np.array(q0, dtype=np.float64)
-    for group in _port_groups(system):
-        q[group] = q[group].mean()
-    return q, _momentum_projection(system, q, np.asarray(p0, dtype=np.float64))
+    return Checker(system).project(q0, p0)
 
 
 def check(system: DiracSystem, q0, p0, *, project_initial: bool):
     """Warn about (or, with ``project_initial``, repair) inconsistent initial data."""
-    found = violations(system, q0, p0)
-    q_scale = max(1.0, float(np.max(np.abs(q0))))
-    p_scale = max(1.0, float(np.max(np.abs(p0))))
-    bad_q = found["ports"] > 1e-12 * q_scale
-    bad_p = found["momenta"] > 1e-10 * p_scale
-    if not (bad_q or bad_p):
-        return q0, p0
-    if project_initial:
-        q, p = project(system, q0, p0)
-        return jnp.asarray(q), jnp.asarray(p)
-    parts = []
-    if bad_q:
-        groups = [[system.coords[i] for i in g] for g in _port_groups(system)]
-        parts.append(
-            f"joined ports differ in position by up to {found['ports']:.3e} "
-            f"(groups {groups}); their interconnection x = y will be off by that forever"
-        )
-    if bad_p:
-        parts.append(
-            f"p0 is {found['momenta']:.3e} away from the momenta a degenerate Lagrangian "
-            "allows (∂L/∂v + Aᵀμ); the scheme will carry a spurious oscillation"
-        )
-    warnings.warn(
-        "Inconsistent initial data: " + "; ".join(parts) + ". Pass project_initial=True to "
-        "simulate() to start from the nearest consistent state (dv.project_initial_state).",
-        InconsistentInitialDataWarning,
-        stacklevel=3,
-    )
-    return q0, p0
+    return Checker(system).check(q0, p0, project_initial=project_initial)

@@ -93,8 +93,14 @@ class Midpoint(QuadratureRule):
 RULES: dict[str, type[QuadratureRule]] = {"retraction": Retraction, "midpoint": Midpoint}
 
 
+_INSTANCES: dict[str, QuadratureRule] = {}
+
+
 def get_rule(name: str) -> QuadratureRule:
-    return RULES[name]()
+    """The rule called ``name`` (rules are immutable, so one instance serves every run)."""
+    if name not in _INSTANCES:
+        _INSTANCES[name] = RULES[name]()
+    return _INSTANCES[name]
 
 
 __all__ = ["RULES", "Midpoint", "QuadratureRule", "Retraction", "get_rule"]

@@ -1,14 +1,14 @@
 r"""``simulate``: march the (+) or (−) discrete Dirac equations with a compiled scan.
 
-One time step solves the implicit step equations (see :mod:`diracvi._equations`) with
-Newton's method, then applies the explicit momentum update. The whole run is one
-``jax.lax.scan`` under ``jit``: no Python code runs per step. A failed step freezes the
+One time step solves the implicit step equations (see :mod:`diracvi._equations`) — by
+the precomputed affine step map when they are linear, by a step solver otherwise — then
+applies the explicit momentum update. A run is a few compiled chunks
+(:mod:`diracvi._stepping`); no Python code runs per step. A failed step freezes the
 carry, so everything computed before it is returned intact.
 """
 
 from __future__ import annotations
 
-from functools import partial
 from pathlib import Path
 
 import equinox as eqx
@@ -16,76 +16,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import _checkpoint, _consistency
+from . import _checkpoint
 from ._config import ensure_float64
-from ._discretize import RULES, QuadratureRule, get_rule
-from ._equations import SCHEMES, StepEquations, ordered, residual, split
+from ._discretize import RULES, get_rule
+from ._equations import SCHEMES, residual
 from ._errors import ModelError, StepFailure
-from ._solvers import NewtonSolver, SolveStatus, StepSolver
+from ._plan import Layout, get_plan, layout
+from ._solvers import SolveStatus, StepSolver
+from ._solvers.affine import AffineSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._trajectory import STATUS_MESSAGES, Trajectory
 from ._validate import check_choice, check_positive_float, check_positive_int, check_state
-
-
-def _step(system: DiracSystem, rule: QuadratureRule, scheme: str, solver: StepSolver, h):
-    """One step ``(q, p) → (q_other, p_other)`` plus its diagnostics."""
-
-    def step(carry):
-        q, p, q_prev, mu_prev, state = carry
-        eqs = StepEquations(system, rule, scheme, h, q, p)
-        guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
-        res = solver.solve(eqs, guess, state)
-        q_other, mu = split(system, res.x)
-        p_other = eqs.momentum(res.x)
-        qk, qk1 = ordered(scheme, q, q_other)
-        energy = system.energy(rule.node(qk, qk1), (qk1 - qk) / h)
-        con = system.discrete_constraints(rule, scheme, qk, qk1, h)
-        finite = jnp.all(jnp.isfinite(q_other)) & jnp.all(jnp.isfinite(p_other))
-        status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
-        diag = (energy, con, res.iterations, res.residual_norm, status)
-        return (q_other, p_other, mu, res.state), diag
-
-    return step
-
-
-@eqx.filter_jit
-def _run(system, rule, scheme, solver, steps, carry, h):
-    """``steps`` steps from ``carry = (q, p, q_prev, μ_prev)``; returns (carry, outputs).
-
-    The solver state (a cached factorization) starts afresh in every chunk, so a resumed
-    run repeats the arithmetic of an uninterrupted one exactly.
-    """
-    step = _step(system, rule, scheme, solver, h)
-    nan = jnp.nan
-    state0 = solver.init(StepEquations(system, rule, scheme, h, carry[0], carry[1]))
-
-    def body(carry, _):
-        q, p, q_prev, mu_prev, state, failed = carry
-
-        def advance(_):
-            return step((q, p, q_prev, mu_prev, state))
-
-        def frozen(_):
-            zeros = jnp.zeros(system.m)
-            diag = (jnp.asarray(nan), zeros + nan, jnp.asarray(0), jnp.asarray(nan), -1)
-            return (q, p, mu_prev, state), jax.tree.map(jnp.asarray, diag)
-
-        (q1, p1, mu, state1), diag = jax.lax.cond(failed, frozen, advance, None)
-        status = diag[4]
-        ok = status == 0
-        new_carry = (
-            jnp.where(ok, q1, q),
-            jnp.where(ok, p1, p),
-            jnp.where(ok, q, q_prev),
-            jnp.where(ok, mu, mu_prev),
-            state1,
-            failed | ~ok,
-        )
-        return new_carry, (q1, p1, mu, *diag)
-
-    final, out = jax.lax.scan(body, (*carry, state0, jnp.asarray(False)), None, length=steps)
-    return final[:4], out
 
 
 @eqx.filter_jit
@@ -133,79 +76,106 @@ def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
 
 
 class _March:
-    """The run so far: host-side arrays of the completed steps and the scan carry."""
+    """The run so far: host-side arrays of the saved states and the chunk carry."""
 
-    def __init__(self, system, q0, p0):
-        self.system = system
-        self.q, self.p = [np.asarray(q0)[None]], [np.asarray(p0)[None]]
-        # per-step outputs kept: multipliers, energy, constraint residual, Newton iterations
-        self.rest: list[list[np.ndarray]] = [[] for _ in range(4)]
-        self._carry = (q0, p0, q0, jnp.zeros(system.m))
+    def __init__(self, system: Layout, q0, p0, k: int, save_states: bool):
+        self.system, self.k, self.save_states = system, k, save_states
+        self.index = [np.zeros(1, dtype=np.int64)]
+        self.states = [(np.asarray(q0)[None], np.asarray(p0)[None])] if save_states else []
+        self.diag: list[tuple] = []  # (energy, violation, iterations[, mu, con])
+        self.carry = (q0, p0, q0, np.zeros(system.m))
+        self.done = 0
         self.status, self.failure = 0, None
+        self.fallback_from: int | None = None
+        self.fallback_reason = ""
 
-    @property
-    def done(self) -> int:
-        return sum(len(x) for x in self.q) - 1
-
-    def carry(self):
-        return self._carry
-
-    def resume(self, saved: Trajectory, in_progress: bool):
-        self.q, self.p = [saved.q], [saved.p]
-        self.rest = [
-            [saved.multipliers],
-            [saved.energy],
-            [saved.constraint_residual],
-            [saved.newton_iterations],
-        ]
+    def resume(self, saved: Trajectory, in_progress: bool, attrs: dict):
+        self.index = [saved.step_index]
+        if self.save_states:
+            self.states = [(saved.q, saved.p)]
+        diag = (saved.energy, saved.constraint_violation, saved.newton_iterations)
+        if self.save_states:
+            diag += (saved.multipliers, saved.constraint_residual)
+        self.diag = [diag]
+        self.done = saved.steps
         if not in_progress and saved.status:
             self.status = saved.status
             self.failure = (saved.message,)
-        prev_q = saved.q[-2] if saved.steps else saved.q[0]
-        prev_mu = saved.multipliers[-1] if saved.steps else np.zeros(self.system.m)
-        self._carry = tuple(jnp.asarray(a) for a in (saved.q[-1], saved.p[-1], prev_q, prev_mu))
+        if "fallback_from" in attrs:
+            self.fallback_from = int(attrs["fallback_from"])
+            self.fallback_reason = str(attrs.get("fallback_reason", ""))
+        self.carry = tuple(np.asarray(a) for a in saved.final_state)
 
-    def extend(self, carry, out):
-        q_new, p_new, mu, energy, con, iterations, res_norm, status = (np.asarray(a) for a in out)
-        failed = np.nonzero(status != 0)[0]
-        keep = len(status) if failed.size == 0 else int(failed[0])
-        self.q.append(q_new[:keep])
-        self.p.append(p_new[:keep])
-        for store, arr in zip(self.rest, (mu, energy, con, iterations), strict=True):
-            store.append(arr[:keep])
-        self._carry = carry
-        if failed.size:
-            self.status = int(status[keep])
-            self.failure = (int(iterations[keep]), float(res_norm[keep]), q_new[keep])
+    def extend(self, carry, fail, saved):
+        n_good = saved["n_good"]
+        full = n_good == self.k
+        whole = len(full) if full.all() else int(np.argmin(full))
+        keep = whole + int(whole < len(full) and n_good[whole] > 0)
+        steps = np.minimum(n_good[:keep], self.k)
+        self.index.append(self.done + np.cumsum(steps))
+        self.done += int(steps.sum())
+        if self.save_states:
+            self.states.append((saved["q"][:keep], saved["p"][:keep]))
+        diag = (saved["energy"], saved["violation"], saved["iterations"])
+        if self.save_states:
+            diag += (saved["mu"], saved["con"])
+        self.diag.append(tuple(a[:keep] for a in diag))
+        self.carry = carry
+        if whole < len(full):
+            code, iterations, res_norm, q_bad = fail
+            self.status = int(code)
+            self.failure = (int(iterations), float(res_norm), q_bad)
 
-    def trajectory(self, t0, sign, h, scheme, discretization, steps) -> Trajectory:
-        done = self.done
+    def trajectory(self, t0, sign, h, scheme, discretization, steps, solver) -> Trajectory:
         code, message = self.status, STATUS_MESSAGES[0]
         if code and len(self.failure) == 1:
             message = self.failure[0]
         elif code:
             iterations, res_norm, q_bad = self.failure
             message = _failure_message(
-                code, done, t0 + sign * h * done, iterations, res_norm, self.system.coords, q_bad
+                code,
+                self.done,
+                t0 + sign * h * self.done,
+                iterations,
+                res_norm,
+                self.system.coords,
+                q_bad,
             )
-        mu, energy, con, iterations = (np.concatenate(x) for x in self.rest)
+        index = np.concatenate(self.index)
+        cols = [np.concatenate(c) for c in zip(*self.diag, strict=True)] if self.diag else []
+        m = self.system.m
+        if not cols:
+            cols = [np.zeros(0), np.zeros(0), np.zeros(0, np.int64)]
+            if self.save_states:
+                cols += [np.zeros((0, m)), np.zeros((0, m))]
+        energy, violation, iterations = cols[:3]
+        q = p = mu = con = None
+        if self.save_states:
+            q = np.concatenate([s[0] for s in self.states])
+            p = np.concatenate([s[1] for s in self.states])
+            mu, con = (c.reshape(len(energy), m) for c in cols[3:])
         return Trajectory(
-            t=t0 + sign * h * np.arange(done + 1),
-            q=np.concatenate(self.q),
-            p=np.concatenate(self.p),
-            multipliers=mu.reshape(done, self.system.m),
+            t=t0 + sign * h * index,
+            q=q,
+            p=p,
+            multipliers=mu,
             energy=energy,
-            constraint_residual=con.reshape(done, self.system.m),
+            constraint_residual=con,
             newton_iterations=iterations,
+            constraint_violation=violation,
+            step_index=index,
+            save_every=self.k,
+            final_state=self.carry,
             coords=self.system.coords,
             constraint_names=self.system.constraint_names,
             dt=h,
             scheme=scheme,
             discretization=discretization,
-            system_name=getattr(self.system, "name", "system"),
+            system_name=self.system.name,
             status=code,
             message=message,
             steps_requested=steps,
+            solver=solver,
         )
 
 
@@ -219,7 +189,9 @@ def simulate(
     scheme: str = "plus",
     discretization: str = "retraction",
     t0: float = 0.0,
-    solver: StepSolver | None = None,
+    solver=None,
+    save_every: int = 1,
+    save_states: bool = True,
     throw: bool = True,
     checkpoint=None,
     checkpoint_every: int | None = None,
@@ -231,6 +203,16 @@ def simulate(
     ``t0``; ``scheme="minus"`` marches the (−) equations backward from it, so ``t``
     decreases. ``discretization`` picks the quadrature rule (``"retraction"``, order 1,
     the paper's; or ``"midpoint"``, order 2).
+
+    ``solver=None`` chooses the stepping method: the precomputed affine step map when
+    the step equations are linear (verified on every step, with a fallback to Newton),
+    Newton otherwise. Pass ``dv.NewtonSolver(...)``, ``dv.AffineSolver(...)`` or another
+    step solver to choose; ``traj.solver`` says what ran.
+
+    ``save_every=k`` keeps every k-th state (``steps`` must be a multiple of k);
+    ``save_states=False`` keeps only the diagnostics (energy, constraint violation,
+    iterations per saved interval) and the final state, so a long run of a large model
+    needs O(n + steps/k) memory.
 
     Returns a :class:`Trajectory`. If a step fails, raises :class:`StepFailure` carrying the
     partial trajectory (or returns it with ``status != 0`` when ``throw=False``).
@@ -254,25 +236,21 @@ def simulate(
     discretization = check_choice("discretization", discretization, tuple(RULES))
     h = check_positive_float("dt", dt)
     steps = check_positive_int("steps", steps)
-    q0 = check_state("q0", q0, system.n, system.coords)
-    p0 = check_state("p0", p0, system.n, system.coords)
-    solver = NewtonSolver() if solver is None else solver
-    if not isinstance(solver, StepSolver):
-        raise ModelError(f"solver={solver!r} must be a dv.NewtonSolver(...).")
+    k = check_save_every(steps, save_every)
+    shape = layout(system)
+    q0 = check_state("q0", q0, shape.n, shape.coords)
+    p0 = check_state("p0", p0, shape.n, shape.coords)
+    check_solver(solver)
     rule = get_rule(discretization)
-    h_arr = jnp.asarray(h)
-    q0, p0 = _consistency.check(system, q0, p0, project_initial=bool(project_initial))
-    check_solvable(system, rule, scheme, q0, p0, h_arr)
+    plan = get_plan(system, rule, scheme, h, solver, q0, p0)
+    q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial))
+    if plan.step_map is None:
+        check_solvable(system, rule, scheme, q0, p0, jnp.asarray(h))
 
-    run_chunk = partial(_run, system, rule, scheme, solver)
-    march = _March(system, q0, p0)
+    march = _March(shape, q0, p0, k, bool(save_states))
     path, key, chunk = None, None, steps
     if checkpoint is not None:
-        chunk = (
-            steps
-            if checkpoint_every is None
-            else check_positive_int("checkpoint_every", checkpoint_every)
-        )
+        chunk = steps if checkpoint_every is None else check_checkpoint_every(checkpoint_every, k)
         path = Path(checkpoint)
         key = _checkpoint.fingerprint(
             system,
@@ -284,27 +262,80 @@ def simulate(
             discretization=discretization,
             solver=solver,
             chunk=chunk,
+            save=(k, bool(save_states)),
         )
         saved = _checkpoint.read(path, key)
         if saved is not None:
             march.resume(*saved)
 
     sign = 1.0 if scheme == "plus" else -1.0
+
+    def describe():
+        return plan.describe(march.fallback_from, march.fallback_reason)
+
     while march.done < steps and march.status == 0:
         length = min(chunk - march.done % chunk, steps - march.done)
-        carry, out = run_chunk(length, march.carry(), h_arr)
-        march.extend(carry, out)
+        affine = plan.step_map is not None and march.fallback_from is None
+        carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
+            plan.h_array, march.carry
+        )
+        if affine and int(fail[0]) == AFFINE_REJECTED:
+            # the equations are not affine after all: redo this chunk with the fallback
+            at = march.done + int(np.argmin(np.asarray(saved["n_good"]) == k)) * k
+            march.fallback_from = march.done
+            march.fallback_reason = (
+                f"the affine step was off by {float(fail[2]):.1e} relative near step {at}"
+            )
+            continue
+        march.extend(carry, fail, saved)
         if path is not None:
+            attrs = {}
+            if march.fallback_from is not None:
+                attrs = {
+                    "fallback_from": march.fallback_from,
+                    "fallback_reason": march.fallback_reason,
+                }
             _checkpoint.write(
-                march.trajectory(t0, sign, h, scheme, discretization, steps),
+                march.trajectory(t0, sign, h, scheme, discretization, steps, describe()),
                 path,
                 key,
                 in_progress=march.status == 0 and march.done < steps,
+                extra=attrs,
             )
-    traj = march.trajectory(t0, sign, h, scheme, discretization, steps)
+    traj = march.trajectory(t0, sign, h, scheme, discretization, steps, describe())
     if traj.status and throw:
         raise StepFailure(traj.message, traj)
     return traj
+
+
+def check_save_every(steps: int, save_every) -> int:
+    k = check_positive_int("save_every", save_every)
+    if steps % k:
+        raise ModelError(
+            f"save_every={k} does not divide steps={steps}: saved states are every k-th "
+            f"step and the last one is the end of the run; choose steps={steps - steps % k + k} "
+            f"or a save_every that divides {steps}."
+        )
+    return k
+
+
+def check_checkpoint_every(checkpoint_every, k: int) -> int:
+    every = check_positive_int("checkpoint_every", checkpoint_every)
+    if every % k:
+        raise ModelError(
+            f"checkpoint_every={every} is not a multiple of save_every={k}: a checkpoint "
+            f"must end on a saved state; use checkpoint_every={every - every % k + k}."
+        )
+    return every
+
+
+def check_solver(solver) -> None:
+    if solver is None or isinstance(solver, StepSolver | AffineSolver):
+        return
+    raise ModelError(
+        f"solver={solver!r} is not a diracvi solver: pass None (automatic), "
+        "dv.NewtonSolver(...), dv.AffineSolver(...) or dv.PartitionedSolver(...)."
+    )
 
 
 def momenta(system: DiracSystem, q, v):

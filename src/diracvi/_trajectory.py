@@ -22,17 +22,29 @@ STATUS_MESSAGES = {
 class Trajectory:
     """States ``(t_k, q_k, p_k)`` and per-step diagnostics of a discrete Dirac simulation.
 
+    With ``save_every = k`` only every k-th state is kept, and the per-step diagnostics
+    are those of the step ending at each saved state (the violation and iteration counts
+    cover every step of the interval); with ``save_states=False`` only the diagnostics
+    and the final state are kept.
+
     Attributes:
-        t: times, shape (K+1,) (decreasing for ``scheme="minus"``).
-        q, p: positions and momenta, shape (K+1, n).
-        multipliers: shape (K, m): each subsystem's μ's, then the interaction λ's.
-        energy: ``E`` at each step's quadrature node, shape (K,).
-        constraint_residual: the discrete constraints ``ω_{d±}`` at each step, (K, m).
-        newton_iterations: iterations per step, shape (K,).
+        t: times of the saved states, shape (S+1,) (decreasing for ``scheme="minus"``).
+        q, p: positions and momenta, shape (S+1, n); ``None`` for a diagnostics-only run.
+        multipliers: shape (S, m): each subsystem's μ's, then the interaction λ's
+            (``None`` for a diagnostics-only run).
+        energy: ``E`` at the quadrature node of the step ending at each saved state, (S,).
+        constraint_residual: the discrete constraints ``ω_{d±}`` of that step, (S, m)
+            (``None`` for a diagnostics-only run).
+        constraint_violation: ``max |ω_{d±}|`` over every step of each interval, (S,).
+        newton_iterations: Newton iterations spent in each interval, (S,) (0 for steps
+            taken by the affine step map).
+        final_q, final_p: the last state reached, (n,).
         coords, constraint_names: the column names.
         status: 0 if every requested step was taken; otherwise the failure code, and
             the arrays hold the steps completed before the failure.
         message: a human-readable account of ``status``.
+        solver: which stepping method ran (``"affine step map"``, a solver's repr, and
+            any fallback).
     """
 
     def __init__(
@@ -54,14 +66,34 @@ class Trajectory:
         status: int = 0,
         message: str = "success",
         steps_requested: int | None = None,
+        constraint_violation=None,
+        step_index=None,
+        save_every: int = 1,
+        final_state=None,
+        solver: str = "",
     ):
+        def arr(x, dtype=np.float64):
+            return None if x is None else np.asarray(x, dtype=dtype)
+
         self.t = np.asarray(t, dtype=np.float64)
-        self.q = np.asarray(q, dtype=np.float64)
-        self.p = np.asarray(p, dtype=np.float64)
-        self.multipliers = np.asarray(multipliers, dtype=np.float64)
+        self.q, self.p = arr(q), arr(p)
+        self.multipliers = arr(multipliers)
         self.energy = np.asarray(energy, dtype=np.float64)
-        self.constraint_residual = np.asarray(constraint_residual, dtype=np.float64)
+        self.constraint_residual = arr(constraint_residual)
         self.newton_iterations = np.asarray(newton_iterations, dtype=np.int64)
+        if constraint_violation is None:
+            con = self.constraint_residual
+            constraint_violation = np.max(np.abs(con), axis=1, initial=0.0)
+        self.constraint_violation = np.asarray(constraint_violation, dtype=np.float64)
+        self.step_index = (
+            np.arange(len(self.t)) if step_index is None else np.asarray(step_index, np.int64)
+        )
+        self.save_every = int(save_every)
+        if final_state is None:
+            q_prev = self.q[-2] if len(self.q) > 1 else self.q[-1]
+            mu = self.multipliers[-1] if len(self.multipliers) else np.zeros(len(constraint_names))
+            final_state = (self.q[-1], self.p[-1], q_prev, mu)
+        self.final_state = tuple(np.asarray(a, dtype=np.float64) for a in final_state)
         self.coords = tuple(coords)
         self.constraint_names = tuple(constraint_names)
         self.dt = float(dt)
@@ -70,7 +102,8 @@ class Trajectory:
         self.system_name = system_name
         self.status = int(status)
         self.message = message
-        self.steps_requested = len(self.energy) if steps_requested is None else steps_requested
+        self.solver = solver
+        self.steps_requested = self.steps if steps_requested is None else steps_requested
 
     @property
     def success(self) -> bool:
@@ -78,8 +111,28 @@ class Trajectory:
 
     @property
     def steps(self) -> int:
-        """Number of steps taken (``len(t) - 1``)."""
-        return len(self.t) - 1
+        """Number of steps taken."""
+        return int(self.step_index[-1])
+
+    @property
+    def states_saved(self) -> bool:
+        return self.q is not None
+
+    @property
+    def final_q(self) -> np.ndarray:
+        return self.final_state[0]
+
+    @property
+    def final_p(self) -> np.ndarray:
+        return self.final_state[1]
+
+    def _states(self, what: str) -> None:
+        if self.q is None:
+            raise ModelError(
+                f"{what}: this run kept no states (simulate(..., save_states=False)); "
+                "rerun with save_states=True (and save_every=k to thin them), or use "
+                "final_q / final_p and the diagnostics."
+            )
 
     def _index(self, name: str) -> int:
         try:
@@ -91,13 +144,16 @@ class Trajectory:
 
     def __getitem__(self, name: str) -> np.ndarray:
         """The position history of one coordinate, e.g. ``traj["left.q2"]``."""
+        self._states(f"traj[{name!r}]")
         return self.q[:, self._index(name)]
 
     def momentum(self, name: str) -> np.ndarray:
         """The momentum history of one coordinate."""
+        self._states(f"traj.momentum({name!r})")
         return self.p[:, self._index(name)]
 
     def multiplier(self, name: str) -> np.ndarray:
+        self._states(f"traj.multiplier({name!r})")
         try:
             return self.multipliers[:, self.constraint_names.index(name)]
         except ValueError:
@@ -113,29 +169,48 @@ class Trajectory:
         """
         from .dirac import trajectory_residual  # imported here: dirac imports this module
 
+        self._states("traj.dirac_residual(system)")
+        if self.save_every != 1:
+            raise ModelError(
+                f"traj.dirac_residual(system) needs every step, but this run saved every "
+                f"{self.save_every}th state; rerun with save_every=1."
+            )
+
         return trajectory_residual(system, self)
 
     def __repr__(self) -> str:
         return (
             f"Trajectory(system={self.system_name!r}, steps={self.steps}, dt={self.dt}, "
             f"scheme={self.scheme!r}, discretization={self.discretization!r}, "
+            f"save_every={self.save_every}, solver={self.solver!r}, "
             f"status={self.status} ({self.message.splitlines()[0]}))"
         )
 
     # ------------------------------------------------------------------ I/O
     def to_xarray(self):
-        """An ``xarray.Dataset`` with dims ``time``, ``step``, ``coord``, ``constraint``."""
+        """An ``xarray.Dataset`` with dims ``time`` (saved states), ``step`` (saved
+        intervals), ``coord`` and ``constraint``."""
         import xarray as xr
 
+        data = {
+            "energy": (("step",), self.energy),
+            "constraint_violation": (("step",), self.constraint_violation),
+            "newton_iterations": (("step",), self.newton_iterations),
+            "step_index": (("time",), self.step_index),
+            "final_q": (("coord",), self.final_state[0]),
+            "final_p": (("coord",), self.final_state[1]),
+            "final_q_prev": (("coord",), self.final_state[2]),
+            "final_multipliers": (("constraint",), self.final_state[3]),
+        }
+        if self.q is not None:
+            data.update(
+                q=(("time", "coord"), self.q),
+                p=(("time", "coord"), self.p),
+                multipliers=(("step", "constraint"), self.multipliers),
+                constraint_residual=(("step", "constraint"), self.constraint_residual),
+            )
         return xr.Dataset(
-            data_vars={
-                "q": (("time", "coord"), self.q),
-                "p": (("time", "coord"), self.p),
-                "multipliers": (("step", "constraint"), self.multipliers),
-                "energy": (("step",), self.energy),
-                "constraint_residual": (("step", "constraint"), self.constraint_residual),
-                "newton_iterations": (("step",), self.newton_iterations),
-            },
+            data_vars=data,
             coords={
                 "time": self.t,
                 "step": np.arange(len(self.energy)),
@@ -150,26 +225,46 @@ class Trajectory:
                 "status": self.status,
                 "message": self.message,
                 "steps_requested": self.steps_requested,
+                "save_every": self.save_every,
+                "solver": self.solver,
                 "created_by": "diracvi",
             },
         )
 
     @classmethod
     def from_xarray(cls, ds) -> Trajectory:
-        missing = {"q", "p", "multipliers", "energy", "constraint_residual"} - set(ds.data_vars)
+        missing = {"energy", "newton_iterations"} - set(ds.data_vars)
         if missing:
             raise ModelError(
                 f"this dataset is not a diracvi trajectory: it lacks {sorted(missing)}."
             )
+        steps, m = ds.sizes["step"], ds.sizes["constraint"]
+        states = "q" in ds.data_vars
+
+        def get(name, shape=None):
+            if name not in ds.data_vars:
+                return None
+            values = ds[name].values
+            return values if shape is None else values.reshape(shape)
+
+        final = None
+        if "final_q" in ds.data_vars:
+            final = tuple(
+                get(name, shape)
+                for name, shape in (
+                    ("final_q", None),
+                    ("final_p", None),
+                    ("final_q_prev", None),
+                    ("final_multipliers", (m,)),
+                )
+            )
         return cls(
             t=ds["time"].values,
-            q=ds["q"].values,
-            p=ds["p"].values,
-            multipliers=ds["multipliers"].values.reshape(ds.sizes["step"], ds.sizes["constraint"]),
+            q=get("q"),
+            p=get("p"),
+            multipliers=get("multipliers", (steps, m)) if states else None,
             energy=ds["energy"].values,
-            constraint_residual=ds["constraint_residual"].values.reshape(
-                ds.sizes["step"], ds.sizes["constraint"]
-            ),
+            constraint_residual=get("constraint_residual", (steps, m)) if states else None,
             newton_iterations=ds["newton_iterations"].values,
             coords=[str(c) for c in ds["coord"].values],
             constraint_names=[str(c) for c in ds["constraint"].values],
@@ -179,7 +274,12 @@ class Trajectory:
             system_name=str(ds.attrs.get("system_name", "system")),
             status=int(ds.attrs.get("status", 0)),
             message=str(ds.attrs.get("message", "success")),
-            steps_requested=int(ds.attrs.get("steps_requested", ds.sizes["step"])),
+            steps_requested=int(ds.attrs.get("steps_requested", steps)),
+            constraint_violation=get("constraint_violation"),
+            step_index=get("step_index"),
+            save_every=int(ds.attrs.get("save_every", 1)),
+            final_state=final,
+            solver=str(ds.attrs.get("solver", "")),
         )
 
     def save(self, path, extra_attrs: dict | None = None) -> Path:

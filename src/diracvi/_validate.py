@@ -82,7 +82,7 @@ def eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str)
     return out
 
 
-def check_state(arg: str, value, n: int, coords: Sequence[str]) -> jnp.ndarray:
+def check_state(arg: str, value, n: int, coords: Sequence[str]) -> np.ndarray:
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -95,13 +95,13 @@ def check_state(arg: str, value, n: int, coords: Sequence[str]) -> jnp.ndarray:
             f"{arg} has shape {arr.shape} but the system has {n} coordinates "
             f"{tuple(coords)}: pass a 1-D array of length {n} in that order."
         )
-    bad = [c for c, x in zip(coords, arr, strict=True) if not math.isfinite(x)]
-    if bad:
+    if not np.all(np.isfinite(arr)):
+        bad = [c for c, x in zip(coords, arr, strict=True) if not math.isfinite(x)]
         raise ModelError(
             f"{arg} is not finite at {bad} (value {_short(arr.tolist())}): initial data "
             "must be finite numbers."
         )
-    return jnp.asarray(arr)
+    return arr
 
 
 def check_positive_float(arg: str, value) -> float:

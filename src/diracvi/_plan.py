@@ -1,0 +1,133 @@
+r"""How a run is stepped, decided once per (system, rule, scheme, dt, solver) and cached.
+
+``solver=None`` chooses automatically: the affine step map when the step equations are
+linear (checked numerically, see :mod:`diracvi._solvers.affine`), otherwise Newton. A
+:class:`Plan` holds that choice, the fallback, and the compiled chunk programs, so a
+repeated ``simulate`` call pays one dispatch and no re-analysis. Plans are keyed by the
+system's identity and dropped when the system is garbage-collected.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections import OrderedDict
+from typing import NamedTuple
+
+import numpy as np
+
+from ._consistency import Checker
+from ._solvers.affine import AffineSolver, AffineStepMap, build
+from ._solvers.base import StepSolver
+from ._solvers.newton import NewtonSolver
+from ._solvers.solvability import check_step_jacobian
+from ._stepping import CompiledChunk
+
+_CACHE: OrderedDict = OrderedDict()
+_CACHE_SIZE = 32
+_LAYOUTS: dict[int, tuple] = {}
+
+
+def clear_cache() -> None:
+    """Forget every plan and compiled chunk (the next call analyses and compiles anew)."""
+    _CACHE.clear()
+    _LAYOUTS.clear()
+
+
+class Layout(NamedTuple):
+    """The names and sizes of a system (properties that an interconnection recomputes)."""
+
+    coords: tuple[str, ...]
+    constraint_names: tuple[str, ...]
+    name: str
+
+    @property
+    def n(self) -> int:
+        return len(self.coords)
+
+    @property
+    def m(self) -> int:
+        return len(self.constraint_names)
+
+
+def layout(system) -> Layout:
+    hit = _LAYOUTS.get(id(system))
+    if hit is not None and hit[0]() is system:
+        return hit[1]
+    info = Layout(system.coords, system.constraint_names, getattr(system, "name", "system"))
+    key = id(system)
+    _LAYOUTS[key] = (weakref.ref(system, lambda _, c=_LAYOUTS: c.pop(key, None)), info)
+    return info
+
+
+def default_solver(system, rule, scheme) -> StepSolver:
+    return NewtonSolver()
+
+
+def unknown_names(system, scheme):
+    other = "q_{k+1}" if scheme == "plus" else "q_k"
+    return [f"{other}[{c}]" for c in system.coords] + [f"μ[{c}]" for c in system.constraint_names]
+
+
+def equation_names(system):
+    return [f"momentum balance of {c}" for c in system.coords] + [
+        f"constraint {c}" for c in system.constraint_names
+    ]
+
+
+class Plan:
+    """The stepping method of one configuration and its compiled chunks."""
+
+    def __init__(self, system, rule, scheme, h, solver, q0, p0):
+        self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
+        self.h_array = np.asarray(h, dtype=np.float64)
+        self.step_map: AffineStepMap | None = None
+        if isinstance(solver, StepSolver):
+            self.fallback, self.affine_reason = solver, "a step solver was given"
+        else:
+            options = AffineSolver() if solver is None else solver
+            self.fallback = (
+                default_solver(system, rule, scheme) if solver is None else options.fallback
+            )
+            self.step_map, self.affine_reason = build(system, rule, scheme, h, q0, p0, options)
+            if self.step_map is not None:
+                check_step_jacobian(
+                    np.asarray(self.step_map.jacobian),
+                    unknown_names=unknown_names(system, scheme),
+                    equation_names=equation_names(system),
+                    where=f"the ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
+                )
+        self.checker = Checker(system, linear=self.step_map is not None, q_probe=q0)
+        self._chunks: dict = {}
+
+    def describe(self, fallback_from: int | None = None, reason: str = "") -> str:
+        if self.step_map is None:
+            return repr(self.fallback)
+        if fallback_from is None:
+            return "affine step map"
+        return f"affine step map, then {self.fallback!r} from step {fallback_from} ({reason})"
+
+    def chunk(self, affine: bool, k: int, save_states: bool, blocks: int, batched=False):
+        key = (affine, k, save_states, blocks, batched)
+        if key not in self._chunks:
+            method = self.step_map if affine else self.fallback
+            self._chunks[key] = CompiledChunk(
+                self.system, self.rule, self.scheme, method, k, save_states, blocks, batched
+            )
+        return self._chunks[key]
+
+
+def get_plan(system, rule, scheme, h, solver, q0, p0) -> Plan:
+    try:
+        key = (id(system), rule.name, scheme, h, solver)
+        hash(key)
+    except TypeError:  # an unhashable solver: no caching
+        return Plan(system, rule, scheme, h, solver, q0, p0)
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0]() is system:
+        _CACHE.move_to_end(key)
+        return hit[1]
+    plan = Plan(system, rule, scheme, h, solver, q0, p0)
+    _CACHE[key] = (weakref.ref(system, lambda _, c=_CACHE, key=key: c.pop(key, None)), plan)
+    while len(_CACHE) > _CACHE_SIZE:
+        _CACHE.popitem(last=False)
+    return plan

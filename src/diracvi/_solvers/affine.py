@@ -1,0 +1,220 @@
+r"""The affine fast path: for linear step equations, one matrix product per step.
+
+When ``L`` is quadratic with a constant mass matrix, the one-forms are constant and the
+forces are linear (spring networks, RLC networks, the paper's examples), the step
+residual ``r(q, p; x)`` is affine in all its arguments and the explicit momentum line is
+affine too. Then the whole step ``(q, p) ↦ (q_other, p_other, μ)`` is one affine map::
+
+    x      = −J_x⁻¹ (r₀ + J_z z),             z = (q, p)
+    p_other = P₀ + P_q q + P_x x
+
+i.e. ``(q_other, p_other, μ) = Φ z + b``, computed once and scanned over. It is stored
+and applied in increments, ``(q_other − q, p_other − p, μ) = Δ z + b``, for accuracy.
+
+*Detection* is numerical (user callables are opaque): the Jacobians of ``r`` and of the
+momentum line must agree at three points (zero, the initial state, and a pseudo-random
+point) and the functions must equal their linearization there. *Verification* is done
+on every step of the run: one Newton correction ``J_x⁻¹ r`` of each computed step must be
+below ``verify_rtol`` relative to the step's size — the same test that stops Newton — so a
+nonlinearity that the three points missed is caught where it acts, and the driver falls
+back to the general solver from the start of that chunk.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+import numpy as np
+
+from .._equations import StepEquations, new_momentum, residual
+from .base import StepSolver
+from .newton import NewtonSolver
+
+#: Beyond this many unknowns a dense step map costs O(n²) per step and memory; large
+#: interconnections use the partitioned solver, which also factorizes only once when the
+#: equations are linear.
+AFFINE_DENSE_LIMIT = 1500
+
+
+class AffineSolver(eqx.Module):
+    """Step with a precomputed affine map when the step equations are linear.
+
+    Args:
+        fallback: the solver used when the equations are not affine, or when the
+            per-step verification fails (default ``NewtonSolver()``).
+        detect_rtol: relative tolerance of the affinity detection (default 1e-12).
+        verify_rtol: a computed step is accepted if one Newton correction of it is below
+            ``verify_rtol · max(‖x‖∞, ‖q‖∞)`` (default 1e-11, about 50 round-offs of a
+            well-conditioned step; a nonlinearity shows up orders of magnitude above).
+    """
+
+    fallback: StepSolver = eqx.field(default_factory=NewtonSolver)
+    detect_rtol: float = eqx.field(static=True, default=1e-12)
+    verify_rtol: float = eqx.field(static=True, default=1e-11)
+
+
+class AffineStepMap(eqx.Module):
+    """``(q_other, p_other) = (q, p) + Δ (q, p) + b`` and ``μ = C (q, p) + c``.
+
+    ``μ`` is not needed to advance, so the scan carries only ``z = (q, p)`` and the
+    multipliers of all steps are formed afterwards in one matrix product.
+    """
+
+    delta: jax.Array  # (2n, 2n)
+    offset: jax.Array  # (2n,)
+    mu_map: jax.Array  # (m, 2n)
+    mu_offset: jax.Array  # (m,)
+    inverse: jax.Array  # J_x⁻¹, to measure one Newton correction per step
+    jacobian: jax.Array  # J_x, for the solvability check
+    powers: jax.Array  # (B, 2n, 2n): z_{k+j} = z_k + powers[j-1] z_k + power_offsets[j-1]
+    power_offsets: jax.Array  # (B, 2n)
+    verify_rtol: float = eqx.field(static=True)
+
+    def advance(self, z):
+        """One step of ``z = (q, p)``, in increments."""
+        return z + (self.delta @ z + self.offset)
+
+    def advance_block(self, z):
+        """The next ``B`` states from ``z``, each straight from ``z`` (shape (B, 2n)).
+
+        A scan of single steps pays the loop's overhead per step; these ``B``-step maps
+        (formed once in extended precision) cut the iterations ``B``-fold. Each is an
+        increment map rounded once, so the error per unit time is that of single steps.
+        """
+        return z + (self.powers @ z + self.power_offsets)
+
+    def multipliers(self, z_from):
+        """``μ`` of the steps taken from each row of ``z_from``."""
+        return z_from @ self.mu_map.T + self.mu_offset
+
+    def correction(self, eqs: StepEquations, x):
+        """One Newton correction ``−J_x⁻¹ r(x)`` of a computed step."""
+        return -self.inverse @ eqs.residual(x)
+
+
+@eqx.filter_jit
+def _linearizations(system, rule, scheme, h, points):
+    """Values and Jacobians of the residual and the momentum increment at each
+    ``(q, p, d, μ)``, where ``q_other = q + d``.
+
+    Differentiating in increments keeps the map's large near-identity part out of
+    floating point: e.g. ``∂(q_other − q)/∂q`` is formed exactly by AD (``dq − dq = 0``)
+    instead of as a difference of two rounded ``M/h`` terms, so the map's entries are
+    accurate relative to the *change* per step, as Newton's per-step solve is."""
+    n = system.n
+
+    def parts(q, p, y):
+        # in increments: x = (q + d, μ), and the momentum line as p_other − p
+        x = y.at[:n].add(q)
+        return residual(system, rule, scheme, h, q, p, x), new_momentum(
+            system, rule, scheme, h, q, x
+        ) - p
+
+    def at(point):
+        def f(y):
+            return parts(y[:n], y[n : 2 * n], y[2 * n :])
+
+        r, pm = f(point)
+        jr, jp = jax.jacfwd(f)(point)
+        return r, pm, jr, jp
+
+    return jax.vmap(at)(points)
+
+
+def _refined_solve(a, lu, piv, b):
+    """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision.
+
+    The map is applied thousands of times, so an error in it is systematic: it adds up
+    linearly over the run, unlike the independent round-off of a per-step solve. One
+    refinement with an extended-precision residual makes ``Φ`` accurate to about one
+    rounding of its entries, whatever the conditioning of ``J_x`` (within reason).
+    """
+    factors = (jnp.asarray(lu), jnp.asarray(piv))
+    x = np.asarray(jsl.lu_solve(factors, jnp.asarray(b)))
+    if a.shape[0] > _REFINE_LIMIT or not np.all(np.isfinite(x)):
+        return x  # a singular J_x is reported by the caller
+    wide = np.longdouble
+    resid = (b.astype(wide) - a.astype(wide) @ x.astype(wide)).astype(np.float64)
+    return x + np.asarray(jsl.lu_solve(factors, jnp.asarray(resid)))
+
+
+def _block_maps(delta, offset):
+    """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
+    precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
+    ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
+    size = delta.shape[0]
+    count = int(np.clip(2**18 // max(size * size, 1), 1, 64))
+    wide = np.longdouble
+    d1, b1 = delta.astype(wide), offset.astype(wide)
+    d, b = d1.copy(), b1.copy()
+    powers, offsets = [d], [b]
+    for _ in range(count - 1):
+        d, b = d + d1 + d1 @ d, b + d1 @ b + b1
+        powers.append(d)
+        offsets.append(b)
+    return np.stack(powers).astype(np.float64), np.stack(offsets).astype(np.float64)
+
+
+#: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
+_REFINE_LIMIT = 400
+
+
+def build(
+    system, rule, scheme, h, q0, p0, solver: AffineSolver
+) -> tuple[AffineStepMap | None, str]:
+    """The affine step map, or ``(None, reason)`` when the equations are not affine."""
+    n, m = system.n, system.m
+    if n + m > AFFINE_DENSE_LIMIT:
+        return None, f"{n + m} unknowns exceed the dense step-map limit {AFFINE_DENSE_LIMIT}"
+    rng = np.random.default_rng(20261121)
+    scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
+    size = 2 * n + n + m
+    points = np.stack(
+        [
+            np.zeros(size),
+            np.concatenate([np.asarray(q0), np.asarray(p0), np.zeros(n + m)]),
+            scale * rng.uniform(-1.0, 1.0, size),
+        ]
+    )
+    r, pm, jr, jp = (
+        np.asarray(a) for a in _linearizations(system, rule, scheme, jnp.asarray(h), points)
+    )
+    if not (np.all(np.isfinite(jr)) and np.all(np.isfinite(jp))):
+        return None, "the step equations are not finite at the probe points"
+    tol = solver.detect_rtol
+    for name, val, jac in (("residual", r, jr), ("momentum line", pm, jp)):
+        ref = max(1.0, float(np.max(np.abs(jac))))
+        if np.max(np.abs(jac - jac[0])) > tol * ref:
+            return None, f"the {name} of the step equations has a non-constant Jacobian"
+        linear = val[0] + points @ jac[0].T
+        bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val[0])
+        if np.any(np.abs(val - linear) > tol * np.maximum(bound, 1.0)):
+            return None, f"the {name} of the step equations is not affine"
+    j_all, p_all = jr[0], jp[0]
+    j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
+    p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
+    lu, piv = (np.asarray(a) for a in jsl.lu_factor(jnp.asarray(j_x)))
+    rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
+    sol = _refined_solve(j_x, lu, piv, -rhs)
+    if not np.all(np.isfinite(sol)):
+        return None, "the step Jacobian is singular"
+    phi_x, b_x = sol[:, :-1], sol[:, -1]
+    phi_p = p_z + p_x @ phi_x
+    b_p = pm[0] + p_x @ b_x
+    delta = np.concatenate([phi_x[:n], phi_p])
+    offset = np.concatenate([b_x[:n], b_p])
+    powers, power_offsets = _block_maps(delta, offset)
+    step_map = AffineStepMap(
+        delta=jnp.asarray(delta),
+        offset=jnp.asarray(offset),
+        powers=jnp.asarray(powers),
+        power_offsets=jnp.asarray(power_offsets),
+        mu_map=jnp.asarray(phi_x[n:]),
+        mu_offset=jnp.asarray(b_x[n:]),
+        inverse=jnp.asarray(np.linalg.inv(j_x)),
+        jacobian=jnp.asarray(j_x),
+        verify_rtol=solver.verify_rtol,
+    )
+    return step_map, "affine"

@@ -1,0 +1,272 @@
+r"""Compiled chunks of a run: ``blocks × save_every`` steps in one ``lax.scan``.
+
+A chunk is an outer scan over *blocks* of ``save_every`` steps; each block runs an inner
+scan of single steps and then reduces it to what is saved: the state at the end of the
+block, that step's multipliers, energy and constraint residual, the largest constraint
+violation over the block and the Newton iterations it took. Memory is therefore
+O(n · steps / save_every) with states, O(steps / save_every) without, and O(n · save_every)
+inside the block — never O(steps × n²).
+
+Two steppers share the block machinery:
+
+* a :class:`~diracvi._solvers.base.StepSolver` (Newton, partitioned) solves each step's
+  equations from an extrapolated guess; after a failed step the carry freezes, so
+  everything before it is returned intact;
+* an :class:`~diracvi._solvers.affine.AffineStepMap` advances by one matrix product per
+  step; each step is then *verified* (one Newton correction must vanish to the solver's
+  tolerance) with the diagnostics, vectorized over the block.
+
+Energy and constraint residuals are evaluated after the inner scan, vectorized over the
+block, rather than inside the Newton loop.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+
+from ._equations import StepEquations, ordered, split
+from ._solvers.affine import AffineStepMap
+from ._solvers.base import SolveStatus
+
+#: internal status of a step the affine map computed but its verification rejected
+AFFINE_REJECTED = 4
+
+
+def _newton_block(system, rule, scheme, solver, h, k, carry):
+    """``k`` solver steps from ``carry = (q, p, q_prev, μ_prev, state, failed)``."""
+
+    def body(c, _):
+        q, p, q_prev, mu_prev, state, failed = c
+
+        def advance(_):
+            eqs = StepEquations(system, rule, scheme, h, q, p)
+            guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
+            res = solver.solve(eqs, guess, state)
+            q1, mu = split(system, res.x)
+            p1 = eqs.momentum(res.x)
+            finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
+            status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
+            return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
+
+        def frozen(_):
+            out = (q, p, mu_prev, jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), jnp.asarray(-1))
+            return out, state
+
+        out, state1 = jax.lax.cond(failed, frozen, advance, None)
+        q1, p1, mu, _, _, status = out
+        ok = status == 0
+        new = (
+            jnp.where(ok, q1, q),
+            jnp.where(ok, p1, p),
+            jnp.where(ok, q, q_prev),
+            jnp.where(ok, mu, mu_prev),
+            state1,
+            failed | ~ok,
+        )
+        return new, out
+
+    return jax.lax.scan(body, carry, None, length=k)
+
+
+def _affine_block(step_map, k, carry):
+    q, p, _, _, state, failed = carry
+    n = q.shape[0]
+
+    def body(z, _):
+        z1 = step_map.advance(z)
+        return z1, z1
+
+    z0 = jnp.concatenate([q, p])
+    width = step_map.powers.shape[0]
+    if k >= 2 * width:
+        # whole blocks of B steps per iteration; the surplus of the last block is dropped
+        def block(z, _):
+            zs = step_map.advance_block(z)
+            return zs[-1], zs
+
+        _, zs = jax.lax.scan(block, z0, None, length=-(-k // width))
+        zs = zs.reshape(-1, z0.shape[0])[:k]
+    else:
+        # a 2-fold unroll halves the loop overhead of these tiny steps (measured best)
+        _, zs = jax.lax.scan(body, z0, None, length=k, unroll=2)
+    z_end = zs[-1]
+    z_from = jnp.concatenate([z0[None], zs[:-1]])
+    mus = step_map.multipliers(z_from)
+    q1s, p1s = zs[:, :n], zs[:, n:]
+    zero = jnp.zeros(k, dtype=jnp.int32)
+    nan = jnp.full(k, jnp.nan, dtype=q.dtype)
+    status = jnp.zeros(k, dtype=jnp.int32)  # set by the verification
+    q_prev1 = q1s[-2] if k > 1 else q
+    new = (z_end[:n], z_end[n:], q_prev1, mus[-1], state, failed)
+    return new, (q1s, p1s, mus, zero, nan, status)
+
+
+def _steps(system, rule, scheme, method, h, length, carry):
+    """``length`` raw steps: ``(carry, (q1, p1, μ, iterations, residual, status))``."""
+    if isinstance(method, AffineStepMap):
+        return _affine_block(method, length, carry)
+    return _newton_block(system, rule, scheme, method, h, length, carry)
+
+
+def _checked(system, rule, scheme, method, h, q, p, raw):
+    """Energy, constraint residual and (affine) verified status of each raw step,
+    vectorized over the steps. ``(q, p)`` is the state before the first of them."""
+    q1s, p1s, mus, its, res, status = raw
+    q_from = jnp.concatenate([q[None], q1s[:-1]])
+    p_from = jnp.concatenate([p[None], p1s[:-1]])
+    qk, qk1 = ordered(scheme, q_from, q1s)
+    affine = isinstance(method, AffineStepMap)
+
+    def one(a, b, q_, p_, x):
+        energy = system.energy(rule.node(a, b), (b - a) / h)
+        con = system.discrete_constraints(rule, scheme, a, b, h)
+        if not affine:
+            return energy, con, jnp.zeros((), q_.dtype)
+        dx = method.correction(StepEquations(system, rule, scheme, h, q_, p_), x)
+        size = jnp.maximum(jnp.max(jnp.abs(x)), jnp.max(jnp.abs(q_), initial=0.0))
+        return energy, con, jnp.max(jnp.abs(dx), initial=0.0) / jnp.maximum(size, 1e-300)
+
+    x = jnp.concatenate([q1s, mus], axis=1)
+    energy, con, correction = jax.vmap(one)(qk, qk1, q_from, p_from, x)
+    if affine:
+        bad = ~(correction <= method.verify_rtol) | ~jnp.all(jnp.isfinite(q1s), axis=1)
+        status = jnp.where(bad, AFFINE_REJECTED, status)
+        res = correction
+    return energy, con, its, res, status
+
+
+def _first_failure(raw, checked, fail):
+    """Record the first failing step of the run (code, iterations, residual, state)."""
+    q1s = raw[0]
+    _, _, its, res, status = checked
+    ok = status == 0
+    bad = jnp.argmin(ok)  # the first failing step (0 when all are fine)
+    first = (fail[0] == 0) & ~jnp.all(ok)
+    return jax.tree.map(
+        lambda new, old: jnp.where(first, new, old),
+        (status[bad], its[bad], res[bad], q1s[bad]),
+        fail,
+    )
+
+
+def _saved(raw, checked, k: int, save_states: bool):
+    """Reduce steps shaped ``(blocks, k, …)`` to one saved record per block."""
+    q1s, p1s, mus = raw[:3]
+    energy, con, its, _, status = checked
+    ok = (status == 0).astype(jnp.int32)
+    n_good = jnp.sum(jnp.cumprod(ok, axis=-1), axis=-1)
+    last = jnp.maximum(n_good - 1, 0)
+
+    def at(a):
+        return jnp.take_along_axis(a, last.reshape(last.shape + (1,) * (a.ndim - 1)), axis=1)[:, 0]
+
+    good = jnp.arange(k) < n_good[:, None]
+    abs_con = jnp.max(jnp.abs(con), axis=-1, initial=0.0)
+    saved = {
+        "n_good": n_good,
+        "energy": at(energy),
+        "violation": jnp.max(jnp.where(good, abs_con, 0.0), axis=1),
+        "iterations": jnp.sum(jnp.where(good, its, 0), axis=1),
+    }
+    if save_states:
+        saved.update(q=at(q1s), p=at(p1s), mu=at(mus), con=at(con))
+    return saved
+
+
+def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
+    """A function ``(h, carry) ↦ (carry, fail, saved)`` for ``blocks`` blocks of ``k``
+    steps; ``carry = (q, p, q_prev, μ_prev)``, ``fail`` the first failure's details.
+
+    With ``k = 1`` the chunk is one flat scan whose diagnostics are vectorized over the
+    whole chunk (every step is saved anyway); with ``k > 1`` an outer scan over blocks
+    keeps only one record per block, so memory stays O(blocks) beyond one block.
+    """
+
+    def chunk(h, carry):
+        q, p, q_prev, mu_prev = carry
+        if isinstance(method, AffineStepMap):
+            state = ()
+        else:
+            state = method.init(StepEquations(system, rule, scheme, h, q, p))
+        fail0 = (jnp.asarray(0), jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), q)
+        init = (q, p, q_prev, mu_prev, state, jnp.asarray(False))
+
+        def block(inner, fail, length):
+            raw = _steps(system, rule, scheme, method, h, length, inner)
+            new, raw = raw
+            checked = _checked(system, rule, scheme, method, h, inner[0], inner[1], raw)
+            fail = _first_failure(raw, checked, fail)
+            return new, fail, raw, checked
+
+        if k == 1:
+            inner, fail, raw, checked = block(init, fail0, blocks)
+            shape = jax.tree.map(lambda a: a[:, None], (raw, checked))
+            return inner[:4], fail, _saved(*shape, 1, save_states)
+
+        def body(c, _):
+            inner, fail = c
+            inner, fail, raw, checked = block(inner, fail, k)
+            saved = _saved(*jax.tree.map(lambda a: a[None], (raw, checked)), k, save_states)
+            return (inner, fail), jax.tree.map(lambda a: a[0], saved)
+
+        (inner, fail), saved = jax.lax.scan(body, (init, fail0), None, length=blocks)
+        return inner[:4], fail, saved
+
+    return chunk
+
+
+class CompiledChunk:
+    """A jitted chunk with the model's arrays passed as arguments (not baked in as
+    constants): compilation stays fast for large models, and a call costs one dispatch.
+
+    The outputs are packed into four arrays (per-step floats and integers, final floats
+    and integers) and unpacked on the host as views: a transfer per array is what a
+    short run's call time is made of.
+    """
+
+    def __init__(self, system, rule, scheme, method, k, save_states, blocks, batched=False):
+        dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
+        n, m = system.n, system.m
+        self._n, self._m, self._save_states = n, m, save_states
+
+        def packed(dynamic, h, carry):
+            system_, rule_, method_ = eqx.combine(dynamic, static)
+            chunk = chunk_runner(system_, rule_, scheme, method_, k, save_states, blocks)
+            (q, p, q_prev, mu), (code, its, res, q_bad), saved = chunk(h, carry)
+            cols = [saved["energy"][:, None], saved["violation"][:, None]]
+            if save_states:
+                cols += [saved["q"], saved["p"], saved["mu"], saved["con"]]
+            steps_f = jnp.concatenate(cols, axis=1)
+            steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
+            final_f = jnp.concatenate([q, p, q_prev, mu, res[None], q_bad])
+            final_i = jnp.stack([code, its])
+            return steps_f, steps_i, final_f, final_i
+
+        self._dynamic = dynamic
+        self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, 0)) if batched else packed)
+
+    def __call__(self, h, carry):
+        """``(carry, fail, saved)`` as numpy arrays (views into the packed outputs)."""
+        steps_f, steps_i, final_f, final_i = jax.device_get(self._fn(self._dynamic, h, carry))
+        n, m = self._n, self._m
+        q, p, q_prev = final_f[..., :n], final_f[..., n : 2 * n], final_f[..., 2 * n : 3 * n]
+        mu, rest = final_f[..., 3 * n : 3 * n + m], final_f[..., 3 * n + m :]
+        carry = (q, p, q_prev, mu)
+        fail = (final_i[..., 0], final_i[..., 1], rest[..., 0], rest[..., 1:])
+        saved = {
+            "energy": steps_f[..., 0],
+            "violation": steps_f[..., 1],
+            "n_good": steps_i[..., 0],
+            "iterations": steps_i[..., 1],
+        }
+        if self._save_states:
+            cols = steps_f[..., 2:]
+            saved.update(
+                q=cols[..., :n],
+                p=cols[..., n : 2 * n],
+                mu=cols[..., 2 * n : 2 * n + m],
+                con=cols[..., 2 * n + m :],
+            )
+        return carry, fail, saved
