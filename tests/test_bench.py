@@ -86,11 +86,16 @@ def test_targets_and_rows():
     assert relative_difference([1.0, 2.0], [1.0, 2.0]) == 0.0
 
 
-def test_factor_values_count_the_dense_newton_factors():
-    problem = problems.chain_torn(20, 2)
-    size = problem.system.n + problem.system.m
-    assert chain_scaling.factor_values(problem, "newton") == size * size
-    assert chain_scaling.factor_values(problem, "no-such-path") is None
+def test_factor_values_count_what_the_run_stepped_with():
+    chain = problems.chain_torn(20, 2)  # linear: the affine step map
+    traj = dv.simulate(chain.system, chain.q0, chain.p0, dt=chain.dt, steps=10)
+    assert traj.solver.startswith("affine")
+    two_n = 2 * chain.system.n
+    assert chain_scaling.factor_values(chain) >= two_n * two_n  # at least the one-step map
+    pendulum = problems.double_pendulum_torn()  # nonlinear: Newton's LU factors
+    dv.simulate(pendulum.system, pendulum.q0, pendulum.p0, dt=pendulum.dt, steps=10)
+    size = pendulum.system.n + pendulum.system.m
+    assert chain_scaling.factor_values(pendulum) == size * size
     kernel = chain_scaling.stream_kernel(16, steps=3)
     assert np.all(np.isfinite(np.asarray(kernel())))
 

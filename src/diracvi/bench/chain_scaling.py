@@ -11,20 +11,21 @@ step = min wall time of the whole call ÷ steps (the fixed cost included, and sm
 The lower bound it is compared with is a *streaming kernel*: a jitted ``lax.scan`` of the
 same number of steps whose body is ``y ← a·y + b`` over V float64 values. V is the state
 size ``2n`` (q and p; n = N + M − 1 coordinates including the port variables): any step
-must at least read and write the state. Where the solver keeps factors holding more than
-2n float64 values (counted from the shapes of the solver's state for the path that ran),
-a second kernel over that many values is timed too and reported beside it.
+must at least read and write the state. Where what the run stepped with holds more than
+2n float64 values (the affine step map's matrices, or the step solver's state such as
+its LU factors: :func:`factor_values`), a second kernel over that many values is timed
+too and reported beside it.
 
 The exponent is the least-squares slope of log(time per step) against log N over the
 sizes measured. Each size runs in a fresh process, stopped if it takes longer than
-``TIMEOUT`` or holds more than :data:`~diracvi.bench._worker.MAX_RSS_BYTES` of memory;
-larger sizes are then not tried, and the table says so.
+``TIMEOUT`` (or what is left of ``BUDGET`` for all sizes) or holds more than
+:data:`~diracvi.bench._worker.MAX_RSS_BYTES` of memory; larger sizes are then not tried,
+and the table says so. ``--quick`` skips the factor-size kernel.
 """
 
 from __future__ import annotations
 
 import json
-import re
 import sys
 import time
 
@@ -39,20 +40,16 @@ DESCRIPTION = "torn N-mass chain, N = 10²…10⁶: time/step vs N and vs a stre
 SIZES = (10**2, 10**3, 10**4, 10**5, 10**6)
 QUICK_SIZES = (10**2, 10**3, 10**4)
 RUN_TARGET = {False: 0.5, True: 0.05}  # seconds per timed run
-TIMEOUT = {False: 300.0, True: 20.0}  # seconds per size, build and compile included
+TIMEOUT = {False: 300.0, True: 25.0}  # seconds per size, build and compile included
+BUDGET = {False: 600.0, True: 25.0}  # seconds for all sizes together
 CALIBRATION_STEPS = 10
 CALIBRATION_REPEATS = 3
 MAX_STEPS = 100_000
 #: a second kernel over the solver's factor values is timed only if they fit in this
 FACTOR_KERNEL_BYTES = 1024**3
+MIN_TIMEOUT = 5.0  # a size is not started with less time than this left
 STREAM_TARGET = Target("<=", 5.0)
 EXPONENT_TARGET = Target("in", 0.9, 1.1)
-
-_SOLVER_CLASSES = {
-    "affine": "AffineSolver",
-    "newton": "NewtonSolver",
-    "partitioned": "PartitionedSolver",
-}
 
 
 def pieces(masses: int) -> int:
@@ -75,37 +72,32 @@ def stream_kernel(values: int, steps: int):
     return lambda: jax.block_until_ready(run(x))
 
 
-def factor_values(problem, solver_path: str) -> int | None:
-    """Float64 values in the state of the solver behind ``solver_path`` ("newton", …).
+def factor_values(problem) -> int:
+    """Float64 values held by what the last ``simulate`` of ``problem`` stepped with.
 
-    Counted from shapes (``jax.eval_shape``), nothing allocated; None if the path names
-    no solver class diracvi exports.
+    That is the cached plan's affine step map (its one-step and block maps, the step
+    Jacobian and its inverse) or, on the solver path, the solver's state (e.g. Newton's
+    LU factors), counted from shapes (``jax.eval_shape``: nothing is allocated).
     """
     import jax
     import jax.numpy as jnp
 
-    import diracvi as dv
-
     from .._discretize import get_rule
     from .._equations import StepEquations
+    from .._plan import get_plan
 
-    match = re.match(r"[a-z]+", solver_path.lower())
-    cls = getattr(dv, _SOLVER_CLASSES.get(match.group(0) if match else "", ""), None)
-    if cls is None:
-        return None
-    eqs = StepEquations(
-        problem.system,
-        get_rule("retraction"),
-        "plus",
-        jnp.asarray(problem.dt),
-        jnp.asarray(problem.q0),
-        jnp.asarray(problem.p0),
-    )
-    state = jax.eval_shape(cls().init, eqs)
-    return int(sum(x.size for x in jax.tree.leaves(state) if jnp.issubdtype(x.dtype, jnp.floating)))
+    rule = get_rule("retraction")
+    q0, p0 = jnp.asarray(problem.q0), jnp.asarray(problem.p0)
+    plan = get_plan(problem.system, rule, "plus", float(problem.dt), None, q0, p0)
+    if plan.step_map is not None:
+        tree = plan.step_map
+    else:
+        eqs = StepEquations(problem.system, rule, "plus", jnp.asarray(problem.dt), q0, p0)
+        tree = jax.eval_shape(plan.fallback.init, eqs)
+    return int(sum(x.size for x in jax.tree.leaves(tree) if jnp.issubdtype(x.dtype, jnp.floating)))
 
 
-def measure(masses: int, run_target: float, repeats: int) -> dict:
+def measure(masses: int, run_target: float, repeats: int, factor_kernel: bool = True) -> dict:
     """One size, in this process: build, calibrate the step count, time interleaved."""
     import diracvi as dv
     from diracvi import problems
@@ -137,10 +129,12 @@ def measure(masses: int, run_target: float, repeats: int) -> dict:
         per_step = t_long / long
     fixed = max(t_short - per_step * short, 0.0)
     steps = int(min(MAX_STEPS, max(long, round(run_target / per_step))))
+    if steps <= 2 * long:  # close enough: reuse the compiled 40-step run
+        steps = long
     state_values = 2 * system.n
     calls = {"diracvi": lambda: simulate(steps), "stream_state": stream_kernel(state_values, steps)}
-    factors = factor_values(problem, traj.solver)
-    if factors is not None and state_values < factors <= FACTOR_KERNEL_BYTES // 8:
+    factors = factor_values(problem)
+    if factor_kernel and state_values < factors <= FACTOR_KERNEL_BYTES // 8:
         calls["stream_factors"] = stream_kernel(factors, steps)
     times = interleaved(calls, repeats)
     return {
@@ -163,7 +157,7 @@ def measure(masses: int, run_target: float, repeats: int) -> dict:
 
 def _worker_main() -> None:
     masses, run_target, repeats = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
-    print(json.dumps(measure(masses, run_target, repeats)))
+    print(json.dumps(measure(masses, run_target, repeats, factor_kernel=sys.argv[4] == "1")))
 
 
 def _label(masses: int, steps: int | None = None) -> str:
@@ -173,10 +167,14 @@ def _label(masses: int, steps: int | None = None) -> str:
 
 def run(settings: Settings) -> Result:
     sizes = QUICK_SIZES if settings.quick else SIZES
-    run_target, timeout = RUN_TARGET[settings.quick], TIMEOUT[settings.quick]
+    run_target, budget = RUN_TARGET[settings.quick], BUDGET[settings.quick]
+    start = time.perf_counter()
     rows, measured, stopped = [], [], None
     for masses in sizes:
         what = "time/step ÷ stream kernel over 2n values"
+        timeout = min(TIMEOUT[settings.quick], budget - (time.perf_counter() - start))
+        if stopped is None and timeout < MIN_TIMEOUT:
+            stopped = f"the {budget:.0f} s budget of this benchmark was spent"
         if stopped is not None:
             rows.append(
                 Row(
@@ -192,7 +190,8 @@ def run(settings: Settings) -> Result:
             )
             continue
         code = "from diracvi.bench.chain_scaling import _worker_main; _worker_main()"
-        args = ["-c", code, str(masses), str(run_target), str(settings.long_repeats)]
+        factor_kernel = "0" if settings.quick else "1"
+        args = ["-c", code, str(masses), str(run_target), str(settings.long_repeats), factor_kernel]
         try:
             m = run_child(args, timeout=timeout)
         except WorkerFailed as exc:
@@ -217,8 +216,8 @@ def run(settings: Settings) -> Result:
         if "stream_factors" in per_step:
             ratio_f = per_step["diracvi"] / per_step["stream_factors"]
             notes += f"; vs kernel over the factors' {m['factor_values']:,} values: {ratio_f:.3g}×"
-        elif m["factor_values"] is not None and m["factor_values"] > m["state_values"]:
-            notes += f"; factors hold {m['factor_values']:,} values (too many to stream)"
+        elif m["factor_values"] > m["state_values"]:
+            notes += f"; the step map or solver state holds {m['factor_values']:,} values"
         rows.append(
             Row(
                 NAME,
@@ -231,7 +230,12 @@ def run(settings: Settings) -> Result:
                 notes=notes,
             )
         )
-    details = {"sizes": measured, "run_target_s": run_target, "timeout_s": timeout}
+    details = {
+        "sizes": measured,
+        "run_target_s": run_target,
+        "timeout_per_size_s": TIMEOUT[settings.quick],
+        "budget_s": budget,
+    }
     if len(measured) >= 2:
         n = np.array([m["N"] for m in measured], dtype=np.float64)
         t = np.array([m["per_step_s"]["diracvi"] for m in measured])
