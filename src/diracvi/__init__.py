@@ -11,6 +11,7 @@ from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
 from ._consistency import InconsistentInitialDataWarning
 from ._consistency import project as project_initial_state
 from ._discretize import Midpoint, QuadratureRule, Retraction
+from ._ensemble import Ensemble, simulate_ensemble
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
@@ -25,6 +26,7 @@ __all__ = [
     "Connection",
     "DiracSystem",
     "DiracviError",
+    "Ensemble",
     "InconsistentInitialDataWarning",
     "Interaction",
     "InterconnectedSystem",
@@ -45,4 +47,5 @@ __all__ = [
     "momenta",
     "project_initial_state",
     "simulate",
+    "simulate_ensemble",
 ]

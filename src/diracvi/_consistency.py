@@ -122,7 +122,23 @@ class Checker:
             q[group] = q[group].mean()
         return q, self._momentum_projection(q, np.asarray(p0, dtype=np.float64))
 
-    def check(self, q0, p0, *, project_initial: bool):
+    def check_batch(self, q0, p0, *, project_initial: bool):
+        """:meth:`check` for rows of initial states (one warning, for the worst row)."""
+        if self._linear is not None and not project_initial:
+            g0, slope, comp = self._linear
+            off = (p0 - g0 - q0 @ slope.T) @ comp.T
+            ports = [np.ptp(q0[:, g], axis=1) for g in self.groups]
+            score = np.max(np.abs(off), axis=1) + (np.max(ports, axis=0) if ports else 0.0)
+            worst = int(np.argmax(score))
+            self.check(q0[worst], p0[worst], project_initial=False, stacklevel=4)
+            return q0, p0
+        rows = [
+            self.check(q, p, project_initial=project_initial, stacklevel=4)
+            for q, p in zip(q0, p0, strict=True)
+        ]
+        return np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
+
+    def check(self, q0, p0, *, project_initial: bool, stacklevel: int = 3):
         """Warn about (or, with ``project_initial``, repair) inconsistent initial data."""
         found = self.violations(q0, p0)
         q_scale = max(1.0, float(np.max(np.abs(q0))))
@@ -150,7 +166,7 @@ class Checker:
             "to simulate() to start from the nearest consistent state "
             "(dv.project_initial_state).",
             InconsistentInitialDataWarning,
-            stacklevel=3,  # warn → Checker.check → simulate → the user's call
+            stacklevel=stacklevel,  # warn → Checker.check → simulate → the user's call
         )
         return q0, p0
 
