@@ -13,10 +13,12 @@ from __future__ import annotations
 import gc
 import os
 import platform
+import subprocess
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
+from pathlib import Path
 
 import numpy as np
 
@@ -223,12 +225,31 @@ def load_average() -> list[float] | None:
         return None
 
 
+def source_commit() -> str | None:
+    """The git commit of the diracvi source being run (None for an installed copy)."""
+    here = Path(__file__).resolve().parent
+    try:
+        out = subprocess.run(
+            ["git", "describe", "--always", "--dirty"],
+            cwd=here,
+            capture_output=True,
+            text=True,
+            timeout=10,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if out.returncode != 0:
+        return None
+    return out.stdout.strip() or None
+
+
 def machine_info() -> dict:
     """CPU, core count, library versions, date and load: what a timing depends on."""
     import jax
     import scipy
 
     return {
+        "commit": source_commit(),
         "cpu": _cpu_model(),
         "cores": os.cpu_count(),
         "platform": platform.platform(),

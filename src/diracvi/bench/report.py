@@ -92,7 +92,8 @@ def machine_lines(report: Report) -> list[str]:
     lines = [
         f"machine: {m['cpu']}, {m['cores']} cores, {m['platform']}",
         f"versions: python {m['python']}, jax {m['jax']} ({m['jax_backend']}), "
-        f"numpy {m['numpy']}, scipy {m['scipy']}, diracvi {m['diracvi']}",
+        f"numpy {m['numpy']}, scipy {m['scipy']}, diracvi {m['diracvi']}"
+        + (f" (commit {m['commit']})" if m.get("commit") else ""),
         f"date: {m['date']}; load average at start: {load}; at end: {m.get('load_average_end')}",
         "timings: warm calls, min over repeats, sides of each ratio interleaved; "
         + ", ".join(f"{name} {sec:.0f} s" for name, sec in report.durations.items()),
@@ -104,6 +105,8 @@ def machine_lines(report: Report) -> list[str]:
 
 def markdown(data: dict) -> str:
     """The table and machine lines of a ``--json`` file as Markdown (for the README)."""
+    from . import BENCHMARKS  # the package imports this module: import at call time
+
     head = "| benchmark | diracvi | baseline | ratio | target | met? | solver | notes |"
     lines = [head, "|---|---:|---:|---:|---|---|---|---|"]
     for row in data["rows"]:
@@ -122,10 +125,14 @@ def markdown(data: dict) -> str:
         ]
         lines.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |")
     m = data["machine"]
-    mode = "quick" if data["settings"]["quick"] else "full"
+    command = "diracvi bench" + (" --quick" if data["settings"]["quick"] else "")
+    ran = list(data["durations_s"])
+    if ran != list(BENCHMARKS):
+        command += "".join(f" --only {name}" for name in ran)
+    commit = f" at commit {m['commit']}" if m.get("commit") else ""
     lines += [
         "",
-        f"Run: `diracvi bench{' --quick' if mode == 'quick' else ''}` on {m['date']}; "
+        f"Run: `{command}`{commit} on {m['date']}; "
         f"{m['cpu']}, {m['cores']} cores; python {m['python']}, jax {m['jax']}, "
         f"numpy {m['numpy']}, scipy {m['scipy']}, diracvi {m['diracvi']}; load average "
         f"{m['load_average']} at start, {m.get('load_average_end')} at end.",
