@@ -17,6 +17,7 @@ from diracvi import problems
 from diracvi.bench import BENCHMARKS, BenchmarkError, Settings, chain_scaling, rlc, spring_chain
 from diracvi.bench._core import Row, Target, interleaved, relative_difference
 from diracvi.bench._paper import AGREEMENT, check_agreement, in_order
+from diracvi.bench._worker import WorkerFailed, run_child
 from diracvi.bench.report import markdown
 from diracvi.cli import EXIT_USAGE, app
 from diracvi.reproduce.paper import RLC, SPRING_CHAIN
@@ -98,6 +99,21 @@ def test_factor_values_count_what_the_run_stepped_with():
     assert chain_scaling.factor_values(pendulum) == size * size
     kernel = chain_scaling.stream_kernel(16, steps=3)
     assert np.all(np.isfinite(np.asarray(kernel())))
+
+
+def test_child_processes_report_json_or_fail_cleanly():
+    printed = 'print("noise"); print(\'{"a": 1}\')'
+    assert run_child(["-c", printed], timeout=30)["a"] == 1
+    with pytest.raises(WorkerFailed, match="longer than"):
+        run_child(["-c", "import time; time.sleep(30)"], timeout=0.5)
+    with pytest.raises(WorkerFailed, match="exit code 3"):
+        run_child(["-c", "import sys; sys.exit(3)"], timeout=30)
+    with pytest.raises(WorkerFailed, match="memory"):
+        run_child(
+            ["-c", "import time; x = b'x' * 200_000_000; time.sleep(30)"],
+            timeout=30,
+            max_rss_bytes=50_000_000,
+        )
 
 
 def test_bench_rejects_an_unknown_benchmark():

@@ -44,7 +44,7 @@ def run_child(args: list[str], *, timeout: float, max_rss_bytes: int = MAX_RSS_B
             peak = max(peak, _rss_bytes(proc.pid))
             elapsed = time.perf_counter() - start
             if peak > max_rss_bytes:
-                reason = f"needed more than {max_rss_bytes / 1024**3:.0f} GB of memory"
+                reason = f"needed more than {max_rss_bytes / 1024**3:.3g} GB of memory"
             elif elapsed > timeout:
                 reason = f"took longer than {timeout:.0f} s"
             if reason is not None:
