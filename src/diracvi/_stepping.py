@@ -25,6 +25,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from ._equations import StepEquations, ordered, split
 from ._solvers.affine import AffineStepMap
@@ -221,15 +222,14 @@ class CompiledChunk:
     """A jitted chunk with the model's arrays passed as arguments (not baked in as
     constants): compilation stays fast for large models, and a call costs one dispatch.
 
-    The outputs are packed into four arrays (per-step floats and integers, final floats
-    and integers) and unpacked on the host as views: a transfer per array is what a
-    short run's call time is made of.
+    The outputs are packed into one float64 buffer and unpacked on the host as views: a
+    transfer per array is what a short run's call time is made of.
     """
 
     def __init__(self, system, rule, scheme, method, k, save_states, blocks, batched=False):
         dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
         n, m = system.n, system.m
-        self._n, self._m, self._save_states = n, m, save_states
+        self._n, self._m, self._save_states, self._blocks = n, m, save_states, blocks
 
         def packed(dynamic, h, carry):
             system_, rule_, method_ = eqx.combine(dynamic, static)
@@ -242,15 +242,30 @@ class CompiledChunk:
             steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
             final_f = jnp.concatenate([q, p, q_prev, mu, res[None], q_bad])
             final_i = jnp.stack([code, its])
-            return steps_f, steps_i, final_f, final_i
+            # one flat float64 buffer: one device-to-host transfer (the counts are exact)
+            return jnp.concatenate(
+                [
+                    steps_f.ravel(),
+                    steps_i.astype(steps_f.dtype).ravel(),
+                    final_f,
+                    final_i.astype(steps_f.dtype),
+                ]
+            )
 
         self._dynamic = dynamic
         self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, 0)) if batched else packed)
 
     def __call__(self, h, carry):
-        """``(carry, fail, saved)`` as numpy arrays (views into the packed outputs)."""
-        steps_f, steps_i, final_f, final_i = jax.device_get(self._fn(self._dynamic, h, carry))
-        n, m = self._n, self._m
+        """``(carry, fail, saved)`` as numpy arrays (views into the packed output)."""
+        flat = np.asarray(self._fn(self._dynamic, h, carry))
+        n, m, blocks = self._n, self._m, self._blocks
+        width = 2 + (2 * n + 2 * m if self._save_states else 0)
+        lead = flat.shape[:-1]
+        cut = [blocks * width, blocks * 2, 3 * n + m + 1 + n, 2]
+        steps_f, steps_i, final_f, final_i = np.split(flat, np.cumsum(cut)[:-1], axis=-1)
+        steps_f = steps_f.reshape(*lead, blocks, width)
+        steps_i = steps_i.reshape(*lead, blocks, 2).astype(np.int64)
+        final_i = final_i.astype(np.int64)
         q, p, q_prev = final_f[..., :n], final_f[..., n : 2 * n], final_f[..., 2 * n : 3 * n]
         mu, rest = final_f[..., 3 * n : 3 * n + m], final_f[..., 3 * n + m :]
         carry = (q, p, q_prev, mu)
