@@ -1,0 +1,154 @@
+"""The protocol shared by the two paper examples (spring chain §5.1, RLC circuit §5.2).
+
+For a torn problem and an independent NumPy implementation of its step equations:
+
+1. **agreement** — diracvi's trajectory of the torn system and the NumPy baseline's must
+   agree to ``AGREEMENT`` (relative, in q, p and the multipliers) before anything is
+   timed; otherwise :class:`BenchmarkError`;
+2. **diracvi vs NumPy** — warm ``dv.simulate(torn system)`` against the NumPy run,
+   interleaved; the ratio is NumPy ÷ diracvi (target ≥ 100). A 10-step diracvi run timed
+   in the same rounds splits a call into its fixed cost and its cost per step;
+3. **interconnected / monolithic** — warm ``dv.simulate`` of the torn system, of
+   ``system.monolithic()`` (same coordinates, one Lagrangian) and of the hand-built
+   reduced model (no port variables: the model the paper calls "monolithic"), the three
+   interleaved; min over ``Settings.paper_repeats`` runs (the paper: 1000); ratios
+   torn ÷ monolithic and torn ÷ reduced (target ≤ 1.05), beside the paper's Matlab ratio.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+import diracvi as dv
+
+from ._core import (
+    BenchmarkError,
+    Result,
+    Row,
+    Settings,
+    Target,
+    fmt_seconds,
+    interleaved,
+    relative_difference,
+)
+from ._core import summary as time_summary
+
+#: baseline and diracvi trajectories must agree to this, relative (q, p, multipliers)
+AGREEMENT = 1e-12
+SPEEDUP_TARGET = Target(">=", 100.0)
+OVERHEAD_TARGET = Target("<=", 1.05)
+#: a second, short diracvi run separates the fixed cost of a call from the cost per step
+SHORT_STEPS = 10
+
+
+def in_order(values: dict[str, float], names: dict[str, str], coords) -> np.ndarray:
+    """The paper's named values (``{"q1": …}``) in the torn system's coordinate order."""
+    return np.array([values[names[c]] for c in coords], dtype=np.float64)
+
+
+def check_agreement(traj, q, p, multipliers, what: str) -> dict[str, float]:
+    """Relative differences diracvi vs baseline; raise if any exceeds :data:`AGREEMENT`."""
+    diffs = {
+        "q": relative_difference(traj.q, q),
+        "p": relative_difference(traj.p, p),
+        "multipliers": relative_difference(traj.multipliers, multipliers),
+    }
+    worst = max(diffs, key=diffs.get)
+    if diffs[worst] > AGREEMENT:
+        raise BenchmarkError(
+            f"{what}: the NumPy baseline and diracvi disagree in {worst} by "
+            f"{diffs[worst]:.2e} (relative) > {AGREEMENT:g}; one of the two implements "
+            "different step equations, so the timings would not compare like with like."
+        )
+    return diffs
+
+
+def run_example(
+    *,
+    benchmark: str,
+    title: str,
+    problem,
+    baseline: Callable[[], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    paper_timing: dict,
+    settings: Settings,
+) -> Result:
+    """Agreement check, then the two timed comparisons of the module docstring."""
+    torn, mono, reduced = problem.system, problem.system.monolithic(), problem.reduced
+    kwargs = {"dt": problem.dt, "steps": problem.steps}
+
+    def torn_run():
+        return dv.simulate(torn, problem.q0, problem.p0, **kwargs)
+
+    def mono_run():
+        return dv.simulate(mono, problem.q0, problem.p0, **kwargs)
+
+    def reduced_run():
+        return dv.simulate(reduced.system, reduced.q0, reduced.p0, **kwargs)
+
+    def short_run():
+        return dv.simulate(torn, problem.q0, problem.p0, dt=problem.dt, steps=SHORT_STEPS)
+
+    traj = torn_run()
+    diffs = check_agreement(traj, *baseline(), what=title)
+    solver = {"torn": traj.solver, "monolithic": mono_run().solver}
+    solver["reduced"] = reduced_run().solver
+
+    vs_numpy = interleaved(
+        {"diracvi": torn_run, "numpy": baseline, "diracvi_short": short_run},
+        settings.numpy_repeats,
+    )
+    overhead = interleaved(
+        {"torn": torn_run, "monolithic": mono_run, "reduced": reduced_run},
+        settings.paper_repeats,
+    )
+    t = {name: float(times.min()) for name, times in {**vs_numpy, **overhead}.items()}
+    paper = paper_timing["interconnected_s"] / paper_timing["monolithic_s"]
+    # a diracvi call = a fixed cost + a cost per step; the short run separates them
+    per_step = (t["diracvi"] - t["diracvi_short"]) / (problem.steps - SHORT_STEPS)
+    fixed = t["diracvi_short"] - SHORT_STEPS * per_step
+    steps = f"{problem.steps} steps"
+    rows = [
+        Row(
+            benchmark,
+            f"{title}, {steps}: NumPy per-step dense solve ÷ diracvi (torn)",
+            t["diracvi"],
+            t["numpy"],
+            t["numpy"] / t["diracvi"],
+            SPEEDUP_TARGET,
+            solver=solver["torn"],
+            notes=f"agree to {max(diffs.values()):.1e}; min of {settings.numpy_repeats}; "
+            f"diracvi call ≈ {fmt_seconds(fixed)} fixed + {fmt_seconds(per_step)}/step",
+        ),
+        Row(
+            benchmark,
+            f"{title}: torn ÷ monolithic() (same coordinates)",
+            t["torn"],
+            t["monolithic"],
+            t["torn"] / t["monolithic"],
+            OVERHEAD_TARGET,
+            solver=f"{solver['torn']} / {solver['monolithic']}",
+            notes=f"min of {settings.paper_repeats}; paper (Matlab) {paper:.3f}",
+        ),
+        Row(
+            benchmark,
+            f"{title}: torn ÷ hand-built reduced (the paper's 'monolithic')",
+            t["torn"],
+            t["reduced"],
+            t["torn"] / t["reduced"],
+            OVERHEAD_TARGET,
+            solver=f"{solver['torn']} / {solver['reduced']}",
+            notes=f"min of {settings.paper_repeats}; paper (Matlab) {paper:.3f}",
+        ),
+    ]
+    details = {
+        "steps": problem.steps,
+        "dt": problem.dt,
+        "agreement_relative": diffs,
+        "diracvi_call": {"fixed_s": fixed, "per_step_s": per_step, "short_steps": SHORT_STEPS},
+        "solver": solver,
+        "times": {name: time_summary(times) for name, times in {**vs_numpy, **overhead}.items()},
+        "paper": {**paper_timing, "ratio": paper},
+    }
+    return Result(rows, details)

@@ -1,0 +1,258 @@
+r"""Torn N-mass chain: time per step against N, and against a streaming-memory kernel.
+
+For each N (10² … 10⁶; up to 10⁴ with ``--quick``) the chain ``problems.chain_torn(N, M)``
+with ``M = max(2, N // 100)`` pieces is simulated warm with ``dv.simulate(...,
+save_states=False)`` (the automatic solver choice; only energies and constraint
+violations are kept per step). The step count is calibrated from two short runs (10
+and 40 steps), which separate the fixed cost of a call from the cost per step, so that
+the stepping alone takes about ``RUN_TARGET`` (0.5 s; 0.05 s with ``--quick``). Time per
+step = min wall time of the whole call ÷ steps (the fixed cost included, and small).
+
+The lower bound it is compared with is a *streaming kernel*: a jitted ``lax.scan`` of the
+same number of steps whose body is ``y ← a·y + b`` over V float64 values. V is the state
+size ``2n`` (q and p; n = N + M − 1 coordinates including the port variables): any step
+must at least read and write the state. Where what the run stepped with holds more than
+2n float64 values (the affine step map's matrices, or the step solver's state such as
+its LU factors: :func:`factor_values`), a second kernel over that many values is timed
+too and reported beside it.
+
+The exponent is the least-squares slope of log(time per step) against log N over the
+sizes measured. Each size runs in a fresh process, stopped if it takes longer than
+``TIMEOUT`` (or what is left of ``BUDGET`` for all sizes) or holds more than
+:data:`~diracvi.bench._worker.MAX_RSS_BYTES` of memory; larger sizes are then not tried,
+and the table says so. ``--quick`` skips the factor-size kernel.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+
+import numpy as np
+
+from ._core import Result, Row, Settings, Target, interleaved
+from ._worker import WorkerFailed, run_child
+
+NAME = "chain-scaling"
+DESCRIPTION = "torn N-mass chain, N = 10²…10⁶: time/step vs N and vs a streaming kernel"
+
+SIZES = (10**2, 10**3, 10**4, 10**5, 10**6)
+QUICK_SIZES = (10**2, 10**3, 10**4)
+RUN_TARGET = {False: 0.5, True: 0.05}  # seconds per timed run
+TIMEOUT = {False: 300.0, True: 30.0}  # seconds per size, build and compile included
+BUDGET = {False: 600.0, True: 30.0}  # seconds for all sizes together
+CALIBRATION_STEPS = 10
+CALIBRATION_REPEATS = 3
+MAX_STEPS = 100_000
+#: a second kernel over the solver's factor values is timed only if they fit in this
+FACTOR_KERNEL_BYTES = 1024**3
+MIN_TIMEOUT = 5.0  # a size is not started with less time than this left
+STREAM_TARGET = Target("<=", 5.0)
+EXPONENT_TARGET = Target("in", 0.9, 1.1)
+
+
+def pieces(masses: int) -> int:
+    """M = N/100 subsystems (at least 2: an interconnection needs two)."""
+    return max(2, masses // 100)
+
+
+def stream_kernel(values: int, steps: int):
+    """A blocking callable: ``steps`` scan iterations of ``y ← 0.5 y + 0.25`` over
+    ``values`` float64 numbers (a contraction, so the values stay finite)."""
+    import jax
+    import jax.numpy as jnp
+
+    x = jnp.linspace(0.0, 1.0, values, dtype=jnp.float64)
+
+    @jax.jit
+    def run(y):
+        return jax.lax.scan(lambda c, _: (0.5 * c + 0.25, None), y, None, length=steps)[0]
+
+    return lambda: jax.block_until_ready(run(x))
+
+
+def factor_values(problem) -> int:
+    """Float64 values held by what the last ``simulate`` of ``problem`` stepped with.
+
+    That is the cached plan's affine step map (its one-step and block maps, the step
+    Jacobian and its inverse) or, on the solver path, the solver's state (e.g. Newton's
+    LU factors), counted from shapes (``jax.eval_shape``: nothing is allocated).
+    """
+    import jax
+    import jax.numpy as jnp
+
+    from .._discretize import get_rule
+    from .._equations import StepEquations
+    from .._plan import get_plan
+
+    rule = get_rule("retraction")
+    q0, p0 = jnp.asarray(problem.q0), jnp.asarray(problem.p0)
+    plan = get_plan(problem.system, rule, "plus", float(problem.dt), None, q0, p0)
+    if plan.step_map is not None:
+        tree = plan.step_map
+    else:
+        eqs = StepEquations(problem.system, rule, "plus", jnp.asarray(problem.dt), q0, p0)
+        tree = jax.eval_shape(plan.fallback.init, eqs)
+    return int(sum(x.size for x in jax.tree.leaves(tree) if jnp.issubdtype(x.dtype, jnp.floating)))
+
+
+def measure(masses: int, run_target: float, repeats: int, factor_kernel: bool = True) -> dict:
+    """One size, in this process: build, calibrate the step count, time interleaved."""
+    import diracvi as dv
+    from diracvi import problems
+
+    t0 = time.perf_counter()
+    problem = problems.chain_torn(masses, pieces(masses))
+    build_s = time.perf_counter() - t0
+    system = problem.system
+
+    def simulate(steps):
+        return dv.simulate(
+            system, problem.q0, problem.p0, dt=problem.dt, steps=steps, save_states=False
+        )
+
+    def warm_time(steps):
+        return float(
+            interleaved({"run": lambda: simulate(steps)}, CALIBRATION_REPEATS)["run"].min()
+        )
+
+    t0 = time.perf_counter()
+    traj = simulate(CALIBRATION_STEPS)
+    first_call_s = time.perf_counter() - t0
+    # Two step counts separate the fixed cost of a call (checks, transfers) from the cost
+    # per step, so the timed run is long enough for the stepping to dominate it.
+    short, long = CALIBRATION_STEPS, 4 * CALIBRATION_STEPS
+    t_short, t_long = warm_time(short), warm_time(long)
+    per_step = (t_long - t_short) / (long - short)
+    if per_step <= 0:  # load noise swamped the difference: fall back to the long run
+        per_step = t_long / long
+    fixed = max(t_short - per_step * short, 0.0)
+    steps = int(min(MAX_STEPS, max(long, round(run_target / per_step))))
+    if steps <= 2 * long:  # close enough: reuse the compiled 40-step run
+        steps = long
+    state_values = 2 * system.n
+    calls = {"diracvi": lambda: simulate(steps), "stream_state": stream_kernel(state_values, steps)}
+    factors = factor_values(problem)
+    if factor_kernel and state_values < factors <= FACTOR_KERNEL_BYTES // 8:
+        calls["stream_factors"] = stream_kernel(factors, steps)
+    times = interleaved(calls, repeats)
+    return {
+        "N": masses,
+        "M": pieces(masses),
+        "n": system.n,
+        "m": system.m,
+        "steps": steps,
+        "build_s": build_s,
+        "first_call_s": first_call_s,
+        "calibration": {"fixed_s": fixed, "per_step_s": per_step},
+        "solver": traj.solver,
+        "state_values": state_values,
+        "factor_values": factors,
+        "min_s": {name: float(t.min()) for name, t in times.items()},
+        "median_s": {name: float(np.median(t)) for name, t in times.items()},
+        "repeats": repeats,
+    }
+
+
+def _worker_main() -> None:
+    masses, run_target, repeats = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
+    print(json.dumps(measure(masses, run_target, repeats, factor_kernel=sys.argv[4] == "1")))
+
+
+def _label(masses: int, steps: int | None = None) -> str:
+    base = f"chain N={masses:,} (M={pieces(masses)})"
+    return base if steps is None else f"{base}, {steps:,} steps"
+
+
+def run(settings: Settings) -> Result:
+    sizes = QUICK_SIZES if settings.quick else SIZES
+    run_target, budget = RUN_TARGET[settings.quick], BUDGET[settings.quick]
+    start = time.perf_counter()
+    rows, measured, stopped = [], [], None
+    for masses in sizes:
+        what = "time/step ÷ stream kernel over 2n values"
+        timeout = min(TIMEOUT[settings.quick], budget - (time.perf_counter() - start))
+        if stopped is None and timeout < MIN_TIMEOUT:
+            stopped = f"the {budget:.0f} s budget of this benchmark was spent"
+        if stopped is not None:
+            rows.append(
+                Row(
+                    NAME,
+                    f"{_label(masses)}: {what}",
+                    None,
+                    None,
+                    None,
+                    STREAM_TARGET,
+                    notes=f"not run: {stopped}",
+                    status="not run",
+                )
+            )
+            continue
+        code = "from diracvi.bench.chain_scaling import _worker_main; _worker_main()"
+        factor_kernel = "0" if settings.quick else "1"
+        args = ["-c", code, str(masses), str(run_target), str(settings.long_repeats), factor_kernel]
+        try:
+            m = run_child(args, timeout=timeout)
+        except WorkerFailed as exc:
+            stopped = f"N={masses:,} {exc}"
+            rows.append(
+                Row(
+                    NAME,
+                    f"{_label(masses)}: {what}",
+                    None,
+                    None,
+                    None,
+                    STREAM_TARGET,
+                    notes=f"not run: {exc}",
+                    status="not run",
+                )
+            )
+            continue
+        measured.append(m)
+        per_step = {name: t / m["steps"] for name, t in m["min_s"].items()}
+        m["per_step_s"] = per_step
+        notes = f"2n = {m['state_values']:,} values; min of {m['repeats']}"
+        if "stream_factors" in per_step:
+            ratio_f = per_step["diracvi"] / per_step["stream_factors"]
+            notes += f"; vs kernel over the factors' {m['factor_values']:,} values: {ratio_f:.3g}×"
+        elif m["factor_values"] > m["state_values"]:
+            notes += f"; the step map or solver state holds {m['factor_values']:,} values"
+        rows.append(
+            Row(
+                NAME,
+                f"{_label(masses, m['steps'])}: {what}",
+                per_step["diracvi"],
+                per_step["stream_state"],
+                per_step["diracvi"] / per_step["stream_state"],
+                STREAM_TARGET,
+                solver=m["solver"],
+                notes=notes,
+            )
+        )
+    details = {
+        "sizes": measured,
+        "run_target_s": run_target,
+        "timeout_per_size_s": TIMEOUT[settings.quick],
+        "budget_s": budget,
+    }
+    if len(measured) >= 2:
+        n = np.array([m["N"] for m in measured], dtype=np.float64)
+        t = np.array([m["per_step_s"]["diracvi"] for m in measured])
+        slope = float(np.polyfit(np.log(n), np.log(t), 1)[0])
+        details["exponent"] = slope
+        span = f"N={measured[0]['N']:,}…{measured[-1]['N']:,}"
+        rows.append(
+            Row(
+                NAME,
+                f"chain: fitted exponent of time/step against N ({span})",
+                float(t[-1]),
+                float(t[0]),
+                slope,
+                EXPONENT_TARGET,
+                solver=", ".join(sorted({m["solver"] for m in measured})),
+                notes="diracvi = time/step at the largest N, baseline = at the smallest;"
+                " ratio = the exponent" + ("" if len(measured) == len(sizes) else f" ({stopped})"),
+            )
+        )
+    return Result(rows, details)

@@ -1,0 +1,150 @@
+"""The benchmark suite: its NumPy baselines are independent implementations of the same
+step equations (they agree with diracvi to 1e-12), its helpers, and ``diracvi bench``.
+
+No timing is asserted anywhere: only that the numbers are produced and reported.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import diracvi as dv
+from diracvi import problems
+from diracvi.bench import BENCHMARKS, BenchmarkError, Settings, chain_scaling, rlc, spring_chain
+from diracvi.bench._core import Row, Target, interleaved, relative_difference
+from diracvi.bench._paper import AGREEMENT, check_agreement, in_order
+from diracvi.bench._worker import WorkerFailed, run_child
+from diracvi.bench.report import markdown
+from diracvi.cli import EXIT_USAGE, app
+from diracvi.reproduce.paper import RLC, SPRING_CHAIN
+
+
+def paper_run(module, paper, problem):
+    """diracvi's torn trajectory and the NumPy baseline's, from the paper's data."""
+    coords = problem.system.coords
+    q0 = in_order(paper["q0"], module.COORDS, coords)
+    p0 = in_order(paper["p0"], module.MOMENTA, coords)
+    traj = dv.simulate(problem.system, q0, p0, dt=paper["dt"], steps=paper["steps"])
+    return traj, q0, p0
+
+
+def test_numpy_spring_chain_is_the_same_discrete_system():
+    paper = SPRING_CHAIN
+    problem = problems.spring_chain_torn(dt=paper["dt"], steps=paper["steps"])
+    traj, q0, p0 = paper_run(spring_chain, paper, problem)
+    np.testing.assert_array_equal(q0, problem.q0)  # the problem is the paper's model
+    baseline = spring_chain.numpy_torn_chain(
+        paper["parameters"], q0, p0, paper["dt"], paper["steps"]
+    )
+    diffs = check_agreement(traj, *baseline, what="spring chain")
+    assert max(diffs.values()) <= AGREEMENT
+    # the port constraint q2 = q̄2 is kept by the baseline too
+    q = baseline[0]
+    assert np.max(np.abs(q[:, 1] - q[:, 2])) < 1e-12
+
+
+def test_numpy_rlc_is_the_same_discrete_system():
+    paper, prm = RLC, RLC["parameters"]
+    problem = problems.rlc_torn(prm["R"], prm["l"], prm["C"], dt=paper["dt"], steps=paper["steps"])
+    traj, q0, p0 = paper_run(rlc, paper, problem)
+    baseline = rlc.numpy_torn_rlc(prm, q0, p0, paper["dt"], paper["steps"])
+    diffs = check_agreement(traj, *baseline, what="RLC")
+    assert max(diffs.values()) <= AGREEMENT
+
+
+def test_agreement_check_catches_the_papers_printed_resistor_sign():
+    """The printed (anti-dissipative) sign is a different discrete system: the check
+    refuses to time it against diracvi."""
+    paper, prm = RLC, RLC["parameters"]
+    problem = problems.rlc_torn(dt=paper["dt"], steps=paper["steps"])
+    traj, q0, p0 = paper_run(rlc, paper, problem)
+    printed = rlc.numpy_torn_rlc({**prm, "R": -prm["R"]}, q0, p0, paper["dt"], paper["steps"])
+    with pytest.raises(BenchmarkError, match="disagree"):
+        check_agreement(traj, *printed, what="RLC")
+
+
+def test_interleaved_times_every_call_alternately():
+    order = []
+    calls = {name: (lambda name=name: order.append(name)) for name in "abc"}
+    times = interleaved(calls, repeats=4)
+    assert {k: v.shape for k, v in times.items()} == {k: (4,) for k in "abc"}
+    assert np.all(np.concatenate(list(times.values())) >= 0)
+    assert order[:3] == ["a", "b", "c"]  # the untimed warm-up calls
+    firsts = order[3::3]
+    assert firsts == ["a", "b", "c", "a"]  # the starting side rotates
+
+
+def test_targets_and_rows():
+    assert Target(">=", 100).met(120.0) and not Target(">=", 100).met(99.0)
+    assert Target("<=", 1.05).met(1.0) and Target("in", 0.9, 1.1).met(1.02)
+    assert Target("<=", 1.05).met(None) is None
+    assert Row("x", "y", None, None, None, Target("<=", 5), status="not run").met is False
+    assert Row("x", "y", 1.0, 2.0, 2.0).met is None
+    assert relative_difference([1.0, 2.0], [1.0, 2.0]) == 0.0
+
+
+def test_factor_values_count_what_the_run_stepped_with():
+    chain = problems.chain_torn(20, 2)  # linear: the affine step map
+    traj = dv.simulate(chain.system, chain.q0, chain.p0, dt=chain.dt, steps=10)
+    assert traj.solver.startswith("affine")
+    two_n = 2 * chain.system.n
+    assert chain_scaling.factor_values(chain) >= two_n * two_n  # at least the one-step map
+    pendulum = problems.double_pendulum_torn()  # nonlinear: Newton's LU factors
+    dv.simulate(pendulum.system, pendulum.q0, pendulum.p0, dt=pendulum.dt, steps=10)
+    size = pendulum.system.n + pendulum.system.m
+    assert chain_scaling.factor_values(pendulum) == size * size
+    kernel = chain_scaling.stream_kernel(16, steps=3)
+    assert np.all(np.isfinite(np.asarray(kernel())))
+
+
+def test_child_processes_report_json_or_fail_cleanly():
+    printed = 'print("noise"); print(\'{"a": 1}\')'
+    assert run_child(["-c", printed], timeout=30)["a"] == 1
+    with pytest.raises(WorkerFailed, match="longer than"):
+        run_child(["-c", "import time; time.sleep(30)"], timeout=0.5)
+    with pytest.raises(WorkerFailed, match="exit code 3"):
+        run_child(["-c", "import sys; sys.exit(3)"], timeout=30)
+    with pytest.raises(WorkerFailed, match="memory"):
+        run_child(
+            ["-c", "import time; x = b'x' * 200_000_000; time.sleep(30)"],
+            timeout=30,
+            max_rss_bytes=50_000_000,
+        )
+
+
+def test_bench_rejects_an_unknown_benchmark():
+    result = CliRunner().invoke(app, ["bench", "--only", "nope"])
+    assert result.exit_code == EXIT_USAGE
+    assert "no such benchmark" in result.output
+
+
+def test_bench_quick_prints_one_table_and_writes_json(tmp_path):
+    out = tmp_path / "bench.json"
+    only = [
+        arg for name in ("spring-chain", "rlc", "pendulum", "ensemble") for arg in ("--only", name)
+    ]
+    result = CliRunner().invoke(
+        app, ["bench", "--quick", *only, "--json", str(out)], env={"COLUMNS": "240"}
+    )
+    assert result.exit_code == 0, result.output
+    for header in ("benchmark", "diracvi", "baseline", "ratio", "target", "met?", "solver"):
+        assert header in result.output
+    assert "machine:" in result.output and "jax" in result.output
+    data = json.loads(out.read_text())
+    assert data["settings"]["quick"] is True
+    assert {row["benchmark"] for row in data["rows"]} == {
+        "spring-chain",
+        "rlc",
+        "pendulum",
+        "ensemble",
+    }
+    assert all(row["status"] == "measured" for row in data["rows"])
+    assert set(BENCHMARKS) >= set(data["durations_s"])
+    assert Settings(quick=True).paper_repeats == data["settings"]["paper_repeats"]
+    table = markdown(data)
+    assert table.startswith("| benchmark | diracvi | baseline | ratio |")
+    assert len(table.splitlines()) == len(data["rows"]) + 4
