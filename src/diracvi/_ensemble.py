@@ -52,6 +52,14 @@ class Ensemble:
     def success(self) -> bool:
         return bool(np.all(self.status == 0))
 
+    @property
+    def final_q(self) -> np.ndarray:
+        return self.final_state[0]
+
+    @property
+    def final_p(self) -> np.ndarray:
+        return self.final_state[1]
+
     def __getitem__(self, i: int) -> Trajectory:
         if not -len(self) <= i < len(self):
             raise IndexError(f"member {i} out of range for an ensemble of {len(self)}")
@@ -190,7 +198,11 @@ def simulate_ensemble(
         axis=1,
     )
 
+    everything = bool(kept.all())
+
     def mask(a, extra_leading=0):
+        if everything:  # no member failed: nothing to blank (and no copy of big arrays)
+            return a
         a = np.array(a, dtype=np.float64)
         pad = np.ones((members, extra_leading), bool)
         keep = np.concatenate([pad, kept], axis=1)

@@ -268,7 +268,19 @@ class CompiledChunk:
             )
 
         self._dynamic = dynamic
-        self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, 0)) if batched else packed)
+        if not batched:
+            self._fn = jax.jit(packed)
+        elif isinstance(method, AffineStepMap):
+            # Each affine run is already vectorized over its steps; batching members
+            # only multiplies the size of every intermediate (memory-bound), so the
+            # members run one after another inside the one compiled call (measured 3.5×
+            # faster than vmap at 10³ members of the torn chain).
+            self._fn = jax.jit(
+                lambda dynamic, h, carry: jax.lax.map(lambda c: packed(dynamic, h, c), carry)
+            )
+        else:
+            # Newton's many tiny operations per step amortize well over a batch.
+            self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, 0)))
 
     def __call__(self, h, carry):
         """``(carry, fail, saved)`` as numpy arrays (views into the packed output)."""
