@@ -22,6 +22,8 @@ block, rather than inside the Newton loop.
 
 from __future__ import annotations
 
+from functools import partial
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -233,6 +235,14 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
     return chunk
 
 
+#: models whose arrays hold at most this many numbers have them baked into the program
+_CONSTANT_LIMIT = 1 << 16
+
+
+def _with_constants(packed, constants, _none, h, carry):
+    return packed(constants, h, carry)
+
+
 class CompiledChunk:
     """A jitted chunk with the model's arrays passed as arguments (not baked in as
     constants): compilation stays fast for large models, and a call costs one dispatch.
@@ -268,6 +278,12 @@ class CompiledChunk:
             )
 
         self._dynamic = dynamic
+        size = sum(leaf.size for leaf in jax.tree.leaves(dynamic))
+        if size <= _CONSTANT_LIMIT:
+            # small models: the arrays become compile-time constants, so a call passes
+            # only the state (dispatch cost does not grow with the number of subsystems)
+            self._dynamic = None
+            packed = partial(_with_constants, packed, dynamic)
         if not batched:
             self._fn = jax.jit(packed)
         elif isinstance(method, AffineStepMap):
