@@ -89,6 +89,23 @@ def _prefixed(system: DiracSystem, names: Sequence[str]) -> tuple[str, ...]:
     return tuple(f"{system.name}.{n}" for n in names)
 
 
+def _index_of(subsystems, full: str, where: str, index: dict[str, int]) -> int:
+    """The position of coordinate ``full`` in Q, or a ModelError naming what is wrong."""
+    if full in index:
+        return index[full]
+    sub_name, _, coord = full.partition(".")
+    subs = {s.name: s for s in subsystems}
+    if sub_name not in subs:
+        raise ModelError(
+            f"{where}: {full!r} names subsystem {sub_name!r}, which is not part of "
+            f"this interconnection; subsystems are {sorted(subs)}."
+        )
+    raise ModelError(
+        f"{where}: subsystem {sub_name!r} has no coordinate {coord!r}; its "
+        f"coordinates are {subs[sub_name].coords}."
+    )
+
+
 def _involved_subsystems(inter: Interaction, rows: int, owner, everyone):
     """Per row of a general interaction: the subsystems whose columns are nonzero.
 
@@ -172,8 +189,10 @@ class InterconnectedSystem(DiracSystem):
         general, inames, ports, port_rows, form_rows, involved = [], [], [], [], [], []
         for j, inter in enumerate(interactions):
             if isinstance(inter, Connection):
-                ia = self._index_of(inter.a, f"interactions[{j}]", index)
-                ib = self._index_of(inter.b, f"interactions[{j}]", index)
+                # a module-level function: a method call on a half-built Module flattens
+                # every subsystem (equinox binds methods as PyTrees), O(M²) for M pieces
+                ia = _index_of(subsystems, inter.a, f"interactions[{j}]", index)
+                ib = _index_of(subsystems, inter.b, f"interactions[{j}]", index)
                 ports.append((ia, ib))
                 port_rows.append(len(inames))
                 involved.append(tuple(sorted({int(owner[ia]), int(owner[ib])})))
@@ -203,21 +222,6 @@ class InterconnectedSystem(DiracSystem):
         self._row_subsystems = tuple(involved)
 
     # ----------------------------------------------------------- construction
-    def _index_of(self, full: str, where: str, index: dict[str, int]) -> int:
-        if full in index:
-            return index[full]
-        sub_name, _, coord = full.partition(".")
-        subs = {s.name: s for s in self.subsystems}
-        if sub_name not in subs:
-            raise ModelError(
-                f"{where}: {full!r} names subsystem {sub_name!r}, which is not part of "
-                f"this interconnection; subsystems are {sorted(subs)}."
-            )
-        raise ModelError(
-            f"{where}: subsystem {sub_name!r} has no coordinate {coord!r}; its "
-            f"coordinates are {subs[sub_name].coords}."
-        )
-
     def _rows(self, inter: Interaction, j: int) -> int:
         n = len(self._coords)
         if inter._const is not None:
