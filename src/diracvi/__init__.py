@@ -14,7 +14,7 @@ from ._discretize import Midpoint, QuadratureRule, Retraction
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
-from ._solvers import NewtonSolver, SolveStatus
+from ._solvers import NewtonSolver, PartitionedSolver, SolveStatus
 from ._system import DiracSystem, LagrangeDiracSystem
 from ._trajectory import Trajectory, load
 
@@ -31,6 +31,7 @@ __all__ = [
     "Midpoint",
     "ModelError",
     "NewtonSolver",
+    "PartitionedSolver",
     "QuadratureRule",
     "Retraction",
     "SolveStatus",

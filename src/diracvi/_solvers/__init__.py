@@ -2,5 +2,13 @@
 
 from .base import SolveStatus, StepResult, StepSolver
 from .newton import NewtonSolver
+from .partitioned import PartitionedSolver, PartitionLayout
 
-__all__ = ["NewtonSolver", "SolveStatus", "StepResult", "StepSolver"]
+__all__ = [
+    "NewtonSolver",
+    "PartitionLayout",
+    "PartitionedSolver",
+    "SolveStatus",
+    "StepResult",
+    "StepSolver",
+]
