@@ -343,28 +343,40 @@ def _build_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
 
 
 # ------------------------------------------------------------------------- numerics
+def _stack(plan: _Plan, system) -> tuple:
+    """Each group's array leaves, stacked along a new leading axis (under the first
+    member's structure: only the names differ).
+
+    Done once per chunk, in ``init``, and carried in the solver state: stacked inside the
+    time loop, every subsystem's leaves would be separate operands of every step.
+    """
+    out = []
+    for g in plan.groups:
+        parts = [eqx.partition(system.subsystems[int(i)], eqx.is_array)[0] for i in g.members]
+        leaves = zip(*(jax.tree.leaves(a) for a in parts), strict=True)
+        out.append(
+            jax.tree.unflatten(jax.tree.structure(parts[0]), [jnp.stack(xs) for xs in leaves])
+        )
+    return tuple(out)
+
+
 class _Step:
     """One step's operators over the plan: residual, factorization and linear solve on
     the stacked representation ``X = ((y_g for each group), λ)``."""
 
-    def __init__(self, plan: _Plan, eqs):
+    def __init__(self, plan: _Plan, eqs, stacked):
         self.plan = plan
         self.eqs = eqs
         system = eqs.system
         self.h = eqs.h
-        self.stacks, self.q, self.p, self.blocks = [], [], [], []
+        self.stacks, self.index, self.q, self.p, self.blocks = [], [], [], [], []
         general = system.general_forms(eqs.q) if system.interactions else None
-        for g in plan.groups:
-            members = [system.subsystems[int(i)] for i in g.members]
-            arrays = [eqx.partition(s, eqx.is_array) for s in members]
-            # stack leaf by leaf under the first member's structure (names differ)
-            template, rest = arrays[0]
-            leaves = zip(*(jax.tree.leaves(a) for a, _ in arrays), strict=True)
-            stacked = jax.tree.unflatten(
-                jax.tree.structure(template), [jnp.stack(xs) for xs in leaves]
-            )
-            self.stacks.append((stacked, rest))
-            qi = g.y_index[:, : g.n]
+        for g, arrays in zip(plan.groups, stacked, strict=True):
+            first = system.subsystems[int(g.members[0])]
+            self.stacks.append((arrays, eqx.partition(first, eqx.is_array)[1]))
+            # one constant per table (not one per use): N-sized tables bloat the program
+            self.index.append(jnp.asarray(g.y_index))
+            qi = self.index[-1][:, : g.n]
             self.q.append(eqs.q[qi])
             self.p.append(eqs.p[qi])
             # B restricted to each member's columns and rows, at the known configuration
@@ -374,19 +386,19 @@ class _Step:
                 block = block.at[k, r, c].set(jnp.asarray(val))
             k, r, grow = g.general
             if k.size:
-                cols = jnp.asarray(g.y_index[k, : g.n])
+                cols = self.index[-1][k, : g.n]
                 block = block.at[k, r].set(general[grow[:, None], cols])
             self.blocks.append(block)
 
     # ---------------------------------------------------------------- layout
     def split(self, x):
-        ys = tuple(x[g.y_index] for g in self.plan.groups)
+        ys = tuple(x[index] for index in self.index)
         return ys, x[self.plan.lam_start :]
 
     def join(self, ys, lam):
         x = jnp.zeros(self.plan.size, dtype=lam.dtype)
-        for g, y in zip(self.plan.groups, ys, strict=True):
-            x = x.at[g.y_index].set(y)
+        for index, y in zip(self.index, ys, strict=True):
+            x = x.at[index].set(y)
         return x.at[self.plan.lam_start :].set(lam)
 
     # -------------------------------------------------------------- equations
@@ -401,7 +413,7 @@ class _Step:
                 sub = eqx.combine(arrays, rest)
                 return new_momentum(sub, eqs.rule, eqs.scheme, eqs.h, q, y)
 
-            out = out.at[g.y_index[:, : g.n]].set(jax.vmap(line)(arrays, self.q[index], y))
+            out = out.at[self.index[index][:, : g.n]].set(jax.vmap(line)(arrays, self.q[index], y))
         return out
 
     def _local(self, index):
@@ -551,27 +563,31 @@ class PartitionedSolver(StepSolver):
         kind = "none" if plan.slots == 0 else "tridiagonal" if plan.tridiagonal else "dense"
         return PartitionLayout(names, kind, plan.slots)
 
-    def _prepare(self, eqs) -> _Step:
+    def _prepare(self, eqs, state=None) -> _Step:
         check_partitionable(eqs.system, eqs.rule, eqs.scheme)
-        return _Step(_build_plan(eqs.system, eqs.scheme), eqs)
+        plan = _build_plan(eqs.system, eqs.scheme)
+        stacked = _stack(plan, eqs.system) if state is None else state[0]
+        return _Step(plan, eqs, stacked)
 
-    def momentum(self, eqs, x):
-        """``eqs.momentum(x)`` computed group by group: the same numbers, but traced once
-        per group of alike subsystems instead of once per subsystem (what a driver for
-        thousands of subsystems wants)."""
-        step = self._prepare(eqs)
+    def momentum(self, eqs, x, state=None):
+        """``eqs.momentum(x)`` computed group by group: the same numbers, traced once per
+        group of alike subsystems instead of once per subsystem. Pass the solver
+        ``state`` to reuse its stacked parameters (what a driver for thousands of
+        subsystems wants inside its time loop)."""
+        step = self._prepare(eqs, state)
         return step.momentum(step.split(x)[0])
 
     def init(self, eqs):
+        """``(stacked group parameters, zero factors, factors valid = False)``."""
         step = self._prepare(eqs)
         ys, _ = step.split(jnp.zeros(step.plan.size, dtype=eqs.q.dtype))
         shapes = jax.eval_shape(step.factorize, ys)
         factors = jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
-        return factors, jnp.asarray(False)
+        return tuple(a for a, _ in step.stacks), factors, jnp.asarray(False)
 
     def solve(self, eqs, guess, state) -> StepResult:
         """Solve the step equations from ``guess`` (``x`` in the system's global order)."""
-        step = self._prepare(eqs)
+        step = self._prepare(eqs, state)
         scale = eqs.scale()
 
         def body(carry):
@@ -612,11 +628,12 @@ class PartitionedSolver(StepSolver):
             _, status, it = carry[:3]
             return (status == -1) & (it < self.max_steps)
 
-        factors, valid = state
+        stacked, factors, valid = state
         inf = jnp.asarray(jnp.inf, dtype=guess.dtype)
         x0 = step.split(guess)
         init = (x0, jnp.asarray(-1), jnp.asarray(0), inf, inf, factors, valid)
         # As in NewtonSolver: the residual reported is the last one evaluated.
         x, status, iterations, _, res_norm, factors, _ = jax.lax.while_loop(cond, body, init)
         status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
-        return StepResult(step.join(*x), status, iterations, res_norm, (factors, status == 0))
+        state = (stacked, factors, status == 0)
+        return StepResult(step.join(*x), status, iterations, res_norm, state)
