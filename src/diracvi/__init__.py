@@ -15,7 +15,7 @@ from ._ensemble import Ensemble, simulate_ensemble
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
-from ._solvers import AffineSolver, NewtonSolver, SolveStatus, StepSolver
+from ._solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus, StepSolver
 from ._system import DiracSystem, LagrangeDiracSystem
 from ._trajectory import Trajectory, load
 
@@ -34,6 +34,7 @@ __all__ = [
     "Midpoint",
     "ModelError",
     "NewtonSolver",
+    "PartitionedSolver",
     "QuadratureRule",
     "Retraction",
     "SolveStatus",

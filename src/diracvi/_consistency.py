@@ -75,6 +75,11 @@ def _complement(w, forms) -> np.ndarray:
     return np.eye(n) - basis @ np.linalg.pinv(basis, rcond=1e-12)
 
 
+#: above this many coordinates the momentum check (a dense n × n Hessian and a
+#: least-squares solve) is skipped; ports are still checked
+MOMENTUM_CHECK_LIMIT = 3000
+
+
 class Checker:
     """Consistency of initial data for one system, with what can be precomputed kept.
 
@@ -96,7 +101,7 @@ class Checker:
             else None
         )
         self._linear = None
-        if linear:
+        if linear and system.n <= MOMENTUM_CHECK_LIMIT:
             zero = jnp.zeros(system.n)
             g0, w, forms = (np.asarray(a) for a in _legendre_pieces(system, zero))
             slope = np.asarray(_legendre_slope(system, zero))
@@ -112,6 +117,8 @@ class Checker:
                 self._linear = (g0, slope, _complement(w, forms))
 
     def _momentum_projection(self, q, p):
+        if self.system.n > MOMENTUM_CHECK_LIMIT:
+            return p  # the dense Hessian would not fit: ports are checked, momenta not
         if self._linear is not None:
             g0, slope, comp = self._linear
             return p - comp @ (p - g0 - slope @ q)

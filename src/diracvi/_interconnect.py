@@ -17,6 +17,7 @@ can be checked to round-off.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Callable, Sequence
 
 import equinox as eqx
@@ -88,9 +89,48 @@ def _prefixed(system: DiracSystem, names: Sequence[str]) -> tuple[str, ...]:
     return tuple(f"{system.name}.{n}" for n in names)
 
 
+def _index_of(subsystems, full: str, where: str, index: dict[str, int]) -> int:
+    """The position of coordinate ``full`` in Q, or a ModelError naming what is wrong."""
+    if full in index:
+        return index[full]
+    sub_name, _, coord = full.partition(".")
+    subs = {s.name: s for s in subsystems}
+    if sub_name not in subs:
+        raise ModelError(
+            f"{where}: {full!r} names subsystem {sub_name!r}, which is not part of "
+            f"this interconnection; subsystems are {sorted(subs)}."
+        )
+    raise ModelError(
+        f"{where}: subsystem {sub_name!r} has no coordinate {coord!r}; its "
+        f"coordinates are {subs[sub_name].coords}."
+    )
+
+
+def _involved_subsystems(inter: Interaction, rows: int, owner, everyone):
+    """Per row of a general interaction: the subsystems whose columns are nonzero.
+
+    Only a constant matrix can be read here; a callable ``B(q)`` may involve any column,
+    so its rows involve every subsystem (as does an all-zero row, which constrains
+    nothing and leaves its λ undetermined, so it must not look decoupled).
+    """
+    if inter._fn is not None:
+        return [everyone] * rows
+    forms = np.asarray(inter._const)
+    out = []
+    for row in forms:
+        subs = tuple(sorted({int(k) for k in owner[np.nonzero(row)[0]]}))
+        out.append(subs or everyone)
+    return out
+
+
 class InterconnectedSystem(DiracSystem):
     """Subsystems joined by interaction one-forms; itself a :class:`DiracSystem`, so it
-    can be simulated, inspected, and interconnected again (hierarchical models)."""
+    can be simulated, inspected, and interconnected again (hierarchical models).
+
+    A :func:`connect` row ``dx − dy`` is kept as its two coordinate indices, not as a
+    dense row over Q: its constraint and constraint force cost O(1) however large Q is.
+    ``interactions`` holds the general :class:`Interaction` objects.
+    """
 
     subsystems: tuple[DiracSystem, ...]
     interactions: tuple[Interaction, ...]
@@ -98,7 +138,13 @@ class InterconnectedSystem(DiracSystem):
     _offsets: tuple[int, ...] = eqx.field(static=True)
     _coords: tuple[str, ...] = eqx.field(static=True)
     _interaction_names: tuple[str, ...] = eqx.field(static=True)
+    # connections: coordinate pair (x, y) of ``dx − dy`` and the interaction row it fills
     _port_index: tuple[tuple[int, int], ...] = eqx.field(static=True)
+    _port_rows: tuple[int, ...] = eqx.field(static=True)
+    # general interactions: the rows each one fills (first row, count)
+    _form_rows: tuple[tuple[int, int], ...] = eqx.field(static=True)
+    # the subsystems each interaction row involves (every one, for a callable B(q))
+    _row_subsystems: tuple[tuple[int, ...], ...] = eqx.field(static=True)
 
     def __init__(self, subsystems, interactions, name=None):
         ensure_float64()
@@ -117,8 +163,8 @@ class InterconnectedSystem(DiracSystem):
                     f"systems[{i}]={sub!r} is not a diracvi system: build it with "
                     "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
                 )
-        names = [sub.name for sub in subsystems]
-        dupes = sorted({n for n in names if names.count(n) > 1})
+        counts = Counter(sub.name for sub in subsystems)
+        dupes = sorted(n for n, c in counts.items() if c > 1)
         if dupes:
             raise ModelError(
                 f"subsystem names {dupes} are used more than once: give every subsystem "
@@ -137,55 +183,45 @@ class InterconnectedSystem(DiracSystem):
                 f"interactions={interactions!r} must be a list of dv.connect(...) or "
                 "dv.Interaction(...) objects."
             )
-        resolved, inames, ports = [], [], []
+        index = {c: i for i, c in enumerate(self._coords)}
+        owner = np.repeat(np.arange(len(subsystems)), np.diff(offsets))
+        everyone = tuple(range(len(subsystems)))
+        general, inames, ports, port_rows, form_rows, involved = [], [], [], [], [], []
         for j, inter in enumerate(interactions):
-            if not isinstance(inter, Interaction | Connection):
+            if isinstance(inter, Connection):
+                # a module-level function: a method call on a half-built Module flattens
+                # every subsystem (equinox binds methods as PyTrees), O(M²) for M pieces
+                ia = _index_of(subsystems, inter.a, f"interactions[{j}]", index)
+                ib = _index_of(subsystems, inter.b, f"interactions[{j}]", index)
+                ports.append((ia, ib))
+                port_rows.append(len(inames))
+                involved.append(tuple(sorted({int(owner[ia]), int(owner[ib])})))
+                inames.append(inter.name)
+                continue
+            if not isinstance(inter, Interaction):
                 raise ModelError(
                     f"interactions[{j}]={inter!r} is not an interaction: use "
                     "dv.connect('a.x', 'b.y') or dv.Interaction(B)."
                 )
-            inter, pairs = self._resolve(inter, j)
             rows = self._rows(inter, j)
-            ports.extend(pairs)
-            default = [f"λ{len(inames) + b}" for b in range(rows)]
-            given = inter.names or default
+            given = inter.names or [f"λ{len(inames) + b}" for b in range(rows)]
             if len(given) != rows:
                 raise ModelError(
                     f"interactions[{j}] has {rows} one-form rows but {len(given)} names: "
                     "give one name per row."
                 )
+            involved.extend(_involved_subsystems(inter, rows, owner, everyone))
+            form_rows.append((len(inames), rows))
             inames.extend(given)
-            resolved.append(inter)
-        self.interactions = tuple(resolved)
+            general.append(inter)
+        self.interactions = tuple(general)
         self._interaction_names = tuple(inames)
         self._port_index = tuple(ports)
+        self._port_rows = tuple(port_rows)
+        self._form_rows = tuple(form_rows)
+        self._row_subsystems = tuple(involved)
 
     # ----------------------------------------------------------- construction
-    def _index_of(self, full: str, where: str) -> int:
-        sub_name, _, coord = full.partition(".")
-        subs = {s.name: s for s in self.subsystems}
-        if sub_name not in subs:
-            raise ModelError(
-                f"{where}: {full!r} names subsystem {sub_name!r}, which is not part of "
-                f"this interconnection; subsystems are {sorted(subs)}."
-            )
-        sub = subs[sub_name]
-        if coord not in sub.coords:
-            raise ModelError(
-                f"{where}: subsystem {sub_name!r} has no coordinate {coord!r}; its "
-                f"coordinates are {sub.coords}."
-            )
-        return self._coords.index(full)
-
-    def _resolve(self, inter: Interaction | Connection, j: int):
-        if isinstance(inter, Interaction):
-            return inter, []
-        ia = self._index_of(inter.a, f"interactions[{j}]")
-        ib = self._index_of(inter.b, f"interactions[{j}]")
-        row = np.zeros((1, len(self._coords)))
-        row[0, ia], row[0, ib] = 1.0, -1.0
-        return Interaction(row, names=(inter.name,)), [(ia, ib)]
-
     def _rows(self, inter: Interaction, j: int) -> int:
         n = len(self._coords)
         if inter._const is not None:
@@ -220,6 +256,12 @@ class InterconnectedSystem(DiracSystem):
         """Coordinate pairs joined by :func:`connect`."""
         return tuple((self._coords[a], self._coords[b]) for a, b in self._port_index)
 
+    @property
+    def row_subsystems(self) -> tuple[tuple[int, ...], ...]:
+        """For each interaction row, the indices of the subsystems it involves (its
+        nonzero columns; every subsystem for a configuration-dependent ``Interaction``)."""
+        return self._row_subsystems
+
     def _split(self, x):
         return [x[a:b] for a, b in zip(self._offsets[:-1], self._offsets[1:], strict=True)]
 
@@ -245,10 +287,57 @@ class InterconnectedSystem(DiracSystem):
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
         )
 
+    def _port_arrays(self):
+        pairs = np.asarray(self._port_index, dtype=np.int64).reshape(-1, 2)
+        return pairs[:, 0], pairs[:, 1], np.asarray(self._port_rows, dtype=np.int64)
+
+    def _form_row_index(self) -> np.ndarray:
+        return np.concatenate(
+            [np.arange(a, a + c) for a, c in self._form_rows] or [np.zeros(0, np.int64)]
+        )
+
+    def general_forms(self, q):
+        """The rows of the general :class:`Interaction` objects at ``q``, stacked
+        (rows :meth:`_form_row_index` of ``B``); ``None`` if every row is a connection."""
+        if not self.interactions:
+            return None
+        return jnp.concatenate(
+            [i._const if i._fn is None else i._fn(q) for i in self.interactions], axis=0
+        )
+
     def interaction_forms(self, q):
-        """``B(q)``, shape (l, N)."""
-        rows = [i._const if i._fn is None else i._fn(q) for i in self.interactions]
-        return jnp.concatenate(rows, axis=0) if rows else jnp.zeros((0, self.n))
+        """``B(q)``, shape (l, N), dense."""
+        forms = jnp.zeros((len(self._interaction_names), self.n), dtype=q.dtype)
+        if self._port_index:
+            a, b, rows = self._port_arrays()
+            forms = forms.at[rows, a].set(1.0).at[rows, b].set(-1.0)
+        general = self.general_forms(q)
+        if general is not None:
+            forms = forms.at[self._form_row_index()].set(general)
+        return forms
+
+    def interaction_force(self, q, lam):
+        r"""``B(q)ᵀ λ``; a connection row adds ``±λ`` at its two coordinates only."""
+        force = jnp.zeros(self.n, dtype=lam.dtype)
+        if self._port_index:
+            a, b, rows = self._port_arrays()
+            force = force.at[a].add(lam[rows]).at[b].add(-lam[rows])
+        general = self.general_forms(q)
+        if general is not None:
+            force = force + general.T @ lam[self._form_row_index()]
+        return force
+
+    def interaction_constraints(self, rule, side, qk, qk1, h):
+        r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``."""
+        out = jnp.zeros(len(self._interaction_names), dtype=qk.dtype)
+        if self._port_index:
+            a, b, rows = self._port_arrays()
+            v = (qk1 - qk) / h
+            out = out.at[rows].set(v[a] - v[b])
+        if self.interactions:
+            general = rule.discrete_constraints(self.general_forms, side, qk, qk1, h)
+            out = out.at[self._form_row_index()].set(general)
+        return out
 
     def constraint_forms(self, q):
         r"""``[⊕ A_i(q_i); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
@@ -277,7 +366,7 @@ class InterconnectedSystem(DiracSystem):
                 for sub, qi, mi in zip(self.subsystems, self._split(q), mus, strict=True)
             ]
         )
-        return own + self.interaction_forms(q).T @ lam
+        return own + self.interaction_force(q, lam)
 
     def discrete_momenta(self, rule, qk, qk1, h):
         r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked."""
@@ -296,8 +385,7 @@ class InterconnectedSystem(DiracSystem):
             sub.discrete_constraints(rule, side, a, b, h)
             for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
         ]
-        inter = rule.discrete_constraints(self.interaction_forms, side, qk, qk1, h)
-        return jnp.concatenate([*own, inter])
+        return jnp.concatenate([*own, self.interaction_constraints(rule, side, qk, qk1, h)])
 
     # ------------------------------------------------------------ monolithic
     def monolithic(self) -> LagrangeDiracSystem:

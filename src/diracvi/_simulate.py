@@ -22,7 +22,7 @@ from ._discretize import RULES, get_rule
 from ._equations import SCHEMES, residual
 from ._errors import ModelError, StepFailure
 from ._plan import Layout, get_plan, layout
-from ._solvers import SolveStatus, StepSolver
+from ._solvers import PartitionedSolver, SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import AFFINE_REJECTED
@@ -244,8 +244,16 @@ def simulate(
     rule = get_rule(discretization)
     plan = get_plan(system, rule, scheme, h, solver, q0, p0)
     q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial))
-    if plan.step_map is None:
+    if isinstance(plan.fallback, PartitionedSolver) and (
+        plan.step_map is None or isinstance(solver, PartitionedSolver)
+    ):
+        PartitionedSolver.check(system, rule, scheme)
+    if plan.step_map is None and not plan.solvable_checked:
+        # once per plan: the structural defects it names (an unconnected massless port, a
+        # capacitor loop under the left-point rule) do not depend on the initial state; a
+        # Jacobian that turns singular later is reported by the step's status instead
         check_solvable(system, rule, scheme, q0, p0, jnp.asarray(h))
+        plan.solvable_checked = True
 
     march = _March(shape, q0, p0, k, bool(save_states))
     path, key, chunk = None, None, steps

@@ -30,6 +30,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._equations import StepEquations, ordered, split
+from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
 
@@ -48,7 +49,7 @@ def _newton_block(system, rule, scheme, solver, h, k, carry):
             guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
             res = solver.solve(eqs, guess, state)
             q1, mu = split(system, res.x)
-            p1 = eqs.momentum(res.x)
+            p1 = solver.momentum(eqs, res.x, res.state)
             finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
             status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
             return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
@@ -122,9 +123,10 @@ def _checked(system, rule, scheme, method, h, q, p, raw):
     qk, qk1 = ordered(scheme, q_from, q1s)
     affine = isinstance(method, AffineStepMap)
 
+    diagnostics = step_diagnostics(system, rule, scheme, h)
+
     def one(a, b, q_, p_, x):
-        energy = system.energy(rule.node(a, b), (b - a) / h)
-        con = system.discrete_constraints(rule, scheme, a, b, h)
+        energy, con = diagnostics(a, b)
         if not affine:
             return energy, con, jnp.zeros((), q_.dtype)
         dx = method.correction(StepEquations(system, rule, scheme, h, q_, p_), x)

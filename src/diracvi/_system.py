@@ -15,6 +15,7 @@ subsystem, as in the paper).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import equinox as eqx
 import jax
@@ -106,19 +107,60 @@ def _zero_force(q, v):
     return jnp.zeros_like(v)
 
 
-def _opaque(fn: Callable) -> Callable:
-    """Wrap a user callable so JAX/equinox see a plain function (hashed by identity).
+class _Opaque:
+    """A plain user function seen by JAX/equinox as one hashable constant.
 
-    A bound method of an equinox Module is itself a PyTree holding the Module's arrays;
-    stored as a static field it would be hashed by value and warn. Wrapping keeps those
-    arrays as compile-time constants of the traced function instead.
+    Equality is the identity of the wrapped function, so two systems built from the same
+    function have equal static structure (and batch together in the partitioned solver),
+    and nothing is ever hashed by value.
     """
 
-    def call(*args):
-        return fn(*args)
+    __slots__ = ("fn",)
 
-    call.__name__ = getattr(fn, "__name__", "user_function")
-    return call
+    def __init__(self, fn: Callable):
+        self.fn = fn
+
+    def __call__(self, *args):
+        return self.fn(*args)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _Opaque) and other.fn is self.fn
+
+    def __hash__(self) -> int:
+        return id(self.fn)
+
+    def __repr__(self) -> str:
+        return f"<{getattr(self.fn, '__name__', 'user function')}>"
+
+
+class _UserFunction(eqx.Module):
+    """A user callable (L, F or A) stored so that its parameters are PyTree leaves.
+
+    An ``equinox.Module`` callable is split by :func:`equinox.partition`: its arrays are
+    a dynamic field (traced, so subsystems that differ only in parameter values share one
+    compiled program and can be stacked for ``jax.vmap``); the rest of it is static. A
+    plain function, or a Module whose non-array part is unhashable, is kept whole as a
+    static constant, as before (its captured arrays become compile-time constants).
+    """
+
+    arrays: Any
+    rest: Callable = eqx.field(static=True)
+
+    def __call__(self, *args):
+        if self.arrays is None:
+            return self.rest(*args)
+        return eqx.combine(self.arrays, self.rest)(*args)
+
+
+def _wrap(fn: Callable) -> _UserFunction:
+    if isinstance(fn, eqx.Module):
+        arrays, rest = eqx.partition(fn, eqx.is_array)
+        try:
+            hash(rest)
+        except TypeError:  # e.g. a list field: cannot be static, so keep the old way
+            return _UserFunction(None, _Opaque(fn))
+        return _UserFunction(arrays, rest)
+    return _UserFunction(None, _Opaque(fn))
 
 
 class LagrangeDiracSystem(DiracSystem):
@@ -133,14 +175,19 @@ class LagrangeDiracSystem(DiracSystem):
         force: external force ``F(q, v) -> (n,)`` (a covector).
         name: the system's name (used as prefix when it is interconnected).
         constraint_names: names of the m constraint rows (default ``"ω0"``, ``"ω1"``, ...).
+
+    Any of the callables may be an ``equinox.Module`` (a callable PyTree): its arrays are
+    then leaves of the system, so systems that differ only in those values share one
+    compiled program, and :class:`~diracvi.PartitionedSolver` batches them with
+    ``jax.vmap``. Arrays captured by a plain function are compile-time constants.
     """
 
     _coords: tuple[str, ...] = eqx.field(static=True)
     _constraint_names: tuple[str, ...] = eqx.field(static=True)
     name: str = eqx.field(static=True)
-    _lagrangian: Callable = eqx.field(static=True)
-    _force: Callable | None = eqx.field(static=True)
-    _forms_fn: Callable | None = eqx.field(static=True)
+    _lagrangian: _UserFunction
+    _force: _UserFunction | None
+    _forms_fn: _UserFunction | None
     _forms_const: jax.Array | None
 
     def __init__(
@@ -156,7 +203,7 @@ class LagrangeDiracSystem(DiracSystem):
         self._coords = check_names("coords", coords)
         n = len(self._coords)
         self.name = "system" if name is None else check_name("name", name)
-        self._lagrangian = _opaque(check_callable("lagrangian", lagrangian))
+        self._lagrangian = _wrap(check_callable("lagrangian", lagrangian))
         out = eval_shape("lagrangian", lagrangian, (n,), (n,), signature="L(q, v)")
         if out.shape != ():
             raise ModelError(
@@ -166,7 +213,7 @@ class LagrangeDiracSystem(DiracSystem):
             )
         self._force = None
         if force is not None:
-            self._force = _opaque(check_callable("force", force))
+            self._force = _wrap(check_callable("force", force))
             out = eval_shape("force", force, (n,), (n,), signature="F(q, v)")
             if out.shape != (n,):
                 raise ModelError(
@@ -177,7 +224,7 @@ class LagrangeDiracSystem(DiracSystem):
         m = 0
         if constraints is not None:
             if callable(constraints):
-                self._forms_fn = _opaque(constraints)
+                self._forms_fn = _wrap(constraints)
                 out = eval_shape("constraints", constraints, (n,), signature="A(q)")
                 if out.ndim != 2 or out.shape[1] != n:
                     raise ModelError(

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections import Counter
 from collections.abc import Callable, Sequence
 
 import jax
@@ -42,7 +43,7 @@ def check_names(arg: str, values) -> tuple[str, ...]:
                 f"{arg} contains {_short(name)}, which is not a valid name: use non-empty "
                 "strings without surrounding spaces."
             )
-    duplicates = sorted({n for n in names if names.count(n) > 1})
+    duplicates = sorted(n for n, c in Counter(names).items() if c > 1)  # O(n), not O(n²)
     if duplicates:
         raise ModelError(f"{arg} repeats {duplicates}: every name must be unique.")
     return names

@@ -40,3 +40,8 @@ class StepSolver(eqx.Module):
 
     def solve(self, eqs, guess, state) -> StepResult:
         raise NotImplementedError
+
+    def momentum(self, eqs, x, state=None):
+        """The explicit momentum line at the solved ``x`` (a solver that knows the
+        system's structure may evaluate it more cheaply)."""
+        return eqs.momentum(x)
