@@ -18,9 +18,9 @@ Jacobian ``J_i`` to be invertible, and torn models are built from pieces that ca
 stepped alone. Under the left-point ("retraction") rule the massless port ``q̄`` of a torn
 spring chain, the capacitor side of the torn RLC circuit and the gyrator of the DC motor
 all have a zero row and column in ``J_i`` (the paper: "the second piece alone cannot be
-stepped; joined, it can"). So the interface is written with *Robin* data instead
-(a two-multiplier FETI method): for every interface row ``b`` and every subsystem ``i``
-it involves, a slot unknown ``g_{b,i}`` with
+stepped; joined, it can"). So the interface is written with *Robin* data instead, as in
+two-Lagrange-multiplier FETI methods: for every interface row ``b`` and every subsystem
+``i`` it involves, a slot unknown ``g_{b,i}`` with
 
     λ_b = g_{b,i} + w_b σ_{b,i},      σ_{b,i} = (H_i dy_i)_b    (subsystem i's share of α_b)
 
@@ -31,7 +31,8 @@ port, a capacitor or a gyrator alike (``G_i W H_i = (s/h) B_iᵀ W B_i`` has the
 equal, ``Σ_i σ_{b,i} = c_b`` — become a linear system ``T g = t`` over the slots. This is
 an exact reformulation: ``T`` is invertible exactly when the whole step Jacobian is
 (given invertible ``K_i``), and any ``w > 0`` gives the same Newton step; ``w_b`` is only
-chosen for conditioning, as the mean over its subsystems of ``max|J_i| / max|G_i H_i|``.
+chosen for conditioning, as the mean over its subsystems of ``h max|J_i| / max|B_i|²``
+(so that ``G_i W H_i`` is of the size of ``J_i``).
 
 For a row joining two subsystems L and R the two slot equations are written as
 
@@ -44,14 +45,22 @@ gives a *tridiagonal* ``T`` of size ``2(M − 1)``, solved in O(M) by
 involve one or three or more subsystems use the direct form (``w_b(Σσ − c) = 0`` and
 ``λ_{b,i−1} = λ_{b,i}``); any interface that is not tridiagonal in the given row order
 (a star, a loop, a configuration-dependent ``Interaction``, which involves every
-subsystem) is solved with a dense LU of ``T``: O(l³) — fine for a few hundred rows, not
-for a large general mesh.
+subsystem) is solved with a dense LU of ``T``: O(slots³) — fine for a few hundred rows,
+not for a large general mesh.
 
 Work per linear solve is O(Σ_i s_i² + l) with stored factors, O(Σ_i s_i³ + l) with a
 refactorization; nothing is ever O(N · l). Subsystems with the same PyTree structure
 (static fields included, names aside) and the same leaf shapes — the equal segments of
-a torn chain — are stacked at trace time and stepped with ``jax.vmap``: their residuals,
-Jacobians, LU factors and solves are single batched operations.
+a torn chain — are grouped at trace time and stepped with ``jax.vmap``: their residuals,
+Jacobians, factors and solves are single batched operations. The local factors are kept
+as explicit inverses ``K_i⁻¹`` (from a pivoted LU): on CPU, XLA applies a batch of small
+inverses as one batched product many times faster than a batch of triangular solves, and
+they are applied at every iteration of every step while reused; the converged ``x`` is
+fixed by the residual test, not by them.
+
+The solver state is ``(stacked group parameters, factors, factors valid)``; ``init``
+stacks each group's parameters once per chunk, so inside the time loop a group is a few
+arrays, not one operand per subsystem.
 
 The Newton iteration, its tolerances and its reuse of factors mirror
 :class:`~diracvi.NewtonSolver` line by line, so both solve to the same precision.
@@ -469,10 +478,7 @@ class _Step:
             block = self.blocks[index]
             weight = w[g.rows]
             aug = plan.sign / h * jnp.einsum("krn,kr,krp->knp", block, weight, block)
-            # Explicit inverses (from a pivoted LU): XLA on CPU applies a batch of small
-            # inverses as one batched product some 15× faster than a batch of triangular
-            # solves, and the factors are applied at every iteration of every step while
-            # they are reused. The converged x is fixed by the residual test, not by them.
+            # explicit inverses: see the module documentation
             kinv = jnp.linalg.inv(jac.at[:, : g.n, : g.n].add(aug))
             kinv_g = jnp.einsum("ksn,krn->ksr", kinv[:, :, : g.n], block)  # K⁻¹ G_i
             p_mat = plan.sign / h * jnp.einsum("krn,knc->krc", block, kinv_g[:, : g.n, :])
