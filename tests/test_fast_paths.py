@@ -237,3 +237,29 @@ def test_ensemble_input_errors_name_the_shape():
         bad = np.tile(problem.q0, (2, 1))
         bad[1, 0] = np.nan
         dv.simulate_ensemble(problem.system, bad, bad, dt=0.1, steps=10)
+
+
+def test_large_interconnections_are_stepped_by_the_partitioned_solver():
+    problem = problems.chain_torn(300, 3)  # 302 coordinates: above the dense limit
+    kwargs = {"dt": problem.dt, "steps": 60, "save_every": 6}
+    auto = dv.simulate(problem.system, problem.q0, problem.p0, **kwargs)
+    plain = dv.simulate(problem.system, problem.q0, problem.p0, **kwargs, solver=PLAIN)
+    assert auto.solver == repr(dv.PartitionedSolver())
+    assert_same_run(auto, plain)
+    np.testing.assert_allclose(auto.energy, plain.energy, rtol=1e-12)
+    np.testing.assert_allclose(auto.constraint_violation, plain.constraint_violation, atol=1e-13)
+
+
+def test_grouped_diagnostics_equal_the_per_subsystem_sum():
+    from diracvi._grouped import _plain, step_diagnostics
+
+    problem = problems.chain_torn(40, 10)  # ten pieces: evaluated as groups
+    rng = np.random.default_rng(7)
+    a = problem.q0 + 0.1 * rng.standard_normal(problem.system.n)
+    b = a + 0.01 * rng.standard_normal(problem.system.n)
+    for discretization in ("retraction", "midpoint"):
+        rule = dv.Midpoint() if discretization == "midpoint" else dv.Retraction()
+        grouped = step_diagnostics(problem.system, rule, "plus", 0.01)(a, b)
+        plain = _plain(problem.system, rule, "plus", 0.01)(a, b)
+        np.testing.assert_allclose(grouped[0], plain[0], rtol=1e-14)
+        np.testing.assert_allclose(grouped[1], plain[1], rtol=1e-14, atol=1e-15)
