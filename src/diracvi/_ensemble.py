@@ -9,20 +9,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._discretize import RULES, get_rule
-from ._equations import SCHEMES
 from ._errors import ModelError, StepFailure
-from ._plan import get_plan, layout
-from ._simulate import (
-    _failure_message,
-    check_save_every,
-    check_solvable,
-    check_solver,
-)
+from ._simulate import _failure_message, check_run, prepared_plan
 from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._trajectory import Trajectory
-from ._validate import check_choice, check_positive_float, check_positive_int, check_state
+from ._validate import check_state
 
 
 class Ensemble:
@@ -148,17 +140,8 @@ def simulate_ensemble(
     ``throw=True`` a failed member raises :class:`StepFailure` carrying the ensemble
     (``.trajectory``) after every member has run.
     """
-    if not isinstance(system, DiracSystem):
-        raise ModelError(
-            f"system={system!r} is not a diracvi system: build one with "
-            "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
-        )
-    scheme = check_choice("scheme", scheme, SCHEMES)
-    discretization = check_choice("discretization", discretization, tuple(RULES))
-    h = check_positive_float("dt", dt)
-    steps = check_positive_int("steps", steps)
-    k = check_save_every(steps, save_every)
-    shape = layout(system)
+    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    scheme, discretization, h, steps, k, shape = run
     q0 = _check_batch("q0", q0, shape.n, shape.coords)
     p0 = _check_batch("p0", p0, shape.n, shape.coords)
     if q0.shape != p0.shape:
@@ -166,12 +149,8 @@ def simulate_ensemble(
             f"q0 has shape {q0.shape} but p0 has shape {p0.shape}: give one momentum row "
             "per position row."
         )
-    check_solver(solver)
-    rule = get_rule(discretization)
-    plan = get_plan(system, rule, scheme, h, solver, q0[0], p0[0])
+    plan = prepared_plan(system, run, solver, q0[0], p0[0])
     q0, p0 = plan.checker.check_batch(q0, p0, project_initial=bool(project_initial))
-    if plan.step_map is None:
-        check_solvable(system, rule, scheme, q0[0], p0[0], plan.h_array)
 
     members, m = len(q0), shape.m
     carry0 = (q0, p0, q0, np.zeros((members, m)))

@@ -116,6 +116,7 @@ class Plan:
                     where=f"the ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
+        self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
         self.checker = Checker(system, linear=True, q_probe=q0)
         self.solvable_checked = self.step_map is not None  # the affine build checked J_x
         self._chunks: dict = {}

@@ -10,6 +10,7 @@ carry, so everything computed before it is returned intact.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -21,8 +22,8 @@ from ._config import ensure_float64
 from ._discretize import RULES, get_rule
 from ._equations import SCHEMES, residual
 from ._errors import ModelError, StepFailure
-from ._plan import Layout, get_plan, layout
-from ._solvers import PartitionedSolver, SolveStatus, StepSolver
+from ._plan import Layout, equation_names, get_plan, layout, unknown_names
+from ._solvers import SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import AFFINE_REJECTED
@@ -42,13 +43,10 @@ def check_solvable(system, rule, scheme, q0, p0, h) -> None:
     if system.n + system.m > DENSE_CHECK_LIMIT:
         return
     jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h))
-    other = "q_{k+1}" if scheme == "plus" else "q_k"
     check_step_jacobian(
         jac,
-        unknown_names=[f"{other}[{c}]" for c in system.coords]
-        + [f"μ[{c}]" for c in system.constraint_names],
-        equation_names=[f"momentum balance of {c}" for c in system.coords]
-        + [f"constraint {c}" for c in system.constraint_names],
+        unknown_names=unknown_names(system, scheme),
+        equation_names=equation_names(system),
         where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
     )
 
@@ -226,34 +224,12 @@ def simulate(
     from the last completed chunk, and the result is bitwise identical to an
     uninterrupted run.
     """
-    ensure_float64()
-    if not isinstance(system, DiracSystem):
-        raise ModelError(
-            f"system={system!r} is not a diracvi system: build one with "
-            "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
-        )
-    scheme = check_choice("scheme", scheme, SCHEMES)
-    discretization = check_choice("discretization", discretization, tuple(RULES))
-    h = check_positive_float("dt", dt)
-    steps = check_positive_int("steps", steps)
-    k = check_save_every(steps, save_every)
-    shape = layout(system)
+    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    scheme, discretization, h, steps, k, shape = run
     q0 = check_state("q0", q0, shape.n, shape.coords)
     p0 = check_state("p0", p0, shape.n, shape.coords)
-    check_solver(solver)
-    rule = get_rule(discretization)
-    plan = get_plan(system, rule, scheme, h, solver, q0, p0)
+    plan = prepared_plan(system, run, solver, q0, p0)
     q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial))
-    if isinstance(plan.fallback, PartitionedSolver) and (
-        plan.step_map is None or isinstance(solver, PartitionedSolver)
-    ):
-        PartitionedSolver.check(system, rule, scheme)
-    if plan.step_map is None and not plan.solvable_checked:
-        # once per plan: the structural defects it names (an unconnected massless port, a
-        # capacitor loop under the left-point rule) do not depend on the initial state; a
-        # Jacobian that turns singular later is reported by the step's status instead
-        check_solvable(system, rule, scheme, q0, p0, jnp.asarray(h))
-        plan.solvable_checked = True
 
     march = _March(shape, q0, p0, k, bool(save_states))
     path, key, chunk = None, None, steps
@@ -314,6 +290,47 @@ def simulate(
     if traj.status and throw:
         raise StepFailure(traj.message, traj)
     return traj
+
+
+class RunArguments(NamedTuple):
+    scheme: str
+    discretization: str
+    h: float
+    steps: int
+    save_every: int
+    shape: Layout
+
+
+def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> RunArguments:
+    """The arguments ``simulate`` and ``simulate_ensemble`` share, checked."""
+    ensure_float64()
+    if not isinstance(system, DiracSystem):
+        raise ModelError(
+            f"system={system!r} is not a diracvi system: build one with "
+            "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
+        )
+    scheme = check_choice("scheme", scheme, SCHEMES)
+    discretization = check_choice("discretization", discretization, tuple(RULES))
+    h = check_positive_float("dt", dt)
+    steps = check_positive_int("steps", steps)
+    k = check_save_every(steps, save_every)
+    check_solver(solver)
+    return RunArguments(scheme, discretization, h, steps, k, layout(system))
+
+
+def prepared_plan(system, run: RunArguments, solver, q0, p0):
+    """The cached plan, with the step's solvability checked on its first use.
+
+    Once per plan: the structural defects the check names (an unconnected massless port,
+    a capacitor loop under the left-point rule) do not depend on the initial state; a
+    Jacobian that turns singular later is reported by the failing step's status.
+    """
+    rule = get_rule(run.discretization)
+    plan = get_plan(system, rule, run.scheme, run.h, solver, q0, p0)
+    if not plan.solvable_checked:
+        check_solvable(system, rule, run.scheme, q0, p0, plan.h_array)
+        plan.solvable_checked = True
+    return plan
 
 
 def check_save_every(steps: int, save_every) -> int:

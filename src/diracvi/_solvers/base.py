@@ -34,6 +34,10 @@ class StepResult(NamedTuple):
 class StepSolver(eqx.Module):
     """Solves ``r(x) = 0`` for one time step."""
 
+    def check(self, system, rule, scheme: str) -> None:
+        """Raise :class:`~diracvi.ModelError` if this solver cannot step ``system`` under
+        ``rule`` and ``scheme`` (host side, before anything is compiled)."""
+
     def init(self, eqs) -> Any:
         """The solver state before the first step of a chunk (traceable)."""
         raise NotImplementedError

@@ -27,6 +27,72 @@ import jax.scipy.linalg as jsl
 from .base import SolveStatus, StepResult, StepSolver
 
 
+def _norm(tree):
+    """``‖·‖∞`` over every leaf of a PyTree of arrays."""
+    return jnp.max(jnp.stack([jnp.max(jnp.abs(a), initial=0.0) for a in jax.tree.leaves(tree)]))
+
+
+def _finite(tree):
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in jax.tree.leaves(tree)]))
+
+
+def chord_newton(options, residual, factorize, correction, x0, factors, valid, scale):
+    """The (simplified) Newton iteration shared by the step solvers.
+
+    ``residual(x)`` is the step residual, ``factorize(x)`` the factors of its Jacobian
+    and ``correction(factors, r)`` the update ``−J⁻¹ r``; ``x`` may be any PyTree of
+    arrays. ``options`` carries ``rtol``, ``max_steps``, ``floor``, ``reuse_jacobian`` and
+    ``contraction`` (see :class:`NewtonSolver`). Returns ``(x, status, iterations,
+    ‖r‖∞, factors)`` with the residual of the last iterate evaluated.
+    """
+
+    def body(carry):
+        x, _, it, last_dx, _, factors, valid = carry
+        r = residual(x)
+        refactor = ~valid
+        if not options.reuse_jacobian:
+            refactor = jnp.asarray(True)
+        factors = jax.lax.cond(refactor, factorize, lambda _: factors, x)
+        dx = correction(factors, r)
+        dx_norm = _norm(dx)
+        size = jnp.maximum(_norm(jax.tree.map(jnp.add, x, dx)), scale)
+        finite_r = _finite(r)
+        finite_dx = _finite(dx)
+        # Stale factors that fail to contract are replaced; a growing update is dropped.
+        slow = ~refactor & (dx_norm > options.contraction * last_dx)
+        diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
+        small = dx_norm <= options.rtol * size
+        stalled = refactor & (dx_norm <= options.floor * size) & (dx_norm >= 0.5 * last_dx)
+        done = (small & ~diverging) | stalled
+        status = jnp.where(
+            ~finite_r,
+            SolveStatus.NONFINITE,
+            jnp.where(
+                ~finite_dx & refactor,
+                SolveStatus.SINGULAR,
+                jnp.where(done & finite_dx, SolveStatus.SUCCESS, -1),
+            ),
+        )
+        keep = finite_dx & finite_r & ~diverging
+        x_new = jax.tree.map(lambda a, b: jnp.where(keep, a + b, a), x, dx)
+        last = jnp.where(keep, dx_norm, last_dx)
+        valid = ~(slow | diverging)
+        return x_new, status, it + 1, last, _norm(r), factors, valid
+
+    def cond(carry):
+        _, status, it = carry[:3]
+        return (status == -1) & (it < options.max_steps)
+
+    inf = jnp.asarray(jnp.inf, dtype=scale.dtype)
+    init = (x0, jnp.asarray(-1), jnp.asarray(0), inf, inf, factors, valid)
+    # The residual reported is the one at the last Newton iterate evaluated (before its
+    # update): re-evaluating at the final x would cost a residual per time step, and it
+    # is only read when a step fails.
+    x, status, iterations, _, res_norm, factors, _ = jax.lax.while_loop(cond, body, init)
+    status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
+    return x, status, iterations, res_norm, factors
+
+
 class NewtonSolver(StepSolver):
     """Newton's method with a dense LU solve.
 
@@ -58,55 +124,19 @@ class NewtonSolver(StepSolver):
     def solve(self, eqs, guess, state) -> StepResult:
         """Solve ``eqs.residual(x) = 0`` from ``guess``."""
         fn = eqs.residual
-        scale = eqs.scale()
 
         def factorize(x):
             return jsl.lu_factor(jax.jacfwd(fn)(x))
 
-        def body(carry):
-            x, _, it, last_dx, _, lu, piv, valid = carry
-            r = fn(x)
-            refactor = ~valid
-            if not self.reuse_jacobian:
-                refactor = jnp.asarray(True)
-            lu, piv = jax.lax.cond(refactor, factorize, lambda _: (lu, piv), x)
-            dx = jsl.lu_solve((lu, piv), -r)
-            dx_norm = jnp.max(jnp.abs(dx), initial=0.0)
-            size = jnp.maximum(jnp.max(jnp.abs(x + dx), initial=0.0), scale)
-            finite_r = jnp.all(jnp.isfinite(r))
-            finite_dx = jnp.all(jnp.isfinite(dx))
-            # Stale factors that fail to contract are replaced; a growing update is dropped.
-            slow = ~refactor & (dx_norm > self.contraction * last_dx)
-            diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
-            small = dx_norm <= self.rtol * size
-            stalled = refactor & (dx_norm <= self.floor * size) & (dx_norm >= 0.5 * last_dx)
-            done = (small & ~diverging) | stalled
-            status = jnp.where(
-                ~finite_r,
-                SolveStatus.NONFINITE,
-                jnp.where(
-                    ~finite_dx & refactor,
-                    SolveStatus.SINGULAR,
-                    jnp.where(done & finite_dx, SolveStatus.SUCCESS, -1),
-                ),
-            )
-            keep = finite_dx & finite_r & ~diverging
-            x_new = jnp.where(keep, x + dx, x)
-            last = jnp.where(keep, dx_norm, last_dx)
-            valid = ~(slow | diverging)
-            r_norm = jnp.max(jnp.abs(r), initial=0.0)
-            return x_new, status, it + 1, last, r_norm, lu, piv, valid
-
-        def cond(carry):
-            _, status, it = carry[:3]
-            return (status == -1) & (it < self.max_steps)
-
         lu, piv, valid = state
-        inf = jnp.asarray(jnp.inf, dtype=guess.dtype)
-        init = (guess, jnp.asarray(-1), jnp.asarray(0), inf, inf, lu, piv, valid)
-        # The residual reported is the one at the last Newton iterate evaluated (before its
-        # update): re-evaluating at the final x would cost a residual per time step, and it
-        # is only read when a step fails.
-        x, status, iterations, _, res_norm, lu, piv, _ = jax.lax.while_loop(cond, body, init)
-        status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
+        x, status, iterations, res_norm, (lu, piv) = chord_newton(
+            self,
+            fn,
+            factorize,
+            lambda factors, r: jsl.lu_solve(factors, -r),
+            guess,
+            (lu, piv),
+            valid,
+            eqs.scale(),
+        )
         return StepResult(x, status, iterations, res_norm, (lu, piv, status == 0))

@@ -83,7 +83,8 @@ from .._equations import SCHEMES, new_momentum, ordered, residual
 from .._errors import ModelError
 from .._interconnect import InterconnectedSystem
 from .._validate import check_choice
-from .base import SolveStatus, StepResult, StepSolver
+from .base import StepResult, StepSolver
+from .newton import chord_newton
 
 
 class PartitionLayout(NamedTuple):
@@ -528,14 +529,6 @@ class _Step:
         return tuple(dys), dlam
 
 
-def _norm(tree):
-    return jnp.max(jnp.stack([jnp.max(jnp.abs(a), initial=0.0) for a in jax.tree.leaves(tree)]))
-
-
-def _finite(tree):
-    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in jax.tree.leaves(tree)]))
-
-
 class PartitionedSolver(StepSolver):
     """Newton's method whose linear solves run subsystem by subsystem (O(n) per step).
 
@@ -594,52 +587,16 @@ class PartitionedSolver(StepSolver):
     def solve(self, eqs, guess, state) -> StepResult:
         """Solve the step equations from ``guess`` (``x`` in the system's global order)."""
         step = self._prepare(eqs, state)
-        scale = eqs.scale()
-
-        def body(carry):
-            x, _, it, last_dx, _, factors, valid = carry
-            rs, r_alpha = step.residual(*x)
-            refactor = ~valid
-            if not self.reuse_jacobian:
-                refactor = jnp.asarray(True)
-            factors = jax.lax.cond(refactor, lambda y: step.factorize(y), lambda _: factors, x[0])
-            dx = step.solve_linear(factors, rs, r_alpha)
-            dx_norm = _norm(dx)
-            size = jnp.maximum(_norm(jax.tree.map(jnp.add, x, dx)), scale)
-            finite_r = _finite((rs, r_alpha))
-            finite_dx = _finite(dx)
-            # Stale factors that fail to contract are replaced; a growing update is dropped.
-            slow = ~refactor & (dx_norm > self.contraction * last_dx)
-            diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
-            small = dx_norm <= self.rtol * size
-            stalled = refactor & (dx_norm <= self.floor * size) & (dx_norm >= 0.5 * last_dx)
-            done = (small & ~diverging) | stalled
-            status = jnp.where(
-                ~finite_r,
-                SolveStatus.NONFINITE,
-                jnp.where(
-                    ~finite_dx & refactor,
-                    SolveStatus.SINGULAR,
-                    jnp.where(done & finite_dx, SolveStatus.SUCCESS, -1),
-                ),
-            )
-            keep = finite_dx & finite_r & ~diverging
-            x_new = jax.tree.map(lambda a, b: jnp.where(keep, a + b, a), x, dx)
-            last = jnp.where(keep, dx_norm, last_dx)
-            valid = ~(slow | diverging)
-            r_norm = _norm((rs, r_alpha))
-            return x_new, status, it + 1, last, r_norm, factors, valid
-
-        def cond(carry):
-            _, status, it = carry[:3]
-            return (status == -1) & (it < self.max_steps)
-
         stacked, factors, valid = state
-        inf = jnp.asarray(jnp.inf, dtype=guess.dtype)
-        x0 = step.split(guess)
-        init = (x0, jnp.asarray(-1), jnp.asarray(0), inf, inf, factors, valid)
-        # As in NewtonSolver: the residual reported is the last one evaluated.
-        x, status, iterations, _, res_norm, factors, _ = jax.lax.while_loop(cond, body, init)
-        status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
+        x, status, iterations, res_norm, factors = chord_newton(
+            self,
+            lambda x: step.residual(*x),
+            lambda x: step.factorize(x[0]),
+            lambda factors, r: step.solve_linear(factors, *r),
+            step.split(guess),
+            factors,
+            valid,
+            eqs.scale(),
+        )
         state = (stacked, factors, status == 0)
         return StepResult(step.join(*x), status, iterations, res_norm, state)

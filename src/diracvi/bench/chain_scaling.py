@@ -165,6 +165,20 @@ def _label(masses: int, steps: int | None = None) -> str:
     return base if steps is None else f"{base}, {steps:,} steps"
 
 
+def _not_run(masses: int, what: str, why) -> Row:
+    """The row of a size that was not measured, saying why."""
+    return Row(
+        NAME,
+        f"{_label(masses)}: {what}",
+        None,
+        None,
+        None,
+        STREAM_TARGET,
+        notes=f"not run: {why}",
+        status="not run",
+    )
+
+
 def run(settings: Settings) -> Result:
     sizes = QUICK_SIZES if settings.quick else SIZES
     run_target, budget = RUN_TARGET[settings.quick], BUDGET[settings.quick]
@@ -176,18 +190,7 @@ def run(settings: Settings) -> Result:
         if stopped is None and timeout < MIN_TIMEOUT:
             stopped = f"the {budget:.0f} s budget of this benchmark was spent"
         if stopped is not None:
-            rows.append(
-                Row(
-                    NAME,
-                    f"{_label(masses)}: {what}",
-                    None,
-                    None,
-                    None,
-                    STREAM_TARGET,
-                    notes=f"not run: {stopped}",
-                    status="not run",
-                )
-            )
+            rows.append(_not_run(masses, what, stopped))
             continue
         code = "from diracvi.bench.chain_scaling import _worker_main; _worker_main()"
         factor_kernel = "0" if settings.quick else "1"
@@ -196,18 +199,7 @@ def run(settings: Settings) -> Result:
             m = run_child(args, timeout=timeout)
         except WorkerFailed as exc:
             stopped = f"N={masses:,} {exc}"
-            rows.append(
-                Row(
-                    NAME,
-                    f"{_label(masses)}: {what}",
-                    None,
-                    None,
-                    None,
-                    STREAM_TARGET,
-                    notes=f"not run: {exc}",
-                    status="not run",
-                )
-            )
+            rows.append(_not_run(masses, what, exc))
             continue
         measured.append(m)
         per_step = {name: t / m["steps"] for name, t in m["min_s"].items()}
