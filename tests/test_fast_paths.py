@@ -263,3 +263,19 @@ def test_grouped_diagnostics_equal_the_per_subsystem_sum():
         plain = _plain(problem.system, rule, "plus", 0.01)(a, b)
         np.testing.assert_allclose(grouped[0], plain[0], rtol=1e-14)
         np.testing.assert_allclose(grouped[1], plain[1], rtol=1e-14, atol=1e-15)
+
+
+@pytest.mark.parametrize("solver", [dv.NewtonSolver, dv.PartitionedSolver])
+@pytest.mark.parametrize(
+    ("arg", "value"), [("rtol", -1.0), ("floor", 0.0), ("max_steps", 0), ("contraction", 2.0)]
+)
+def test_solver_settings_that_cannot_work_are_refused(solver, arg, value):
+    with pytest.raises(dv.ModelError, match=rf"{solver.__name__}\({arg}={value!r}\)"):
+        solver(**{arg: value})
+
+
+def test_affine_solver_settings_are_checked():
+    with pytest.raises(dv.ModelError, match="fallback must be a step solver"):
+        dv.AffineSolver(fallback="newton")
+    with pytest.raises(dv.ModelError, match=r"verify_rtol=0\.5"):
+        dv.AffineSolver(verify_rtol=0.5)

@@ -29,6 +29,7 @@ import jax.scipy.linalg as jsl
 import numpy as np
 
 from .._equations import StepEquations, new_momentum, residual
+from .._errors import ModelError
 from .base import StepSolver
 from .newton import NewtonSolver
 
@@ -53,6 +54,20 @@ class AffineSolver(eqx.Module):
     fallback: StepSolver = eqx.field(default_factory=NewtonSolver)
     detect_rtol: float = eqx.field(static=True, default=1e-12)
     verify_rtol: float = eqx.field(static=True, default=1e-11)
+
+    def __check_init__(self):
+        if not isinstance(self.fallback, StepSolver):
+            raise ModelError(
+                f"AffineSolver(fallback={self.fallback!r}): the fallback must be a step "
+                "solver, e.g. dv.NewtonSolver() or dv.PartitionedSolver()."
+            )
+        for arg in ("detect_rtol", "verify_rtol"):
+            value = getattr(self, arg)
+            if not (isinstance(value, int | float) and 0.0 < float(value) < 1e-3):
+                raise ModelError(
+                    f"AffineSolver({arg}={value!r}): must be a small positive tolerance "
+                    "(below 1e-3), e.g. 1e-12 (detect) or 1e-11 (verify)."
+                )
 
 
 class AffineStepMap(eqx.Module):

@@ -15,6 +15,8 @@ from typing import Any, NamedTuple
 import equinox as eqx
 import jax
 
+from .._errors import ModelError
+
 
 class SolveStatus(enum.IntEnum):
     SUCCESS = 0
@@ -29,6 +31,26 @@ class StepResult(NamedTuple):
     iterations: jax.Array  # residual evaluations
     residual_norm: jax.Array  # ‖r‖∞ at the last iterate evaluated
     state: Any  # carried to the next step
+
+
+def check_newton_options(solver) -> None:
+    """Reject Newton settings that cannot work, naming the argument and a valid value."""
+    name = type(solver).__name__
+    for arg, example in (("rtol", "1e-13"), ("floor", "1e-9")):
+        value = getattr(solver, arg)
+        if not (isinstance(value, int | float) and 0.0 < float(value) < 1.0):
+            raise ModelError(
+                f"{name}({arg}={value!r}): must be a number in (0, 1), e.g. {example}."
+            )
+    steps = solver.max_steps
+    if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
+        raise ModelError(f"{name}(max_steps={steps!r}): must be a whole number ≥ 1, e.g. 40.")
+    value = solver.contraction
+    if not (isinstance(value, int | float) and 0.0 < float(value) < 1.0):
+        raise ModelError(
+            f"{name}(contraction={value!r}): must be in (0, 1) — reused factors must shrink "
+            "each update — e.g. 0.25."
+        )
 
 
 class StepSolver(eqx.Module):

@@ -24,7 +24,7 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
-from .base import SolveStatus, StepResult, StepSolver
+from .base import SolveStatus, StepResult, StepSolver, check_newton_options
 
 
 def _norm(tree):
@@ -112,6 +112,9 @@ class NewtonSolver(StepSolver):
     floor: float = eqx.field(static=True, default=1e-9)
     reuse_jacobian: bool = eqx.field(static=True, default=True)
     contraction: float = eqx.field(static=True, default=0.25)
+
+    def __check_init__(self):
+        check_newton_options(self)
 
     def init(self, eqs):
         size = eqs.size

@@ -83,7 +83,7 @@ from .._equations import SCHEMES, new_momentum, ordered, residual
 from .._errors import ModelError
 from .._interconnect import InterconnectedSystem
 from .._validate import check_choice
-from .base import StepResult, StepSolver
+from .base import StepResult, StepSolver, check_newton_options
 from .newton import chord_newton
 
 
@@ -546,6 +546,9 @@ class PartitionedSolver(StepSolver):
     floor: float = eqx.field(static=True, default=1e-9)
     reuse_jacobian: bool = eqx.field(static=True, default=True)
     contraction: float = eqx.field(static=True, default=0.25)
+
+    def __check_init__(self):
+        check_newton_options(self)
 
     @staticmethod
     def check(system, rule="retraction", scheme: str = "plus") -> None:
