@@ -175,24 +175,25 @@ class _TornDampedChain(dv.DiracSystem):
     def _right(q, v):
         return 0.5 * v[1] ** 2 - 0.5 * (q[1] - q[0]) ** 2
 
-    def lagrangian(self, q, v):
+    def lagrangian(self, q, v, t=0.0):
         return self._left(q[:2], v[:2]) + self._right(q[2:], v[2:])
 
-    def force(self, q, v):
+    def force(self, q, v, t=0.0):
         return jnp.array([0.0, 0.0, 0.0, -0.3]) * v
 
-    def constraint_forms(self, q):
+    def constraint_forms(self, q, t=0.0):
         return jnp.array([[0.0, 1.0, -1.0, 0.0]])
 
-    def discrete_momenta(self, rule, qk, qk1, h):
+    def discrete_momenta(self, rule, qk, qk1, h, tk=0.0):
         def piece(lag, a, b):
-            return jax.grad(lambda x, y: rule.discrete_lagrangian(lag, x, y, h), argnums=(0, 1))(
-                a, b
-            )
+            return jax.grad(
+                lambda x, y: rule.discrete_lagrangian(lambda q, v, t: lag(q, v), x, y, h, tk),
+                argnums=(0, 1),
+            )(a, b)
 
         l1, l2 = piece(self._left, qk[:2], qk1[:2])
         r1, r2 = piece(self._right, qk[2:], qk1[2:])
-        f_minus, f_plus = rule.discrete_forces(self.force, qk, qk1, h)
+        f_minus, f_plus = rule.discrete_forces(self.force, qk, qk1, h, tk)
         return -jnp.concatenate([l1, r1]) - f_minus, jnp.concatenate([l2, r2]) + f_plus
 
 

@@ -1,5 +1,8 @@
 r"""Residuals of the (+) and (−) discrete Lagrange–Dirac equations.
 
+Every step covers ``[t_k, t_k + h]``; ``t`` below is always ``t_k``, the earlier end,
+whichever way the scheme runs (the rule picks its own nodes from it).
+
 (+) equations, forward in time: given ``(q_k, p_k)`` solve for ``x = (q_{k+1}, μ_k)``::
 
     p_k     = −D₁L_d(q_k, q_{k+1}) − f_d^−(q_k, q_{k+1}) + A(q_k)ᵀ μ_k
@@ -34,31 +37,55 @@ def split(system: DiracSystem, x):
     return x[: system.n], x[system.n :]
 
 
-def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x):
+def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x, t=0.0):
     """Residual of the step equations at unknowns ``x`` from the known state ``(q, p)``.
 
     For ``scheme="plus"``, ``(q, p) = (q_k, p_k)`` and ``x = (q_{k+1}, μ_k)``; for
-    ``"minus"``, ``(q, p) = (q_{k+1}, p_{k+1})`` and ``x = (q_k, μ)``.
+    ``"minus"``, ``(q, p) = (q_{k+1}, p_{k+1})`` and ``x = (q_k, μ)``. ``t = t_k``.
     """
     q_other, mu = split(system, x)
     if scheme == "plus":
         qk, qk1 = q, q_other
-        p_left, _ = system.discrete_momenta(rule, qk, qk1, h)
-        r_mom = p_left + system.multiplier_force(qk, mu) - p
+        p_left, _ = system.discrete_momenta(rule, qk, qk1, h, t)
+        r_mom = p_left + system.multiplier_force(qk, mu, t) - p
     else:
         qk, qk1 = q_other, q
-        _, p_right = system.discrete_momenta(rule, qk, qk1, h)
-        r_mom = p_right + system.multiplier_force(qk1, mu) - p
-    r_con = system.discrete_constraints(rule, scheme, qk, qk1, h)
+        _, p_right = system.discrete_momenta(rule, qk, qk1, h, t)
+        r_mom = p_right + system.multiplier_force(qk1, mu, t + h) - p
+    r_con = system.discrete_constraints(rule, scheme, qk, qk1, h, t)
     return jnp.concatenate([r_mom, r_con])
 
 
-def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x):
+def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x, t=0.0):
     """The explicit line: ``p_{k+1} = D₂L_d + f_d^+`` (plus) or ``p_k = −D₁L_d − f_d^−``."""
     q_other, _ = split(system, x)
     if scheme == "plus":
-        return system.discrete_momenta(rule, q, q_other, h)[1]
-    return system.discrete_momenta(rule, q_other, q, h)[0]
+        return system.discrete_momenta(rule, q, q_other, h, t)[1]
+    return system.discrete_momenta(rule, q_other, q, h, t)[0]
+
+
+def reaction_impulse(system: DiracSystem, scheme: str, h, q, mu, t=0.0):
+    """The constraint impulse ``A(q_known, t_known)ᵀμ`` on the known end's momentum line."""
+    return system.multiplier_force(q, mu, t if scheme == "plus" else t + h)
+
+
+def nodal_momentum(
+    system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, mu, p_new, t, first
+):
+    r"""The momentum at the new node to the rule's order: ``p_new − s·C`` with ``C`` the
+    step's constraint impulse and ``s`` = :meth:`QuadratureRule.impulse_share`.
+
+    The (±) equations put the whole impulse ``C = A(·)ᵀμ`` on the known end's line, so
+    the stepped momenta lag the true ones by ``s·C`` (for a symmetric rule, half the
+    impulse belongs to each end). On the first step of a run the given momentum carries
+    no lag, so the multiplier absorbed only ``(1 − s)`` of the impulse: there
+    ``C/(1 − s)`` is the impulse. Only directions in ``range A(·)ᵀ`` change, so this
+    momentum and ``p_new`` step to the same positions.
+    """
+    share = rule.impulse_share()
+    impulse = reaction_impulse(system, scheme, h, q, mu, t)
+    scale = jnp.where(first, share / (1.0 - share), share)
+    return p_new - scale * impulse
 
 
 def ordered(scheme: str, q, q_other):
@@ -80,16 +107,17 @@ class StepEquations(eqx.Module):
     h: jax.Array
     q: jax.Array
     p: jax.Array
+    t: jax.Array | float = 0.0  # t_k, the earlier end of the step
 
     @property
     def size(self) -> int:
         return self.system.n + self.system.m
 
     def residual(self, x):
-        return residual(self.system, self.rule, self.scheme, self.h, self.q, self.p, x)
+        return residual(self.system, self.rule, self.scheme, self.h, self.q, self.p, x, self.t)
 
     def momentum(self, x):
-        return new_momentum(self.system, self.rule, self.scheme, self.h, self.q, x)
+        return new_momentum(self.system, self.rule, self.scheme, self.h, self.q, x, self.t)
 
     def scale(self):
         """The size against which Newton's relative tolerance is measured."""

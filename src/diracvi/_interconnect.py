@@ -27,7 +27,7 @@ import numpy as np
 
 from ._config import ensure_float64
 from ._errors import ModelError
-from ._system import DiracSystem, LagrangeDiracSystem
+from ._system import DiracSystem, LagrangeDiracSystem, with_row_order
 from ._validate import check_forms_array, check_name, eval_shape
 
 
@@ -265,26 +265,47 @@ class InterconnectedSystem(DiracSystem):
     def _split(self, x):
         return [x[a:b] for a, b in zip(self._offsets[:-1], self._offsets[1:], strict=True)]
 
-    def lagrangian(self, q, v):
-        r"""``L = Σ_i L^i(q_i, v_i)``."""
+    @property
+    def time_dependent(self) -> bool:
+        return any(s.time_dependent for s in self.subsystems)
+
+    @property
+    def affine_constraints(self) -> bool:
+        return any(s.affine_constraints for s in self.subsystems)
+
+    @property
+    def constraints_time_dependent(self) -> bool:
+        return any(s.constraints_time_dependent for s in self.subsystems)
+
+    def lagrangian(self, q, v, t=0.0):
+        r"""``L = Σ_i L^i(q_i, v_i, t)``."""
         return sum(
-            sub.lagrangian(qi, vi)
+            sub.lagrangian(qi, vi, t)
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
         )
 
-    def force(self, q, v):
+    def force(self, q, v, t=0.0):
         r"""``F = Σ_i π_{Q_i}^* F_i``: each subsystem's force, pulled back to Q."""
         return jnp.concatenate(
             [
-                sub.force(qi, vi)
+                sub.force(qi, vi, t)
                 for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
             ]
         )
 
-    def energy(self, q, v):
+    def energy(self, q, v, t=0.0):
         return sum(
-            sub.energy(qi, vi)
+            sub.energy(qi, vi, t)
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
+        )
+
+    def position_constraints(self, q, t=0.0):
+        """Every subsystem's holonomic constraints ``g^i(q_i, t)``, stacked."""
+        return jnp.concatenate(
+            [
+                sub.position_constraints(qi, t)
+                for sub, qi in zip(self.subsystems, self._split(q), strict=True)
+            ]
         )
 
     def _port_arrays(self):
@@ -327,7 +348,7 @@ class InterconnectedSystem(DiracSystem):
             force = force + general.T @ lam[self._form_row_index()]
         return force
 
-    def interaction_constraints(self, rule, side, qk, qk1, h):
+    def interaction_constraints(self, rule, side, qk, qk1, h, tk=0.0):
         r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``."""
         out = jnp.zeros(len(self._interaction_names), dtype=qk.dtype)
         if self._port_index:
@@ -335,15 +356,16 @@ class InterconnectedSystem(DiracSystem):
             v = (qk1 - qk) / h
             out = out.at[rows].set(v[a] - v[b])
         if self.interactions:
-            general = rule.discrete_constraints(self.general_forms, side, qk, qk1, h)
+            forms = self.general_forms
+            general = rule.discrete_constraints(lambda q, t: forms(q), side, qk, qk1, h, tk)
             out = out.at[self._form_row_index()].set(general)
         return out
 
-    def constraint_forms(self, q):
-        r"""``[⊕ A_i(q_i); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
+    def constraint_forms(self, q, t=0.0):
+        r"""``[⊕ A_i(q_i, t); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
         blocks = []
         for k, (sub, qi) in enumerate(zip(self.subsystems, self._split(q), strict=True)):
-            a = sub.constraint_forms(qi)
+            a = sub.constraint_forms(qi, t)
             left = jnp.zeros((a.shape[0], self._offsets[k]))
             right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))
             blocks.append(jnp.concatenate([left, a, right], axis=1))
@@ -357,21 +379,21 @@ class InterconnectedSystem(DiracSystem):
             start += sub.m
         return out, mu[start:]
 
-    def multiplier_force(self, q, mu):
-        r"""``A_i(q_i)ᵀ μ_i`` per subsystem, plus ``B(q)ᵀ λ`` over the whole of Q."""
+    def multiplier_force(self, q, mu, t=0.0):
+        r"""``A_i(q_i, t)ᵀ μ_i`` per subsystem, plus ``B(q)ᵀ λ`` over the whole of Q."""
         mus, lam = self._split_multipliers(mu)
         own = jnp.concatenate(
             [
-                sub.multiplier_force(qi, mi)
+                sub.multiplier_force(qi, mi, t)
                 for sub, qi, mi in zip(self.subsystems, self._split(q), mus, strict=True)
             ]
         )
         return own + self.interaction_force(q, lam)
 
-    def discrete_momenta(self, rule, qk, qk1, h):
+    def discrete_momenta(self, rule, qk, qk1, h, tk=0.0):
         r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked."""
         parts = [
-            sub.discrete_momenta(rule, a, b, h)
+            sub.discrete_momenta(rule, a, b, h, tk)
             for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
         ]
         return (
@@ -379,39 +401,113 @@ class InterconnectedSystem(DiracSystem):
             jnp.concatenate([p[1] for p in parts]),
         )
 
-    def discrete_constraints(self, rule, side, qk, qk1, h):
+    def discrete_constraints(self, rule, side, qk, qk1, h, tk=0.0):
         r"""Each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product retraction)."""
         own = [
-            sub.discrete_constraints(rule, side, a, b, h)
+            sub.discrete_constraints(rule, side, a, b, h, tk)
             for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
         ]
-        return jnp.concatenate([*own, self.interaction_constraints(rule, side, qk, qk1, h)])
+        return jnp.concatenate([*own, self.interaction_constraints(rule, side, qk, qk1, h, tk)])
 
     # ------------------------------------------------------------ monolithic
+    @property
+    def holonomic_mask(self) -> tuple[bool, ...]:
+        """For each constraint row: is it a holonomic row of a subsystem?"""
+        own = tuple(flag for sub in self.subsystems for flag in sub.holonomic_mask)
+        return own + (False,) * len(self._interaction_names)
+
+    def one_forms(self, q, t=0.0):
+        r"""The one-form rows only: ``[⊕ A_i(q_i, t); B(q)]`` (holonomic rows left out)."""
+        blocks = []
+        for k, (sub, qi) in enumerate(zip(self.subsystems, self._split(q), strict=True)):
+            a = sub.one_forms(qi, t)
+            left = jnp.zeros((a.shape[0], self._offsets[k]))
+            right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))
+            blocks.append(jnp.concatenate([left, a, right], axis=1))
+        blocks.append(self.interaction_forms(q))
+        return jnp.concatenate(blocks, axis=0)
+
+    def constraint_offset(self, q, t=0.0):
+        """The affine terms of the one-form rows (zero for linear rows), or ``None``."""
+        if not any(s.constraint_offset(qi, t) is not None for s, qi in self._pairs(q)):
+            return None
+        parts = []
+        for sub, qi in self._pairs(q):
+            b = sub.constraint_offset(qi, t)
+            rows = sum(not flag for flag in sub.holonomic_mask)
+            parts.append(jnp.zeros(rows, dtype=qi.dtype) if b is None else b)
+        parts.append(jnp.zeros(len(self._interaction_names), dtype=q.dtype))
+        return jnp.concatenate(parts)
+
+    def _pairs(self, q):
+        return zip(self.subsystems, self._split(q), strict=True)
+
     def monolithic(self) -> LagrangeDiracSystem:
         r"""The single system ``(Σ L^i, (⊕Δ_i) ∩ Σ, Σ π_i^* F_i)`` on the same coordinates.
 
-        Its one-forms are the stacked ``[⊕A_i; B]`` and its step equations are formed
-        by differentiating the summed discrete Lagrangian in one piece — a different
-        computation from the per-subsystem assembly, which is what makes the comparison
-        a check of the paper's theorem.
+        Its one-forms are the stacked ``[⊕A_i; B]`` (with the subsystems' affine terms),
+        its holonomic constraints the stacked ``g_i``, its rows in the interconnection's
+        order, and its step equations are formed by differentiating the summed discrete
+        Lagrangian in one piece — a different computation from the per-subsystem
+        assembly, which is what makes the comparison a check of the paper's theorem.
         """
         subsystems, split = self.subsystems, self._split
+        timed = self.time_dependent
 
-        def lagrangian(q, v):
+        def lagrangian(q, v, t=0.0):
             return sum(
-                s.lagrangian(a, b) for s, a, b in zip(subsystems, split(q), split(v), strict=True)
+                s.lagrangian(a, b, t)
+                for s, a, b in zip(subsystems, split(q), split(v), strict=True)
             )
 
-        forms = self.constraint_forms
-        return LagrangeDiracSystem(
-            self.coords,
-            lagrangian,
-            constraints=(lambda q: forms(q)) if self.m else None,
-            force=(lambda q, v, f=self.force: f(q, v)) if self.has_force else None,
-            name=self.name,
-            constraint_names=self.constraint_names if self.m else None,
+        mask = self.holonomic_mask
+        m_forms = mask.count(False)
+        q_probe = jnp.zeros(self.n)
+        with_offset = self.constraint_offset(q_probe) is not None
+        forms, offset, held, force = (
+            self.one_forms,
+            self.constraint_offset,
+            self.position_constraints,
+            self.force,
         )
+        if timed:  # the driven forms take t; autonomous ones keep the two-argument form
+            parts = dict(
+                lagrangian=lambda q, v, t: lagrangian(q, v, t),
+                constraints=lambda q, t: forms(q, t),
+                constraint_offset=lambda q, t: offset(q, t),
+                holonomic=lambda q, t: held(q, t),
+                force=lambda q, v, t: force(q, v, t),
+            )
+        else:
+            parts = dict(
+                lagrangian=lambda q, v: lagrangian(q, v),
+                constraints=lambda q: forms(q),
+                constraint_offset=lambda q: offset(q),
+                holonomic=lambda q: held(q),
+                force=lambda q, v: force(q, v),
+            )
+        names = self.constraint_names
+        mono = LagrangeDiracSystem(
+            self.coords,
+            parts["lagrangian"],
+            constraints=parts["constraints"] if m_forms else None,
+            force=parts["force"] if self.has_force else None,
+            name=self.name,
+            constraint_names=[c for c, h in zip(names, mask, strict=True) if not h] or None,
+            constraint_offset=parts["constraint_offset"] if with_offset else None,
+            holonomic=parts["holonomic"] if any(mask) else None,
+            holonomic_names=[c for c, h in zip(names, mask, strict=True) if h] or None,
+        )
+        if any(mask):
+            # keep the interconnection's row order: its j-th row is the monolithic
+            # system's next one-form row, or (holonomic) its next g row after all forms
+            forms_seen, held_seen, order = 0, 0, []
+            for flag in mask:
+                order.append(m_forms + held_seen if flag else forms_seen)
+                held_seen += flag
+                forms_seen += not flag
+            mono = with_row_order(mono, order, names)
+        return mono
 
     @property
     def has_force(self) -> bool:

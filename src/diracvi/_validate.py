@@ -114,6 +114,19 @@ def check_positive_float(arg: str, value) -> float:
     return value
 
 
+def check_float(arg: str, value) -> float:
+    """A finite real number (a time, say)."""
+    if isinstance(value, bool) or not isinstance(value, numbers.Real | np.ndarray | np.generic):
+        raise ModelError(f"{arg}={_short(value)} must be a real number, e.g. {arg}=0.0.")
+    try:
+        value = float(value)
+    except (TypeError, ValueError) as exc:
+        raise ModelError(f"{arg}={_short(value)} must be a single real number.") from exc
+    if not math.isfinite(value):
+        raise ModelError(f"{arg}={value!r} must be finite, e.g. {arg}=0.0.")
+    return value
+
+
 def check_positive_int(arg: str, value) -> int:
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) <= 0:
         raise ModelError(f"{arg}={_short(value)} must be a whole number ≥ 1, e.g. {arg}=1000.")
