@@ -25,7 +25,7 @@ from ._trajectory import Trajectory
 
 
 def fingerprint(
-    system, q0, p0, *, dt, steps, scheme, discretization, solver, chunk, save=(1, True)
+    system, q0, p0, *, dt, steps, scheme, discretization, solver, chunk, save=(1, True), t0=0.0
 ) -> str:
     """A hash of everything that determines the run's numbers."""
     description = json.dumps(
@@ -34,6 +34,7 @@ def fingerprint(
             "constraints": list(system.constraint_names),
             "system": repr(system),
             "dt": float(dt).hex(),
+            "t0": float(t0).hex(),
             "steps": int(steps),
             "scheme": scheme,
             "discretization": discretization,

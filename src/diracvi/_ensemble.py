@@ -14,7 +14,7 @@ from ._simulate import _failure_message, check_run, prepared_plan
 from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._trajectory import Trajectory
-from ._validate import check_state
+from ._validate import check_float, check_state
 
 
 class Ensemble:
@@ -56,9 +56,11 @@ class Ensemble:
         if not -len(self) <= i < len(self):
             raise IndexError(f"member {i} out of range for an ensemble of {len(self)}")
         saved = int(self.saved[i])
-        q = p = mu = con = None
+        q = p = mu = con = p_nodal = None
         if self.q is not None:
             q, p = self.q[i, : saved + 1], self.p[i, : saved + 1]
+            if getattr(self, "p_nodal", None) is not None:
+                p_nodal = self.p_nodal[i, : saved + 1]
             mu, con = self.multipliers[i, :saved], self.constraint_residual[i, :saved]
         code = int(self.status[i])
         message = "success"
@@ -72,6 +74,7 @@ class Ensemble:
             t=self.t0 + self.sign * self.dt * self.step_index[i, : saved + 1],
             q=q,
             p=p,
+            p_nodal=p_nodal,
             multipliers=mu,
             energy=self.energy[i, :saved],
             constraint_residual=con,
@@ -149,20 +152,22 @@ def simulate_ensemble(
             f"q0 has shape {q0.shape} but p0 has shape {p0.shape}: give one momentum row "
             "per position row."
         )
-    plan = prepared_plan(system, run, solver, q0[0], p0[0])
-    q0, p0 = plan.checker.check_batch(q0, p0, project_initial=bool(project_initial))
+    t0 = check_float("t0", t0)
+    plan = prepared_plan(system, run, solver, q0[0], p0[0], t0)
+    q0, p0 = plan.checker.check_batch(q0, p0, project_initial=bool(project_initial), t0=t0)
+    clock = np.array([t0, 0.0])
 
     members, m = len(q0), shape.m
     carry0 = (q0, p0, q0, np.zeros((members, m)))
     affine = plan.step_map is not None
     fallback_from = None
     carry, fail, saved = plan.chunk(affine, k, bool(save_states), steps // k, batched=True)(
-        plan.h_array, carry0
+        plan.h_array, clock, carry0
     )
     if affine and np.any(fail[0] == AFFINE_REJECTED):
         affine, fallback_from = False, 0
         carry, fail, saved = plan.chunk(False, k, bool(save_states), steps // k, batched=True)(
-            plan.h_array, carry0
+            plan.h_array, clock, carry0
         )
     n_good = saved["n_good"]  # (B, blocks)
     full = n_good == k
@@ -188,17 +193,20 @@ def simulate_ensemble(
         a[~keep] = np.nan  # boolean index over the (member, record) axes
         return a
 
-    q = p = mu = con = None
+    q = p = mu = con = p_nodal = None
     if save_states:
         q = mask(np.concatenate([q0[:, None], saved["q"]], axis=1), 1)
         p = mask(np.concatenate([p0[:, None], saved["p"]], axis=1), 1)
         mu, con = mask(saved["mu"]), mask(saved["con"])
+        if "p_node" in saved:
+            p_nodal = mask(np.concatenate([p0[:, None], saved["p_node"]], axis=1), 1)
     status = np.where(count < full.shape[1], fail[0], 0)
     sign = 1.0 if scheme == "plus" else -1.0
     ensemble = Ensemble(
         t=t0 + sign * h * np.arange(steps // k + 1) * k,
         q=q,
         p=p,
+        p_nodal=p_nodal,
         multipliers=mu,
         constraint_residual=con,
         energy=mask(saved["energy"]),

@@ -22,15 +22,15 @@ GROUPED_MIN_SUBSYSTEMS = 8
 
 
 def _plain(system, rule, scheme, h):
-    def one(a, b):
-        energy = system.energy(rule.node(a, b), (b - a) / h)
-        return energy, system.discrete_constraints(rule, scheme, a, b, h)
+    def one(a, b, tk=0.0):
+        energy = system.energy(rule.node(a, b), (b - a) / h, rule.time_node(tk, h))
+        return energy, system.discrete_constraints(rule, scheme, a, b, h, tk)
 
     return one
 
 
 def step_diagnostics(system, rule, scheme: str, h):
-    """``(q_k, q_{k+1}) ↦ (E, ω_d)`` for one step (traceable, vmappable over steps)."""
+    """``(q_k, q_{k+1}, t_k) ↦ (E, ω_d)`` for one step (traceable, vmappable over steps)."""
     subs = getattr(system, "subsystems", ())
     if not isinstance(system, InterconnectedSystem) or len(subs) < GROUPED_MIN_SUBSYSTEMS:
         return _plain(system, rule, scheme, h)
@@ -54,15 +54,15 @@ def step_diagnostics(system, rule, scheme: str, h):
         c_index = np.stack([np.arange(own[i], own[i + 1]) for i in members])
         groups.append((members, stacked, arrays[0], rest, q_index, c_index))
 
-    def one(a, b):
+    def one(a, b, tk=0.0):
         energy = jnp.zeros((), a.dtype)
         con = jnp.zeros(system.m, a.dtype)
         for _, stacked, single, rest, q_index, c_index in groups:
 
             def local(arrays, x, y, rest=rest):
                 sub = eqx.combine(arrays, rest)
-                e = sub.energy(rule.node(x, y), (y - x) / h)
-                return e, sub.discrete_constraints(rule, scheme, x, y, h)
+                e = sub.energy(rule.node(x, y), (y - x) / h, rule.time_node(tk, h))
+                return e, sub.discrete_constraints(rule, scheme, x, y, h, tk)
 
             if stacked is None:
                 e, c = local(single, a[q_index[0]], b[q_index[0]])
@@ -72,7 +72,7 @@ def step_diagnostics(system, rule, scheme: str, h):
             energy = energy + jnp.sum(e)
             if c_index.size:
                 con = con.at[c_index.ravel()].set(c.reshape(-1))
-        con = con.at[own[-1] :].set(system.interaction_constraints(rule, scheme, a, b, h))
+        con = con.at[own[-1] :].set(system.interaction_constraints(rule, scheme, a, b, h, tk))
         return energy, con
 
     return one

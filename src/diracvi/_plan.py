@@ -91,7 +91,7 @@ def equation_names(system):
 class Plan:
     """The stepping method of one configuration and its compiled chunks."""
 
-    def __init__(self, system, rule, scheme, h, solver, q0, p0):
+    def __init__(self, system, rule, scheme, h, solver, q0, p0, t0=0.0):
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
         self.h_array = np.asarray(h, dtype=np.float64)
         self.step_map: AffineStepMap | None = None
@@ -107,7 +107,9 @@ class Plan:
                 # for linear equations too, at O(n) per step against the dense map's O(n²)
                 self.affine_reason = "a large interconnection is stepped by the partitioned solver"
             else:
-                self.step_map, self.affine_reason = build(system, rule, scheme, h, q0, p0, options)
+                self.step_map, self.affine_reason = build(
+                    system, rule, scheme, h, q0, p0, options, t0
+                )
             if self.step_map is not None:
                 check_step_jacobian(
                     np.asarray(self.step_map.jacobian),
@@ -117,7 +119,7 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
-        self.checker = Checker(system, linear=True, q_probe=q0)
+        self.checker = Checker(system, linear=not system.time_dependent, q_probe=q0)
         self.solvable_checked = self.step_map is not None  # the affine build checked J_x
         self._chunks: dict = {}
 
@@ -138,17 +140,17 @@ class Plan:
         return self._chunks[key]
 
 
-def get_plan(system, rule, scheme, h, solver, q0, p0) -> Plan:
+def get_plan(system, rule, scheme, h, solver, q0, p0, t0=0.0) -> Plan:
     try:
         key = (id(system), rule.name, scheme, h, solver)
         hash(key)
     except TypeError:  # an unhashable solver: no caching
-        return Plan(system, rule, scheme, h, solver, q0, p0)
+        return Plan(system, rule, scheme, h, solver, q0, p0, t0)
     hit = _CACHE.get(key)
     if hit is not None and hit[0]() is system:
         _CACHE.move_to_end(key)
         return hit[1]
-    plan = Plan(system, rule, scheme, h, solver, q0, p0)
+    plan = Plan(system, rule, scheme, h, solver, q0, p0, t0)
     _CACHE[key] = (weakref.ref(system, lambda _, c=_CACHE, key=key: c.pop(key, None)), plan)
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)

@@ -26,23 +26,30 @@ from ._plan import Layout, equation_names, get_plan, layout, unknown_names
 from ._solvers import SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
-from ._stepping import AFFINE_REJECTED
+from ._stepping import AFFINE_REJECTED, keeps_nodal
 from ._system import DiracSystem
 from ._trajectory import STATUS_MESSAGES, Trajectory
-from ._validate import check_choice, check_positive_float, check_positive_int, check_state
+from ._validate import (
+    check_choice,
+    check_float,
+    check_positive_float,
+    check_positive_int,
+    check_state,
+)
 
 
 @eqx.filter_jit
-def _step_jacobian(system, rule, scheme, q0, p0, h):
+def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
     x0 = jnp.concatenate([q0, jnp.zeros(system.m)])
-    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x))(x0)
+    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
 
 
-def check_solvable(system, rule, scheme, q0, p0, h) -> None:
+def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
     """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular."""
     if system.n + system.m > DENSE_CHECK_LIMIT:
         return
-    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h))
+    tk = t0 if scheme == "plus" else t0 - float(h)
+    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
     check_step_jacobian(
         jac,
         unknown_names=unknown_names(system, scheme),
@@ -76,10 +83,12 @@ def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
 class _March:
     """The run so far: host-side arrays of the saved states and the chunk carry."""
 
-    def __init__(self, system: Layout, q0, p0, k: int, save_states: bool):
-        self.system, self.k, self.save_states = system, k, save_states
+    def __init__(self, system: Layout, q0, p0, k: int, save_states: bool, nodal: bool):
+        self.system, self.k, self.save_states, self.nodal = system, k, save_states, nodal
         self.index = [np.zeros(1, dtype=np.int64)]
         self.states = [(np.asarray(q0)[None], np.asarray(p0)[None])] if save_states else []
+        # the given p0 is the momentum at t0 itself (no impulse lag)
+        self.nodal_p = [np.asarray(p0)[None]] if nodal else []
         self.diag: list[tuple] = []  # (energy, violation, iterations[, mu, con])
         self.carry = (q0, p0, q0, np.zeros(system.m))
         self.done = 0
@@ -91,6 +100,8 @@ class _March:
         self.index = [saved.step_index]
         if self.save_states:
             self.states = [(saved.q, saved.p)]
+        if self.nodal:
+            self.nodal_p = [saved.p_nodal]
         diag = (saved.energy, saved.constraint_violation, saved.newton_iterations)
         if self.save_states:
             diag += (saved.multipliers, saved.constraint_residual)
@@ -114,6 +125,8 @@ class _March:
         self.done += int(steps.sum())
         if self.save_states:
             self.states.append((saved["q"][:keep], saved["p"][:keep]))
+        if self.nodal:
+            self.nodal_p.append(saved["p_node"][:keep])
         diag = (saved["energy"], saved["violation"], saved["iterations"])
         if self.save_states:
             diag += (saved["mu"], saved["con"])
@@ -156,6 +169,7 @@ class _March:
             t=t0 + sign * h * index,
             q=q,
             p=p,
+            p_nodal=np.concatenate(self.nodal_p) if self.nodal else None,
             multipliers=mu,
             energy=energy,
             constraint_residual=con,
@@ -200,7 +214,14 @@ def simulate(
     ``scheme="plus"`` marches the (+) equations forward from ``(q0, p0)`` at time
     ``t0``; ``scheme="minus"`` marches the (−) equations backward from it, so ``t``
     decreases. ``discretization`` picks the quadrature rule (``"retraction"``, order 1,
-    the paper's; or ``"midpoint"``, order 2).
+    the paper's; or ``"midpoint"``, order 2). Step ``j`` covers ``[t_j, t_j + h]`` with
+    ``t_j = t0 + j·h`` (``t0 − (j+1)·h`` backward); a driven model (``L``, ``F``, ``A``,
+    ``b`` or ``g`` taking ``t``) is evaluated at the rule's time node in it.
+
+    ``p0`` is the momentum at ``t0``. ``traj.p`` holds the scheme's momenta, which under
+    the midpoint rule lag the true ones by half of each step's constraint impulse;
+    ``traj.p_nodal`` holds momenta at the nodes to the rule's order (see
+    :class:`Trajectory`).
 
     ``solver=None`` chooses the stepping method: the precomputed affine step map when
     the step equations are linear (verified on every step, with a fallback to Newton),
@@ -228,10 +249,12 @@ def simulate(
     scheme, discretization, h, steps, k, shape = run
     q0 = check_state("q0", q0, shape.n, shape.coords)
     p0 = check_state("p0", p0, shape.n, shape.coords)
-    plan = prepared_plan(system, run, solver, q0, p0)
-    q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial))
+    t0 = check_float("t0", t0)
+    plan = prepared_plan(system, run, solver, q0, p0, t0)
+    q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
 
-    march = _March(shape, q0, p0, k, bool(save_states))
+    nodal = keeps_nodal(system, plan.rule, save_states)
+    march = _March(shape, q0, p0, k, bool(save_states), nodal)
     path, key, chunk = None, None, steps
     if checkpoint is not None:
         chunk = steps if checkpoint_every is None else check_checkpoint_every(checkpoint_every, k)
@@ -247,6 +270,7 @@ def simulate(
             solver=solver,
             chunk=chunk,
             save=(k, bool(save_states)),
+            t0=t0,
         )
         saved = _checkpoint.read(path, key)
         if saved is not None:
@@ -260,8 +284,9 @@ def simulate(
     while march.done < steps and march.status == 0:
         length = min(chunk - march.done % chunk, steps - march.done)
         affine = plan.step_map is not None and march.fallback_from is None
+        clock = np.array([t0, march.done], dtype=np.float64)
         carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
-            plan.h_array, march.carry
+            plan.h_array, clock, march.carry
         )
         if affine and int(fail[0]) == AFFINE_REJECTED:
             # the equations are not affine after all: redo this chunk with the fallback
@@ -318,7 +343,7 @@ def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> 
     return RunArguments(scheme, discretization, h, steps, k, layout(system))
 
 
-def prepared_plan(system, run: RunArguments, solver, q0, p0):
+def prepared_plan(system, run: RunArguments, solver, q0, p0, t0=0.0):
     """The cached plan, with the step's solvability checked on its first use.
 
     Once per plan: the structural defects the check names (an unconnected massless port,
@@ -326,9 +351,9 @@ def prepared_plan(system, run: RunArguments, solver, q0, p0):
     Jacobian that turns singular later is reported by the failing step's status.
     """
     rule = get_rule(run.discretization)
-    plan = get_plan(system, rule, run.scheme, run.h, solver, q0, p0)
+    plan = get_plan(system, rule, run.scheme, run.h, solver, q0, p0, t0)
     if not plan.solvable_checked:
-        check_solvable(system, rule, run.scheme, q0, p0, plan.h_array)
+        check_solvable(system, rule, run.scheme, q0, p0, plan.h_array, t0)
         plan.solvable_checked = True
     return plan
 
@@ -363,9 +388,9 @@ def check_solver(solver) -> None:
     )
 
 
-def momenta(system: DiracSystem, q, v):
-    r"""Consistent momenta ``p = ∂L/∂v(q, v)`` (the continuous Legendre transform)."""
+def momenta(system: DiracSystem, q, v, t=0.0):
+    r"""Consistent momenta ``p = ∂L/∂v(q, v, t)`` (the continuous Legendre transform)."""
     ensure_float64()
     q = check_state("q", q, system.n, system.coords)
     v = check_state("v", v, system.n, system.coords)
-    return np.asarray(jax.jit(system.momentum)(q, v))
+    return np.asarray(jax.jit(system.momentum)(q, v, check_float("t", t)))

@@ -18,6 +18,11 @@ Two steppers share the block machinery:
 
 Energy and constraint residuals are evaluated after the inner scan, vectorized over the
 block, rather than inside the Newton loop.
+
+Time enters through a *clock* ``(t0, first step index)``: step ``j`` of the run covers
+``[t_j, t_j + h]`` with ``t_j = t0 + j h`` (plus) or ``t0 − (j + 1) h`` (minus), computed
+from the integer index, so a resumed run sees bitwise the same times as an uninterrupted
+one. Autonomous systems never read them (the computation is dead code to XLA).
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._equations import StepEquations, ordered, split
+from ._equations import StepEquations, nodal_momentum, ordered, split
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
@@ -38,14 +43,21 @@ from ._solvers.base import SolveStatus
 AFFINE_REJECTED = 4
 
 
-def _newton_block(system, rule, scheme, solver, h, k, carry):
+def step_times(scheme: str, h, clock, offset, length: int):
+    """``(t_k, index)`` of ``length`` steps from run step ``clock[1] + offset``."""
+    index = clock[1] + offset + jnp.arange(length, dtype=clock.dtype)
+    tk = clock[0] + index * h if scheme == "plus" else clock[0] - (index + 1.0) * h
+    return tk, index
+
+
+def _newton_block(system, rule, scheme, solver, h, k, carry, times):
     """``k`` solver steps from ``carry = (q, p, q_prev, μ_prev, state, failed)``."""
 
-    def body(c, _):
+    def body(c, tk):
         q, p, q_prev, mu_prev, state, failed = c
 
         def advance(_):
-            eqs = StepEquations(system, rule, scheme, h, q, p)
+            eqs = StepEquations(system, rule, scheme, h, q, p, tk)
             guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
             res = solver.solve(eqs, guess, state)
             q1, mu = split(system, res.x)
@@ -71,20 +83,24 @@ def _newton_block(system, rule, scheme, solver, h, k, carry):
         )
         return new, out
 
-    return jax.lax.scan(body, carry, None, length=k)
+    return jax.lax.scan(body, carry, times, length=k)
 
 
-def _affine_block(step_map, k, carry):
+def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     q, p, _, _, state, failed = carry
     n = q.shape[0]
-
-    def body(z, _):
-        z1 = step_map.advance(z)
-        return z1, z1
-
     z0 = jnp.concatenate([q, p])
     width = step_map.powers.shape[0]
-    if k >= 2 * width:
+    if step_map.driven:
+        # a driven linear model: z_{k+1} = z_k + Δ z_k + b(t_k), one offset per step
+        offsets, mu_offsets = step_map.offsets_at(system, rule, scheme, h, times)
+
+        def driven(z, b):
+            z1 = z + (step_map.delta @ z + b)
+            return z1, z1
+
+        _, zs = jax.lax.scan(driven, z0, offsets, length=k, unroll=2)
+    elif k >= 2 * width:
         # whole blocks of B steps per iteration; the surplus of the last block is dropped
         def block(z, _):
             zs = step_map.advance_block(z)
@@ -93,11 +109,18 @@ def _affine_block(step_map, k, carry):
         _, zs = jax.lax.scan(block, z0, None, length=-(-k // width))
         zs = zs.reshape(-1, z0.shape[0])[:k]
     else:
+
+        def body(z, _):
+            z1 = step_map.advance(z)
+            return z1, z1
+
         # a 2-fold unroll halves the loop overhead of these tiny steps (measured best)
         _, zs = jax.lax.scan(body, z0, None, length=k, unroll=2)
     z_end = zs[-1]
     z_from = jnp.concatenate([z0[None], zs[:-1]])
     mus = step_map.multipliers(z_from)
+    if step_map.driven:
+        mus = mus - step_map.mu_offset + mu_offsets
     q1s, p1s = zs[:, :n], zs[:, n:]
     zero = jnp.zeros(k, dtype=jnp.int32)
     nan = jnp.full(k, jnp.nan, dtype=q.dtype)
@@ -107,16 +130,22 @@ def _affine_block(step_map, k, carry):
     return new, (q1s, p1s, mus, zero, nan, status)
 
 
-def _steps(system, rule, scheme, method, h, length, carry):
+def _steps(system, rule, scheme, method, h, length, carry, times):
     """``length`` raw steps: ``(carry, (q1, p1, μ, iterations, residual, status))``."""
     if isinstance(method, AffineStepMap):
-        return _affine_block(method, length, carry)
-    return _newton_block(system, rule, scheme, method, h, length, carry)
+        return _affine_block(system, rule, scheme, method, h, length, carry, times)
+    return _newton_block(system, rule, scheme, method, h, length, carry, times)
 
 
-def _checked(system, rule, scheme, method, h, q, p, raw):
-    """Energy, constraint residual and (affine) verified status of each raw step,
-    vectorized over the steps. ``(q, p)`` is the state before the first of them."""
+def keeps_nodal(system, rule, save_states: bool) -> bool:
+    """Whether a run stores :func:`~diracvi._equations.nodal_momentum` beside ``p`` (only
+    when it differs: there are constraints and the rule shares their impulse)."""
+    return bool(save_states) and system.m > 0 and rule.impulse_share() != 0.0
+
+
+def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bool):
+    """Energy, constraint residual, (affine) verified status and nodal momentum of each
+    raw step, vectorized over the steps. ``(q, p)`` is the state before the first."""
     q1s, p1s, mus, its, res, status = raw
     q_from = jnp.concatenate([q[None], q1s[:-1]])
     p_from = jnp.concatenate([p[None], p1s[:-1]])
@@ -125,27 +154,31 @@ def _checked(system, rule, scheme, method, h, q, p, raw):
 
     diagnostics = step_diagnostics(system, rule, scheme, h)
 
-    def one(a, b, q_, p_, x):
-        energy, con = diagnostics(a, b)
+    def one(a, b, q_, p_, x, p1, tk, first):
+        energy, con = diagnostics(a, b, tk)
+        mu = x[system.n :]
+        p_node = nodal_momentum(system, rule, scheme, h, q_, mu, p1, tk, first) if nodal else p1
         if not affine:
-            return energy, con, jnp.zeros((), q_.dtype)
-        dx = method.correction(StepEquations(system, rule, scheme, h, q_, p_), x)
+            return energy, con, jnp.zeros((), q_.dtype), p_node
+        dx = method.correction(StepEquations(system, rule, scheme, h, q_, p_, tk), x)
         size = jnp.maximum(jnp.max(jnp.abs(x)), jnp.max(jnp.abs(q_), initial=0.0))
-        return energy, con, jnp.max(jnp.abs(dx), initial=0.0) / jnp.maximum(size, 1e-300)
+        return energy, con, jnp.max(jnp.abs(dx), initial=0.0) / jnp.maximum(size, 1e-300), p_node
 
     x = jnp.concatenate([q1s, mus], axis=1)
-    energy, con, correction = jax.vmap(one)(qk, qk1, q_from, p_from, x)
+    energy, con, correction, p_node = jax.vmap(one)(
+        qk, qk1, q_from, p_from, x, p1s, times, index == 0
+    )
     if affine:
         bad = ~(correction <= method.verify_rtol) | ~jnp.all(jnp.isfinite(q1s), axis=1)
         status = jnp.where(bad, AFFINE_REJECTED, status)
         res = correction
-    return energy, con, its, res, status
+    return energy, con, its, res, status, p_node
 
 
 def _first_failure(raw, checked, fail):
     """Record the first failing step of the run (code, iterations, residual, state)."""
     q1s = raw[0]
-    _, _, its, res, status = checked
+    _, _, its, res, status, _ = checked
     ok = status == 0
     bad = jnp.argmin(ok)  # the first failing step (0 when all are fine)
     first = (fail[0] == 0) & ~jnp.all(ok)
@@ -159,7 +192,7 @@ def _first_failure(raw, checked, fail):
 def _saved(raw, checked, k: int, save_states: bool):
     """Reduce steps shaped ``(blocks, k, …)`` to one saved record per block."""
     q1s, p1s, mus = raw[:3]
-    energy, con, its, _, status = checked
+    energy, con, its, _, status, p_node = checked
     ok = (status == 0).astype(jnp.int32)
     n_good = jnp.sum(jnp.cumprod(ok, axis=-1), axis=-1)
     last = jnp.maximum(n_good - 1, 0)
@@ -176,14 +209,14 @@ def _saved(raw, checked, k: int, save_states: bool):
         "iterations": jnp.sum(jnp.where(good, its, 0), axis=1),
     }
     if save_states:
-        saved.update(q=at(q1s), p=at(p1s), mu=at(mus), con=at(con))
+        saved.update(q=at(q1s), p=at(p1s), mu=at(mus), con=at(con), p_node=at(p_node))
     return saved
 
 
 def _saved_every_step(raw, checked, save_states: bool):
     """:func:`_saved` for ``k = 1``: every step is its own record."""
     q1s, p1s, mus = raw[:3]
-    energy, con, its, _, status = checked
+    energy, con, its, _, status, p_node = checked
     ok = status == 0
     saved = {
         "n_good": jnp.cumprod(ok.astype(jnp.int32)),
@@ -192,46 +225,53 @@ def _saved_every_step(raw, checked, save_states: bool):
         "iterations": its,
     }
     if save_states:
-        saved.update(q=q1s, p=p1s, mu=mus, con=con)
+        saved.update(q=q1s, p=p1s, mu=mus, con=con, p_node=p_node)
     return saved
 
 
 def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
-    """A function ``(h, carry) ↦ (carry, fail, saved)`` for ``blocks`` blocks of ``k``
-    steps; ``carry = (q, p, q_prev, μ_prev)``, ``fail`` the first failure's details.
+    """A function ``(h, clock, carry) ↦ (carry, fail, saved)`` for ``blocks`` blocks of
+    ``k`` steps; ``clock = (t0, index of the chunk's first step)``,
+    ``carry = (q, p, q_prev, μ_prev)``, ``fail`` the first failure's details.
 
     With ``k = 1`` the chunk is one flat scan whose diagnostics are vectorized over the
     whole chunk (every step is saved anyway); with ``k > 1`` an outer scan over blocks
     keeps only one record per block, so memory stays O(blocks) beyond one block.
     """
 
-    def chunk(h, carry):
+    nodal = keeps_nodal(system, rule, save_states)
+
+    def chunk(h, clock, carry):
         q, p, q_prev, mu_prev = carry
         if isinstance(method, AffineStepMap):
             state = ()
         else:
-            state = method.init(StepEquations(system, rule, scheme, h, q, p))
+            t_first = step_times(scheme, h, clock, 0, 1)[0][0]
+            state = method.init(StepEquations(system, rule, scheme, h, q, p, t_first))
         fail0 = (jnp.asarray(0), jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), q)
         init = (q, p, q_prev, mu_prev, state, jnp.asarray(False))
 
-        def block(inner, fail, length):
-            raw = _steps(system, rule, scheme, method, h, length, inner)
-            new, raw = raw
-            checked = _checked(system, rule, scheme, method, h, inner[0], inner[1], raw)
+        def block(inner, fail, offset, length):
+            times, index = step_times(scheme, h, clock, offset, length)
+            new, raw = _steps(system, rule, scheme, method, h, length, inner, times)
+            checked = _checked(
+                system, rule, scheme, method, h, inner[0], inner[1], raw, times, index, nodal
+            )
             fail = _first_failure(raw, checked, fail)
             return new, fail, raw, checked
 
         if k == 1:
-            inner, fail, raw, checked = block(init, fail0, blocks)
+            inner, fail, raw, checked = block(init, fail0, 0.0, blocks)
             return inner[:4], fail, _saved_every_step(raw, checked, save_states)
 
-        def body(c, _):
+        def body(c, b):
             inner, fail = c
-            inner, fail, raw, checked = block(inner, fail, k)
+            inner, fail, raw, checked = block(inner, fail, b * k, k)
             saved = _saved(*jax.tree.map(lambda a: a[None], (raw, checked)), k, save_states)
             return (inner, fail), jax.tree.map(lambda a: a[0], saved)
 
-        (inner, fail), saved = jax.lax.scan(body, (init, fail0), None, length=blocks)
+        offsets = jnp.arange(blocks, dtype=clock.dtype)
+        (inner, fail), saved = jax.lax.scan(body, (init, fail0), offsets, length=blocks)
         return inner[:4], fail, saved
 
     return chunk
@@ -241,8 +281,8 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 _CONSTANT_LIMIT = 1 << 16
 
 
-def _with_constants(packed, constants, _none, h, carry):
-    return packed(constants, h, carry)
+def _with_constants(packed, constants, _none, h, clock, carry):
+    return packed(constants, h, clock, carry)
 
 
 class CompiledChunk:
@@ -257,14 +297,17 @@ class CompiledChunk:
         dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
         n, m = system.n, system.m
         self._n, self._m, self._save_states, self._blocks = n, m, save_states, blocks
+        self._nodal = keeps_nodal(system, rule, save_states)
 
-        def packed(dynamic, h, carry):
+        def packed(dynamic, h, clock, carry):
             system_, rule_, method_ = eqx.combine(dynamic, static)
             chunk = chunk_runner(system_, rule_, scheme, method_, k, save_states, blocks)
-            (q, p, q_prev, mu), (code, its, res, q_bad), saved = chunk(h, carry)
+            (q, p, q_prev, mu), (code, its, res, q_bad), saved = chunk(h, clock, carry)
             cols = [saved["energy"][:, None], saved["violation"][:, None]]
             if save_states:
                 cols += [saved["q"], saved["p"], saved["mu"], saved["con"]]
+            if self._nodal:
+                cols.append(saved["p_node"])
             steps_f = jnp.concatenate(cols, axis=1)
             steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
             final_f = jnp.concatenate([q, p, q_prev, mu, res[None], q_bad])
@@ -294,17 +337,20 @@ class CompiledChunk:
             # members run one after another inside the one compiled call (measured 3.5×
             # faster than vmap at 10³ members of the torn chain).
             self._fn = jax.jit(
-                lambda dynamic, h, carry: jax.lax.map(lambda c: packed(dynamic, h, c), carry)
+                lambda dynamic, h, clock, carry: jax.lax.map(
+                    lambda c: packed(dynamic, h, clock, c), carry
+                )
             )
         else:
             # Newton's many tiny operations per step amortize well over a batch.
-            self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, 0)))
+            self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, None, 0)))
 
-    def __call__(self, h, carry):
-        """``(carry, fail, saved)`` as numpy arrays (views into the packed output)."""
-        flat = np.asarray(self._fn(self._dynamic, h, carry))
+    def __call__(self, h, clock, carry):
+        """``(carry, fail, saved)`` as numpy arrays (views into the packed output);
+        ``clock = (t0, index of the first step)`` as a float64 array."""
+        flat = np.asarray(self._fn(self._dynamic, h, clock, carry))
         n, m, blocks = self._n, self._m, self._blocks
-        width = 2 + (2 * n + 2 * m if self._save_states else 0)
+        width = 2 + (2 * n + 2 * m if self._save_states else 0) + (n if self._nodal else 0)
         lead = flat.shape[:-1]
         cut = [blocks * width, blocks * 2, 3 * n + m + 1 + n, 2]
         steps_f, steps_i, final_f, final_i = np.split(flat, np.cumsum(cut)[:-1], axis=-1)
@@ -327,6 +373,8 @@ class CompiledChunk:
                 q=cols[..., :n],
                 p=cols[..., n : 2 * n],
                 mu=cols[..., 2 * n : 2 * n + m],
-                con=cols[..., 2 * n + m :],
+                con=cols[..., 2 * n + m : 2 * n + 2 * m],
             )
+            if self._nodal:
+                saved["p_node"] = cols[..., 2 * n + 2 * m :]
         return carry, fail, saved

@@ -30,6 +30,16 @@ class Trajectory:
     Attributes:
         t: times of the saved states, shape (S+1,) (decreasing for ``scheme="minus"``).
         q, p: positions and momenta, shape (S+1, n); ``None`` for a diagnostics-only run.
+            ``p`` is the scheme's own state: ``p_{k+1} = D₂L_d + f_d^+`` for (+). The
+            (±) equations put a step's whole constraint impulse ``A(·)ᵀμ`` on the known
+            end's line, so under the midpoint rule ``p`` lags the true momentum by half
+            of it in the constrained directions: first order there (positions, and ``p``
+            in unconstrained directions, keep order 2).
+        p_nodal: momenta at the time nodes to the rule's order, shape (S+1, n):
+            ``p_{k+1} − ½ A(·)ᵀμ_k`` under the midpoint rule (the impulse split by the
+            rule's weights; on the first step ``p0`` itself is taken as exact); equal to
+            ``p`` for the first-order retraction rule and for unconstrained systems. Use
+            it for inductor currents, reaction-carrying momenta, and to continue a run.
         multipliers: shape (S, m): each subsystem's μ's, then the interaction λ's
             (``None`` for a diagnostics-only run).
         energy: ``E`` at the quadrature node of the step ending at each saved state, (S,).
@@ -54,6 +64,7 @@ class Trajectory:
         q,
         p,
         multipliers,
+        p_nodal=None,
         energy,
         constraint_residual,
         newton_iterations,
@@ -77,6 +88,7 @@ class Trajectory:
 
         self.t = np.asarray(t, dtype=np.float64)
         self.q, self.p = arr(q), arr(p)
+        self._p_nodal = arr(p_nodal)
         self.multipliers = arr(multipliers)
         self.energy = np.asarray(energy, dtype=np.float64)
         self.constraint_residual = arr(constraint_residual)
@@ -104,6 +116,11 @@ class Trajectory:
         self.message = message
         self.solver = solver
         self.steps_requested = self.steps if steps_requested is None else steps_requested
+
+    @property
+    def p_nodal(self):
+        """Momenta at the nodes to the rule's order (see the class documentation)."""
+        return self.p if self._p_nodal is None else self._p_nodal
 
     @property
     def success(self) -> bool:
@@ -209,6 +226,8 @@ class Trajectory:
                 multipliers=(("step", "constraint"), self.multipliers),
                 constraint_residual=(("step", "constraint"), self.constraint_residual),
             )
+            if self._p_nodal is not None:
+                data["p_nodal"] = (("time", "coord"), self._p_nodal)
         return xr.Dataset(
             data_vars=data,
             coords={
@@ -262,6 +281,7 @@ class Trajectory:
             t=ds["time"].values,
             q=get("q"),
             p=get("p"),
+            p_nodal=get("p_nodal"),
             multipliers=get("multipliers", (steps, m)) if states else None,
             energy=ds["energy"].values,
             constraint_residual=get("constraint_residual", (steps, m)) if states else None,

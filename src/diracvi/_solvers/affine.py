@@ -11,6 +11,12 @@ affine too. Then the whole step ``(q, p) ↦ (q_other, p_other, μ)`` is one aff
 i.e. ``(q_other, p_other, μ) = Φ z + b``, computed once and scanned over. It is stored
 and applied in increments, ``(q_other − q, p_other − p, μ) = Δ z + b``, for accuracy.
 
+A *driven* linear model (sources ``V(t)``, prescribed currents or motions) has the same
+constant ``Δ`` but an offset ``b(t_k)`` that changes every step: ``r₀(t_k)`` and ``P₀(t_k)``
+are the residual and momentum line at zero, evaluated for all steps of a block at once,
+and ``b(t_k) = (−J_x⁻¹ r₀, P₀ − P_x J_x⁻¹ r₀)``. Detection then also probes at different
+times: the Jacobians must not depend on t (a time-varying inductance is not affine).
+
 *Detection* is numerical (user callables are opaque): the Jacobians of ``r`` and of the
 momentum line must agree at three points (zero, the initial state, and a pseudo-random
 point) and the functions must equal their linearization there. *Verification* is done
@@ -85,7 +91,9 @@ class AffineStepMap(eqx.Module):
     jacobian: jax.Array  # J_x, for the solvability check
     powers: jax.Array  # (B, 2n, 2n): z_{k+j} = z_k + powers[j-1] z_k + power_offsets[j-1]
     power_offsets: jax.Array  # (B, 2n)
+    momentum_x: jax.Array  # P_x, for the offsets of a driven model
     verify_rtol: float = eqx.field(static=True)
+    driven: bool = eqx.field(static=True, default=False)
 
     def advance(self, z):
         """One step of ``z = (q, p)``, in increments."""
@@ -104,15 +112,28 @@ class AffineStepMap(eqx.Module):
         """``μ`` of the steps taken from each row of ``z_from``."""
         return z_from @ self.mu_map.T + self.mu_offset
 
+    def offsets_at(self, system, rule, scheme, h, times):
+        """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets."""
+        n, m = system.n, system.m
+        zero_q, zero_x = jnp.zeros(n), jnp.zeros(n + m)
+
+        def one(tk):
+            r0 = residual(system, rule, scheme, h, zero_q, zero_q, zero_x, tk)
+            p0 = new_momentum(system, rule, scheme, h, zero_q, zero_x, tk)
+            b_x = -self.inverse @ r0
+            return jnp.concatenate([b_x[:n], p0 + self.momentum_x @ b_x]), b_x[n:]
+
+        return jax.vmap(one)(times)
+
     def correction(self, eqs: StepEquations, x):
         """One Newton correction ``−J_x⁻¹ r(x)`` of a computed step."""
         return -self.inverse @ eqs.residual(x)
 
 
 @eqx.filter_jit
-def _linearizations(system, rule, scheme, h, points):
+def _linearizations(system, rule, scheme, h, points, times):
     """Values and Jacobians of the residual and the momentum increment at each
-    ``(q, p, d, μ)``, where ``q_other = q + d``.
+    ``(q, p, d, μ)`` and time ``t_k``, where ``q_other = q + d``.
 
     Differentiating in increments keeps the map's large near-identity part out of
     floating point: e.g. ``∂(q_other − q)/∂q`` is formed exactly by AD (``dq − dq = 0``)
@@ -120,22 +141,23 @@ def _linearizations(system, rule, scheme, h, points):
     accurate relative to the *change* per step, as Newton's per-step solve is."""
     n = system.n
 
-    def parts(q, p, y):
+    def parts(q, p, y, tk):
         # in increments: x = (q + d, μ), and the momentum line as p_other − p
         x = y.at[:n].add(q)
-        return residual(system, rule, scheme, h, q, p, x), new_momentum(
-            system, rule, scheme, h, q, x
+        return residual(system, rule, scheme, h, q, p, x, tk), new_momentum(
+            system, rule, scheme, h, q, x, tk
         ) - p
 
-    def at(point):
+    def at(point, tk):
         def f(y):
-            return parts(y[:n], y[n : 2 * n], y[2 * n :])
+            return parts(y[:n], y[n : 2 * n], y[2 * n :], tk)
 
         r, pm = f(point)
+        r0, pm0 = f(jnp.zeros_like(point))
         jr, jp = jax.jacfwd(f)(point)
-        return r, pm, jr, jp
+        return r, pm, r0, pm0, jr, jp
 
-    return jax.vmap(at)(points)
+    return jax.vmap(at)(points, times)
 
 
 def _refined_solve(a, lu, piv, b):
@@ -177,7 +199,7 @@ _REFINE_LIMIT = 400
 
 
 def build(
-    system, rule, scheme, h, q0, p0, solver: AffineSolver
+    system, rule, scheme, h, q0, p0, solver: AffineSolver, t0: float = 0.0
 ) -> tuple[AffineStepMap | None, str]:
     """The affine step map, or ``(None, reason)`` when the equations are not affine."""
     n, m = system.n, system.m
@@ -193,18 +215,22 @@ def build(
             scale * rng.uniform(-1.0, 1.0, size),
         ]
     )
-    r, pm, jr, jp = (
-        np.asarray(a) for a in _linearizations(system, rule, scheme, jnp.asarray(h), points)
+    driven = bool(system.time_dependent)
+    # a driven model is probed at three different times (its Jacobians must not move)
+    times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
+    r, pm, r0, pm0, jr, jp = (
+        np.asarray(a)
+        for a in _linearizations(system, rule, scheme, jnp.asarray(h), points, jnp.asarray(times))
     )
     if not (np.all(np.isfinite(jr)) and np.all(np.isfinite(jp))):
         return None, "the step equations are not finite at the probe points"
     tol = solver.detect_rtol
-    for name, val, jac in (("residual", r, jr), ("momentum line", pm, jp)):
+    for name, val, val0, jac in (("residual", r, r0, jr), ("momentum line", pm, pm0, jp)):
         ref = max(1.0, float(np.max(np.abs(jac))))
         if np.max(np.abs(jac - jac[0])) > tol * ref:
             return None, f"the {name} of the step equations has a non-constant Jacobian"
-        linear = val[0] + points @ jac[0].T
-        bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val[0])
+        linear = val0 + points @ jac[0].T
+        bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val0)
         if np.any(np.abs(val - linear) > tol * np.maximum(bound, 1.0)):
             return None, f"the {name} of the step equations is not affine"
     j_all, p_all = jr[0], jp[0]
@@ -230,6 +256,8 @@ def build(
         mu_offset=jnp.asarray(b_x[n:]),
         inverse=jnp.asarray(np.linalg.inv(j_x)),
         jacobian=jnp.asarray(j_x),
+        momentum_x=jnp.asarray(p_x),
         verify_rtol=solver.verify_rtol,
+        driven=driven,
     )
     return step_map, "affine"

@@ -421,7 +421,7 @@ class _Step:
 
             def line(arrays, q, y, rest=rest):
                 sub = eqx.combine(arrays, rest)
-                return new_momentum(sub, eqs.rule, eqs.scheme, eqs.h, q, y)
+                return new_momentum(sub, eqs.rule, eqs.scheme, eqs.h, q, y, eqs.t)
 
             out = out.at[self.index[index][:, : g.n]].set(jax.vmap(line)(arrays, self.q[index], y))
         return out
@@ -432,7 +432,8 @@ class _Step:
         _, rest = self.stacks[index]
 
         def rho(arrays, q, p, y):
-            return residual(eqx.combine(arrays, rest), eqs.rule, eqs.scheme, eqs.h, q, p, y)
+            sub = eqx.combine(arrays, rest)
+            return residual(sub, eqs.rule, eqs.scheme, eqs.h, q, p, y, eqs.t)
 
         return rho
 
