@@ -5,10 +5,15 @@ repair on their own:
 
 * **ports** joined by :func:`~diracvi.connect` hold ``ẋ = ẏ``; the position-level
   interconnection ``x = y`` then holds for all time only if it holds at t = 0;
+* **holonomic constraints** ``g(q, t) = 0``: the scheme enforces them at every new
+  step, so a start off ``g(q₀, t₀) = 0`` would jump onto the constraint in the first step;
 * **momenta** of a degenerate Lagrangian satisfy the primary constraint
   ``p₀ ∈ ∂L/∂v(q₀, ·) + span A(q₀)ᵀ``. For L quadratic in v (mechanics, circuits,
   gyrators) that set is the affine space ``∂L/∂v(q₀, 0) + range W + range A(q₀)ᵀ`` with
-  ``W = ∂²L/∂v²``, which is what is measured (and projected onto) here.
+  ``W = ∂²L/∂v²``, which is what is measured (and projected onto) here. ``A`` includes
+  the rows ``∇g`` of holonomic constraints (their reactions are constraint forces too).
+
+Everything is evaluated at the initial time ``t₀`` (driven models).
 """
 
 from __future__ import annotations
@@ -53,11 +58,27 @@ def _port_groups(system) -> list[list[int]]:
 
 
 @jax.jit
-def _legendre_pieces(system, q):
+def _legendre_pieces(system, q, t=0.0):
     zero = jnp.zeros_like(q)
-    g = jax.grad(system.lagrangian, argnums=1)(q, zero)
-    w = jax.hessian(system.lagrangian, argnums=1)(q, zero)
-    return g, w, system.constraint_forms(q)
+    g = jax.grad(system.lagrangian, argnums=1)(q, zero, t)
+    w = jax.hessian(system.lagrangian, argnums=1)(q, zero, t)
+    return g, w, system.constraint_forms(q, t)
+
+
+@jax.jit
+def _holonomic_pieces(system, q, t=0.0):
+    """``g(q, t)`` and its Jacobian (empty when there are no holonomic rows)."""
+    return system.position_constraints(q, t), jax.jacfwd(system.position_constraints)(q, t)
+
+
+def _onto_holonomic(system, q, t, iterations: int = 20):
+    """The nearest ``q`` with ``g(q, t) = 0``: Gauss–Newton minimal-norm corrections."""
+    for _ in range(iterations):
+        g, jac = (np.asarray(a) for a in _holonomic_pieces(system, jnp.asarray(q), t))
+        if np.max(np.abs(g), initial=0.0) <= 1e-15 * max(1.0, float(np.max(np.abs(q)))):
+            break
+        q = q - np.linalg.lstsq(jac, g, rcond=None)[0]
+    return q
 
 
 @jax.jit
@@ -90,6 +111,7 @@ class Checker:
 
     def __init__(self, system: DiracSystem, linear: bool = False, q_probe=None):
         self.system = system
+        self.holonomic = any(getattr(system, "holonomic_mask", ()))
         self.groups = [np.asarray(g) for g in _port_groups(system)]
         # every member of a group against its first: one gather for the common case
         self._pairs = (
@@ -116,33 +138,46 @@ class Checker:
             if same:
                 self._linear = (g0, slope, _complement(w, forms))
 
-    def _momentum_projection(self, q, p):
+    def _momentum_projection(self, q, p, t=0.0):
         if self.system.n > MOMENTUM_CHECK_LIMIT:
             return p  # the dense Hessian would not fit: ports are checked, momenta not
         if self._linear is not None:
             g0, slope, comp = self._linear
             return p - comp @ (p - g0 - slope @ q)
-        return _momentum_projection(self.system, q, p)
+        return _momentum_projection(self.system, q, p, t)
 
-    def violations(self, q0, p0) -> dict[str, float]:
-        """``{"ports": max |x − y|, "momenta": distance of p₀ from the consistent set}``."""
+    def violations(self, q0, p0, t0=0.0) -> dict[str, float]:
+        """``{"ports": max |x − y|, "holonomic": max |g(q₀, t₀)|, "momenta": distance
+        of p₀ from the consistent set}``."""
         q0, p0 = np.asarray(q0), np.asarray(p0)
         ports = 0.0
         if self._pairs is not None and np.any(q0[self._pairs[0]] != q0[self._pairs[1]]):
             ports = max(np.ptp(q0[g]) for g in self.groups)
-        proj = self._momentum_projection(q0, p0)
-        return {"ports": float(ports), "momenta": float(np.max(np.abs(p0 - proj), initial=0.0))}
+        held = 0.0
+        if self.holonomic:
+            g = np.asarray(self.system.position_constraints(jnp.asarray(q0), t0))
+            held = float(np.max(np.abs(g), initial=0.0))
+        proj = self._momentum_projection(q0, p0, t0)
+        return {
+            "ports": float(ports),
+            "holonomic": held,
+            "momenta": float(np.max(np.abs(p0 - proj), initial=0.0)),
+        }
 
-    def project(self, q0, p0):
-        """The nearest consistent state: joined ports at their mean, then p₀ projected."""
+    def project(self, q0, p0, t0=0.0):
+        """The nearest consistent state: joined ports at their mean, ``q₀`` moved onto
+        ``g = 0`` (least change), then p₀ projected."""
         q = np.array(q0, dtype=np.float64)
-        for group in self.groups:
-            q[group] = q[group].mean()
-        return q, self._momentum_projection(q, np.asarray(p0, dtype=np.float64))
+        for _ in range(3 if self.holonomic and self.groups else 1):
+            for group in self.groups:
+                q[group] = q[group].mean()
+            if self.holonomic:
+                q = _onto_holonomic(self.system, q, t0)
+        return q, self._momentum_projection(q, np.asarray(p0, dtype=np.float64), t0)
 
-    def check_batch(self, q0, p0, *, project_initial: bool):
+    def check_batch(self, q0, p0, *, project_initial: bool, t0=0.0):
         """:meth:`check` for rows of initial states (one warning, for the worst row)."""
-        if self._linear is not None and not project_initial:
+        if self._linear is not None and not project_initial and not self.holonomic:
             g0, slope, comp = self._linear
             off = (p0 - g0 - q0 @ slope.T) @ comp.T
             ports = [np.ptp(q0[:, g], axis=1) for g in self.groups]
@@ -151,23 +186,36 @@ class Checker:
             self.check(q0[worst], p0[worst], project_initial=False, stacklevel=4)
             return q0, p0
         rows = [
-            self.check(q, p, project_initial=project_initial, stacklevel=4)
+            self.check(q, p, project_initial=project_initial, stacklevel=4, t0=t0)
             for q, p in zip(q0, p0, strict=True)
         ]
         return np.stack([r[0] for r in rows]), np.stack([r[1] for r in rows])
 
-    def check(self, q0, p0, *, project_initial: bool, stacklevel: int = 3):
+    def check(self, q0, p0, *, project_initial: bool, stacklevel: int = 3, t0=0.0):
         """Warn about (or, with ``project_initial``, repair) inconsistent initial data."""
-        found = self.violations(q0, p0)
+        found = self.violations(q0, p0, t0)
         q_scale = max(1.0, float(np.max(np.abs(q0))))
         p_scale = max(1.0, float(np.max(np.abs(p0))))
         bad_q = found["ports"] > 1e-12 * q_scale
+        bad_g = found["holonomic"] > 1e-12 * q_scale
         bad_p = found["momenta"] > 1e-10 * p_scale
-        if not (bad_q or bad_p):
+        if not (bad_q or bad_g or bad_p):
             return q0, p0
         if project_initial:
-            return self.project(q0, p0)
+            return self.project(q0, p0, t0)
         parts = []
+        if bad_g:
+            names = [
+                c
+                for c, h in zip(
+                    self.system.constraint_names, self.system.holonomic_mask, strict=True
+                )
+                if h
+            ]
+            parts.append(
+                f"q0 is off the holonomic constraints {names} by up to "
+                f"{found['holonomic']:.3e} (|g(q0, t0)|); the first step will jump onto them"
+            )
         if bad_q:
             groups = [[self.system.coords[i] for i in g] for g in self.groups]
             parts.append(
@@ -189,8 +237,8 @@ class Checker:
         return q0, p0
 
 
-def _momentum_projection(system, q, p):
-    g, w, forms = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(q)))
+def _momentum_projection(system, q, p, t=0.0):
+    g, w, forms = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(q), t))
     basis = np.concatenate([w, forms.T], axis=1)
     if basis.size == 0:
         return g

@@ -11,6 +11,13 @@ the forced discrete Dirac differential built from the system's discrete momenta
 - ``scheme="minus"``: ``𝔇⁻ = (P⁻, q_{k+1} | −q_k, −P⁺) ∈ D^{d−}_Δ``: base point
   ``p_k = P⁻``; ``ω_{d−}(q_k, q_{k+1}) = 0``; ``p_{k+1} − P⁺ ∈ Δ°(q_{k+1})``.
 
+Driven systems (``L``, ``F`` depending on ``t``) are checked with each step's own time.
+Holonomic rows and affine terms ``b`` are not one-forms, so ``D^{d±}_Δ`` of the paper does
+not contain them: their constraint rows are the system's own ``g(q_{k+1})/h`` and
+``A v_k + b``, which must vanish, and their reactions ``∇g``, ``A`` span the fibre
+condition as any one-form does. Time-dependent one-forms ``A(q, t)`` are refused (the
+structure would change along the step).
+
 The discrete velocity ``q_k⁺`` (``q_{k+1}⁻``) is set to ``q_{k+1}`` (``q_k``), which makes
 the condition ``q_{k+1} = q_k⁺`` hold by construction. Nothing here calls the
 integrator's equations: the check uses only the ``DiracSystem`` protocol
@@ -79,14 +86,25 @@ def step_residuals(system, traj) -> StepResiduals:
             f"traj.coords={tuple(traj.coords)} differ from system.coords="
             f"{tuple(system.coords)}: pass the system that produced traj."
         )
+    if getattr(system, "constraints_time_dependent", False):
+        raise ModelError(
+            f"system {getattr(system, 'name', '')!r} has time-dependent constraints A(q, t) or "
+            "g(q, t): the discrete Dirac structure D^{d±}_Δ is defined for a fixed "
+            "distribution Δ, so this diagnostic does not apply; check "
+            "traj.constraint_residual (each step's constraints) instead."
+        )
     rule, h, side = as_rule(traj.discretization), float(traj.dt), traj.scheme
     q0, p0, q1, p1 = _pairs(traj)
     if q0.shape[0] == 0:
         empty = np.zeros((0, 2 * n))
         return StepResiduals(np.zeros(0), np.zeros((0, system.m)), empty, empty, empty[:, :0])
+    t = np.asarray(traj.t)
+    tk = t[:-1] if side == "plus" else t[1:]  # each step's earlier end
 
-    momenta = jax.jit(jax.vmap(lambda a, b: system.discrete_momenta(rule, a, b, h)))
-    p_minus, p_plus = (np.asarray(x) for x in momenta(jnp.asarray(q0), jnp.asarray(q1)))
+    momenta = jax.jit(jax.vmap(lambda a, b, s: system.discrete_momenta(rule, a, b, h, s)))
+    p_minus, p_plus = (
+        np.asarray(x) for x in momenta(jnp.asarray(q0), jnp.asarray(q1), jnp.asarray(tk))
+    )
     if side == "plus":  # 𝔇⁺ = (q_k, P⁺ | P⁻, q_{k+1})
         alpha = np.concatenate([q0, p_plus, p_minus, q1], axis=1)
     else:  # 𝔇⁻ = (P⁻, q_{k+1} | −q_k, −P⁺)
@@ -94,6 +112,12 @@ def step_residuals(system, traj) -> StepResiduals:
 
     structure = InducedDiscrete(system.constraint_forms, rule, h=h, side=side, n=n)
     parts = structure.batched_parts(q0, p0, q1, p1, alpha)
+    if getattr(system, "affine_constraints", False):
+        # holonomic rows g(q_end)/h and affine terms b: the system's own discrete rows
+        rows = jax.jit(
+            jax.vmap(lambda a, b, s: system.discrete_constraints(rule, side, a, b, h, s))
+        )
+        parts["constraint"] = np.asarray(rows(jnp.asarray(q0), jnp.asarray(q1), jnp.asarray(tk)))
     # Δ° coefficients ν: plus has P⁻ − p_k = Aᵀν, i.e. μ = −ν; minus has p_{k+1} − P⁺ = Aᵀν
     mu = -parts["nu"] if side == "plus" else parts["nu"]
 

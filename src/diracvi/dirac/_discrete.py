@@ -250,7 +250,8 @@ class _FromForms(DiscreteDiracStructure):
     def _constraint(self, q0, q1):
         # ω_{d±}(q₀, q₁): the rule's discrete one-forms (retraction: A(q₀ or q₁) v_k,
         # midpoint: A(q̄) v_k), with v_k = (q₁ − q₀)/h
-        return self.rule.discrete_constraints(self.forms, self.side, q0, q1, self.h)
+        forms = self.forms
+        return self.rule.discrete_constraints(lambda q, t: forms(q), self.side, q0, q1, self.h)
 
     def constraint(self, q0, q1) -> np.ndarray:
         q0, q1 = jnp.asarray(q0, dtype=jnp.float64), jnp.asarray(q1, dtype=jnp.float64)
