@@ -66,14 +66,36 @@ def gallery_scripts() -> list[tuple[Path, str]]:
     return scripts
 
 
+def _markdown(doc: str) -> str:
+    """A module docstring (reST-flavoured) as Markdown: roles and ````x```` become code,
+    ``::``-introduced or indented blocks become Python code blocks."""
+    doc = re.sub(r":\w+:`~?([^`]+)`", r"`\1`", doc)
+    doc = re.sub(r"``([^`]+)``", r"`\1`", doc)
+    out, code = [], []
+    for line in [*doc.splitlines(), "<end>"]:
+        if line.startswith("    ") or (code and not line.strip()):
+            code.append(line[4:])
+            continue
+        if code:
+            out += ["```python", *[c for c in code if c.strip()], "```", ""]
+            code = []
+        out.append(line)
+    return "\n".join(out[:-1]).replace("::\n", ":\n")
+
+
+def _summary(obj) -> str:
+    doc = (getattr(obj, "__doc__", None) or "").strip()
+    if isinstance(obj, dict | list | tuple | str | int | float):
+        return ""  # instances: their type's docstring says nothing about them
+    first = " ".join(re.split(r"\n\s*\n", doc, maxsplit=1)[0].split())
+    return _markdown(first).strip().replace("|", "\\|")
+
+
 def _api_page(module: str, names: list[str]) -> str:
-    doc = (importlib.import_module(module).__doc__ or "").strip().splitlines()
-    lines = [f"# `{module}`", ""]
-    if doc:
-        lines += [f"::: {module}", "    options:", "      members: false",
-                  "      show_root_heading: false", "      show_root_toc_entry: false", ""]
-    lines += ["| name | |", "|---|---|"]
-    lines += [f"| [`{n}`][{module}.{n}] | |" for n in names]
+    mod = importlib.import_module(module)
+    lines = [f"# `{module}`", "", _markdown((mod.__doc__ or "").strip("\n")), ""]
+    lines += ["| name | summary |", "|---|---|"]
+    lines += [f"| [`{n}`][{module}.{n}] | {_summary(getattr(mod, n))} |" for n in names]
     lines.append("")
     for n in names:
         lines += [f"::: {module}.{n}", ""]
