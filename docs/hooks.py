@@ -105,7 +105,11 @@ def _api_page(module: str, names: list[str]) -> str:
 def _cli_page() -> str:
     out = subprocess.run(
         [sys.executable, "-m", "typer", "diracvi.cli", "utils", "docs", "--name", "diracvi"],
-        capture_output=True, text=True, env=_env(), cwd=ROOT, check=False,
+        capture_output=True,
+        text=True,
+        env=_env(),
+        cwd=ROOT,
+        check=False,
     )
     if out.returncode != 0:
         raise PluginError(f"typer could not document diracvi.cli:\n{out.stderr}")
@@ -126,8 +130,13 @@ def _run_example(script: Path, figure: Path) -> tuple[str, float]:
     t0 = time.perf_counter()
     try:
         out = subprocess.run(
-            [sys.executable, str(script), str(figure)], capture_output=True, text=True,
-            env=_env(), cwd=EXAMPLES, timeout=EXAMPLE_TIMEOUT, check=False,
+            [sys.executable, str(script), str(figure)],
+            capture_output=True,
+            text=True,
+            env=_env(),
+            cwd=EXAMPLES,
+            timeout=EXAMPLE_TIMEOUT,
+            check=False,
         )
     except subprocess.TimeoutExpired as exc:
         raise PluginError(f"example {script.name} ran over {EXAMPLE_TIMEOUT} s") from exc
@@ -145,24 +154,47 @@ def _gallery_page(script: Path, title: str, stdout: str, seconds: float) -> str:
     # the docstring is shown as prose; the code block shows the script without it
     code = re.sub(r'^""".*?"""\n+', "", source, count=1, flags=re.S)
     code = GALLERY_MARK.sub("", code).lstrip("\n")
-    return "\n".join([
-        f"# {title}", "", doc, "",
-        f"![{title}]({script.stem}.png)", "",
-        f"Output (ran in {seconds:.0f} s when this page was built):", "",
-        "```text", stdout.strip() or "(nothing printed)", "```", "",
-        f"Source: `examples/{script.name}`", "",
-        "```python", code.rstrip(), "```", "",
-    ])
+    return "\n".join(
+        [
+            f"# {title}",
+            "",
+            doc,
+            "",
+            f"![{title}]({script.stem}.png)",
+            "",
+            f"Output (ran in {seconds:.0f} s when this page was built):",
+            "",
+            "```text",
+            stdout.strip() or "(nothing printed)",
+            "```",
+            "",
+            f"Source: `examples/{script.name}`",
+            "",
+            "```python",
+            code.rstrip(),
+            "```",
+            "",
+        ]
+    )
 
 
 def _gallery_index(scripts) -> str:
-    lines = ["# Gallery", "",
-             "Each example is a script under `examples/` that runs in under a minute and",
-             "writes its figure; the figures below were produced when this site was built.", "",
-             '<div class="grid cards" markdown>', ""]
+    lines = [
+        "# Gallery",
+        "",
+        "Each example is a script under `examples/` that runs in under a minute and",
+        "writes its figure; the figures below were produced when this site was built.",
+        "",
+        '<div class="grid cards" markdown>',
+        "",
+    ]
     for script, title in scripts:
-        lines += [f"-   [**{title}**]({script.stem}.md)", "",
-                  f"    [![{title}]({script.stem}.png)]({script.stem}.md)", ""]
+        lines += [
+            f"-   [**{title}**]({script.stem}.md)",
+            "",
+            f"    [![{title}]({script.stem}.png)]({script.stem}.md)",
+            "",
+        ]
     lines += ["</div>", ""]
     return "\n".join(lines)
 
@@ -196,8 +228,12 @@ def on_files(files, config):
         files.append(File.generated(config, uri, content=content))
 
     modules = public_modules()
-    index = ["# API reference", "",
-             "Generated from the docstrings of every name in each public module's `__all__`.", ""]
+    index = [
+        "# API reference",
+        "",
+        "Generated from the docstrings of every name in each public module's `__all__`.",
+        "",
+    ]
     for module, names in modules.items():
         add(f"reference/{module}.md", _api_page(module, names))
         index.append(f"- [`{module}`]({module}.md) — {len(names)} names")

@@ -25,8 +25,10 @@ diff = max(
     np.abs(np.asarray(traj[a])[early] - np.asarray(ref[b])[early]).max()
     for a, b in torn.shared.items()
 )
-print(f"torn vs reduced over 2 s {diff:.1e}, max constraint violation "
-      f"{np.abs(np.asarray(traj.constraint_violation)).max():.1e}")
+print(
+    f"torn vs reduced over 2 s {diff:.1e}, max constraint violation "
+    f"{np.abs(np.asarray(traj.constraint_violation)).max():.1e}"
+)
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained")
 for a, b in torn.shared.items():

@@ -20,16 +20,19 @@ traj = dv.simulate(
     prob.system, prob.q0, prob.p0, dt=prob.dt, steps=prob.steps, solver=dv.PartitionedSolver()
 )
 dense = dv.simulate(prob.system, prob.q0, prob.p0, dt=prob.dt, steps=prob.steps)
-print(f"solvers: {traj.solver} vs {dense.solver}; "
-      f"max difference {np.abs(np.asarray(traj.q) - np.asarray(dense.q)).max():.1e}")
+print(
+    f"solvers: {traj.solver} vs {dense.solver}; "
+    f"max difference {np.abs(np.asarray(traj.q) - np.asarray(dense.q)).max():.1e}"
+)
 
 names = list(prob.shared)
 order = np.argsort([int(prob.shared[a][1:]) for a in names])
 q = np.stack([np.asarray(traj[names[i]]) for i in order], axis=1)
 q = q - q[0]
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained")
-im = ax1.imshow(q.T, aspect="auto", origin="lower", cmap="RdBu_r",
-                extent=[0, float(traj.t[-1]), 1, len(names)])
+im = ax1.imshow(
+    q.T, aspect="auto", origin="lower", cmap="RdBu_r", extent=[0, float(traj.t[-1]), 1, len(names)]
+)
 fig.colorbar(im, ax=ax1, label="q − q(0)")
 ax1.set(xlabel="t", ylabel="mass", title="displacement along the chain")
 ax2.plot(traj.t[1:], np.asarray(traj.energy) - float(traj.energy[0]))
