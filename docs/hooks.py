@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import ast
 import importlib
+import importlib.util
+import inspect
 import logging
 import os
 import re
@@ -83,6 +85,16 @@ def _markdown(doc: str) -> str:
     return "\n".join(out[:-1]).replace("::\n", ":\n")
 
 
+def api_identifier(module: str, name: str) -> str:
+    """The dotted path mkdocstrings documents ``module.name`` under: ``module.name`` itself,
+    unless a submodule has the same name as the function it exports (``problems.dc_motor``),
+    then the object's defining path (else griffe would document the submodule)."""
+    obj = getattr(importlib.import_module(module), name)
+    if inspect.ismodule(obj) or importlib.util.find_spec(f"{module}.{name}") is None:
+        return f"{module}.{name}"
+    return f"{obj.__module__}.{obj.__qualname__}"
+
+
 def _summary(obj) -> str:
     doc = (getattr(obj, "__doc__", None) or "").strip()
     if isinstance(obj, dict | list | tuple | str | int | float):
@@ -95,10 +107,12 @@ def _api_page(module: str, names: list[str]) -> str:
     mod = importlib.import_module(module)
     lines = [f"# `{module}`", "", _markdown((mod.__doc__ or "").strip("\n")), ""]
     lines += ["| name | summary |", "|---|---|"]
-    lines += [f"| [`{n}`][{module}.{n}] | {_summary(getattr(mod, n))} |" for n in names]
+    lines += [
+        f"| [`{n}`][{api_identifier(module, n)}] | {_summary(getattr(mod, n))} |" for n in names
+    ]
     lines.append("")
     for n in names:
-        lines += [f"::: {module}.{n}", ""]
+        lines += [f"::: {api_identifier(module, n)}", ""]
     return "\n".join(lines)
 
 

@@ -48,7 +48,7 @@ def test_every_public_name_has_a_rendered_api_entry(site):
         assert names, f"{module} has an empty __all__"
         html = (site / "reference" / module / "index.html").read_text(encoding="utf-8")
         for name in names:
-            anchor = f"{module}.{name}"
+            anchor = hooks.api_identifier(module, name)
             entry = re.search(rf'id="{re.escape(anchor)}"', html)
             assert entry, f"no API entry for {anchor}"
             obj = getattr(importlib.import_module(module), name)

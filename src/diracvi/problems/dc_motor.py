@@ -41,10 +41,14 @@ def dc_motor(
     and ``θ`` (``problem.shared``), and ``exact(t)`` is the reduced model's exact flow.
 
     Args:
-        voltage, resistance, inductance: source ``V_s``, armature ``R`` and ``L_a``.
-        inertia, friction: rotor ``J`` and viscous ``b``.
+        voltage: source ``V_s``.
+        resistance: armature ``R``.
+        inductance: armature ``L_a``.
+        inertia: rotor ``J``.
+        friction: viscous ``b``.
         motor_constant: gyrator ``K`` (torque ``K i``, back-emf ``K θ̇``).
-        dt, steps: the step and horizon used by ``diracvi run``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
 
     Returns:
         A [`Problem`][diracvi.problems.Problem] starting at rest. Nothing is checked

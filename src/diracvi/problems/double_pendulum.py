@@ -73,9 +73,15 @@ def double_pendulum_torn(
     it at the rule's order as ``dt → 0`` (the joint holds at velocity level only).
 
     Args:
-        m1, m2, l1, l2: bob masses and link lengths; g: gravity.
-        theta0, omega0: initial angles ``(θ₁, θ₂)`` and angular velocities.
-        dt, steps: the step and horizon used by ``diracvi run``.
+        m1: upper bob mass.
+        m2: lower bob mass.
+        l1: upper link length.
+        l2: lower link length.
+        g: gravity.
+        theta0: initial angles ``(θ₁, θ₂)``.
+        omega0: initial angular velocities ``(θ̇₁, θ̇₂)``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
 
     Returns:
         A [`Problem`][diracvi.problems.Problem] with consistent initial momenta.

@@ -27,9 +27,13 @@ def damped_oscillator(
     closed-form flow (a matrix exponential).
 
     Args:
-        mass, stiffness, damping: ``m``, ``k``, ``c``.
-        q0, p0: initial position and momentum ``p = m v``.
-        dt, steps: the step and horizon used by ``diracvi run``.
+        mass: ``m``.
+        stiffness: ``k``.
+        damping: ``c``.
+        q0: initial position.
+        p0: initial momentum ``p = m v``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
 
     Returns:
         A [`Problem`][diracvi.problems.Problem]. Nothing is checked here; a model

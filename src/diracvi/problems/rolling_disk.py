@@ -38,9 +38,15 @@ def rolling_disk(
     module docstring.
 
     Args:
-        mass, radius: ``m`` and ``R``; inertia_roll, inertia_turn: ``I`` and ``J``.
-        roll_rate, turn_rate, heading: ``Ω = θ̇``, ``ω = φ̇`` and ``φ₀``.
-        dt, steps: the step and horizon used by ``diracvi run``.
+        mass: ``m``.
+        radius: ``R``.
+        inertia_roll: ``I`` (about the axle).
+        inertia_turn: ``J`` (about the vertical).
+        roll_rate: ``Ω = θ̇``.
+        turn_rate: ``ω = φ̇``.
+        heading: ``φ₀``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
 
     Returns:
         A [`Problem`][diracvi.problems.Problem] with initial velocities satisfying the
