@@ -162,7 +162,7 @@ def _run_example(script: Path, figure: Path) -> tuple[str, float]:
     return out.stdout, time.perf_counter() - t0
 
 
-def _gallery_page(script: Path, title: str, stdout: str, seconds: float) -> str:
+def _gallery_page(script: Path, title: str, stdout: str) -> str:
     source = script.read_text(encoding="utf-8")
     doc = ast.get_docstring(ast.parse(source)) or ""
     # the docstring is shown as prose; the code block shows the script without it
@@ -176,7 +176,7 @@ def _gallery_page(script: Path, title: str, stdout: str, seconds: float) -> str:
             "",
             f"![{title}]({script.stem}.png)",
             "",
-            f"Output (ran in {seconds:.0f} s when this page was built):",
+            "Output, when this page was built:",
             "",
             "```text",
             stdout.strip() or "(nothing printed)",
@@ -263,7 +263,8 @@ def on_files(files, config):
             runs = list(pool.map(lambda s: _run_example(s, figures[s]), [s for s, _ in scripts]))
         log.info("gallery: %d examples ran in %.0f s", len(scripts), time.perf_counter() - t0)
         for (script, title), (stdout, seconds) in zip(scripts, runs, strict=True):
-            add(f"gallery/{script.stem}.md", _gallery_page(script, title, stdout, seconds))
+            log.info("gallery: %s ran in %.0f s", script.name, seconds)
+            add(f"gallery/{script.stem}.md", _gallery_page(script, title, stdout))
             add(f"gallery/{script.stem}.png", figures[script].read_bytes())
     add("gallery/index.md", _gallery_index(scripts))
     return files

@@ -19,8 +19,16 @@ import pytest
 pytestmark = pytest.mark.docs
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "docs"))
-import hooks  # noqa: E402  (docs/hooks.py: which modules and examples the site documents)
+
+
+def _hooks():
+    """docs/hooks.py (which modules and examples the site documents); needs mkdocs, so it is
+    imported only when a docs test runs — the default run must collect without the extra."""
+    pytest.importorskip("mkdocs")
+    sys.path.insert(0, str(ROOT / "docs"))
+    import hooks
+
+    return hooks
 
 
 @pytest.fixture(scope="module")
@@ -42,6 +50,7 @@ def site(tmp_path_factory) -> Path:
 
 
 def test_every_public_name_has_a_rendered_api_entry(site):
+    hooks = _hooks()
     modules = hooks.public_modules()
     assert {"diracvi", "diracvi.dirac", "diracvi.problems"} <= set(modules)
     for module, names in modules.items():
@@ -62,7 +71,7 @@ def test_cli_reference_and_gallery_are_rendered(site):
     cli = (site / "reference" / "cli" / "index.html").read_text(encoding="utf-8")
     for command in ("list", "run", "plot", "reproduce", "bench"):
         assert f"diracvi {command}" in cli
-    scripts = hooks.gallery_scripts()
+    scripts = _hooks().gallery_scripts()
     assert len(scripts) >= 6
     for script, _ in scripts:
         page = site / "gallery" / script.stem / "index.html"
