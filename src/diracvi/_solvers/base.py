@@ -19,6 +19,15 @@ from .._errors import ModelError
 
 
 class SolveStatus(enum.IntEnum):
+    """Outcome of one step's solve (the ``status`` of a ``StepResult``).
+
+    ``SUCCESS``: the residual met the tolerance. ``MAX_ITERATIONS``: it did not within the
+    solver's iteration budget. ``SINGULAR``: the linear solve produced non-finite values
+    from finite inputs. ``NONFINITE``: the model itself produced NaN/Inf. ``dv.simulate``
+    raises ``StepFailure`` (keeping the partial trajectory) at the first step whose status
+    is not ``SUCCESS`` (the trajectory's ``status``/``message`` say why).
+    """
+
     SUCCESS = 0
     MAX_ITERATIONS = 1
     SINGULAR = 2  # the linear solve produced non-finite values from finite inputs
@@ -54,7 +63,15 @@ def check_newton_options(solver) -> None:
 
 
 class StepSolver(eqx.Module):
-    """Solves ``r(x) = 0`` for one time step."""
+    """Solves ``r(x) = 0`` for one time step: the (±) discrete Lagrange–Dirac equations in
+    the unknowns ``x = (q_other, μ)`` given the known state, then the explicit momentum line.
+
+    Contract for subclasses: ``check`` raises ``ModelError`` (host side, once per plan) when
+    the solver cannot step the system; ``init`` gives the traceable state of a chunk;
+    ``solve(eqs, guess, state)`` returns a ``StepResult`` whose ``status`` is a
+    [`SolveStatus`][diracvi.SolveStatus] and never raises inside compiled code — a failed
+    step is reported through the status, and ``dv.simulate`` turns it into ``StepFailure``.
+    """
 
     def check(self, system, rule, scheme: str) -> None:
         """Raise :class:`~diracvi.ModelError` if this solver cannot step ``system`` under
@@ -65,6 +82,8 @@ class StepSolver(eqx.Module):
         raise NotImplementedError
 
     def solve(self, eqs, guess, state) -> StepResult:
+        """Solve ``eqs.residual(x) = 0`` from ``guess`` (traceable; failures are reported
+        in the returned status, not raised)."""
         raise NotImplementedError
 
     def momentum(self, eqs, x, state=None):

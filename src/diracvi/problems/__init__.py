@@ -32,15 +32,26 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "double-pendulum-torn": double_pendulum_torn,
     "dc-motor": dc_motor,
 }
+"""Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
+
+``diracvi list`` shows these names and ``diracvi run NAME`` runs one; ``get(name)`` looks a
+name up (``ModelError`` for an unknown one).
+"""
 
 
 def available() -> dict[str, str]:
-    """``{name: one-line description}`` of every built-in problem."""
+    """``{name: one-line description}`` of every built-in problem (each factory called once
+    with its defaults; errors of a factory propagate)."""
     return {name: factory().description for name, factory in REGISTRY.items()}
 
 
 def get(name: str) -> Problem:
-    """The built-in problem ``name`` with its source's parameters."""
+    """The built-in problem ``name`` with its source's parameters.
+
+    Raises:
+        ModelError: ``name`` is not in [`REGISTRY`][diracvi.problems.REGISTRY] (the message
+            lists the known names).
+    """
     try:
         factory = REGISTRY[name]
     except KeyError:

@@ -19,8 +19,10 @@ class Problem:
         name: registry name (``diracvi run NAME``).
         description: one line for ``diracvi list``.
         system: the Lagrange–Dirac system (single or interconnected).
-        q0, p0: initial state in ``system.coords`` order.
-        dt, steps: the step and horizon the source uses.
+        q0: initial positions, in ``system.coords`` order.
+        p0: initial momenta, in ``system.coords`` order.
+        dt: the step the source uses.
+        steps: the number of steps the source uses.
         exact: ``exact(t) -> q`` with shape (len(t), n), where a closed form is known.
         discretizations: the rules whose step equations are solvable for this model.
         reference: where the model comes from.

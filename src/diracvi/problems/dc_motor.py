@@ -33,6 +33,28 @@ def dc_motor(
     dt: float = 0.001,
     steps: int = 2000,
 ) -> Problem:
+    """A DC motor: armature circuit and rotor joined through a gyrator (``diracvi run
+    dc-motor``); see the module docstring for the three subsystems.
+
+    Equations of the reduced model (``problem.reduced``): ``L_a q̈ = V_s − R q̇ − K θ̇``,
+    ``J θ̈ = K q̇ − b θ̇``; the torn model's ``armature.qL`` and ``rotor.theta`` equal ``q``
+    and ``θ`` (``problem.shared``), and ``exact(t)`` is the reduced model's exact flow.
+
+    Args:
+        voltage: source ``V_s``.
+        resistance: armature ``R``.
+        inductance: armature ``L_a``.
+        inertia: rotor ``J``.
+        friction: viscous ``b``.
+        motor_constant: gyrator ``K`` (torque ``K i``, back-emf ``K θ̇``).
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
+
+    Returns:
+        A [`Problem`][diracvi.problems.Problem] starting at rest. Nothing is checked
+        here; ``inductance=0`` or ``inertia=0`` make the step equations singular, which
+        ``dv.simulate`` reports as ``ModelError``/``UnsolvableStepError``.
+    """
     vs, r, la, j, b, k = (
         float(x) for x in (voltage, resistance, inductance, inertia, friction, motor_constant)
     )

@@ -66,6 +66,28 @@ def double_pendulum_torn(
     dt: float = 0.01,
     steps: int = 1000,
 ) -> Problem:
+    """A planar double pendulum torn at the joint (``diracvi run double-pendulum-torn``);
+    see the module docstring for ``L¹``, the degenerate ``L²`` and the joint one-forms.
+
+    ``problem.reduced`` is the hand-built ``(θ₁, θ₂)`` pendulum; the torn model converges to
+    it at the rule's order as ``dt → 0`` (the joint holds at velocity level only).
+
+    Args:
+        m1: upper bob mass.
+        m2: lower bob mass.
+        l1: upper link length.
+        l2: lower link length.
+        g: gravity.
+        theta0: initial angles ``(θ₁, θ₂)``.
+        omega0: initial angular velocities ``(θ̇₁, θ̇₂)``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
+
+    Returns:
+        A [`Problem`][diracvi.problems.Problem] with consistent initial momenta.
+        Nothing is checked here; non-positive masses or lengths give singular step
+        equations that ``dv.simulate`` reports (``ModelError``/``UnsolvableStepError``).
+    """
     def l_upper(q, v):
         return 0.5 * m1 * l1**2 * v[0] ** 2 + m1 * g * l1 * jnp.cos(q[0])
 

@@ -20,6 +20,26 @@ def damped_oscillator(
     dt: float = 0.01,
     steps: int = 2000,
 ) -> Problem:
+    """A damped harmonic oscillator ``L = ½ m v² − ½ k q²``, ``F = −c v`` (``diracvi run
+    damped-oscillator``).
+
+    Equation: ``m q̈ = −k q − c q̇``; energy decays, ``dE/dt = −c q̇² ≤ 0``. ``exact(t)`` is the
+    closed-form flow (a matrix exponential).
+
+    Args:
+        mass: ``m``.
+        stiffness: ``k``.
+        damping: ``c``.
+        q0: initial position.
+        p0: initial momentum ``p = m v``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
+
+    Returns:
+        A [`Problem`][diracvi.problems.Problem]. Nothing is checked here; a model
+        that cannot be stepped (e.g. ``mass=0``) fails in ``dv.simulate`` with
+        ``ModelError`` or ``UnsolvableStepError``.
+    """
     m, k, c = float(mass), float(stiffness), float(damping)
     system = LagrangeDiracSystem(
         ("x",),

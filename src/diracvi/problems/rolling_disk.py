@@ -31,6 +31,28 @@ def rolling_disk(
     dt: float = 0.01,
     steps: int = 1000,
 ) -> Problem:
+    """The vertical rolling disk, a nonholonomic system (``diracvi run rolling-disk``).
+
+    Equations: ``m ẍ = μ₁``, ``m ÿ = μ₂``, ``I θ̈ = −R (cos φ μ₁ + sin φ μ₂)``,
+    ``J φ̈ = 0`` with ``ẋ = R cos φ θ̇``, ``ẏ = R sin φ θ̇``; ``exact(t)`` is the circle of the
+    module docstring.
+
+    Args:
+        mass: ``m``.
+        radius: ``R``.
+        inertia_roll: ``I`` (about the axle).
+        inertia_turn: ``J`` (about the vertical).
+        roll_rate: ``Ω = θ̇``.
+        turn_rate: ``ω = φ̇``.
+        heading: ``φ₀``.
+        dt: the time step used by ``diracvi run``.
+        steps: the number of steps used by ``diracvi run``.
+
+    Returns:
+        A [`Problem`][diracvi.problems.Problem] with initial velocities satisfying the
+        constraints. Nothing is checked here; ``turn_rate=0`` makes ``exact`` divide by
+        zero (a straight line), and non-positive inertias give singular step equations.
+    """
     m, rad, i_roll, i_turn = (float(x) for x in (mass, radius, inertia_roll, inertia_turn))
     big_omega, omega, phi0 = float(roll_rate), float(turn_rate), float(heading)
 
