@@ -45,6 +45,21 @@ def _where(exc: BaseException, path: Path) -> str:
 def load_model_file(path) -> ModelSpec:
     """Import ``path`` and call its ``build()``; raise :class:`ModelError` on any problem."""
     path = Path(path).resolve()
+    build = load_build(path)
+    try:
+        built = build()
+    except Exception as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(
+            f"build() in {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)}"
+        ) from exc
+    return _to_spec(built, path)
+
+
+def load_build(path):
+    """Import the model file ``path`` and return its ``build`` function (not called)."""
+    path = Path(path).resolve()
     name = f"diracvi_model_{path.stem}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
@@ -64,15 +79,7 @@ def load_model_file(path) -> ModelSpec:
             f"model file {str(path)!r} defines no build() function: add "
             "def build(): return system, q0, p0 (or a dict with system, q0, p0, dt, steps)."
         )
-    try:
-        built = build()
-    except Exception as exc:
-        if isinstance(exc, ModelError):
-            raise
-        raise ModelError(
-            f"build() in {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)}"
-        ) from exc
-    return _to_spec(built, path)
+    return build
 
 
 def _to_spec(built, path: Path) -> ModelSpec:

@@ -265,7 +265,7 @@ def _build_member(build, names, values, settings: SweepSettings):
 def _structure_key(system):
     dynamic, static = eqx.partition(system, eqx.is_array)
     leaves, treedef = jax.tree.flatten(dynamic)
-    shapes = tuple((np.shape(a), np.result_type(a).str) for a in leaves)
+    shapes = tuple((np.shape(a), np.dtype(a.dtype).str) for a in leaves)
     key = (static, treedef, shapes)
     try:
         hash(key)
@@ -885,7 +885,8 @@ def sweep(
 
         if coords is None and not store.path.exists():  # nothing ran (cannot happen)
             raise ModelError(f"out={str(out)!r}: the sweep produced no batch.")
-        return xr.open_dataset(store.path, engine="h5netcdf")
+        ds = xr.open_dataset(store.path, engine="h5netcdf")
+        return ds.drop_vars("batch_done").set_coords("step_time")
     return _dataset(points, settings, coords, flat, key, size)
 
 

@@ -74,7 +74,7 @@ def _structure(fn, shapes, signature):
         return None
     arrays, rest = eqx.partition(fn, eqx.is_array)
     leaves, treedef = jax.tree.flatten(arrays)
-    key = (rest, treedef, tuple((np.shape(a), np.result_type(a).str) for a in leaves))
+    key = (rest, treedef, tuple((np.shape(a), np.dtype(a.dtype).str) for a in leaves))
     key += (tuple(shapes), signature)
     try:
         hash(key)
