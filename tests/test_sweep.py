@@ -35,8 +35,14 @@ def single(R, C):
     return dv.simulate(system, q0, p0, dt=DT, steps=STEPS, solver=dv.NewtonSolver())
 
 
-def test_members_equal_single_runs():
-    ds = dv.sweep(problems.build_rlc, GRID, dt=DT, steps=STEPS, batch_size=BATCH)
+@pytest.fixture(scope="module")
+def grid_sweep():
+    """The RLC over GRID, embedded (shared: compiling is most of a small sweep's time)."""
+    return dv.sweep(problems.build_rlc, GRID, dt=DT, steps=STEPS, batch_size=BATCH)
+
+
+def test_members_equal_single_runs(grid_sweep):
+    ds = grid_sweep
     assert ds["qC"].dims == ("R", "C", "time") and ds["energy"].dims == ("R", "C", "step")
     assert (ds.status.values == 0).all() and (ds.message.values == "success").all()
     for R, C in [(2.0, 1.0)]:  # a corner (each single run compiles anew)
@@ -51,15 +57,19 @@ def test_members_equal_single_runs():
     np.testing.assert_array_equal(ds.time.values, traj.t)
 
 
-def test_samples_table_and_saving_every_kth_state():
-    samples = {"R": [0.7, 1.3], "C": [2.0, 4.0]}
-    ds = dv.sweep(
-        problems.build_rlc, samples=samples, dt=DT, steps=STEPS, save_every=10, batch_size=BATCH
-    )
-    assert ds["qL"].dims == ("sample", "time") and ds.sizes["time"] == STEPS // 10 + 1
-    traj = single(1.3, 4.0)
-    np.testing.assert_allclose(ds["qL"].values[1], traj["qL"][::10], rtol=1e-12, atol=1e-12)
+def test_samples_table_and_saving_every_kth_state(grid_sweep):
+    samples = {"R": [2.0, 0.5, 1.0, 2.0], "C": [3.0, 1.0, 3.0, 1.0]}  # GRID points, reordered
+    ds = dv.sweep(problems.build_rlc, samples=samples, dt=DT, steps=STEPS, batch_size=BATCH)
+    assert ds["qL"].dims == ("sample", "time")
     np.testing.assert_array_equal(ds.R.values, samples["R"])
+    for i, (R, C) in enumerate(zip(samples["R"], samples["C"], strict=True)):
+        member = grid_sweep.sel(R=R, C=C)
+        np.testing.assert_allclose(ds["qL"].values[i], member["qL"].values, rtol=1e-12, atol=1e-12)
+    thin = dv.sweep(problems.build_rlc, GRID, dt=DT, steps=STEPS, save_every=10, batch_size=BATCH)
+    assert thin.sizes["time"] == STEPS // 10 + 1
+    np.testing.assert_allclose(
+        thin["qC"].values, grid_sweep["qC"].values[..., ::10], rtol=1e-12, atol=1e-12
+    )
 
 
 def test_a_grid_compiles_once():
@@ -194,28 +204,26 @@ def kills_once(R, C, marker):
     return problems.build_rlc(R=R, C=C)
 
 
-def test_cluster_equals_embedded_bitwise(client):
+def test_cluster_equals_embedded_bitwise(client, grid_sweep):
     kwargs = {"dt": DT, "steps": STEPS, "batch_size": BATCH}
-    local = dv.sweep(problems.build_rlc, GRID, **kwargs)
     remote = dv.sweep(problems.build_rlc, GRID, client=client, **kwargs)
-    assert same(local, remote)
+    assert same(grid_sweep, remote)
 
 
-def test_a_failed_batch_is_retried_with_identical_results(client, tmp_path):
+def test_a_failed_batch_is_retried_with_identical_results(client, tmp_path, grid_sweep):
     kwargs = {"dt": DT, "steps": STEPS, "batch_size": BATCH}
     build = functools.partial(fails_once, marker=str(tmp_path / "failed"))
     remote = dv.sweep(build, GRID, client=client, **kwargs)
     assert (tmp_path / "failed").exists()
-    assert same(remote, dv.sweep(problems.build_rlc, GRID, **kwargs))
+    assert same(remote, grid_sweep)
 
 
-@pytest.mark.slow
-def test_a_killed_worker_loses_nothing(client, tmp_path):
+def test_a_killed_worker_loses_nothing(client, tmp_path, grid_sweep):
     kwargs = {"dt": DT, "steps": STEPS, "batch_size": BATCH}
     build = functools.partial(kills_once, marker=str(tmp_path / "killed"))
     remote = dv.sweep(build, GRID, client=client, out=tmp_path / "s.nc", **kwargs)
     assert (tmp_path / "killed").exists()
-    assert same(remote.load(), dv.sweep(problems.build_rlc, GRID, **kwargs))
+    assert same(remote.load(), grid_sweep)
     remote.close()
 
 
@@ -239,7 +247,7 @@ def test_cli_sweep_writes_the_dataset(tmp_path):
     )
     out = tmp_path / "sweep.nc"
     args = ["sweep", str(model), "--param", "R=0.5:2:3", "--param", "C=1,3"]
-    args += ["--dt", "0.1", "--steps", "20", "--out", str(out)]
+    args += ["--dt", str(DT), "--steps", str(STEPS), "--batch-size", str(BATCH), "--out", str(out)]
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
     with xr.open_dataset(out, engine="h5netcdf") as ds:

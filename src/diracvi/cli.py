@@ -560,7 +560,7 @@ def bench(
             "--only",
             metavar="NAME",
             help="Run only this benchmark (repeatable): spring-chain, rlc, chain-scaling, "
-            "pendulum, ensemble, compile.",
+            "pendulum, ensemble, sweep, compile.",
         ),
     ] = None,
     json_path: Annotated[
