@@ -28,6 +28,7 @@ refused.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import inspect
 import json
@@ -558,7 +559,7 @@ def fingerprint(build, points: Points, settings: SweepSettings, batch_size: int)
     """A hash of everything that determines the sweep's numbers and its batches."""
     description = json.dumps(
         {
-            "build": f"{getattr(build, '__module__', '')}.{getattr(build, '__qualname__', '')}",
+            "build": _build_name(build),
             "names": list(points.names),
             "dims": list(points.dims),
             "shape": list(points.shape),
@@ -578,6 +579,15 @@ def fingerprint(build, points: Points, settings: SweepSettings, batch_size: int)
     digest = hashlib.sha256(description)
     digest.update(np.ascontiguousarray(points.values).tobytes())
     return digest.hexdigest()
+
+
+def _build_name(build) -> str:
+    """A name of ``build`` that is stable across processes (no addresses)."""
+    if isinstance(build, functools.partial):
+        keywords = sorted(build.keywords.items())
+        return f"partial({_build_name(build.func)}, {build.args!r}, {keywords!r})"
+    name = getattr(build, "__qualname__", None) or type(build).__qualname__
+    return f"{getattr(build, '__module__', '')}.{name}"
 
 
 def _times(settings: SweepSettings) -> np.ndarray:
