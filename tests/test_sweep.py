@@ -172,11 +172,10 @@ def test_out_of_core_sweep_resumes_after_an_interruption(tmp_path):
 
 
 # ------------------------------------------------------------------ Dask
-distributed = pytest.importorskip("distributed")
-
-
 @pytest.fixture(scope="module")
 def client():
+    """A 2-worker cluster of processes (skipped without the [distributed] extra)."""
+    distributed = pytest.importorskip("distributed")
     import cloudpickle
 
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # workers rebuild builds
