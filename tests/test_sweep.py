@@ -8,7 +8,6 @@ import os
 import signal
 import sys
 import textwrap
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -187,18 +186,25 @@ def client():
     cluster.close()
 
 
+def first_call(marker) -> bool:
+    """True exactly once over all processes: the call that creates ``marker``."""
+    try:
+        os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+    except FileExistsError:
+        return False
+    return True
+
+
 def fails_once(R, C, marker):
     """A build whose first call on any worker raises (a transient failure)."""
-    if not Path(marker).exists():
-        Path(marker).touch()
+    if first_call(marker):
         raise OSError("transient")
     return problems.build_rlc(R=R, C=C)
 
 
 def kills_once(R, C, marker):
     """A build that kills its worker process the first time it runs (a lost machine)."""
-    if not Path(marker).exists():
-        Path(marker).touch()
+    if first_call(marker):
         os.kill(os.getpid(), signal.SIGKILL)
     return problems.build_rlc(R=R, C=C)
 
