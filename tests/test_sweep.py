@@ -232,6 +232,47 @@ def test_a_killed_worker_loses_nothing(client, tmp_path, grid_sweep):
     remote.close()
 
 
+MODEL = """
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+import diracvi as dv
+
+
+class Capacitor(eqx.Module):  # a class only this file defines: the workers cannot import it
+    capacitance: np.ndarray
+
+    def __call__(self, q, v):
+        return 0.5 * 0.75 * v[1] ** 2 - q[2] ** 2 / (2.0 * self.capacitance)
+
+
+class Resistor(eqx.Module):
+    resistance: np.ndarray
+
+    def __call__(self, q, v):
+        return jnp.stack([-self.resistance * v[0], 0.0 * v[1], 0.0 * v[2]])
+
+
+def build(R=1.0, C=3.0):
+    system = dv.LagrangeDiracSystem(
+        ("qR", "qL", "qC"),
+        Capacitor(np.asarray(C)),
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        force=Resistor(np.asarray(R)),
+    )
+    return system, np.zeros(3), np.array([0.0, 7.5, 0.0])
+"""
+
+
+def test_a_model_file_runs_on_workers_that_cannot_import_it(client, tmp_path, grid_sweep):
+    model = tmp_path / "circuit.py"
+    model.write_text(MODEL)
+    kwargs = {"dt": DT, "steps": STEPS, "batch_size": BATCH}
+    remote = dv.sweep(str(model), GRID, client=client, **kwargs)
+    assert same(remote, grid_sweep)  # build_rlc is the same circuit
+
+
 # ------------------------------------------------------------------ CLI
 def test_cli_sweep_writes_the_dataset(tmp_path):
     import xarray as xr

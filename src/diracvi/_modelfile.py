@@ -121,3 +121,63 @@ def _to_spec(built, path: Path) -> ModelSpec:
         steps=fields.get("steps"),
         discretizations=fields.get("discretizations", ("retraction", "midpoint")),
     )
+
+
+_SOURCES: dict = {}
+
+
+class ModelFileBuild:
+    """A model file's ``build`` that can be sent to other processes (Dask workers).
+
+    It carries the file's source text rather than the function, and imports it on first
+    use in each process (as module ``diracvi_model_<stem>``): classes defined in the
+    file — ``equinox.Module`` parameters in particular — cannot be pickled by value, and
+    the workers of a cluster need not see the file.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path).resolve()
+        self.source = self.path.read_text(encoding="utf-8")
+        self.__module__ = f"diracvi_model_{self.path.stem}"
+        self.__qualname__ = "build"
+        self.build()  # import errors and a missing build() are reported here
+
+    def build(self):
+        key = (str(self.path), self.source)
+        if key not in _SOURCES:
+            name = f"diracvi_model_{self.path.stem}"
+            module = type(sys)(name)
+            module.__file__ = str(self.path)
+            sys.modules[name] = module
+            try:
+                exec(compile(self.source, str(self.path), "exec"), module.__dict__)
+            except Exception as exc:
+                raise ModelError(
+                    f"model file {str(self.path)!r} raised {type(exc).__name__}: {exc}"
+                    f"{_where(exc, self.path)} while being imported."
+                ) from exc
+            build = getattr(module, "build", None)
+            if not callable(build):
+                raise ModelError(
+                    f"model file {str(self.path)!r} defines no build() function: add "
+                    "def build(**values): return system, q0, p0."
+                )
+            _SOURCES[key] = build
+        return _SOURCES[key]
+
+    @property
+    def __signature__(self):
+        import inspect
+
+        return inspect.signature(self.build())
+
+    def __call__(self, **values):
+        return self.build()(**values)
+
+    def __getstate__(self):
+        return {"path": self.path, "source": self.source}
+
+    def __setstate__(self, state):
+        self.path, self.source = state["path"], state["source"]
+        self.__module__ = f"diracvi_model_{self.path.stem}"
+        self.__qualname__ = "build"

@@ -32,6 +32,7 @@ import functools
 import hashlib
 import inspect
 import json
+import os
 import sys
 import warnings
 from collections import OrderedDict
@@ -791,7 +792,9 @@ def sweep(
     r"""Run ``build(**values)`` over a grid or a table of parameter values.
 
     Args:
-        build: ``build(**values) -> (system, q0, p0)`` (or a dict/object with those).
+        build: ``build(**values) -> (system, q0, p0)`` (or a dict/object with those),
+            or the path of a model file defining it (its source is sent to the workers
+            of a cluster, which need not see the file).
             Give parameters as array leaves (e.g. an ``equinox.Module`` Lagrangian
             holding ``jnp.asarray(R)``) so that all members share one compiled program;
             values captured by plain closures still work, one compilation per member.
@@ -821,6 +824,10 @@ def sweep(
         member's failure are NaN.
     """
     ensure_float64()
+    if isinstance(build, str | os.PathLike):
+        from ._modelfile import ModelFileBuild
+
+        build = ModelFileBuild(build)
     points = sweep_points(params, samples)
     check_build(build, points.names)
     settings = _settings(dt, steps, scheme, discretization, save_every, t0)
@@ -923,6 +930,13 @@ def _cluster_label(client) -> str:
     return f"sweep on {client.scheduler.address}" + (f" (dashboard {link})" if link else "")
 
 
+def _run_pickled_batch(payload: bytes, names, values, settings, cap) -> dict:
+    """:func:`run_batch` of a ``build`` serialized by cloudpickle (a Dask task)."""
+    import cloudpickle
+
+    return run_batch(cloudpickle.loads(payload), names, values, settings, cap)
+
+
 def _run_on_cluster(client, build, points, starts, size, todo, settings, key, collect, bar):
     """Each batch a Dask task; results are collected (and written) as they finish."""
     try:
@@ -931,10 +945,15 @@ def _run_on_cluster(client, build, points, starts, size, todo, settings, key, co
         raise ModelError(
             "client= needs dask.distributed: pip install 'diracvi[distributed]'."
         ) from exc
+    import cloudpickle
+
+    # cloudpickle, not Dask's first choice (plain pickle), so that a build registered with
+    # cloudpickle.register_pickle_by_value (a model file, a script) travels by value
+    payload = cloudpickle.dumps(build)
     futures = [
         client.submit(
-            run_batch,
-            build,
+            _run_pickled_batch,
+            payload,
             points.names,
             _rows(points, starts, b, size),
             settings,

@@ -415,14 +415,14 @@ def sweep_command(
     client = None
     if scheduler is not None:
         try:
-            import cloudpickle
             from distributed import Client
         except ImportError:
             _fail("--scheduler needs Dask: pip install 'diracvi[distributed]'.", EXIT_USAGE)
-        import sys
+        from ._modelfile import ModelFileBuild
 
-        # the model file is not importable on the workers: send its code with the tasks
-        cloudpickle.register_pickle_by_value(sys.modules[build.__module__])
+        # the workers need not see the file: its source travels with the tasks
+        with _library_errors():
+            build = ModelFileBuild(model)
         client = Client(scheduler)
     from . import sweep as run_sweep
 
