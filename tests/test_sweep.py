@@ -112,6 +112,18 @@ def test_a_singular_member_fails_alone():
     assert np.isnan(ds["qC"].values[0, 1:]).all() and ds.steps_taken.values.tolist() == [0, STEPS]
 
 
+def kicked_build(R, C):
+    """build_rlc with a resistor momentum the degenerate Lagrangian does not allow."""
+    system, q0, p0 = problems.build_rlc(R=R, C=C)
+    return system, q0, p0 + np.array([1.0, 0.0, 0.0]) * (R > 1.5)
+
+
+def test_inconsistent_initial_data_warn_once_for_the_sweep():
+    grid = {"R": [1.0, 2.0], "C": [1.0, 3.0]}
+    with pytest.warns(dv.InconsistentInitialDataWarning, match=r"2 member\(s\).*R=2, C=1"):
+        dv.sweep(kicked_build, grid, dt=DT, steps=STEPS, batch_size=BATCH)
+
+
 @pytest.mark.parametrize(
     ("kwargs", "words"),
     [
