@@ -96,6 +96,7 @@ def closure_build(R):
     return system, q0, p0
 
 
+@pytest.mark.slow  # two structures: six compilations
 def test_members_that_do_not_group_still_run():
     kwargs = {"dt": DT, "steps": STEPS, "batch_size": BATCH}
     ds = dv.sweep(closure_build, {"R": [0.5, 1.5]}, **kwargs)
