@@ -16,6 +16,7 @@ from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
 from ._simulate import momenta, simulate
 from ._solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus, StepSolver
+from ._sweep import sweep
 from ._system import DiracSystem, LagrangeDiracSystem
 from ._trajectory import Trajectory, load
 
@@ -49,4 +50,5 @@ __all__ = [
     "project_initial_state",
     "simulate",
     "simulate_ensemble",
+    "sweep",
 ]

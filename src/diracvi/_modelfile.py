@@ -45,6 +45,21 @@ def _where(exc: BaseException, path: Path) -> str:
 def load_model_file(path) -> ModelSpec:
     """Import ``path`` and call its ``build()``; raise :class:`ModelError` on any problem."""
     path = Path(path).resolve()
+    build = load_build(path)
+    try:
+        built = build()
+    except Exception as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(
+            f"build() in {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)}"
+        ) from exc
+    return _to_spec(built, path)
+
+
+def load_build(path):
+    """Import the model file ``path`` and return its ``build`` function (not called)."""
+    path = Path(path).resolve()
     name = f"diracvi_model_{path.stem}"
     spec = importlib.util.spec_from_file_location(name, path)
     if spec is None or spec.loader is None:
@@ -64,15 +79,7 @@ def load_model_file(path) -> ModelSpec:
             f"model file {str(path)!r} defines no build() function: add "
             "def build(): return system, q0, p0 (or a dict with system, q0, p0, dt, steps)."
         )
-    try:
-        built = build()
-    except Exception as exc:
-        if isinstance(exc, ModelError):
-            raise
-        raise ModelError(
-            f"build() in {str(path)!r} raised {type(exc).__name__}: {exc}{_where(exc, path)}"
-        ) from exc
-    return _to_spec(built, path)
+    return build
 
 
 def _to_spec(built, path: Path) -> ModelSpec:
@@ -114,3 +121,63 @@ def _to_spec(built, path: Path) -> ModelSpec:
         steps=fields.get("steps"),
         discretizations=fields.get("discretizations", ("retraction", "midpoint")),
     )
+
+
+_SOURCES: dict = {}
+
+
+class ModelFileBuild:
+    """A model file's ``build`` that can be sent to other processes (Dask workers).
+
+    It carries the file's source text rather than the function, and imports it on first
+    use in each process (as module ``diracvi_model_<stem>``): classes defined in the
+    file — ``equinox.Module`` parameters in particular — cannot be pickled by value, and
+    the workers of a cluster need not see the file.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path).resolve()
+        self.source = self.path.read_text(encoding="utf-8")
+        self.__module__ = f"diracvi_model_{self.path.stem}"
+        self.__qualname__ = "build"
+        self.build()  # import errors and a missing build() are reported here
+
+    def build(self):
+        key = (str(self.path), self.source)
+        if key not in _SOURCES:
+            name = f"diracvi_model_{self.path.stem}"
+            module = type(sys)(name)
+            module.__file__ = str(self.path)
+            sys.modules[name] = module
+            try:
+                exec(compile(self.source, str(self.path), "exec"), module.__dict__)
+            except Exception as exc:
+                raise ModelError(
+                    f"model file {str(self.path)!r} raised {type(exc).__name__}: {exc}"
+                    f"{_where(exc, self.path)} while being imported."
+                ) from exc
+            build = getattr(module, "build", None)
+            if not callable(build):
+                raise ModelError(
+                    f"model file {str(self.path)!r} defines no build() function: add "
+                    "def build(**values): return system, q0, p0."
+                )
+            _SOURCES[key] = build
+        return _SOURCES[key]
+
+    @property
+    def __signature__(self):
+        import inspect
+
+        return inspect.signature(self.build())
+
+    def __call__(self, **values):
+        return self.build()(**values)
+
+    def __getstate__(self):
+        return {"path": self.path, "source": self.source}
+
+    def __setstate__(self, state):
+        self.path, self.source = state["path"], state["source"]
+        self.__module__ = f"diracvi_model_{self.path.stem}"
+        self.__qualname__ = "build"

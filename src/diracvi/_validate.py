@@ -58,8 +58,45 @@ def check_callable(arg: str, value) -> Callable:
     return value
 
 
+#: output shapes of ``equinox.Module`` callables by structure (see :func:`eval_shape`)
+_SHAPES: dict = {}
+_SHAPES_LIMIT = 256
+
+
+def _structure(fn, shapes, signature):
+    """A key under which ``fn``'s traced output shape is known, or ``None``: an
+    ``equinox.Module`` callable's output shape depends only on its static part and the
+    shapes of its arrays, so systems rebuilt with new parameter values (a sweep builds
+    one per member) need not be traced again."""
+    import equinox as eqx
+
+    if not isinstance(fn, eqx.Module):
+        return None
+    arrays, rest = eqx.partition(fn, eqx.is_array)
+    leaves, treedef = jax.tree.flatten(arrays)
+    key = (rest, treedef, tuple((np.shape(a), np.dtype(a.dtype).str) for a in leaves))
+    key += (tuple(shapes), signature)
+    try:
+        hash(key)
+    except TypeError:
+        return None
+    return key
+
+
 def eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str):
     """Trace ``fn`` abstractly on float64 zeros of the given shapes; wrap any failure."""
+    key = _structure(fn, shapes, signature)
+    if key is not None and key in _SHAPES:
+        return _SHAPES[key]
+    out = _eval_shape(arg, fn, *shapes, signature=signature)
+    if key is not None:
+        if len(_SHAPES) >= _SHAPES_LIMIT:
+            _SHAPES.clear()
+        _SHAPES[key] = out
+    return out
+
+
+def _eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str):
     specs = [jax.ShapeDtypeStruct(s, jnp.float64) for s in shapes]
     try:
         out = jax.eval_shape(fn, *specs)

@@ -12,7 +12,7 @@ from collections.abc import Callable
 
 from .._errors import ModelError
 from ._problem import Problem
-from .circuits import lc_circuit, rlc_circuit, rlc_torn
+from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
 from .dc_motor import dc_motor
 from .double_pendulum import double_pendulum_torn
 from .oscillator import damped_oscillator
@@ -65,6 +65,7 @@ __all__ = [
     "REGISTRY",
     "Problem",
     "available",
+    "build_rlc",
     "chain_torn",
     "damped_oscillator",
     "dc_motor",

@@ -14,6 +14,7 @@ grows. diracvi uses the physical sign; ``tests/test_energy.py`` shows both.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -191,3 +192,42 @@ def rlc_torn(
         shared={"rl.qR": "qR", "rl.qL": "qL", "cap.qC": "qC"},
         ports=(("rl.qS1", "cap.qS2"),),
     )
+
+
+class _RLCLagrangian(eqx.Module):
+    """``L = ½ l (v^L)² − (q^C)²/(2C)`` with ``l`` and ``C`` as array leaves."""
+
+    inductance: np.ndarray
+    capacitance: np.ndarray
+
+    def __call__(self, q, v):
+        return 0.5 * self.inductance * v[1] ** 2 - q[2] ** 2 / (2.0 * self.capacitance)
+
+
+class _Resistor(eqx.Module):
+    """The resistor's force ``(−R v^R, 0, 0)`` with ``R`` as an array leaf."""
+
+    resistance: np.ndarray
+
+    def __call__(self, q, v):
+        return jnp.stack([-self.resistance * v[0], 0.0 * v[1], 0.0 * v[2]])
+
+
+def build_rlc(R: float = 1.0, C: float = 3.0, l: float = 0.75, i0: float = 10.0):  # noqa: E741
+    r"""``(system, q0, p0)`` of the paper's monolithic RLC circuit, for :func:`diracvi.sweep`.
+
+    The same equations as :func:`rlc_circuit`, but the Lagrangian and the resistor are
+    ``equinox.Module`` callables whose parameters are array leaves: circuits that differ
+    only in ``R``, ``C``, ``l`` share one compiled program, so a sweep over them is one
+    vmapped batch. The initial state is ``q = 0`` and an inductor current ``i0``
+    (``p^L = l i0``).
+    """
+    system = LagrangeDiracSystem(
+        ("qR", "qL", "qC"),
+        _RLCLagrangian(np.asarray(float(l)), np.asarray(float(C))),
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        force=_Resistor(np.asarray(float(R))),
+        name="rlc",
+        constraint_names=("KCL",),
+    )
+    return system, np.zeros(3), np.array([0.0, float(l) * float(i0), 0.0])
