@@ -16,7 +16,7 @@ settings.load_profile("default")
 
 def run(problem, **overrides):
     """Simulate a built-in problem with its own step and horizon unless overridden."""
-    kwargs = {"dt": problem.dt, "steps": problem.steps, **overrides}
+    kwargs = {"dt": problem.dt, "steps": problem.steps, "t0": problem.t0, **overrides}
     return dv.simulate(problem.system, problem.q0, problem.p0, **kwargs)
 
 

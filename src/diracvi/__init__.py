@@ -1,9 +1,9 @@
 """diracvi: interconnected Lagrange–Dirac systems and discrete Dirac variational integrators.
 
-    import diracvi as dv
-    L = lambda q, v: 0.5 * v @ v - 0.5 * q @ q
-    system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
-    traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
+import diracvi as dv
+L = lambda q, v: 0.5 * v @ v - 0.5 * q @ q
+system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
+traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
 from . import _config  # noqa: F401  (switches JAX float64 on)

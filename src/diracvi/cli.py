@@ -260,6 +260,7 @@ def run(
             steps=n_steps,
             scheme=scheme,
             discretization=rule,
+            t0=getattr(model, "t0", 0.0),
         )
     _print_summary(model.name, traj)
     if out is not None:

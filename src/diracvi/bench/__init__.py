@@ -13,7 +13,8 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
 - :mod:`.ensemble` — many initial conditions in one call against a Python loop;
 - :mod:`.sweep` — 10⁴ RLC circuits over an R × C grid: a loop of ``simulate`` against
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
-- :mod:`.compile_latency` — first-call latency of every built-in problem.
+- :mod:`.compile_latency` — first-call latency of every built-in problem;
+- :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin.
 
 How timings are taken is in :mod:`._core`; method and results are in
 ``benchmarks/README.md``.
@@ -26,14 +27,32 @@ import time
 import traceback
 from collections.abc import Callable, Sequence
 
-from . import chain_scaling, compile_latency, ensemble, pendulum, rlc, spring_chain, sweep
+from . import (
+    chain_scaling,
+    compile_latency,
+    driven,
+    ensemble,
+    pendulum,
+    rlc,
+    spring_chain,
+    sweep,
+)
 from ._core import BenchmarkError, Result, Row, Settings, load_average, machine_info
 from .report import Report
 
 #: name (for ``--only``) → module, in the order they run
 BENCHMARKS = {
     mod.NAME: mod
-    for mod in (spring_chain, rlc, chain_scaling, pendulum, ensemble, sweep, compile_latency)
+    for mod in (
+        spring_chain,
+        rlc,
+        chain_scaling,
+        pendulum,
+        ensemble,
+        sweep,
+        compile_latency,
+        driven,
+    )
 }
 
 

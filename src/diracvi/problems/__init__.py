@@ -13,8 +13,18 @@ from collections.abc import Callable
 from .._errors import ModelError
 from ._problem import Problem
 from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
-from .dc_motor import dc_motor
+from .dc_motor import dc_motor, dc_motor_driven
 from .double_pendulum import double_pendulum_torn
+from .driven import (
+    forced_linear_solution,
+    forced_oscillator,
+    rlc_ladder,
+    rlc_ladder_state,
+    rlc_sine,
+    rlc_sine_current,
+    rlc_sine_torn,
+)
+from .linkages import FourBar, cart_pendulum_torn, cartesian_pendulum, four_bar
 from .oscillator import damped_oscillator
 from .rolling_disk import rolling_disk
 from .spring_chain import chain_torn, spring_chain, spring_chain_torn
@@ -31,6 +41,14 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "chain-torn": chain_torn,
     "double-pendulum-torn": double_pendulum_torn,
     "dc-motor": dc_motor,
+    "forced-oscillator": forced_oscillator,
+    "rlc-sine": rlc_sine,
+    "rlc-sine-torn": rlc_sine_torn,
+    "rlc-ladder": rlc_ladder,
+    "dc-motor-driven": dc_motor_driven,
+    "cartesian-pendulum": cartesian_pendulum,
+    "four-bar": four_bar,
+    "cart-pendulum-torn": cart_pendulum_torn,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -63,16 +81,28 @@ def get(name: str) -> Problem:
 
 __all__ = [
     "REGISTRY",
+    "FourBar",
     "Problem",
     "available",
     "build_rlc",
+    "cart_pendulum_torn",
+    "cartesian_pendulum",
     "chain_torn",
     "damped_oscillator",
     "dc_motor",
+    "dc_motor_driven",
     "double_pendulum_torn",
+    "forced_linear_solution",
+    "forced_oscillator",
+    "four_bar",
     "get",
     "lc_circuit",
     "rlc_circuit",
+    "rlc_ladder",
+    "rlc_ladder_state",
+    "rlc_sine",
+    "rlc_sine_current",
+    "rlc_sine_torn",
     "rlc_torn",
     "rolling_disk",
     "spring_chain",

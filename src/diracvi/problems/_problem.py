@@ -23,7 +23,11 @@ class Problem:
         p0: initial momenta, in ``system.coords`` order.
         dt: the step the source uses.
         steps: the number of steps the source uses.
+        t0: the initial time (driven models: pass it on as ``simulate(..., t0=)``).
         exact: ``exact(t) -> q`` with shape (len(t), n), where a closed form is known.
+        numerical_solution: ``numerical_solution(t) -> q`` of shape (len(t), n) where no
+            closed form exists: an independent reduced-coordinate reference (SciPy
+            ``solve_ivp``, DOP853, ``rtol = atol = 1e-12``) that does not use diracvi.
         discretizations: the rules whose step equations are solvable for this model.
         reference: where the model comes from.
         notes: anything a user should know (deviations from the source, caveats).
@@ -42,6 +46,8 @@ class Problem:
     dt: float
     steps: int
     exact: Callable[[np.ndarray], np.ndarray] | None = None
+    t0: float = 0.0
+    numerical_solution: Callable[[np.ndarray], np.ndarray] | None = None
     discretizations: tuple[str, ...] = ("retraction", "midpoint")
     reference: str = ""
     notes: str = ""

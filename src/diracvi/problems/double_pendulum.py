@@ -88,6 +88,7 @@ def double_pendulum_torn(
         Nothing is checked here; non-positive masses or lengths give singular step
         equations that ``dv.simulate`` reports (``ModelError``/``UnsolvableStepError``).
     """
+
     def l_upper(q, v):
         return 0.5 * m1 * l1**2 * v[0] ** 2 + m1 * g * l1 * jnp.cos(q[0])
 
