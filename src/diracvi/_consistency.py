@@ -109,7 +109,7 @@ class Checker:
     is a matrix–vector product; it is verified at ``q_probe`` and otherwise dropped.
     """
 
-    def __init__(self, system: DiracSystem, linear: bool = False, q_probe=None):
+    def __init__(self, system: DiracSystem, linear: bool = False, q_probe=None, t_probe=0.0):
         self.system = system
         self.holonomic = any(getattr(system, "holonomic_mask", ()))
         self.groups = [np.asarray(g) for g in _port_groups(system)]
@@ -128,13 +128,21 @@ class Checker:
             g0, w, forms = (np.asarray(a) for a in _legendre_pieces(system, zero))
             slope = np.asarray(_legendre_slope(system, zero))
             probe = np.zeros(system.n) if q_probe is None else np.asarray(q_probe)
-            g1, w1, forms1 = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(probe)))
             scale = 1.0 + np.max(np.abs(probe), initial=0.0)
-            same = (
-                np.allclose(w, w1, rtol=1e-12, atol=1e-12)
-                and np.allclose(forms, forms1, rtol=1e-12, atol=1e-12)
-                and np.allclose(g0 + slope @ probe, g1, rtol=1e-12, atol=1e-12 * scale)
-            )
+            # a driven system keeps this path only if nothing here moves with time either
+            times = [0.0]
+            if system.time_dependent:
+                times += [t_probe, t_probe + 1.37 * (1.0 + abs(t_probe))]
+            same = True
+            for t in times:
+                g1, w1, forms1 = (
+                    np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(probe), t)
+                )
+                same = same and (
+                    np.allclose(w, w1, rtol=1e-12, atol=1e-12)
+                    and np.allclose(forms, forms1, rtol=1e-12, atol=1e-12)
+                    and np.allclose(g0 + slope @ probe, g1, rtol=1e-12, atol=1e-12 * scale)
+                )
             if same:
                 self._linear = (g0, slope, _complement(w, forms))
 

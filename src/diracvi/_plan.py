@@ -119,7 +119,7 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
-        self.checker = Checker(system, linear=not system.time_dependent, q_probe=q0)
+        self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
         self.solvable_checked = self.step_map is not None  # the affine build checked J_x
         self._chunks: dict = {}
 
