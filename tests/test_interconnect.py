@@ -41,6 +41,9 @@ def test_theorem_on_every_torn_problem(name, discretization):
     assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
     assert np.max(np.abs(torn.p - mono.p)) <= 1e-12 * max(1.0, np.max(np.abs(torn.p)))
     assert mono.constraint_names == torn.constraint_names
+    # the same multipliers too: μ_i and λ of the torn equations are the monolithic μ
+    lam = max(1.0, float(np.max(np.abs(mono.multipliers))))
+    assert np.max(np.abs(torn.multipliers - mono.multipliers)) <= 1e-10 * lam
 
 
 @pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
@@ -135,6 +138,8 @@ def test_theorem_on_random_interconnections(case, discretization):
     assert torn.status == mono.status == 0
     assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
     assert np.max(np.abs(torn.constraint_residual)) <= 1e-11
+    lam = max(1.0, float(np.max(np.abs(mono.multipliers))))
+    assert np.max(np.abs(torn.multipliers - mono.multipliers)) <= 1e-9 * lam
 
 
 # ------------------------------------------------------------------ double pendulum
