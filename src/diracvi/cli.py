@@ -2,7 +2,7 @@
 
     diracvi list                         built-in problems
     diracvi run PROBLEM|model.py [...]   simulate, summarize, save NetCDF, plot
-    diracvi plot FILE.nc [--out PNG]     plot a saved trajectory
+    diracvi plot FILE.nc [--out PNG] [--force]   plot a saved trajectory (no silent overwrite)
     diracvi reproduce --out DIR          the paper's §5: figures, summary.json, report
     diracvi bench [--quick] [--only NAME]...   benchmarks: one table of measured ratios
 
@@ -269,7 +269,7 @@ def run(
         from .plotting import plot_trajectory
 
         png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
-        plot_trajectory(traj, png)
+        plot_trajectory(traj, png, name=model.name)
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 
@@ -308,13 +308,24 @@ def plot(
     out: Annotated[
         Path | None, typer.Option(help="Where to write the PNG (default: FILE with .png).")
     ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite the PNG if it already exists.")
+    ] = False,
 ) -> None:
-    """Plot a saved trajectory: positions, energy and constraint residuals."""
+    """Plot a saved trajectory: positions, energy and constraint residuals.
+
+    An existing PNG is never overwritten silently: the command refuses unless --force.
+    """
     if not file.is_file():
         _fail(f"trajectory file {str(file)!r} does not exist.", EXIT_USAGE)
     png = out if out is not None else file.with_suffix(".png")
     if not png.parent.exists():
         _fail(f"--out {str(png)!r}: folder {str(png.parent)!r} does not exist.", EXIT_USAGE)
+    if png.exists() and not force:
+        _fail(
+            f"{str(png)!r} already exists; pass --force to overwrite it, or --out NEW.png.",
+            EXIT_USAGE,
+        )
     from . import load
     from .plotting import plot_trajectory
 
