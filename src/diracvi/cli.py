@@ -400,8 +400,8 @@ def bench(
         bool,
         typer.Option(
             "--quick",
-            help="Smoke run in well under a minute: few repeats, chains up to N = 10^4, "
-            "10^3 pendulum steps, 100 ensemble members.",
+            help="Smoke run in well under a minute: few repeats, chains up to N = 10^3, "
+            "500 pendulum steps, 100 ensemble members, one compile-latency problem.",
         ),
     ] = False,
     only: Annotated[
@@ -450,7 +450,7 @@ def bench(
     settings = Settings(quick=quick, repeats=repeats)
     report = run_benchmarks(settings, only=only, progress=_note)
     console = _out()
-    console.print(table(report))
+    console.print(table(report, width=console.width))
     for line in machine_lines(report):
         console.print(line, markup=False, soft_wrap=True)
     if json_path is not None:
