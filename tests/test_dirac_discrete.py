@@ -7,11 +7,12 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 import diracvi as dv
 from _dirac_cases import random_instance, rlc_torn, spring_chain_torn
+from conftest import examples
 from diracvi import ModelError, problems
 from diracvi._discretize import get_rule
 from diracvi._equations import new_momentum, residual
@@ -210,7 +211,7 @@ def test_tensor_witness_beta_is_a_valid_beta():
     assert direct.contains(z0, z1, alpha + beta) and interaction.contains(z0, z1, -beta)
 
 
-@settings(max_examples=30, deadline=None)
+@examples(30)
 @given(
     seed=st.integers(0, 2**31 - 1),
     dims=st.tuples(st.integers(1, 4), st.integers(1, 4)),

@@ -5,11 +5,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.integrate
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import diracvi as dv
-from conftest import loglog_slope, run
+from conftest import examples, loglog_slope, run
 from diracvi import problems
 
 TORN = [name for name in problems.REGISTRY if problems.get(name).reduced is not None]
@@ -128,7 +128,7 @@ def random_interconnection(draw):
 
 
 @pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
-@settings(max_examples=8)  # each example compiles two systems (~2 s)
+@examples(8)  # each example compiles two systems (~2 s)
 @given(case=random_interconnection())
 def test_theorem_on_random_interconnections(case, discretization):
     system, q0, p0 = case
