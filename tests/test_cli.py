@@ -386,3 +386,19 @@ def test_warnings_are_printed_as_plain_lines(tmp_path):
     assert result.exit_code == 0, result.output
     assert "warning: Inconsistent initial data" in result.output
     assert "InconsistentInitialDataWarning" not in result.output
+
+
+def test_readme_model_file_runs_without_options(tmp_path):
+    """The README's model-file example, copied as written, runs with no --dt/--steps."""
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"```python\n(# model\.py\n.*?)```", readme, re.S)
+    assert block, "the README shows a model file"
+    path = tmp_path / "model.py"
+    path.write_text(block.group(1))
+    out = tmp_path / "m.nc"
+    result = invoke("run", path, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert dv.load(out).steps == 1000
