@@ -1,17 +1,33 @@
+import os
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
 
 import diracvi as dv
 
-settings.register_profile(
-    "default",
-    max_examples=15,
-    deadline=None,
-    suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
-    derandomize=True,
-)
-settings.load_profile("default")
+# Hypothesis profiles. "ci" (the default) is derandomized: the same draws on every run, so
+# CI is reproducible. "slow" searches for real: random draws, 10× the examples of every test
+# (each test's budget is given through examples(n) below). Choose it with
+#     pytest --hypothesis-profile=slow        (or HYPOTHESIS_PROFILE=slow)
+CI_EXAMPLES = 30
+_common = {
+    "deadline": None,
+    "suppress_health_check": [HealthCheck.too_slow, HealthCheck.data_too_large],
+}
+settings.register_profile("ci", max_examples=CI_EXAMPLES, derandomize=True, **_common)
+settings.register_profile("slow", max_examples=10 * CI_EXAMPLES, derandomize=False, **_common)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+
+def examples(n: int) -> settings:
+    """``@examples(n)``: n examples under the "ci" profile, scaled with the loaded one.
+
+    Decorators run when the test modules are collected, after ``--hypothesis-profile`` has
+    loaded its profile, so ``settings.default`` is the profile of this run.
+    """
+    scale = settings.default.max_examples / CI_EXAMPLES
+    return settings(max_examples=max(1, round(n * scale)))
 
 
 def run(problem, **overrides):

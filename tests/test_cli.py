@@ -307,6 +307,47 @@ def test_plot_a_saved_trajectory(tmp_path):
     assert other.stat().st_size > 0
 
 
+def test_plot_does_not_overwrite_an_existing_png_without_force(tmp_path):
+    nc = tmp_path / "t.nc"
+    dv.simulate(dv.problems.get("damped-oscillator").system, [1.0], [0.0], dt=0.1, steps=5).save(nc)
+    png = nc.with_suffix(".png")
+    png.write_bytes(b"mine")
+    result = invoke("plot", nc)
+    assert result.exit_code == EXIT_USAGE
+    assert "already exists" in result.output and "--force" in result.output
+    assert png.read_bytes() == b"mine"
+    assert invoke("plot", nc, "--force").exit_code == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_run_plot_is_titled_with_the_problem_name(tmp_path, monkeypatch):
+    import diracvi.plotting
+
+    seen = {}
+    real = diracvi.plotting.plot_trajectory
+
+    def spy(traj, path, title=None, name=None):
+        seen["name"] = name
+        return real(traj, path, title=title, name=name)
+
+    monkeypatch.setattr(diracvi.plotting, "plot_trajectory", spy)
+    out = tmp_path / "d.nc"
+    assert invoke("run", "damped-oscillator", "--steps", 5, "--out", out, "--plot").exit_code == 0
+    assert seen["name"] == "damped-oscillator"  # not the system's name, "oscillator"
+
+
+def test_model_file_may_return_dt_and_steps_beside_the_state(tmp_path):
+    path = oscillator_model(tmp_path, "system, [1.0], [0.0], {'dt': 0.05, 'steps': 7}")
+    out = tmp_path / "o.nc"
+    result = invoke("run", path, "--out", out)
+    assert result.exit_code == 0, result.output
+    traj = dv.load(out)
+    assert (traj.dt, traj.steps) == (0.05, 7)
+    # the command line still overrides them
+    assert invoke("run", path, "--steps", 3, "--out", out).exit_code == 0
+    assert dv.load(out).steps == 3
+
+
 def test_plot_missing_file_is_named(tmp_path):
     path = tmp_path / "absent.nc"
     result = invoke("plot", path)
@@ -345,3 +386,19 @@ def test_warnings_are_printed_as_plain_lines(tmp_path):
     assert result.exit_code == 0, result.output
     assert "warning: Inconsistent initial data" in result.output
     assert "InconsistentInitialDataWarning" not in result.output
+
+
+def test_readme_model_file_runs_without_options(tmp_path):
+    """The README's model-file example, copied as written, runs with no --dt/--steps."""
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
+    block = re.search(r"```python\n(# model\.py\n.*?)```", readme, re.S)
+    assert block, "the README shows a model file"
+    path = tmp_path / "model.py"
+    path.write_text(block.group(1))
+    out = tmp_path / "m.nc"
+    result = invoke("run", path, "--out", out)
+    assert result.exit_code == 0, result.output
+    assert dv.load(out).steps == 1000

@@ -127,9 +127,14 @@ def test_two_form_of_interaction_structure_is_zero_on_sigma_int():
 
 def test_two_form_is_independent_of_the_chosen_alpha():
     d = induced(_rlc_forms())
-    u = d.distribution()[:2]
-    # the same vectors, expressed through a different combination, give the same ω
-    assert np.allclose(d.two_form(u), d.two_form(u @ np.eye(6)), atol=1e-14)
+    u = d.distribution()
+    omega = d.two_form(u)
+    assert np.max(np.abs(omega)) > 0.5  # not the zero form
+    # a bilinear, skew form: another basis C u of the same span gives C ω Cᵀ, whatever
+    # covectors α_u the implementation picks for the new vectors
+    c = np.random.default_rng(5).standard_normal((5, 5))
+    np.testing.assert_allclose(d.two_form(c @ u), c @ omega @ c.T, atol=1e-12)
+    np.testing.assert_allclose(omega, -omega.T, atol=1e-13)
     with pytest.raises(ModelError, match="not in the distribution"):
         d.two_form(np.array([[1.0, 1.0, 1.0, 0.0, 0.0, 0.0]]))  # v_q ∉ Δ
 

@@ -7,10 +7,11 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import assume, given, settings
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from _dirac_cases import random_instance, rlc_torn, spring_chain_torn
+from conftest import examples
 from diracvi import ModelError
 from diracvi.dirac import (
     RedundantFormsWarning,
@@ -69,7 +70,7 @@ def test_rlc_by_hand():
     assert not lhs.contains(np.concatenate([v_q, v_p, -v_p + mult + [0, 0, 0, 0, 0.1], v_q]))
 
 
-@settings(max_examples=30, deadline=None)
+@examples(30)
 @given(
     seed=st.integers(0, 2**31 - 1),
     dims=st.tuples(st.integers(1, 4), st.integers(1, 4)),

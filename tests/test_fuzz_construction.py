@@ -3,10 +3,11 @@ with a message — never another exception, a crash or a hang."""
 
 import jax.numpy as jnp
 import numpy as np
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import diracvi as dv
+from conftest import examples
 
 EXPECTED = (dv.ModelError, dv.UnsolvableStepError, dv.StepFailure)
 
@@ -47,7 +48,7 @@ forms = st.one_of(
 )
 
 
-@settings(max_examples=60)
+@examples(60)
 @given(
     coords=st.one_of(junk, st.lists(st.sampled_from(["x", "y", "", " z", "x"]), max_size=3)),
     lagrangian=lagrangians,
@@ -62,7 +63,7 @@ def test_construction_fails_cleanly(coords, lagrangian, constraints, force, name
         assert str(exc)
 
 
-@settings(max_examples=25)
+@examples(25)
 @given(
     lagrangian=lagrangians,
     q0=st.one_of(junk, st.lists(st.floats(-2, 2), min_size=2, max_size=2)),
@@ -83,7 +84,7 @@ def test_simulate_fails_cleanly(lagrangian, q0, p0, dt, steps, scheme):
         assert traj.success and np.all(np.isfinite(traj.q))
 
 
-@settings(max_examples=12)
+@examples(12)
 @given(
     lagrangian=lagrangians,
     q0=st.lists(st.floats(-2, 2), min_size=2, max_size=2),

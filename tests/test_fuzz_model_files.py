@@ -5,10 +5,11 @@ from __future__ import annotations
 
 import itertools
 
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
+from conftest import examples
 from diracvi.cli import app
 
 runner = CliRunner()
@@ -40,7 +41,7 @@ RETURNS = [
 ]
 
 
-@settings(max_examples=30)
+@examples(30)
 @given(
     preamble=st.sampled_from(PREAMBLES),
     lagrangian=st.sampled_from(LAGRANGIANS),

@@ -5,11 +5,11 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 import scipy.integrate
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 import diracvi as dv
-from conftest import loglog_slope, run
+from conftest import examples, loglog_slope, run
 from diracvi import problems
 
 TORN = [name for name in problems.REGISTRY if problems.get(name).reduced is not None]
@@ -41,6 +41,9 @@ def test_theorem_on_every_torn_problem(name, discretization):
     assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
     assert np.max(np.abs(torn.p - mono.p)) <= 1e-12 * max(1.0, np.max(np.abs(torn.p)))
     assert mono.constraint_names == torn.constraint_names
+    # the same multipliers too: μ_i and λ of the torn equations are the monolithic μ
+    lam = max(1.0, float(np.max(np.abs(mono.multipliers))))
+    assert np.max(np.abs(torn.multipliers - mono.multipliers)) <= 1e-10 * lam
 
 
 @pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
@@ -125,7 +128,7 @@ def random_interconnection(draw):
 
 
 @pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
-@settings(max_examples=8)  # each example compiles two systems (~2 s)
+@examples(8)  # each example compiles two systems (~2 s)
 @given(case=random_interconnection())
 def test_theorem_on_random_interconnections(case, discretization):
     system, q0, p0 = case
@@ -135,6 +138,8 @@ def test_theorem_on_random_interconnections(case, discretization):
     assert torn.status == mono.status == 0
     assert np.max(np.abs(torn.q - mono.q)) <= 1e-12 * scale_of(torn)
     assert np.max(np.abs(torn.constraint_residual)) <= 1e-11
+    lam = max(1.0, float(np.max(np.abs(mono.multipliers))))
+    assert np.max(np.abs(torn.multipliers - mono.multipliers)) <= 1e-9 * lam
 
 
 # ------------------------------------------------------------------ double pendulum

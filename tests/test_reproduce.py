@@ -178,3 +178,43 @@ def test_document_escapes_html_and_renders_inline_code(tmp_path):
     page = doc.to_html()
     assert "a &lt;b&gt; &amp; <code>x &lt; y</code> <strong>bold</strong>" in page
     assert "| a\\|b |" in doc.to_markdown()
+
+
+def test_report_names_the_solver_that_ran(run):
+    out, summary, _ = run
+    md = (out / "report.md").read_text(encoding="utf-8")
+    for key in ("spring_chain", "rlc"):
+        ran = summary["examples"][key]["solver"]["interconnected"]
+        assert ran and f"`{ran}`" in md
+    if all(
+        summary["examples"][k]["solver"]["interconnected"] == "affine step map"
+        for k in ("spring_chain", "rlc")
+    ):
+        assert "the next confirms it" not in md and "affine step map" in md
+
+
+def test_html_report_has_no_literal_emphasis_markers(run):
+    page = (run[0] / "report.html").read_text(encoding="utf-8")
+    body = re.sub(r"<style>.*?</style>|<img [^>]*>", "", page, flags=re.S)
+    assert not re.search(r"\*[^*\s<>][^*<>]*\*", body), "literal *…* in the HTML"
+
+
+def test_document_renders_emphasis_but_not_lone_asterisks():
+    from diracvi.reproduce.document import Document
+
+    doc = Document("t")
+    doc.paragraph("an *emphasised* word, a * b, and **bold**")
+    page = doc.to_html()
+    assert "<em>emphasised</em>" in page and "a * b" in page
+    assert "<strong>bold</strong>" in page
+
+
+def test_long_energy_envelope_keeps_the_extremes():
+    from diracvi.reproduce.figures import envelope
+
+    t = np.arange(100_000) * 0.01
+    e = 1.0 + 1e-3 * np.sin(7.0 * t)
+    mids, low, high = envelope(t, e, windows=400)
+    assert len(mids) == 400
+    assert low.min() == e.min() and high.max() == e.max()
+    assert np.all(low <= high) and np.all(np.diff(mids) > 0)

@@ -90,3 +90,21 @@ def test_unsolvable_step_names_the_coordinates():
     message = str(info.value)
     assert "q_{k+1}[port]" in message and "q_{k+1}[x]" not in message
     assert "momentum balance of port" in message
+
+
+@pytest.mark.parametrize("arg", ["q0", "p0", "dt"])
+def test_a_traced_argument_is_refused_as_tracing_not_supported(arg):
+    import jax
+
+    from diracvi import problems
+
+    problem = problems.get("damped-oscillator")
+    given = {"q0": problem.q0, "p0": problem.p0, "dt": 0.01}
+
+    def traced(x):
+        args = {**given, arg: x}
+        return dv.simulate(problem.system, args["q0"], args["p0"], dt=args["dt"], steps=3).q
+
+    with pytest.raises(dv.ModelError, match=f"{arg} is a JAX tracer") as info:
+        jax.jit(traced)(given[arg])
+    assert "tracing through simulate is not supported yet" in str(info.value)

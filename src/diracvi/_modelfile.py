@@ -2,7 +2,8 @@
 
 The contract: the file defines ``build()``, called with no arguments, which returns
 
-- a tuple ``(system, q0, p0)``, or
+- a tuple ``(system, q0, p0)``, or ``(system, q0, p0, {"dt": ..., "steps": ...})``
+  (the dict may hold either key or both), or
 - a mapping with keys ``"system"``, ``"q0"``, ``"p0"`` and optionally ``"dt"``,
   ``"steps"``, or
 - any object with those attributes (a :class:`diracvi.problems.Problem` qualifies).
@@ -86,6 +87,8 @@ def _to_spec(built, path: Path) -> ModelSpec:
     fields = {}
     if isinstance(built, tuple | list) and len(built) == 3:
         fields = dict(zip(("system", "q0", "p0"), built, strict=True))
+    elif isinstance(built, tuple | list) and len(built) == 4 and isinstance(built[3], Mapping):
+        fields = {**dict(built[3]), **dict(zip(("system", "q0", "p0"), built[:3], strict=True))}
     elif isinstance(built, Mapping):
         fields = dict(built)
     elif all(hasattr(built, k) for k in ("system", "q0", "p0")):
@@ -98,8 +101,8 @@ def _to_spec(built, path: Path) -> ModelSpec:
     if missing:
         raise ModelError(
             f"build() in {str(path)!r} returned {type(built).__name__}, which lacks "
-            f"{missing}: return (system, q0, p0), or a dict/object with system, q0, p0 "
-            "(and optionally dt, steps)."
+            f"{missing}: return (system, q0, p0), (system, q0, p0, {{'dt': ..., 'steps': ...}}), "
+            "or a dict/object with system, q0, p0 (and optionally dt, steps)."
         )
     if not isinstance(fields["system"], DiracSystem):
         raise ModelError(

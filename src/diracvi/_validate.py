@@ -120,7 +120,22 @@ def _eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str
     return out
 
 
+def reject_tracer(arg: str, value) -> None:
+    """A JAX tracer (``simulate`` called inside ``jax.jit``/``grad``/``vmap``) is refused by
+    name: tracing through ``simulate`` is not supported yet."""
+    if isinstance(value, jax.core.Tracer) or any(
+        isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(value)
+    ):
+        raise ModelError(
+            f"{arg} is a JAX tracer: simulate was called inside jax.jit, jax.grad or "
+            "jax.vmap, and tracing through simulate is not supported yet. Call it with "
+            "concrete arrays (outside the transformation); for many initial states use "
+            "dv.simulate_ensemble."
+        )
+
+
 def check_state(arg: str, value, n: int, coords: Sequence[str]) -> np.ndarray:
+    reject_tracer(arg, value)
     try:
         arr = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError) as exc:
@@ -143,6 +158,7 @@ def check_state(arg: str, value, n: int, coords: Sequence[str]) -> np.ndarray:
 
 
 def check_positive_float(arg: str, value) -> float:
+    reject_tracer(arg, value)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ModelError(f"{arg}={_short(value)} must be a positive real number, e.g. {arg}=0.01.")
     value = float(value)

@@ -3,7 +3,7 @@
     diracvi list                         built-in problems
     diracvi run PROBLEM|model.py [...]   simulate, summarize, save NetCDF, plot
     diracvi sweep model.py --param R=0.1:2:20 [--scheduler tcp://...] [--out FILE.nc]
-    diracvi plot FILE.nc [--out PNG]     plot a saved trajectory
+    diracvi plot FILE.nc [--out PNG] [--force]   plot a saved trajectory (no silent overwrite)
     diracvi reproduce --out DIR          the paper's §5: figures, summary.json, report
     diracvi bench [--quick] [--only NAME]...   benchmarks: one table of measured ratios
 
@@ -271,7 +271,7 @@ def run(
         from .plotting import plot_trajectory
 
         png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
-        plot_trajectory(traj, png)
+        plot_trajectory(traj, png, name=model.name)
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 
@@ -470,13 +470,24 @@ def plot(
     out: Annotated[
         Path | None, typer.Option(help="Where to write the PNG (default: FILE with .png).")
     ] = None,
+    force: Annotated[
+        bool, typer.Option("--force", help="Overwrite the PNG if it already exists.")
+    ] = False,
 ) -> None:
-    """Plot a saved trajectory: positions, energy and constraint residuals."""
+    """Plot a saved trajectory: positions, energy and constraint residuals.
+
+    An existing PNG is never overwritten silently: the command refuses unless --force.
+    """
     if not file.is_file():
         _fail(f"trajectory file {str(file)!r} does not exist.", EXIT_USAGE)
     png = out if out is not None else file.with_suffix(".png")
     if not png.parent.exists():
         _fail(f"--out {str(png)!r}: folder {str(png.parent)!r} does not exist.", EXIT_USAGE)
+    if png.exists() and not force:
+        _fail(
+            f"{str(png)!r} already exists; pass --force to overwrite it, or --out NEW.png.",
+            EXIT_USAGE,
+        )
     from . import load
     from .plotting import plot_trajectory
 
@@ -551,8 +562,8 @@ def bench(
         bool,
         typer.Option(
             "--quick",
-            help="Smoke run in well under a minute: few repeats, chains up to N = 10^4, "
-            "10^3 pendulum steps, 100 ensemble members.",
+            help="Smoke run in well under a minute: few repeats, chains up to N = 10^3, "
+            "500 pendulum steps, 100 ensemble members, one compile-latency problem.",
         ),
     ] = False,
     only: Annotated[
@@ -601,7 +612,7 @@ def bench(
     settings = Settings(quick=quick, repeats=repeats)
     report = run_benchmarks(settings, only=only, progress=_note)
     console = _out()
-    console.print(table(report))
+    console.print(table(report, width=console.width))
     for line in machine_lines(report):
         console.print(line, markup=False, soft_wrap=True)
     if json_path is not None:

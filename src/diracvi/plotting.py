@@ -18,14 +18,20 @@ from ._trajectory import Trajectory
 LEGEND_LIMIT = 12
 
 
-def plot_trajectory(traj: Trajectory, path, title: str | None = None) -> Path:
-    """Write a three-panel PNG of ``traj`` to ``path``: q(t), E_k, |ω_d(k)| (log scale)."""
+def plot_trajectory(
+    traj: Trajectory, path, title: str | None = None, name: str | None = None
+) -> Path:
+    """Write a three-panel PNG of ``traj`` to ``path``: q(t), E_k, |ω_d(k)| (log scale).
+
+    The heading is ``title`` if given, else ``NAME: steps, h, rule, scheme`` where NAME is
+    ``name`` (e.g. the problem or model file name) or the trajectory's system name.
+    """
     path = Path(path)
     fig = Figure(figsize=(8.0, 9.0), layout="constrained")
     FigureCanvasAgg(fig)
     ax_q, ax_e, ax_c = fig.subplots(3, 1, sharex=True)
     heading = title or (
-        f"{traj.system_name}: {traj.steps} steps, h = {traj.dt:g}, "
+        f"{name or traj.system_name}: {traj.steps} steps, h = {traj.dt:g}, "
         f"{traj.discretization}, scheme {traj.scheme}"
     )
     if not traj.success:

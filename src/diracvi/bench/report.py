@@ -59,9 +59,19 @@ def _verdict(row: Row) -> str:
     return "[green]yes[/green]" if met else "[red]no[/red]"
 
 
-def table(report: Report) -> Table:
-    """The one table: benchmark | diracvi | baseline | ratio | target | met? | solver | notes."""
+#: below this many columns the eight-column table would break words; rows are stacked
+WIDE_TABLE_COLUMNS = 140
+
+
+def table(report: Report, width: int | None = None) -> Table:
+    """The one table: benchmark | diracvi | baseline | ratio | target | met? | solver | notes.
+
+    On a console narrower than :data:`WIDE_TABLE_COLUMNS` (``width``), each benchmark is a
+    block of ``field  value`` lines instead, so no word is broken across lines.
+    """
     mode = "quick" if report.settings.quick else "full"
+    if width is not None and width < WIDE_TABLE_COLUMNS:
+        return _stacked(report, mode)
     result = Table(title=f"diracvi bench ({mode})", title_justify="left", show_lines=True)
     result.add_column("benchmark", overflow="fold", ratio=3)
     result.add_column("diracvi", justify="right", no_wrap=True)
@@ -82,6 +92,26 @@ def table(report: Report) -> Table:
             row.solver or "—",
             row.notes,
         )
+    return result
+
+
+def _stacked(report: Report, mode: str) -> Table:
+    result = Table(title=f"diracvi bench ({mode})", title_justify="left", show_header=False)
+    result.add_column("field", style="bold", no_wrap=True)
+    result.add_column("value", overflow="fold")  # only a word wider than the column folds
+    for row in report.rows:
+        fields = [
+            ("benchmark", row.label),
+            ("diracvi", fmt_value(row.diracvi, row.unit)),
+            ("baseline", fmt_value(row.baseline, row.unit)),
+            ("ratio", fmt_ratio(row.ratio)),
+            ("target", "—" if row.target is None else str(row.target)),
+            ("met?", _verdict(row)),
+            ("solver", row.solver or "—"),
+            ("notes", row.notes),
+        ]
+        for i, (key, value) in enumerate(fields):
+            result.add_row(key, str(value), end_section=i == len(fields) - 1)
     return result
 
 

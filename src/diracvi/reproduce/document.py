@@ -1,8 +1,8 @@
 """A tiny document model rendered twice: Markdown (figures linked) and HTML (embedded).
 
 The report is built once as a list of blocks; both renderings come from the same list,
-so the two files cannot disagree. Inline text understands only ```code``` and
-``**bold**``.
+so the two files cannot disagree. Inline text understands only ```code```,
+``**bold**`` and ``*emphasis*``.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-_INLINE = re.compile(r"`([^`]+)`|\*\*([^*]+)\*\*")
+_INLINE = re.compile(r"`([^`]+)`|\*\*([^*]+)\*\*|\*([^*\s](?:[^*]*[^*\s])?)\*")
 
 _CSS = """
 body { font-family: system-ui, sans-serif; max-width: 60rem; margin: 2rem auto;
@@ -32,10 +32,13 @@ def _html_inline(text: str) -> str:
     out, pos = [], 0
     for match in _INLINE.finditer(text):
         out.append(html.escape(text[pos : match.start()]))
-        code, bold = match.groups()
-        out.append(
-            f"<code>{html.escape(code)}</code>" if code else f"<strong>{html.escape(bold)}</strong>"
-        )
+        code, bold, emph = match.groups()
+        if code:
+            out.append(f"<code>{html.escape(code)}</code>")
+        elif bold:
+            out.append(f"<strong>{html.escape(bold)}</strong>")
+        else:
+            out.append(f"<em>{html.escape(emph)}</em>")
         pos = match.end()
     out.append(html.escape(text[pos:]))
     return "".join(out)

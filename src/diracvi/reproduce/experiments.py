@@ -305,6 +305,11 @@ def _summarize(result: ExampleResult, settings: Settings, rules: dict, timing: d
             "monolithic": metrics.energy_stats(mono.energy),
             "reduced": metrics.energy_stats(red.energy),
         },
+        "solver": {
+            "interconnected": inter.solver,
+            "monolithic": mono.solver,
+            "reduced": red.solver,
+        },
         "newton_iterations_mean": {
             "interconnected": float(inter.newton_iterations.mean()),
             "monolithic": float(mono.newton_iterations.mean()),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -141,6 +142,42 @@ def _deviation(result: ExampleResult, path: Path, title: str) -> Path:
     return _save(fig, path)
 
 
+def envelope(t, values, windows: int = 400):
+    """``(t_mid, low, high)`` of ``values`` over about ``windows`` equal windows of steps."""
+    t, values = np.asarray(t), np.asarray(values)
+    size = max(len(values) // windows, 1)
+    count = len(values) // size
+    blocks = values[: count * size].reshape(count, size)
+    mids = t[: count * size].reshape(count, size).mean(axis=1)
+    return mids, blocks.min(axis=1), blocks.max(axis=1)
+
+
+def _long_energy(long, path: Path) -> Path:
+    """The long run's energy as an envelope (min/max per window) over the whole run, and a
+    zoom on its last few oscillations: a plain line of 10^5 oscillating points is a band."""
+    fig = Figure(figsize=(7.5, 6.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    top, bottom = fig.subplots(2, 1)  # not sharing x: the lower panel is a zoom
+    t, energy = long.t[:-1], long.energy
+    mids, low, high = envelope(t, energy)
+    top.fill_between(mids, low, high, color="C0", alpha=0.35, lw=0, label="min–max per window")
+    top.plot(mids, 0.5 * (low + high), "-", color="C0", lw=1.0, label="window midpoint")
+    top.set_ylabel("energy E(q_k, v_k)")
+    top.set_title(
+        f"Interconnected spring chain: {long.steps:,} steps at h = {long.dt} "
+        f"(envelope over {len(mids)} windows)"
+    )
+    top.legend(fontsize=8)
+    top.grid(alpha=0.3)
+    zoom = slice(max(len(energy) - 1000, 0), len(energy))
+    bottom.plot(t[zoom], energy[zoom], "-", color="C0", lw=1.0)
+    bottom.set_xlim(t[zoom][0], t[zoom][-1])
+    bottom.set_xlabel("time t")
+    bottom.set_ylabel("energy (last 1,000 steps)")
+    bottom.grid(alpha=0.3)
+    return _save(fig, path)
+
+
 def spring_figures(result: ExampleResult, out: Path) -> list[Path]:
     paths = []
     fig, ax = positions(result)
@@ -152,15 +189,7 @@ def spring_figures(result: ExampleResult, out: Path) -> list[Path]:
     paths.append(
         _deviation(result, out / "spring_constraint_deviation.png", "Spring chain: q2 − q̄2")
     )
-    long = result.long_run
-    fig, (ax,) = _figure()
-    ax.plot(long.t[:-1], long.energy, "-", lw=0.6, label="interconnected")
-    ax.set_xlabel("time t")
-    ax.set_ylabel("energy E(q_k, v_k)")
-    ax.set_title(f"Interconnected spring chain: {long.steps:,} steps at h = {long.dt}")
-    ax.legend()
-    ax.grid(alpha=0.3)
-    paths.append(_save(fig, out / "spring_long_energy.png"))
+    paths.append(_long_energy(result.long_run, out / "spring_long_energy.png"))
     paths.append(_rules_energy(result, out / "spring_discretizations.png"))
     return paths
 
