@@ -119,8 +119,13 @@ def _step_solver(system, rule, scheme, solver) -> StepSolver:
 
 
 def segment_length(blocks: int) -> int:
-    """Blocks per checkpointed segment: about √blocks."""
-    return max(1, math.isqrt(blocks))
+    """Blocks per checkpointed segment: about √blocks, a divisor of ``blocks`` when one
+    is near (a remainder costs a second compiled chunk)."""
+    root = max(1, math.isqrt(blocks))
+    for d in sorted(range(max(1, root // 2), 2 * root + 1), key=lambda d: abs(d - root)):
+        if blocks % d == 0:
+            return d
+    return root
 
 
 def check_traced_options(checkpoint, project_initial) -> None:
