@@ -11,6 +11,7 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   streaming-memory kernel;
 - :mod:`.pendulum` — torn double pendulum against DOP853 at matched accuracy;
 - :mod:`.ensemble` — many initial conditions in one call against a Python loop;
+- :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem.
 
 How timings are taken is in :mod:`._core`; method and results are in
@@ -24,13 +25,14 @@ import time
 import traceback
 from collections.abc import Callable, Sequence
 
-from . import chain_scaling, compile_latency, ensemble, pendulum, rlc, spring_chain
+from . import chain_scaling, compile_latency, ensemble, gradients, pendulum, rlc, spring_chain
 from ._core import BenchmarkError, Result, Row, Settings, load_average, machine_info
 from .report import Report
 
 #: name (for ``--only``) → module, in the order they run
 BENCHMARKS = {
-    mod.NAME: mod for mod in (spring_chain, rlc, chain_scaling, pendulum, ensemble, compile_latency)
+    mod.NAME: mod
+    for mod in (spring_chain, rlc, chain_scaling, pendulum, ensemble, gradients, compile_latency)
 }
 
 

@@ -1,0 +1,171 @@
+r"""Differentiable simulation: gradient cost ÷ forward cost, and reverse-mode memory.
+
+Cost: for the paper's RLC (parameters R, L, C; 400 steps, the affine-equivalent linear
+path) and the torn double pendulum (the initial state; 1000 midpoint steps, Newton), a
+jitted traced run ``J(θ) = Σ q²`` and its jitted reverse-mode gradient
+``jax.grad(J)`` are timed warm and interleaved; the ratio gradient ÷ forward is the
+cost of a gradient in forward runs (goal ≤ 4). Both use the default
+``adjoint="checkpoint"``.
+
+Memory: a pendulum run of 10⁵ steps differentiated in reverse mode with
+``adjoint="checkpoint"`` and with ``adjoint="full"``, each in a fresh process that
+reports its peak resident memory (``ru_maxrss``; the process's JAX baseline included).
+``--quick`` uses 10⁴ steps.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+import numpy as np
+
+from ._core import Result, Row, Settings, Target, interleaved
+from ._core import summary as time_summary
+from ._worker import WorkerFailed, run_child
+
+NAME = "gradients"
+DESCRIPTION = "gradient ÷ forward cost (RLC, torn double pendulum); reverse-mode memory"
+
+COST_TARGET = Target("<=", 4.0)
+MEMORY_STEPS = {False: 100_000, True: 10_000}
+TIMEOUT = {False: 600.0, True: 120.0}
+
+
+def _rlc_case(steps):
+    import jax.numpy as jnp
+
+    import diracvi as dv
+
+    def loss(theta):
+        r, ell, cap = theta[0], theta[1], theta[2]
+
+        def lagrangian(q, v):
+            return 0.5 * ell * v[1] ** 2 - q[2] ** 2 / (2.0 * cap)
+
+        def force(q, v):
+            return jnp.stack([-r * v[0], 0.0 * v[1], 0.0 * v[2]])
+
+        system = dv.LagrangeDiracSystem(
+            ("qR", "qL", "qC"),
+            lagrangian,
+            constraints=np.array([[1.0, -1.0, -1.0]]),
+            force=force,
+        )
+        p0 = jnp.array([0.0, 7.5, 0.0])
+        return jnp.sum(dv.simulate(system, jnp.zeros(3), p0, dt=0.1, steps=steps).q ** 2)
+
+    return loss, jnp.array([1.0, 0.75, 3.0])
+
+
+def _pendulum_case(steps):
+    import jax.numpy as jnp
+
+    import diracvi as dv
+
+    from .. import problems
+
+    problem = problems.double_pendulum_torn(steps=steps)
+
+    def loss(q0):
+        traj = dv.simulate(
+            problem.system, q0, problem.p0, dt=problem.dt, steps=steps, discretization="midpoint"
+        )
+        return jnp.sum(traj.q**2)
+
+    return loss, jnp.asarray(problem.q0)
+
+
+def _cost_row(label, loss, arg, repeats):
+    import jax
+
+    forward = jax.jit(loss)
+    gradient = jax.jit(jax.grad(loss))
+    times = interleaved(
+        {
+            "forward": lambda: jax.block_until_ready(forward(arg)),
+            "gradient": lambda: jax.block_until_ready(gradient(arg)),
+        },
+        repeats,
+    )
+    f, g = float(np.min(times["forward"])), float(np.min(times["gradient"]))
+    row = Row(
+        NAME,
+        f"{label}: reverse-mode gradient ÷ forward run (time)",
+        g,
+        f,
+        g / f,
+        COST_TARGET,
+        unit="s",
+    )
+    return row, {k: time_summary(v) for k, v in times.items()}
+
+
+def child(adjoint: str, steps: int) -> dict:
+    """Peak memory of one reverse-mode gradient over ``steps`` pendulum steps."""
+    import resource
+    import time
+
+    import jax
+    import jax.numpy as jnp
+
+    import diracvi as dv
+
+    system = dv.LagrangeDiracSystem(
+        ("th",), lambda q, v: 0.5 * v[0] ** 2 + 9.81 * jnp.cos(q[0]), name="pendulum"
+    )
+
+    def loss(q0):
+        traj = dv.simulate(system, q0, jnp.zeros(1), dt=0.001, steps=steps, adjoint=adjoint)
+        return jnp.sum(traj.q**2)
+
+    grad = jax.jit(jax.grad(loss))
+    start = time.perf_counter()
+    value = float(jax.block_until_ready(grad(jnp.array([0.5])))[0])
+    seconds = time.perf_counter() - start
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # kB on Linux
+    return {"adjoint": adjoint, "steps": steps, "peak_bytes": peak, "grad": value, "s": seconds}
+
+
+def run(settings: Settings) -> Result:
+    quick = settings.quick
+    repeats = 3 if quick else 10
+    rows, details = [], {}
+    for label, case, steps in (
+        ("RLC (R, L, C)", _rlc_case, 100 if quick else 400),
+        ("torn double pendulum (q0)", _pendulum_case, 200 if quick else 1000),
+    ):
+        loss, arg = case(steps)
+        row, times = _cost_row(f"{label}, {steps} steps", loss, arg, repeats)
+        rows.append(row)
+        details[label] = {"steps": steps, **times}
+    steps = MEMORY_STEPS[quick]
+    peaks = {}
+    for adjoint in ("checkpoint", "full"):
+        try:
+            out = run_child(
+                ["-m", "diracvi.bench.gradients", adjoint, str(steps)], timeout=TIMEOUT[quick]
+            )
+            peaks[adjoint] = out
+        except WorkerFailed as exc:
+            peaks[adjoint] = {"failed": str(exc)}
+    details["memory"] = peaks
+    ck, full = (peaks[a].get("peak_bytes") for a in ("checkpoint", "full"))
+    mb = 1024**2
+    rows.append(
+        Row(
+            NAME,
+            f"pendulum, {steps} steps: peak memory of a reverse-mode gradient, "
+            "checkpointed vs full storage (MB; full ÷ checkpointed)",
+            None if ck is None else ck / mb,
+            None if full is None else full / mb,
+            None if ck is None or full is None else full / ck,
+            None,
+            unit="MB",
+        )
+    )
+    return Result(rows, details)
+
+
+if __name__ == "__main__":
+    print(json.dumps(child(sys.argv[1], int(sys.argv[2]))))
