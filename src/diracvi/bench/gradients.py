@@ -9,14 +9,13 @@ cost of a gradient in forward runs (goal ≤ 4). Both use the default
 
 Memory: a torn double pendulum run of 10⁵ midpoint steps differentiated in reverse mode with
 ``adjoint="checkpoint"`` and with ``adjoint="full"``, each in a fresh process that
-reports its peak resident memory (``ru_maxrss``; the process's JAX baseline included).
+reports the resident memory its run adds (peak RSS during the run, reset after
+compilation through ``/proc/self/clear_refs``, minus the RSS before it) and XLA's
+working memory of the compiled gradient (``memory_analysis().temp_size_in_bytes``).
 ``--quick`` uses 10⁴ steps.
 """
 
 from __future__ import annotations
-
-import json
-import sys
 
 import numpy as np
 
@@ -30,6 +29,10 @@ DESCRIPTION = "gradient ÷ forward cost (RLC, torn double pendulum); reverse-mod
 COST_TARGET = Target("<=", 4.0)
 MEMORY_STEPS = {False: 100_000, True: 10_000}
 TIMEOUT = {False: 600.0, True: 120.0}
+WORKER = (
+    "import json, sys; from diracvi.bench.gradients import child; "
+    "print(json.dumps(child(sys.argv[1], int(sys.argv[2]))))"
+)
 
 
 def _rlc_case(steps):
@@ -65,7 +68,7 @@ def _pendulum_case(steps):
 
     from .. import problems
 
-    problem = problems.double_pendulum_torn(steps=steps)
+    problem = problems.double_pendulum_torn()
 
     def loss(q0):
         traj = dv.simulate(
@@ -113,7 +116,7 @@ def child(adjoint: str, steps: int) -> dict:
 
     from .. import problems
 
-    problem = problems.double_pendulum_torn(steps=steps)
+    problem = problems.double_pendulum_torn()
 
     def loss(q0):
         traj = dv.simulate(
@@ -127,12 +130,47 @@ def child(adjoint: str, steps: int) -> dict:
         )
         return jnp.sum(traj.q**2)
 
-    grad = jax.jit(jax.grad(loss))
+    q0 = jnp.asarray(problem.q0)
+    compiled = jax.jit(jax.grad(loss)).lower(q0).compile()
+    analysis = compiled.memory_analysis()
+    temp = None if analysis is None else int(analysis.temp_size_in_bytes)
+    before = _rss("VmRSS")
+    reset = _reset_peak()
     start = time.perf_counter()
-    value = float(jax.block_until_ready(grad(jnp.asarray(problem.q0)))[0])
+    value = float(jax.block_until_ready(compiled(q0))[0])
     seconds = time.perf_counter() - start
-    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # kB on Linux
-    return {"adjoint": adjoint, "steps": steps, "peak_bytes": peak, "grad": value, "s": seconds}
+    peak = _rss("VmHWM") if reset else resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    return {
+        "adjoint": adjoint,
+        "steps": steps,
+        "peak_bytes": peak,
+        "rss_before_run_bytes": before,
+        "run_increase_bytes": peak - before,
+        "xla_temp_bytes": temp,
+        "peak_reset": reset,
+        "grad": value,
+        "s": seconds,
+    }
+
+
+def _rss(field: str) -> int:
+    """A memory line of /proc/self/status, in bytes."""
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(field + ":"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+
+def _reset_peak() -> bool:
+    """Reset the process's peak RSS (Linux: write 5 to /proc/self/clear_refs), so the
+    peak measured is that of the run, not of compilation."""
+    try:
+        with open("/proc/self/clear_refs", "w") as refs:
+            refs.write("5")
+        return True
+    except OSError:
+        return False
 
 
 def run(settings: Settings) -> Result:
@@ -151,29 +189,27 @@ def run(settings: Settings) -> Result:
     peaks = {}
     for adjoint in ("checkpoint", "full"):
         try:
-            out = run_child(
-                ["-m", "diracvi.bench.gradients", adjoint, str(steps)], timeout=TIMEOUT[quick]
-            )
+            out = run_child(["-c", WORKER, adjoint, str(steps)], timeout=TIMEOUT[quick])
             peaks[adjoint] = out
         except WorkerFailed as exc:
             peaks[adjoint] = {"failed": str(exc)}
     details["memory"] = peaks
-    ck, full = (peaks[a].get("peak_bytes") for a in ("checkpoint", "full"))
     mb = 1024**2
-    rows.append(
-        Row(
-            NAME,
-            f"torn double pendulum, {steps} steps: peak memory of a reverse-mode gradient, "
-            "checkpointed vs full storage (MB; full ÷ checkpointed)",
-            None if ck is None else ck / mb,
-            None if full is None else full / mb,
-            None if ck is None or full is None else full / ck,
-            None,
-            unit="MB",
+    for key, what in (
+        ("run_increase_bytes", "resident memory added by the run (MB)"),
+        ("xla_temp_bytes", "XLA working memory of the compiled gradient (MB)"),
+    ):
+        ck, full = (peaks[a].get(key) for a in ("checkpoint", "full"))
+        rows.append(
+            Row(
+                NAME,
+                f"torn double pendulum, {steps} steps, reverse-mode gradient: {what}, "
+                "checkpointed vs full storage (ratio full ÷ checkpointed)",
+                None if ck is None else ck / mb,
+                None if full is None else full / mb,
+                None if not ck or full is None else full / ck,
+                None,
+                unit="MB",
+            )
         )
-    )
     return Result(rows, details)
-
-
-if __name__ == "__main__":
-    print(json.dumps(child(sys.argv[1], int(sys.argv[2]))))
