@@ -328,3 +328,21 @@ def test_traced_failure_status_and_throw():
     with warnings.catch_warnings(), pytest.raises(Exception, match="a step failed"):
         warnings.simplefilter("ignore")
         jax.block_until_ready(jax.jit(lambda q0: run(q0, True).q)(jnp.array([2.5])))
+
+
+def test_traced_constant_constraint_array():
+    """A constant one-form matrix holding a traced parameter (forward mode)."""
+
+    def final(c):
+        system = dv.LagrangeDiracSystem(
+            ("x", "y"),
+            lambda q, v: 0.5 * v @ v - 0.5 * q @ q - 0.1 * q[0] ** 4,
+            constraints=jnp.stack([jnp.stack([c, 1.0])]),
+        )
+        return jnp.sum(dv.simulate(system, Q0, P0, dt=DT, steps=STEPS).q[-1])
+
+    both = jax.jit(lambda c: jax.jvp(final, (c,), (1.0,)))  # one compilation for both
+    slope = both(0.7)[1]
+    eps = 1e-5
+    fd = (both(0.7 + eps)[0] - both(0.7 - eps)[0]) / (2 * eps)
+    assert abs(float(slope) - float(fd)) <= 1e-6 * abs(float(fd))
