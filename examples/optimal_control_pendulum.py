@@ -59,7 +59,7 @@ def cost(controls, steps=STEPS):
     return (traj.q[-1, 0] - TARGET) ** 2 + traj.p[-1, 0] ** 2 + EPS * jnp.sum(controls**2) * (T / N)
 
 
-def optimize(iterations=30, steps=STEPS):
+def optimize(iterations=15, steps=STEPS):
     """L-BFGS from zero torque (one compiled iteration, line search included); returns
     (controls, history of J)."""
 

@@ -29,7 +29,7 @@ def test_rlc_identification_recovers_values_within_three_standard_errors():
 
 def test_optimal_control_reaches_the_target_state():
     example = _load("optimal_control_pendulum")
-    controls, history = example.optimize(iterations=30, steps=50)
+    controls, history = example.optimize(iterations=15, steps=50)
     traj = example.run(controls, steps=50)
     assert history[-1] < 1e-3 * history[0]
     assert abs(float(traj.q[-1, 0]) - example.TARGET) < 2e-3
