@@ -92,19 +92,16 @@ def test_unsolvable_step_names_the_coordinates():
     assert "momentum balance of port" in message
 
 
-@pytest.mark.parametrize("arg", ["q0", "p0", "dt"])
-def test_a_traced_argument_is_refused_as_tracing_not_supported(arg):
+def test_a_traced_step_is_refused_by_name():
+    """q0, p0, t0 and parameters may be traced (tests/test_gradients.py); dt may not."""
     import jax
 
     from diracvi import problems
 
     problem = problems.get("damped-oscillator")
-    given = {"q0": problem.q0, "p0": problem.p0, "dt": 0.01}
 
-    def traced(x):
-        args = {**given, arg: x}
-        return dv.simulate(problem.system, args["q0"], args["p0"], dt=args["dt"], steps=3).q
+    def traced(dt):
+        return dv.simulate(problem.system, problem.q0, problem.p0, dt=dt, steps=3).q
 
-    with pytest.raises(dv.ModelError, match=f"{arg} is a JAX tracer") as info:
-        jax.jit(traced)(given[arg])
-    assert "tracing through simulate is not supported yet" in str(info.value)
+    with pytest.raises(dv.ModelError, match="dt is a JAX tracer, but dt must be a concrete"):
+        jax.jit(traced)(0.01)

@@ -28,6 +28,7 @@ from ._solvers.affine import AffineSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import AFFINE_REJECTED, keeps_nodal
 from ._system import DiracSystem
+from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from ._trajectory import STATUS_MESSAGES, Trajectory
 from ._validate import (
     check_choice,
@@ -208,6 +209,7 @@ def simulate(
     checkpoint=None,
     checkpoint_every: int | None = None,
     project_initial: bool = False,
+    adjoint: str = "checkpoint",
 ) -> Trajectory:
     r"""Integrate a Lagrange–Dirac system with a discrete Dirac variational integrator.
 
@@ -244,7 +246,32 @@ def simulate(
     ``checkpoint_every`` steps; calling ``simulate`` again with the same arguments resumes
     from the last completed chunk, and the result is bitwise identical to an
     uninterrupted run.
+
+    **Differentiable**: called inside ``jax.jit``, ``jax.grad``, ``jax.jvp``/``jax.jacfwd``
+    or ``jax.vmap`` (or with traced ``q0``, ``p0``, ``t0`` or system parameters), the run
+    is one pure JAX function and the result a :class:`Trajectory` of JAX arrays (a
+    PyTree). Each step is differentiated by the implicit function theorem; ``adjoint``
+    chooses the memory of reverse mode: ``"checkpoint"`` (default: the run is stored at
+    about √steps points and recomputed in between) or ``"full"`` (every step stored).
+    ``checkpoint=`` and ``project_initial=True`` are host-only and refused there;
+    ``throw=True`` makes a failed step a runtime error (``equinox.error_if``),
+    ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
+    adjoint = check_choice("adjoint", adjoint, ADJOINTS)
+    if is_traced(system, q0, p0, t0):
+        run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+        check_traced_options(checkpoint, project_initial)
+        return simulate_traced(
+            system,
+            q0,
+            p0,
+            t0,
+            run,
+            solver,
+            save_states=save_states,
+            throw=bool(throw),
+            adjoint=adjoint,
+        )
     run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
     scheme, discretization, h, steps, k, shape = run
     q0 = check_state("q0", q0, shape.n, shape.coords)

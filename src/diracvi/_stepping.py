@@ -263,17 +263,35 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
     keeps only one record per block, so memory stays O(blocks) beyond one block.
     """
 
-    nodal = keeps_nodal(system, rule, save_states)
+    run = stateful_chunk_runner(system, rule, scheme, method, k, save_states, blocks)
 
     def chunk(h, clock, carry):
-        q, p, q_prev, mu_prev = carry
+        q, p = carry[:2]
         if isinstance(method, AffineStepMap):
             state = ()
         else:
             t_first = step_times(scheme, h, clock, 0, 1)[0][0]
             state = method.init(StepEquations(system, rule, scheme, h, q, p, t_first))
+        carry, _, fail, saved = run(h, clock, carry, state)
+        return carry, fail, saved
+
+    return chunk
+
+
+def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
+    """:func:`chunk_runner` with the solver state passed in and returned:
+    ``(h, clock, carry, state, fail=None) ↦ (carry, state, fail, saved)``. Consecutive
+    chunks that thread the state and the failure record repeat the arithmetic of one long
+    chunk exactly (the traced driver runs a checkpointed run as such segments)."""
+
+    nodal = keeps_nodal(system, rule, save_states)
+
+    def chunk(h, clock, carry, state, fail=None):
+        q, p, q_prev, mu_prev = carry
         fail0 = (jnp.asarray(0), jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), q)
-        init = (q, p, q_prev, mu_prev, state, jnp.asarray(False))
+        if fail is not None:  # a failure in an earlier chunk keeps this one frozen
+            fail0 = fail
+        init = (q, p, q_prev, mu_prev, state, fail0[0] != 0)
 
         def block(inner, fail, offset, length):
             times, index = step_times(scheme, h, clock, offset, length)
@@ -286,7 +304,7 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 
         if k == 1:
             inner, fail, raw, checked = block(init, fail0, 0.0, blocks)
-            return inner[:4], fail, _saved_every_step(raw, checked, save_states)
+            return inner[:4], inner[4], fail, _saved_every_step(raw, checked, save_states)
 
         def body(c, b):
             inner, fail = c
@@ -296,7 +314,7 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 
         offsets = jnp.arange(blocks, dtype=clock.dtype)
         (inner, fail), saved = jax.lax.scan(body, (init, fail0), offsets, length=blocks)
-        return inner[:4], fail, saved
+        return inner[:4], inner[4], fail, saved
 
     return chunk
 

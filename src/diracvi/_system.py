@@ -328,6 +328,16 @@ class LagrangeDiracSystem(DiracSystem):
                         f"matrix whose rows are one-forms over {self._coords}."
                     )
                 m = out.shape[0]
+            elif isinstance(constraints, jax.core.Tracer):
+                # a traced constant (a parameter being differentiated): shape checks only
+                forms = jnp.atleast_2d(jnp.asarray(constraints, dtype=jnp.float64))
+                if forms.ndim != 2 or forms.shape[1] != n:
+                    raise ModelError(
+                        f"constraints has shape {forms.shape} but there are {n} coordinates "
+                        f"{self._coords}: pass an (m, {n}) array, one row per one-form."
+                    )
+                self._forms_const = forms
+                m = forms.shape[0]
             else:
                 forms = check_forms_array("constraints", constraints, n, self._coords)
                 self._forms_const = jnp.asarray(forms)
@@ -362,6 +372,9 @@ class LagrangeDiracSystem(DiracSystem):
                 "constraint_offset", offset, [(n,)], "b(q)", "b(q, t)"
             )
             shape = out.shape
+        elif isinstance(offset, jax.core.Tracer):  # a traced constant: shape checks only
+            self._offset_const = jnp.asarray(offset, dtype=jnp.float64)
+            shape = self._offset_const.shape
         else:
             try:
                 const = np.asarray(offset, dtype=np.float64)

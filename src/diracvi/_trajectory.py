@@ -6,6 +6,7 @@ import os
 import tempfile
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from ._errors import ModelError
@@ -17,6 +18,33 @@ STATUS_MESSAGES = {
     2: "the step equations became singular",
     3: "NaN or Inf appeared",
 }
+
+
+#: the array attributes of a Trajectory (PyTree children; see _flatten below)
+_ARRAY_FIELDS = (
+    "t",
+    "q",
+    "p",
+    "_p_nodal",
+    "multipliers",
+    "energy",
+    "constraint_residual",
+    "newton_iterations",
+    "constraint_violation",
+)
+#: the static attributes (PyTree auxiliary data)
+_STATIC_FIELDS = (
+    "save_every",
+    "coords",
+    "constraint_names",
+    "dt",
+    "scheme",
+    "discretization",
+    "system_name",
+    "message",
+    "solver",
+    "steps_requested",
+)
 
 
 class Trajectory:
@@ -116,6 +144,27 @@ class Trajectory:
         self.message = message
         self.solver = solver
         self.steps_requested = self.steps if steps_requested is None else steps_requested
+
+    @classmethod
+    def traced(cls, *, status, steps_requested, **fields) -> Trajectory:
+        """A trajectory of JAX arrays, as a traced :func:`~diracvi.simulate` returns it
+        (no conversion to NumPy; ``status`` is an array, ``message`` says how to read it)."""
+        self = object.__new__(cls)
+        for name in _ARRAY_FIELDS:
+            setattr(self, name, fields.pop(name.lstrip("_"), None))
+        self.final_state = tuple(fields.pop("final_state"))
+        self.step_index = np.asarray(fields.pop("step_index"), dtype=np.int64)
+        self.status = status
+        self.steps_requested = steps_requested
+        self.message = (
+            "traced run: status is an array (0 success, 1 Newton did not converge, 2 the "
+            "step equations became singular, 3 NaN or Inf appeared)"
+        )
+        for name, value in fields.items():
+            setattr(self, name, value)
+        self.coords = tuple(self.coords)
+        self.constraint_names = tuple(self.constraint_names)
+        return self
 
     @property
     def p_nodal(self):
@@ -343,3 +392,47 @@ def load(path) -> Trajectory:
         raise ModelError(
             f"path={str(path)!r} could not be read as a diracvi NetCDF trajectory: {exc}"
         ) from exc
+
+
+class _Index:
+    """``step_index`` as PyTree auxiliary data: compared by value, hashable."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = np.asarray(value, dtype=np.int64)
+
+    def __eq__(self, other):
+        return isinstance(other, _Index) and np.array_equal(self.value, other.value)
+
+    def __hash__(self):
+        return hash(self.value.tobytes())
+
+
+def _flatten(traj: Trajectory):
+    children = (
+        tuple(getattr(traj, name) for name in _ARRAY_FIELDS),
+        traj.final_state,
+        traj.status,
+    )
+    aux = (tuple(getattr(traj, name) for name in _STATIC_FIELDS), _Index(traj.step_index))
+    return children, aux
+
+
+def _unflatten(aux, children) -> Trajectory:
+    self = object.__new__(Trajectory)
+    arrays, final_state, status = children
+    for name, value in zip(_ARRAY_FIELDS, arrays, strict=True):
+        setattr(self, name, value)
+    self.final_state = tuple(final_state)
+    self.status = status
+    static, index = aux
+    for name, value in zip(_STATIC_FIELDS, static, strict=True):
+        setattr(self, name, value)
+    self.step_index = index.value
+    return self
+
+
+# A Trajectory is a PyTree (arrays as leaves), so a function calling simulate can
+# return it from jax.jit or jax.vmap; untraced results keep their NumPy arrays.
+jax.tree_util.register_pytree_node(Trajectory, _flatten, _unflatten)

@@ -121,16 +121,17 @@ def _eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str
 
 
 def reject_tracer(arg: str, value) -> None:
-    """A JAX tracer (``simulate`` called inside ``jax.jit``/``grad``/``vmap``) is refused by
-    name: tracing through ``simulate`` is not supported yet."""
+    """A JAX tracer where a concrete value is needed (``dt``, or an initial state given to
+    a host-only entry point) is refused by name."""
     if isinstance(value, jax.core.Tracer) or any(
         isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(value)
     ):
         raise ModelError(
-            f"{arg} is a JAX tracer: simulate was called inside jax.jit, jax.grad or "
-            "jax.vmap, and tracing through simulate is not supported yet. Call it with "
-            "concrete arrays (outside the transformation); for many initial states use "
-            "dv.simulate_ensemble."
+            f"{arg} is a JAX tracer, but {arg} must be a concrete value: it fixes the "
+            "compiled program (dt and steps are not differentiable). dv.simulate itself "
+            "may be traced — q0, p0, t0 and the system's parameters can be jit-, grad- and "
+            f"vmap-transformed — so pass {arg} as a plain Python number or NumPy array "
+            "(close over it instead of passing it through the transformation)."
         )
 
 

@@ -13,6 +13,7 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
 - :mod:`.ensemble` — many initial conditions in one call against a Python loop;
 - :mod:`.sweep` — 10⁴ RLC circuits over an R × C grid: a loop of ``simulate`` against
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
+- :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin.
 
@@ -32,6 +33,7 @@ from . import (
     compile_latency,
     driven,
     ensemble,
+    gradients,
     pendulum,
     rlc,
     spring_chain,
@@ -49,6 +51,7 @@ BENCHMARKS = {
         chain_scaling,
         pendulum,
         ensemble,
+        gradients,
         sweep,
         compile_latency,
         driven,

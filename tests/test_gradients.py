@@ -1,0 +1,348 @@
+"""dv.simulate under jax.jit, jax.grad, jax.jvp and jax.vmap (docs/gradients.md).
+
+Gradients are checked against central finite differences of the same forward map (the
+jitted traced run, whose values equal the untraced run's, see test_jit_equals_untraced):
+one compilation for the values and one for the gradient per case keeps the file fast.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import diracvi as dv
+from diracvi import problems
+
+STEPS = 40
+DT = 0.05
+
+
+def _fd_check(loss, args, rel=1e-6, eps=1e-5, has_aux=False):
+    """Reverse-mode gradient of ``loss(*args)`` (each arg a 1-D array) against central
+    differences of the same compiled function (one compilation for both); returns the
+    auxiliary output at ``args`` if ``has_aux``."""
+    both = jax.jit(jax.value_and_grad(loss, argnums=tuple(range(len(args))), has_aux=has_aux))
+
+    def value(*a):
+        out = both(*a)[0]
+        return float(out[0] if has_aux else out)
+
+    (out, grads) = both(*args)
+    worst = 0.0
+    for i, (arg, grad) in enumerate(zip(args, grads, strict=True)):
+        fd = np.zeros(arg.shape)
+        for j in range(arg.size):
+            step = eps * max(1.0, abs(float(arg[j])))
+            plus = list(args)
+            minus = list(args)
+            plus[i] = arg.at[j].add(step)
+            minus[i] = arg.at[j].add(-step)
+            fd[j] = (value(*plus) - value(*minus)) / (2 * step)
+        err = np.max(np.abs(np.asarray(grad) - fd)) / max(np.max(np.abs(fd)), 1e-300)
+        worst = max(worst, float(err))
+    assert worst <= rel, worst
+    return out[1] if has_aux else None
+
+
+# ------------------------------------------------------------- a constrained model
+def bead(theta):
+    """A nonlinear, damped, nonholonomically constrained particle in the plane.
+    theta = (mass [Lagrangian], damping [force], c [constraint one-form])."""
+    mass, damping, c = theta[0], theta[1], theta[2]
+
+    def lagrangian(q, v):
+        return 0.5 * mass * v @ v - 0.5 * q @ q - 0.1 * q[0] ** 4
+
+    def force(q, v):
+        return -damping * v
+
+    def forms(q):
+        return jnp.stack([jnp.stack([c, 1.0 + 0.3 * jnp.sin(q[0])])])
+
+    return dv.LagrangeDiracSystem(("x", "y"), lagrangian, constraints=forms, force=force)
+
+
+THETA = jnp.array([1.3, 0.2, 0.7])
+Q0 = jnp.array([0.4, -0.2])
+P0 = jnp.array([0.3, 0.1])
+
+
+SLOW = pytest.mark.slow  # each case compiles a run and its gradient (≈ 5–20 s)
+
+
+@pytest.mark.parametrize(
+    "discretization,scheme",
+    [
+        ("retraction", "plus"),
+        pytest.param("midpoint", "plus", marks=SLOW),
+        pytest.param("retraction", "minus", marks=SLOW),
+        ("midpoint", "minus"),
+    ],
+)
+def test_newton_gradients_match_finite_differences(discretization, scheme):
+    """q0, p0 and a Lagrangian, a force and a constraint parameter, on the Newton path."""
+
+    def loss(q0, p0, theta):
+        traj = dv.simulate(
+            bead(theta),
+            q0,
+            p0,
+            dt=DT,
+            steps=STEPS,
+            discretization=discretization,
+            scheme=scheme,
+        )
+        return jnp.sum(traj.q**2) + jnp.sum(traj.p[-1]) + jnp.sum(traj.multipliers)
+
+    _fd_check(loss, (Q0, P0, THETA))
+
+
+# ------------------------------------------------------ a linear (affine) model: RLC
+def rlc(theta):
+    """The paper's parallel RLC (diracvi.problems.rlc_circuit) with traced R, L, C."""
+    r, ell, cap = theta[0], theta[1], theta[2]
+
+    def lagrangian(q, v):
+        return 0.5 * ell * v[1] ** 2 - q[2] ** 2 / (2.0 * cap)
+
+    def force(q, v):
+        return jnp.stack([-r * v[0], 0.0 * v[1], 0.0 * v[2]])
+
+    return dv.LagrangeDiracSystem(
+        ("qR", "qL", "qC"),
+        lagrangian,
+        constraints=np.array([[1.0, -1.0, -1.0]]),
+        force=force,
+        name="rlc",
+    )
+
+
+RLC = jnp.array([1.0, 0.75, 3.0])
+
+
+@pytest.mark.parametrize("discretization", [pytest.param("retraction", marks=SLOW), "midpoint"])
+def test_linear_model_gradients_match_finite_differences(discretization):
+    """The affine-stepped RLC: traced, Newton in one iteration, same implicit derivative."""
+    q0 = jnp.zeros(3)
+    p0 = jnp.array([0.0, 7.5, 0.0])
+
+    def loss(q0, p0, theta):
+        traj = dv.simulate(rlc(theta), q0, p0, dt=0.1, steps=STEPS, discretization=discretization)
+        return jnp.sum(traj.q[:, 2] ** 2) + jnp.sum(traj.p[-1]), traj.q
+
+    q = _fd_check(loss, (q0, p0, RLC), has_aux=True)
+    # the traced (Newton) run agrees with the untraced affine map
+    system = problems.rlc_circuit(dt=0.1, steps=STEPS).system
+    untraced = dv.simulate(system, q0, p0, dt=0.1, steps=STEPS, discretization=discretization)
+    assert untraced.solver == "affine step map"
+    assert np.max(np.abs(np.asarray(q) - untraced.q)) <= 1e-12 * np.max(np.abs(untraced.q))
+
+
+# ------------------------------------------- a torn model, on the partitioned solver
+def torn_chain(theta):
+    """Two masses | a third, torn at a massless port; nonlinear springs (stiffness k,
+    hardening a)."""
+    k, a = theta[0], theta[1]
+
+    def spring(d):
+        return 0.5 * k * d**2 + 0.25 * a * d**4
+
+    def l1(q, v):
+        return 0.5 * (v[0] ** 2 + v[1] ** 2) - spring(q[0]) - spring(q[1] - q[0])
+
+    def l2(q, v):
+        return 0.5 * v[1] ** 2 - spring(q[1] - q[0])
+
+    left = dv.LagrangeDiracSystem(("q1", "q2"), l1, name="left")
+    right = dv.LagrangeDiracSystem(("q2bar", "q3"), l2, name="right")
+    return dv.interconnect([left, right], [dv.connect("left.q2", "right.q2bar")])
+
+
+@pytest.mark.parametrize(
+    "discretization,scheme", [("retraction", "plus"), pytest.param("midpoint", "minus", marks=SLOW)]
+)
+def test_torn_model_partitioned_gradients_match_finite_differences(discretization, scheme):
+    q0 = jnp.array([0.1, 0.5, 0.5, 1.0])
+    p0 = jnp.array([0.0, 0.2, 0.0, -0.3])
+
+    def loss(q0, theta):
+        traj = dv.simulate(
+            torn_chain(theta),
+            q0,
+            p0,
+            dt=DT,
+            steps=STEPS,
+            discretization=discretization,
+            scheme=scheme,
+            solver=dv.PartitionedSolver(),
+        )
+        assert "PartitionedSolver" in traj.solver
+        return jnp.sum(traj.q**2) + jnp.sum(traj.multipliers)
+
+    _fd_check(loss, (q0, jnp.array([1.0, 0.5])))
+
+
+def test_equinox_module_parameters_and_filter_grad():
+    """An equinox.Module Lagrangian: its arrays are leaves of the system."""
+
+    class Spring(eqx.Module):
+        k: jax.Array
+
+        def __call__(self, q, v):
+            return 0.5 * v @ v - 0.5 * self.k * q @ q - 0.05 * q[0] ** 4
+
+    system = dv.LagrangeDiracSystem(("a", "b"), Spring(jnp.array(2.0)))
+    q0, p0 = np.array([0.3, -0.1]), np.array([0.0, 0.4])
+
+    @eqx.filter_jit
+    @eqx.filter_grad
+    def grad(system):
+        return jnp.sum(dv.simulate(system, q0, p0, dt=DT, steps=STEPS).q[-1])
+
+    g = grad(system)._lagrangian.arrays.k
+
+    @jax.jit
+    def value(k):  # the Module built inside the traced function
+        system = dv.LagrangeDiracSystem(("a", "b"), Spring(k))
+        return jnp.sum(dv.simulate(system, q0, p0, dt=DT, steps=STEPS).q[-1])
+
+    eps = 1e-5
+    fd = (value(2.0 + eps) - value(2.0 - eps)) / (2 * eps)
+    assert abs(float(g) - float(fd)) <= 1e-6 * abs(float(fd))
+
+
+def test_driven_model_t0_and_input_gradients():
+    """A force F(q, v, t) closing over a traced input amplitude, and a traced t0; forward
+    mode (jacfwd) against finite differences."""
+
+    def loss(args):
+        u, t0 = args[0], args[1]
+
+        def force(q, v, t):
+            return jnp.stack([u * jnp.sin(3.0 * t)])
+
+        system = dv.LagrangeDiracSystem(
+            ("x",), lambda q, v: 0.5 * v @ v - 0.5 * q @ q - 0.2 * q[0] ** 4, force=force
+        )
+        traj = dv.simulate(system, jnp.array([0.2]), jnp.array([0.0]), dt=DT, steps=STEPS, t0=t0)
+        return jnp.sum(traj.q**2)
+
+    args = jnp.array([0.8, 0.3])
+    jac = jax.jit(jax.jacfwd(loss))(args)
+    value = jax.jit(loss)
+    eps = 1e-5
+    fd = np.array(
+        [(value(args.at[i].add(eps)) - value(args.at[i].add(-eps))) / (2 * eps) for i in range(2)]
+    )
+    assert np.max(np.abs(np.asarray(jac) - fd)) <= 1e-6 * np.max(np.abs(fd))
+
+
+# ------------------------------------------------------------------- composability
+def _pendulum():
+    return dv.LagrangeDiracSystem(
+        ("th",), lambda q, v: 0.5 * v[0] ** 2 + 9.81 * jnp.cos(q[0]), name="pendulum"
+    )
+
+
+def test_jit_equals_untraced_and_compiles_once():
+    system = _pendulum()
+    p0 = np.array([0.0])
+    traces = []
+
+    @jax.jit
+    def run(q0):
+        traces.append(1)
+        return dv.simulate(system, q0, p0, dt=0.01, steps=200, save_every=4)
+
+    for q0 in ([0.5], [1.0]):
+        traced = run(jnp.array(q0))
+        ref = dv.simulate(system, np.array(q0), p0, dt=0.01, steps=200, save_every=4)
+        for name in ("t", "q", "p", "energy", "constraint_violation"):
+            a, b = np.asarray(getattr(traced, name)), getattr(ref, name)
+            assert np.max(np.abs(a - b), initial=0.0) <= 1e-14 * max(np.max(np.abs(b)), 1.0)
+        assert int(traced.status) == 0 and traced.steps == ref.steps
+    assert len(traces) == 1  # compiled once
+
+
+def test_vmap_over_initial_states_equals_single_runs():
+    system = _pendulum()
+    q0s = jnp.array([[0.1], [0.7], [1.5]])
+    batch = jax.jit(jax.vmap(lambda q0: dv.simulate(system, q0, jnp.zeros(1), dt=0.02, steps=50)))(
+        q0s
+    )
+    assert batch.q.shape == (3, 51, 1)
+    for i in range(3):
+        single = dv.simulate(system, np.asarray(q0s[i]), np.zeros(1), dt=0.02, steps=50)
+        assert np.max(np.abs(np.asarray(batch.q[i]) - single.q)) <= 1e-14
+
+
+def test_adjoints_agree():
+    """Checkpointed and fully stored reverse mode give the same gradient."""
+    system = _pendulum()
+
+    def loss(q0, adjoint):
+        traj = dv.simulate(system, q0, jnp.zeros(1), dt=0.01, steps=90, adjoint=adjoint)
+        return jnp.sum(traj.q**2)
+
+    q0 = jnp.array([0.9])
+    grad = jax.jit(jax.grad(loss), static_argnums=1)
+    a, b = grad(q0, "checkpoint"), grad(q0, "full")
+    assert np.allclose(a, b, rtol=1e-13, atol=0)
+
+
+def test_host_only_options_are_refused_when_traced(tmp_path):
+    system = _pendulum()
+    with pytest.raises(dv.ModelError, match="checkpoint="):
+        jax.jit(
+            lambda q0: (
+                dv.simulate(
+                    system, q0, jnp.zeros(1), dt=0.01, steps=10, checkpoint=tmp_path / "c.nc"
+                ).q
+            )
+        )(jnp.array([0.1]))
+    with pytest.raises(dv.ModelError, match="project_initial"):
+        jax.jit(
+            lambda q0: (
+                dv.simulate(system, q0, jnp.zeros(1), dt=0.01, steps=10, project_initial=True).q
+            )
+        )(jnp.array([0.1]))
+    with pytest.raises(dv.ModelError, match="adjoint"):
+        dv.simulate(system, [0.1], [0.0], dt=0.01, steps=10, adjoint="backsolve")
+
+
+def test_traced_failure_status_and_throw():
+    """throw=False: the status code in the result; throw=True: a runtime error."""
+    system = _pendulum()
+    solver = dv.NewtonSolver(max_steps=1, reuse_jacobian=False)
+
+    def run(q0, throw):
+        return dv.simulate(system, q0, jnp.zeros(1), dt=0.5, steps=5, solver=solver, throw=throw)
+
+    traj = jax.jit(lambda q0: run(q0, False))(jnp.array([2.5]))
+    assert int(traj.status) == dv.SolveStatus.MAX_ITERATIONS
+    with warnings.catch_warnings(), pytest.raises(Exception, match="a step failed"):
+        warnings.simplefilter("ignore")
+        jax.block_until_ready(jax.jit(lambda q0: run(q0, True).q)(jnp.array([2.5])))
+
+
+def test_traced_constant_constraint_array():
+    """A constant one-form matrix holding a traced parameter (forward mode)."""
+
+    def final(c):
+        system = dv.LagrangeDiracSystem(
+            ("x", "y"),
+            lambda q, v: 0.5 * v @ v - 0.5 * q @ q - 0.1 * q[0] ** 4,
+            constraints=jnp.stack([jnp.stack([c, 1.0])]),
+        )
+        return jnp.sum(dv.simulate(system, Q0, P0, dt=DT, steps=STEPS).q[-1])
+
+    both = jax.jit(lambda c: jax.jvp(final, (c,), (1.0,)))  # one compilation for both
+    slope = both(0.7)[1]
+    eps = 1e-5
+    fd = (both(0.7 + eps)[0] - both(0.7 - eps)[0]) / (2 * eps)
+    assert abs(float(slope) - float(fd)) <= 1e-6 * abs(float(fd))
