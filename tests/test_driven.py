@@ -225,7 +225,9 @@ def test_p_nodal_is_p_under_the_retraction_rule():
 
 
 # ---------------------------------------------------- torn ≡ monolithic
-@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+@pytest.mark.parametrize(
+    "discretization", [pytest.param("retraction", marks=pytest.mark.slow), "midpoint"]
+)
 @pytest.mark.parametrize(
     "name", ["rlc-sine-torn", pytest.param("dc-motor-driven", marks=pytest.mark.slow)]
 )

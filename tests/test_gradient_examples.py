@@ -7,6 +7,7 @@ import importlib.util
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "examples"
 
@@ -27,6 +28,7 @@ def test_rlc_identification_recovers_values_within_three_standard_errors():
     assert abs(np.std(data - fitted) / example.SIGMA - 1) < 0.2
 
 
+@pytest.mark.slow  # ~30 s of L-BFGS; the identification example stays in the default run
 def test_optimal_control_reaches_the_target_state():
     example = _load("optimal_control_pendulum")
     controls, history = example.optimize(iterations=15, steps=50)

@@ -127,8 +127,11 @@ def random_interconnection(draw):
     return system, q0, p0
 
 
-@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
-@examples(8)  # each example compiles two systems (~2 s)
+# each example compiles two systems (3–8 s); the midpoint twin runs with -m slow
+@pytest.mark.parametrize(
+    "discretization", ["retraction", pytest.param("midpoint", marks=pytest.mark.slow)]
+)
+@examples(8)
 @given(case=random_interconnection())
 def test_theorem_on_random_interconnections(case, discretization):
     system, q0, p0 = case

@@ -201,6 +201,7 @@ def test_a_killed_driven_newton_run_resumes_bitwise(tmp_path, monkeypatch):
 
 
 # --------------------------------------------------------------- partitioned
+@pytest.mark.slow  # compiles the partitioned and the dense solver (~15–25 s)
 def test_partitioned_solver_steps_driven_subsystems():
     """A chain torn into 6 pieces, each pushed by F(t) (alike pieces: one vmapped group),
     a holonomic-free nonlinear spring so Newton runs: equal to plain dense Newton."""
