@@ -160,6 +160,48 @@ def _linearizations(system, rule, scheme, h, points, times):
     return jax.vmap(at)(points, times)
 
 
+@eqx.filter_jit
+def _values(system, rule, scheme, h, points, tk):
+    """The residual and the momentum increment at each ``(q, p, d, μ)`` (no derivatives).
+
+    The cheap half of detection: compiling values costs a fraction of compiling their
+    Jacobians (:func:`_linearizations` differentiates ``∂L/∂v`` once more), so a clearly
+    nonlinear model is turned away before the Jacobians are ever built."""
+    n = system.n
+
+    def f(y):
+        q, p = y[:n], y[n : 2 * n]
+        x = y[2 * n :].at[:n].add(q)
+        return jnp.concatenate(
+            [
+                residual(system, rule, scheme, h, q, p, x, tk),
+                new_momentum(system, rule, scheme, h, q, x, tk) - p,
+            ]
+        )
+
+    return jax.vmap(f)(points)
+
+
+#: a midpoint defect above this (relative) is nonlinearity, far beyond round-off; smaller
+#: ones are left to the full test of the Jacobians, which is exact to ``detect_rtol``
+_SCREEN_RTOL = 1e-6
+
+
+def _clearly_nonlinear(system, rule, scheme, h, a, b, tk) -> bool:
+    """``f((a+b)/2) ≠ (f(a) + f(b))/2`` at two points: the step equations are not affine.
+
+    An affine ``f`` satisfies the midpoint identity exactly (up to round-off); any
+    curvature between two generic points breaks it. Only a defect far above round-off
+    counts, so an affine model is never turned away here."""
+    points = np.stack([a, b, 0.5 * (a + b)])
+    values = np.asarray(_values(system, rule, scheme, h, jnp.asarray(points), tk))
+    if not np.all(np.isfinite(values)):
+        return False  # left to the full test, which reports non-finite equations
+    defect = np.abs(values[2] - 0.5 * (values[0] + values[1]))
+    bound = np.abs(values[0]) + np.abs(values[1]) + np.abs(values[2])
+    return bool(np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0)))
+
+
 def _refined_solve(a, lu, piv, b):
     """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision.
 
@@ -215,6 +257,10 @@ def build(
             scale * rng.uniform(-1.0, 1.0, size),
         ]
     )
+    if _clearly_nonlinear(
+        system, rule, scheme, jnp.asarray(h), points[1], points[2], jnp.asarray(t0)
+    ):
+        return None, "the step equations are not affine"
     driven = bool(system.time_dependent)
     # a driven model is probed at three different times (its Jacobians must not move)
     times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
