@@ -61,7 +61,7 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
 
 
 def test_killed_run_resumes_bitwise_identically(tmp_path):
-    steps, every = 600_000, 20_000
+    steps, every = 200_000, 10_000
     path = tmp_path / "killed.nc"
     script = tmp_path / "long_run.py"
     script.write_text(SCRIPT.format(steps=steps, every=every))

@@ -231,7 +231,7 @@ def test_tensor_witness_beta_is_a_valid_beta():
     assert direct.contains(z0, z1, alpha + beta) and interaction.contains(z0, z1, -beta)
 
 
-@examples(30)
+@examples(15)
 @given(
     seed=st.integers(0, 2**31 - 1),
     dims=st.tuples(st.integers(1, 4), st.integers(1, 4)),

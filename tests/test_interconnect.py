@@ -32,8 +32,21 @@ def interconnected_vs_monolithic(problem, discretization, steps):
     return torn, mono
 
 
-@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
-@pytest.mark.parametrize("name", TORN)
+# both rules on the paper's two examples; one rule per other torn problem by default and
+# the twin with -m slow (each case compiles two systems)
+PAPER_TORN = ("spring-chain-torn", "rlc-torn")
+THEOREM_CASES = [
+    pytest.param(
+        name,
+        rule,
+        marks=[pytest.mark.slow] if name not in PAPER_TORN and rule == "retraction" else [],
+    )
+    for name in TORN
+    for rule in ("retraction", "midpoint")
+]
+
+
+@pytest.mark.parametrize(("name", "discretization"), THEOREM_CASES)
 def test_theorem_on_every_torn_problem(name, discretization):
     problem = problems.get(name)
     torn, mono = interconnected_vs_monolithic(problem, discretization, steps=1000)
@@ -60,7 +73,15 @@ def test_torn_model_equals_hand_built_model(name, discretization):
         assert np.max(np.abs(torn[a] - torn[b])) <= 1e-13 * scale
 
 
-@pytest.mark.parametrize(("masses", "pieces"), [(2, 2), (5, 2), (12, 3), (9, 9), (40, 7)])
+@pytest.mark.parametrize(
+    ("masses", "pieces"),
+    [
+        (2, 2),
+        (5, 2),
+        (12, 3),
+        *(pytest.param(*c, marks=pytest.mark.slow) for c in [(9, 9), (40, 7)]),
+    ],
+)
 def test_n_mass_chain_torn_into_m_pieces(masses, pieces):
     problem = problems.chain_torn(masses, pieces, steps=500)
     assert len(problem.system.subsystems) == pieces
@@ -127,11 +148,12 @@ def random_interconnection(draw):
     return system, q0, p0
 
 
-# each example compiles two systems (3–8 s); the midpoint twin runs with -m slow
+# each example compiles two systems (3–8 s): 3 derandomized draws by default, 30 random
+# ones under --hypothesis-profile=slow; the midpoint twin runs with -m slow
 @pytest.mark.parametrize(
     "discretization", ["retraction", pytest.param("midpoint", marks=pytest.mark.slow)]
 )
-@examples(8)
+@examples(3)
 @given(case=random_interconnection())
 def test_theorem_on_random_interconnections(case, discretization):
     system, q0, p0 = case

@@ -74,7 +74,17 @@ IDS = [
 ]
 
 
-@pytest.mark.parametrize(("make", "discretization", "scheme"), CASES, ids=IDS)
+# the heaviest twins (each compiles both solvers) run with -m slow
+SLOW_CASES = {"chain17x5-minus", "nested-chain", "pendulum-minus", "motor-midpoint"}
+
+
+@pytest.mark.parametrize(
+    ("make", "discretization", "scheme"),
+    [
+        pytest.param(*case, id=i, marks=[pytest.mark.slow] if i in SLOW_CASES else [])
+        for case, i in zip(CASES, IDS, strict=True)
+    ],
+)
 def test_same_trajectory_as_dense_newton(make, discretization, scheme):
     problem = make()
     same_as_dense(
