@@ -2,8 +2,8 @@
 discretizations (retraction, order 1; midpoint, order 2; lobatto, order 4) and scipy's
 DOP853 at a range of tolerances.
 
-The points are those of the ``work-precision`` entry of ``diracvi bench`` (its quick
-variant: one step size per rule); ``diracvi bench --only work-precision`` runs the full
+The points are those of the ``work-precision`` entry of ``diracvi bench`` (over its quick
+horizon, two step sizes per rule); ``diracvi bench --only work-precision`` runs the full
 curves over T = 10. Times are warm calls (compilation excluded), minimum of 3.
 
 Run: python examples/work_precision.py [figure.png]
@@ -17,7 +17,7 @@ from _gallery_common import figure_path
 
 from diracvi.bench.work_precision import STEPS, curves
 
-data = curves(quick=True, repeats=3)
+data = curves(quick=True, repeats=3, points=2)
 fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
 for rule, marker in zip([*STEPS, "dop853"], "osD^", strict=True):
     points = np.asarray(data[rule])

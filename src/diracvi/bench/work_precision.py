@@ -38,9 +38,11 @@ RTOLS = tuple(10.0 ** (-k) for k in range(4, 13))
 REFERENCE_RTOL = 1e-13
 
 
-def curves(quick: bool = False, repeats: int = 3) -> dict:
+def curves(quick: bool = False, repeats: int = 3, points: int | None = None) -> dict:
     """``{"horizon", "reference", rule: [(h, error, seconds)], "dop853": [(rtol, error,
-    seconds)]}``: the work–precision points (seconds: min of ``repeats`` warm calls)."""
+    seconds)]}``: the work–precision points (seconds: min of ``repeats`` warm calls);
+    ``points`` step sizes per rule (default: 1 when ``quick``, else all)."""
+    points = (1 if quick else len(STEPS["lobatto"])) if points is None else points
     horizon = HORIZON[quick]
     problem = problems.get("double-pendulum-torn")
     reduced, prm = problem.reduced, problem.parameters
@@ -57,7 +59,7 @@ def curves(quick: bool = False, repeats: int = 3) -> dict:
     out: dict = {"horizon": horizon, "reference_rtol": REFERENCE_RTOL}
     calls = {}
     for rule, hs in STEPS.items():
-        for h in hs[:1] if quick else hs:
+        for h in hs[:points]:
 
             def call(h=h, rule=rule):
                 return dv.simulate(
