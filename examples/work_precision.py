@@ -23,7 +23,7 @@ for rule, marker in zip([*STEPS, "dop853"], "osD^", strict=True):
     points = np.asarray(data[rule])
     ax.loglog(points[:, 2], points[:, 1], marker=marker, label=rule)
     for value, error, seconds in data[rule]:
-        print(f"{rule:10s} {value:8.0e}  error {error:.1e}  time {seconds * 1e3:7.2f} ms")
+        print(f"{rule:10s} {value:9.3g}  error {error:.1e}  time {seconds * 1e3:7.2f} ms")
 ax.set(
     xlabel="run time (s, warm)",
     ylabel=f"max |Δθ| at T = {data['horizon']:g}",
