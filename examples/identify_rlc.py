@@ -12,6 +12,8 @@ the Jacobian at the optimum, ``cov = σ² (JᵀJ)⁻¹``; the fit recovers each 
 three of them.
 """
 
+# gallery: Identifying R, L and C (gradients through dv.simulate)
+
 from __future__ import annotations
 
 import sys

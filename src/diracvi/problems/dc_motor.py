@@ -136,7 +136,7 @@ def dc_motor_driven(
     dt: float = 0.001,
     steps: int = 2000,
 ) -> Problem:
-    r"""The DC motor of :func:`dc_motor` with a prescribed voltage ``V(t) = V₀ sin ωt``.
+    r"""The DC motor of ``dc_motor()`` with a prescribed voltage ``V(t) = V₀ sin ωt``.
 
     The armature's source branch carries the force ``V(t)`` (``force=F(q, v, t)``); the
     rest is unchanged. Reduced model ``L_a q̈ = V(t) − R q̇ − K θ̇``, ``J θ̈ = K q̇ − b θ̇``:
