@@ -213,3 +213,12 @@ def test_any_dirac_system_protocol_implementation_works(rule, scheme):
     assert np.max(parts.total) <= BOUND * _scale(traj)
     assert np.max(np.abs(parts.multipliers - traj.multipliers)) <= 1e-10
     assert np.max(trajectory_residual(system, _perturbed(traj, "q", 40, 3))) > 1e-5
+
+
+def test_the_dirac_diagnostic_refuses_the_staged_rule_by_name():
+    problem = problems.get("spring-chain")
+    traj = dv.simulate(
+        problem.system, problem.q0, problem.p0, dt=0.05, steps=4, discretization="lobatto"
+    )
+    with pytest.raises(dv.ModelError, match="'lobatto' is not covered"):
+        traj.dirac_residual(problem.system)

@@ -346,3 +346,23 @@ def test_traced_constant_constraint_array():
     eps = 1e-5
     fd = (both(0.7 + eps)[0] - both(0.7 - eps)[0]) / (2 * eps)
     assert abs(float(slope) - float(fd)) <= 1e-6 * abs(float(fd))
+
+
+@pytest.mark.slow  # compiling the reverse-mode program of the staged step takes a while
+def test_lobatto_runs_traced_with_implicit_function_gradients():
+    """The staged rule under jax.grad: the traced run equals the untraced one, and the
+    gradient with respect to q₀ matches central differences."""
+    problem = problems.get("forced-oscillator")
+
+    def final(q0):
+        traj = dv.simulate(
+            problem.system, q0, problem.p0, dt=DT, steps=20, discretization="lobatto"
+        )
+        return traj.q[-1, 0]
+
+    q0 = jnp.asarray(problem.q0)
+    untraced = dv.simulate(
+        problem.system, problem.q0, problem.p0, dt=DT, steps=20, discretization="lobatto"
+    )
+    assert abs(float(jax.jit(final)(q0)) - float(untraced.q[-1, 0])) <= 1e-13
+    _fd_check(final, (q0,))

@@ -48,6 +48,18 @@ THEOREM_CASES = [
 
 @pytest.mark.parametrize(("name", "discretization"), THEOREM_CASES)
 def test_theorem_on_every_torn_problem(name, discretization):
+    check_theorem(name, discretization)
+
+
+# the order-4 rule compiles a larger step (stages): one cheap case by default, the rest slow
+@pytest.mark.parametrize(
+    "name", [n if n == "rlc-torn" else pytest.param(n, marks=pytest.mark.slow) for n in TORN]
+)
+def test_theorem_on_every_torn_problem_under_the_order_four_rule(name):
+    check_theorem(name, "lobatto")
+
+
+def check_theorem(name, discretization):
     problem = problems.get(name)
     torn, mono = interconnected_vs_monolithic(problem, discretization, steps=1000)
     assert torn.success and mono.success

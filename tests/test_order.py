@@ -91,3 +91,88 @@ def test_lc_circuit_under_the_left_point_rule_is_reported_unsolvable():
     assert "not solvable at this state" in message
     assert "q_{k+1}[qC1]" in message and "q_{k+1}[qC2]" in message
     assert "midpoint" in message
+
+
+# ------------------------------------------------------------------ order 4: "lobatto"
+LOBATTO_HS = np.array([0.04, 0.02, 0.01])
+
+
+def lobatto_errors(problem, horizon, hs=LOBATTO_HS):
+    """Per-coordinate max error over the run at each h, shape (len(hs), n)."""
+    rows = []
+    for h in hs:
+        traj = dv.simulate(
+            problem.system,
+            problem.q0,
+            problem.p0,
+            dt=h,
+            steps=round(horizon / h),
+            discretization="lobatto",
+        )
+        exact = problem.exact or problem.numerical_solution  # DOP853 where no closed form
+        rows.append(np.max(np.abs(traj.q - exact(traj.t)), axis=0))
+    return np.asarray(rows)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "spring-chain",
+        "forced-oscillator",
+        # three Newton compilations each (≈ 10 s): with -m slow
+        pytest.param("cartesian-pendulum", marks=pytest.mark.slow),
+        pytest.param("rolling-disk", marks=pytest.mark.slow),
+    ],
+)
+def test_lobatto_is_fourth_order(name):
+    """Regular (spring chain), forced and driven (forced oscillator), nonholonomic
+    (rolling disk) and holonomic (Cartesian pendulum, vs DOP853) models: slope 4."""
+    errors = lobatto_errors(problems.get(name), 2.0).max(axis=1)
+    assert abs(loglog_slope(LOBATTO_HS, errors) - 4.0) < 0.3, errors
+    assert errors[-1] < 1e-7  # far below the midpoint rule's error at this h (≈ 1e-5)
+
+
+def test_lobatto_on_the_degenerate_rlc_circuit_loses_order_on_the_rc_branch():
+    """Paper §5.2's RLC: the inductor charge converges at order 4, the resistor and
+    capacitor charges (a first-order direction of the degenerate L: R q̇ = −q/C − ...)
+    at order 2 — the Galerkin rule's known order loss (docs/discretizations.md)."""
+    errors = lobatto_errors(problems.get("rlc"), 2.0)
+    slopes = [loglog_slope(LOBATTO_HS, errors[:, j]) for j in range(3)]  # qR, qL, qC
+    assert abs(slopes[1] - 4.0) < 0.3, slopes
+    assert abs(slopes[0] - 2.0) < 0.15 and abs(slopes[2] - 2.0) < 0.15, slopes
+
+
+@pytest.mark.slow  # three Newton compilations
+def test_lobatto_double_pendulum_against_dop853():
+    """The (reduced) double pendulum, nonlinear and non-separable, vs DOP853 at 1e-13."""
+    import jax
+    import jax.numpy as jnp
+    import scipy.integrate
+
+    problem = problems.get("double-pendulum-torn").reduced
+    system, horizon = problem.system, 1.0
+
+    @jax.jit
+    def acceleration(y):
+        q, v = y[:2], y[2:]
+        mass = jax.hessian(system.lagrangian, argnums=1)(q, v)
+        dldq = jax.grad(system.lagrangian, argnums=0)(q, v)
+        mixed = jax.jacfwd(jax.grad(system.lagrangian, argnums=1), argnums=0)(q, v)
+        return jnp.concatenate([v, jnp.linalg.solve(mass, dldq - mixed @ v)])
+
+    v0 = np.array(problems.get("double-pendulum-torn").parameters["omega0"])
+    reference = scipy.integrate.solve_ivp(
+        lambda _, y: np.asarray(acceleration(y)),
+        (0.0, horizon),
+        np.concatenate([problem.q0, v0]),
+        method="DOP853",
+        rtol=1e-13,
+        atol=1e-13,
+    ).y[:2, -1]
+    errors = []
+    for h in LOBATTO_HS:
+        traj = dv.simulate(
+            system, problem.q0, problem.p0, dt=h, steps=round(horizon / h), discretization="lobatto"
+        )
+        errors.append(np.max(np.abs(traj.q[-1] - reference)))
+    assert abs(loglog_slope(LOBATTO_HS, errors) - 4.0) < 0.3, errors

@@ -306,3 +306,14 @@ def test_module_parameters_are_leaves_so_equal_segments_share_one_structure():
     assert a.name != b.name
     assert [x.shape for x in jax.tree_util.tree_leaves(a)] == [(2,), (2,)]  # masses, springs
     assert not np.array_equal(jax.tree_util.tree_leaves(a)[0], jax.tree_util.tree_leaves(b)[0])
+
+
+def test_the_order_four_rule_is_refused_by_name_and_the_default_falls_back_to_newton():
+    from diracvi._plan import default_solver
+
+    system = problems.get("spring-chain-torn").system
+    with pytest.raises(dv.ModelError, match="discretization='lobatto'"):
+        dv.PartitionedSolver.check(system, "lobatto")
+    big = problems.chain_torn(masses=200, pieces=100).system  # 299 + 99 unknowns
+    assert isinstance(default_solver(big, get_rule("midpoint"), "plus"), dv.PartitionedSolver)
+    assert isinstance(default_solver(big, get_rule("lobatto"), "plus"), dv.NewtonSolver)

@@ -10,7 +10,7 @@ from . import _config  # noqa: F401  (switches JAX float64 on)
 from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
 from ._consistency import InconsistentInitialDataWarning
 from ._consistency import project as project_initial_state
-from ._discretize import Midpoint, QuadratureRule, Retraction
+from ._discretize import Lobatto, Midpoint, QuadratureRule, Retraction
 from ._ensemble import Ensemble, simulate_ensemble
 from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
@@ -32,6 +32,7 @@ __all__ = [
     "Interaction",
     "InterconnectedSystem",
     "LagrangeDiracSystem",
+    "Lobatto",
     "Midpoint",
     "ModelError",
     "NewtonSolver",

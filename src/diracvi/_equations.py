@@ -16,7 +16,16 @@ whichever way the scheme runs (the rule picks its own nodes from it).
     p_k     = −D₁L_d − f_d^−
 
 Each residual function returns the stacked residual of the first two lines; the third
-line is the explicit update :func:`new_momentum`. The same code serves a single system
+line is the explicit update :func:`new_momentum`.
+
+A rule with an internal stage (``rule.stages == 1``, ``"lobatto"``) has the unknowns
+``x = (q_other, μ, Q, ν)``: the stage ``Q`` and its multipliers ``ν`` follow, so the first
+``n + m`` entries mean what they mean for every rule. Two more blocks of equations join::
+
+    0 = D_Q L_d + f_Q + A(Q, t_k + h/2)ᵀ ν        (the stage's variation, δQ ∈ Δ(Q))
+    0 = the stage rows of the rule's ω_d    (see :class:`~diracvi._discretize.Lobatto`)
+
+The same code serves a single system
 and an interconnection, because both implement :class:`~diracvi._system.DiracSystem`.
 """
 
@@ -33,8 +42,29 @@ SCHEMES = ("plus", "minus")
 
 
 def split(system: DiracSystem, x):
-    """``x = (q_other, μ)`` → its two parts."""
+    """``x = (q_other, μ)`` → its two parts (for a staged rule the second part is the
+    whole tail ``(μ, Q, ν)``; :func:`split_stage` takes it apart)."""
     return x[: system.n], x[system.n :]
+
+
+def unknown_count(system: DiracSystem, rule: QuadratureRule) -> int:
+    """``len(x)``: ``n + m``, and as much again per internal stage of the rule."""
+    return (system.n + system.m) * (1 + rule.stages)
+
+
+def split_stage(system: DiracSystem, x):
+    """``x = (q_other, μ, Q, ν)`` of a staged rule → its four parts."""
+    n, m = system.n, system.m
+    return x[:n], x[n : n + m], x[n + m : 2 * n + m], x[2 * n + m : 2 * (n + m)]
+
+
+def first_guess(system: DiracSystem, rule: QuadratureRule, q, q_other, mu):
+    """A starting ``x`` from guesses of ``q_other`` and ``μ`` (stages: ``Q`` at the
+    rule's guess between the ends, ``ν = μ``)."""
+    parts = [q_other, mu]
+    if rule.stages:
+        parts += [rule.stage_guess(q, q_other), mu]
+    return jnp.concatenate(parts)
 
 
 def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x, t=0.0):
@@ -43,6 +73,8 @@ def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x,
     For ``scheme="plus"``, ``(q, p) = (q_k, p_k)`` and ``x = (q_{k+1}, μ_k)``; for
     ``"minus"``, ``(q, p) = (q_{k+1}, p_{k+1})`` and ``x = (q_k, μ)``. ``t = t_k``.
     """
+    if rule.stages:
+        return _staged_residual(system, rule, scheme, h, q, p, x, t)
     q_other, mu = split(system, x)
     if scheme == "plus":
         qk, qk1 = q, q_other
@@ -56,8 +88,27 @@ def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x,
     return jnp.concatenate([r_mom, r_con])
 
 
+def _staged_residual(system, rule, scheme, h, q, p, x, t):
+    """:func:`residual` of a rule with an internal stage: ``[momentum; ω_d; stage; stage ω_d]``."""
+    q_other, mu, stage, nu = split_stage(system, x)
+    qk, qk1 = ordered(scheme, q, q_other)
+    p_left, p_right, p_stage = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
+    if scheme == "plus":
+        r_mom = p_left + system.multiplier_force(qk, mu, t) - p
+    else:
+        r_mom = p_right + system.multiplier_force(qk1, mu, t + h) - p
+    r_stage = p_stage + system.multiplier_force(stage, nu, t + 0.5 * h)
+    c_end, c_stage = system.discrete_constraints(rule, scheme, qk, qk1, h, t, stage=stage)
+    return jnp.concatenate([r_mom, c_end, r_stage, c_stage])
+
+
 def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x, t=0.0):
     """The explicit line: ``p_{k+1} = D₂L_d + f_d^+`` (plus) or ``p_k = −D₁L_d − f_d^−``."""
+    if rule.stages:
+        q_other, _, stage, _ = split_stage(system, x)
+        qk, qk1 = ordered(scheme, q, q_other)
+        p_left, p_right, _ = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
+        return p_right if scheme == "plus" else p_left
     q_other, _ = split(system, x)
     if scheme == "plus":
         return system.discrete_momenta(rule, q, q_other, h, t)[1]
@@ -111,7 +162,7 @@ class StepEquations(eqx.Module):
 
     @property
     def size(self) -> int:
-        return self.system.n + self.system.m
+        return unknown_count(self.system, self.rule)
 
     def residual(self, x):
         return residual(self.system, self.rule, self.scheme, self.h, self.q, self.p, x, self.t)

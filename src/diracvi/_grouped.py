@@ -22,15 +22,18 @@ GROUPED_MIN_SUBSYSTEMS = 8
 
 
 def _plain(system, rule, scheme, h):
-    def one(a, b, tk=0.0):
-        energy = system.energy(rule.node(a, b), (b - a) / h, rule.time_node(tk, h))
+    def one(a, b, tk=0.0, stage=None):
+        energy = rule.step_energy(system.energy, a, b, h, tk, stage)
+        if stage is not None:  # a staged rule: its end rows (the stage rows are internal)
+            return energy, system.discrete_constraints(rule, scheme, a, b, h, tk, stage)[0]
         return energy, system.discrete_constraints(rule, scheme, a, b, h, tk)
 
     return one
 
 
 def step_diagnostics(system, rule, scheme: str, h):
-    """``(q_k, q_{k+1}, t_k) ↦ (E, ω_d)`` for one step (traceable, vmappable over steps)."""
+    """``(q_k, q_{k+1}, t_k, Q) ↦ (E, ω_d)`` for one step (traceable, vmappable over steps);
+    ``Q`` is the internal stage of a staged rule (``None`` otherwise)."""
     subs = getattr(system, "subsystems", ())
     if not isinstance(system, InterconnectedSystem) or len(subs) < GROUPED_MIN_SUBSYSTEMS:
         return _plain(system, rule, scheme, h)
@@ -54,25 +57,29 @@ def step_diagnostics(system, rule, scheme: str, h):
         c_index = np.stack([np.arange(own[i], own[i + 1]) for i in members])
         groups.append((members, stacked, arrays[0], rest, q_index, c_index))
 
-    def one(a, b, tk=0.0):
+    def one(a, b, tk=0.0, stage=None):
         energy = jnp.zeros((), a.dtype)
         con = jnp.zeros(system.m, a.dtype)
         for _, stacked, single, rest, q_index, c_index in groups:
 
-            def local(arrays, x, y, rest=rest):
+            def local(arrays, x, y, s, rest=rest):
                 sub = eqx.combine(arrays, rest)
-                e = sub.energy(rule.node(x, y), (y - x) / h, rule.time_node(tk, h))
+                e = rule.step_energy(sub.energy, x, y, h, tk, s)
+                if s is not None:
+                    return e, sub.discrete_constraints(rule, scheme, x, y, h, tk, s)[0]
                 return e, sub.discrete_constraints(rule, scheme, x, y, h, tk)
 
+            s = None if stage is None else stage[q_index]
             if stacked is None:
-                e, c = local(single, a[q_index[0]], b[q_index[0]])
+                e, c = local(single, a[q_index[0]], b[q_index[0]], None if s is None else s[0])
                 e, c = e[None], c[None]
             else:
-                e, c = jax.vmap(local)(stacked, a[q_index], b[q_index])
+                e, c = jax.vmap(local)(stacked, a[q_index], b[q_index], s)
             energy = energy + jnp.sum(e)
             if c_index.size:
                 con = con.at[c_index.ravel()].set(c.reshape(-1))
-        con = con.at[own[-1] :].set(system.interaction_constraints(rule, scheme, a, b, h, tk))
+        inter = system.interaction_constraints(rule, scheme, a, b, h, tk, stage)
+        con = con.at[own[-1] :].set(inter if stage is None else inter[0])
         return energy, con
 
     return one

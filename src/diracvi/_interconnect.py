@@ -348,8 +348,13 @@ class InterconnectedSystem(DiracSystem):
             force = force + general.T @ lam[self._form_row_index()]
         return force
 
-    def interaction_constraints(self, rule, side, qk, qk1, h, tk=0.0):
-        r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``."""
+    def interaction_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
+        r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``.
+
+        With an internal stage ``Q``: the pair (end rows, stage rows), the staged rule's
+        quadratures of ``B(q_j) v_j`` along the step's path."""
+        if stage is not None:
+            return self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
         out = jnp.zeros(len(self._interaction_names), dtype=qk.dtype)
         if self._port_index:
             a, b, rows = self._port_arrays()
@@ -360,6 +365,33 @@ class InterconnectedSystem(DiracSystem):
             general = rule.discrete_constraints(lambda q, t: forms(q), side, qk, qk1, h, tk)
             out = out.at[self._form_row_index()].set(general)
         return out
+
+    def _staged_interaction(self, rule, side, qk, stage, qk1, h, tk):
+        rows = len(self._interaction_names)
+        end = jnp.zeros(rows, dtype=qk.dtype)
+        mid = jnp.zeros(rows, dtype=qk.dtype)
+        if self._port_index:
+            a, b, index = self._port_arrays()
+            # row by row, the rule's quadratures of v[x] − v[y] along the path: the
+            # constant one-form dx − dy applied to the difference path
+            e, s = rule.discrete_constraints(
+                lambda q, t: jnp.eye(len(a), dtype=q.dtype),
+                side,
+                qk[a] - qk[b],
+                qk1[a] - qk1[b],
+                h,
+                tk,
+                stage=stage[a] - stage[b],
+            )
+            end, mid = end.at[index].set(e), mid.at[index].set(s)
+        if self.interactions:
+            forms = self.general_forms
+            e, s = rule.discrete_constraints(
+                lambda q, t: forms(q), side, qk, qk1, h, tk, stage=stage
+            )
+            index = self._form_row_index()
+            end, mid = end.at[index].set(e), mid.at[index].set(s)
+        return end, mid
 
     def constraint_forms(self, q, t=0.0):
         r"""``[⊕ A_i(q_i, t); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
@@ -390,8 +422,21 @@ class InterconnectedSystem(DiracSystem):
         )
         return own + self.interaction_force(q, lam)
 
-    def discrete_momenta(self, rule, qk, qk1, h, tk=0.0):
-        r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked."""
+    def discrete_momenta(self, rule, qk, qk1, h, tk=0.0, stage=None):
+        r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked (and
+        each one's stage line ``D_Q L_d^i + f_Q^i`` for a staged rule)."""
+        if stage is not None:
+            parts = [
+                sub.discrete_momenta(rule, a, b, h, tk, stage=s)
+                for sub, a, b, s in zip(
+                    self.subsystems,
+                    self._split(qk),
+                    self._split(qk1),
+                    self._split(stage),
+                    strict=True,
+                )
+            ]
+            return tuple(jnp.concatenate([p[j] for p in parts]) for j in range(3))
         parts = [
             sub.discrete_momenta(rule, a, b, h, tk)
             for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
@@ -401,8 +446,25 @@ class InterconnectedSystem(DiracSystem):
             jnp.concatenate([p[1] for p in parts]),
         )
 
-    def discrete_constraints(self, rule, side, qk, qk1, h, tk=0.0):
-        r"""Each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product retraction)."""
+    def discrete_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
+        r"""Each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product retraction); for a
+        staged rule the pair (end rows, stage rows), each in that order."""
+        if stage is not None:
+            own = [
+                sub.discrete_constraints(rule, side, a, b, h, tk, stage=s)
+                for sub, a, b, s in zip(
+                    self.subsystems,
+                    self._split(qk),
+                    self._split(qk1),
+                    self._split(stage),
+                    strict=True,
+                )
+            ]
+            end, mid = self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
+            return (
+                jnp.concatenate([*(o[0] for o in own), end]),
+                jnp.concatenate([*(o[1] for o in own), mid]),
+            )
         own = [
             sub.discrete_constraints(rule, side, a, b, h, tk)
             for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)

@@ -77,15 +77,23 @@ def default_solver(system, rule, scheme) -> StepSolver:
     return NewtonSolver()
 
 
-def unknown_names(system, scheme):
+def unknown_names(system, scheme, rule=None):
     other = "q_{k+1}" if scheme == "plus" else "q_k"
-    return [f"{other}[{c}]" for c in system.coords] + [f"μ[{c}]" for c in system.constraint_names]
+    names = [f"{other}[{c}]" for c in system.coords] + [f"μ[{c}]" for c in system.constraint_names]
+    if rule is not None and rule.stages:  # a staged rule's (Q, ν) follow
+        names += [f"Q[{c}]" for c in system.coords]
+        names += [f"ν[{c}]" for c in system.constraint_names]
+    return names
 
 
-def equation_names(system):
-    return [f"momentum balance of {c}" for c in system.coords] + [
+def equation_names(system, rule=None):
+    names = [f"momentum balance of {c}" for c in system.coords] + [
         f"constraint {c}" for c in system.constraint_names
     ]
+    if rule is not None and rule.stages:
+        names += [f"stage balance of {c}" for c in system.coords]
+        names += [f"stage constraint {c}" for c in system.constraint_names]
+    return names
 
 
 class Plan:
@@ -113,8 +121,8 @@ class Plan:
             if self.step_map is not None:
                 check_step_jacobian(
                     np.asarray(self.step_map.jacobian),
-                    unknown_names=unknown_names(system, scheme),
-                    equation_names=equation_names(system),
+                    unknown_names=unknown_names(system, scheme, rule),
+                    equation_names=equation_names(system, rule),
                     where=f"the ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
                 )
         # the linear fast path of the initial-data check is verified at q0 before use

@@ -20,7 +20,7 @@ import numpy as np
 from . import _checkpoint
 from ._config import ensure_float64
 from ._discretize import RULES, get_rule
-from ._equations import SCHEMES, residual
+from ._equations import SCHEMES, first_guess, residual, unknown_count
 from ._errors import ModelError, StepFailure
 from ._plan import Layout, equation_names, get_plan, layout, unknown_names
 from ._solvers import SolveStatus, StepSolver
@@ -41,20 +41,20 @@ from ._validate import (
 
 @eqx.filter_jit
 def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
-    x0 = jnp.concatenate([q0, jnp.zeros(system.m)])
+    x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
     return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
 
 
 def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
     """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular."""
-    if system.n + system.m > DENSE_CHECK_LIMIT:
+    if unknown_count(system, rule) > DENSE_CHECK_LIMIT:
         return
     tk = t0 if scheme == "plus" else t0 - float(h)
     jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
     check_step_jacobian(
         jac,
-        unknown_names=unknown_names(system, scheme),
-        equation_names=equation_names(system),
+        unknown_names=unknown_names(system, scheme, rule),
+        equation_names=equation_names(system, rule),
         where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
     )
 
@@ -216,7 +216,8 @@ def simulate(
     ``scheme="plus"`` marches the (+) equations forward from ``(q0, p0)`` at time
     ``t0``; ``scheme="minus"`` marches the (−) equations backward from it, so ``t``
     decreases. ``discretization`` picks the quadrature rule (``"retraction"``, order 1,
-    the paper's; or ``"midpoint"``, order 2). Step ``j`` covers ``[t_j, t_j + h]`` with
+    the paper's; ``"midpoint"``, order 2; or ``"lobatto"``, order 4, with one internal
+    stage per step). Step ``j`` covers ``[t_j, t_j + h]`` with
     ``t_j = t0 + j·h`` (``t0 − (j+1)·h`` backward); a driven model (``L``, ``F``, ``A``,
     ``b`` or ``g`` taking ``t``) is evaluated at the rule's time node in it.
 

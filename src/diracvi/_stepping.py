@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._equations import StepEquations, nodal_momentum, ordered, split
+from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
@@ -58,7 +58,7 @@ def _newton_block(system, rule, scheme, solver, h, k, carry, times):
 
         def advance(_):
             eqs = StepEquations(system, rule, scheme, h, q, p, tk)
-            guess = jnp.concatenate([2.0 * q - q_prev, mu_prev])
+            guess = first_guess(system, rule, q, 2.0 * q - q_prev, mu_prev)
             res = solver.solve(eqs, guess, state)
             q1, mu = split(system, res.x)
             p1 = solver.momentum(eqs, res.x, res.state)
@@ -67,7 +67,9 @@ def _newton_block(system, rule, scheme, solver, h, k, carry, times):
             return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
 
         def frozen(_):
-            out = (q, p, mu_prev, jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), jnp.asarray(-1))
+            # μ here is the whole tail of x (with a staged rule's (Q, ν))
+            tail = first_guess(system, rule, q, q, mu_prev)[system.n :]
+            out = (q, p, tail, jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), jnp.asarray(-1))
             return out, state
 
         out, state1 = jax.lax.cond(failed, frozen, advance, None)
@@ -77,7 +79,7 @@ def _newton_block(system, rule, scheme, solver, h, k, carry, times):
             jnp.where(ok, q1, q),
             jnp.where(ok, p1, p),
             jnp.where(ok, q, q_prev),
-            jnp.where(ok, mu, mu_prev),
+            jnp.where(ok, mu[: system.m], mu_prev),
             state1,
             failed | ~ok,
         )
@@ -145,12 +147,14 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     mus = step_map.multipliers(z_from)
     if step_map.driven:
         mus = mus - step_map.mu_offset + mu_offsets
+    if rule.stages:  # the map gives the stage as an increment Q − q
+        mus = mus.at[:, system.m : system.m + n].add(z_from[:, :n])
     q1s, p1s = zs[:, :n], zs[:, n:]
     zero = jnp.zeros(k, dtype=jnp.int32)
     nan = jnp.full(k, jnp.nan, dtype=q.dtype)
     status = jnp.zeros(k, dtype=jnp.int32)  # set by the verification
     q_prev1 = q1s[-2] if k > 1 else q
-    new = (z_end[:n], z_end[n:], q_prev1, mus[-1], state, failed)
+    new = (z_end[:n], z_end[n:], q_prev1, mus[-1, : system.m], state, failed)
     return new, (q1s, p1s, mus, zero, nan, status)
 
 
@@ -179,8 +183,9 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
     diagnostics = step_diagnostics(system, rule, scheme, h)
 
     def one(a, b, q_, p_, x, p1, tk, first):
-        energy, con = diagnostics(a, b, tk)
-        mu = x[system.n :]
+        stage = x[system.n + system.m : 2 * system.n + system.m] if rule.stages else None
+        energy, con = diagnostics(a, b, tk, stage)
+        mu = x[system.n : system.n + system.m]
         p_node = nodal_momentum(system, rule, scheme, h, q_, mu, p1, tk, first) if nodal else p1
         if not affine:
             return energy, con, jnp.zeros((), q_.dtype), p_node
@@ -299,6 +304,7 @@ def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: boo
             checked = _checked(
                 system, rule, scheme, method, h, inner[0], inner[1], raw, times, index, nodal
             )
+            raw = (*raw[:2], raw[2][..., : system.m], *raw[3:])  # saved: μ without stages
             fail = _first_failure(raw, checked, fail)
             return new, fail, raw, checked
 

@@ -48,7 +48,7 @@ import numpy as np
 from ._config import ensure_float64
 from ._consistency import Checker, InconsistentInitialDataWarning
 from ._discretize import get_rule
-from ._equations import residual
+from ._equations import first_guess, residual
 from ._errors import DiracviError, ModelError, UnsolvableStepError
 from ._plan import equation_names, unknown_names
 from ._simulate import _failure_message, check_run
@@ -341,7 +341,7 @@ def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
         def one(dyn, q, p, h, t0):
             system = eqx.combine(dyn, static)
             tk = t0 if scheme == "plus" else t0 - h
-            x0 = jnp.concatenate([q, jnp.zeros(system.m)])
+            x0 = first_guess(system, rule, q, q, jnp.zeros(system.m))
             return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q, p, x, tk))(x0)
 
         return jax.jit(jax.vmap(one, in_axes=(0, 0, 0, None, None)))
@@ -526,8 +526,8 @@ def run_batch(build, names, values, settings: SweepSettings, cap: int | None = N
             try:
                 check_step_jacobian(
                     jacs[j],
-                    unknown_names=unknown_names(system, scheme),
-                    equation_names=equation_names(system),
+                    unknown_names=unknown_names(system, scheme, rule),
+                    equation_names=equation_names(system, rule),
                     where=f"the first ({scheme}) step of member {_described(names, values[i])}"
                     f" at t = {tk:g}",
                 )

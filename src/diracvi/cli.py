@@ -219,8 +219,8 @@ def run(
     discretization: Annotated[
         str | None,
         typer.Option(
-            callback=_choice(("retraction", "midpoint")),
-            metavar="retraction|midpoint",
+            callback=_choice(("retraction", "midpoint", "lobatto")),
+            metavar="retraction|midpoint|lobatto",
             help="Quadrature rule (default: the problem's first solvable one, usually retraction).",
         ),
     ] = None,
@@ -371,7 +371,10 @@ def sweep_command(
     ] = "plus",
     discretization: Annotated[
         str,
-        typer.Option(callback=_choice(("retraction", "midpoint")), metavar="retraction|midpoint"),
+        typer.Option(
+            callback=_choice(("retraction", "midpoint", "lobatto")),
+            metavar="retraction|midpoint|lobatto",
+        ),
     ] = "retraction",
     save_every: Annotated[
         str, typer.Option(callback=_positive_int, metavar="INT", help="Keep every k-th state.")

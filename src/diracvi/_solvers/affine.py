@@ -34,7 +34,7 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
 
-from .._equations import StepEquations, new_momentum, residual
+from .._equations import StepEquations, new_momentum, residual, unknown_count
 from .._errors import ModelError
 from .base import StepSolver
 from .newton import NewtonSolver
@@ -114,8 +114,8 @@ class AffineStepMap(eqx.Module):
 
     def offsets_at(self, system, rule, scheme, h, times):
         """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets."""
-        n, m = system.n, system.m
-        zero_q, zero_x = jnp.zeros(n), jnp.zeros(n + m)
+        n = system.n
+        zero_q, zero_x = jnp.zeros(n), jnp.zeros(unknown_count(system, rule))
 
         def one(tk):
             r0 = residual(system, rule, scheme, h, zero_q, zero_q, zero_x, tk)
@@ -139,11 +139,14 @@ def _linearizations(system, rule, scheme, h, points, times):
     floating point: e.g. ``∂(q_other − q)/∂q`` is formed exactly by AD (``dq − dq = 0``)
     instead of as a difference of two rounded ``M/h`` terms, so the map's entries are
     accurate relative to the *change* per step, as Newton's per-step solve is."""
-    n = system.n
+    n, m = system.n, system.m
 
     def parts(q, p, y, tk):
-        # in increments: x = (q + d, μ), and the momentum line as p_other − p
+        # in increments: x = (q + d, μ), and the momentum line as p_other − p (a staged
+        # rule's stage Q = q + d_Q is an increment too)
         x = y.at[:n].add(q)
+        if rule.stages:
+            x = x.at[n + m : 2 * n + m].add(q)
         return residual(system, rule, scheme, h, q, p, x, tk), new_momentum(
             system, rule, scheme, h, q, x, tk
         ) - p
@@ -244,16 +247,17 @@ def build(
     system, rule, scheme, h, q0, p0, solver: AffineSolver, t0: float = 0.0
 ) -> tuple[AffineStepMap | None, str]:
     """The affine step map, or ``(None, reason)`` when the equations are not affine."""
-    n, m = system.n, system.m
-    if n + m > AFFINE_DENSE_LIMIT:
-        return None, f"{n + m} unknowns exceed the dense step-map limit {AFFINE_DENSE_LIMIT}"
+    n, _m = system.n, system.m
+    unknowns = unknown_count(system, rule)
+    if unknowns > AFFINE_DENSE_LIMIT:
+        return None, f"{unknowns} unknowns exceed the dense step-map limit {AFFINE_DENSE_LIMIT}"
     rng = np.random.default_rng(20261121)
     scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
-    size = 2 * n + n + m
+    size = 2 * n + unknowns
     points = np.stack(
         [
             np.zeros(size),
-            np.concatenate([np.asarray(q0), np.asarray(p0), np.zeros(n + m)]),
+            np.concatenate([np.asarray(q0), np.asarray(p0), np.zeros(unknowns)]),
             scale * rng.uniform(-1.0, 1.0, size),
         ]
     )

@@ -128,6 +128,14 @@ def check_partitionable(system, rule="retraction", scheme: str = "plus") -> None
         )
     scheme = check_choice("scheme", scheme, SCHEMES)
     rule = _as_rule(rule)
+    if rule.stages:
+        raise ModelError(
+            f"solver=PartitionedSolver() cannot step discretization={rule.name!r}: its "
+            "internal stage adds stage rows to every interface (the interaction one-forms "
+            "are imposed on the stage too), which the slot system of this solver does not "
+            "carry yet. Fix: use solver=dv.NewtonSolver() (the default picks it), or "
+            "discretization='midpoint' with the partitioned solver."
+        )
     if _node_is_known(rule, scheme):
         return
     for inter, (first, count) in zip(system.interactions, system._form_rows, strict=True):

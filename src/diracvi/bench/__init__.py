@@ -15,7 +15,9 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
 - :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
-- :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin.
+- :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
+- :mod:`.work_precision` — error against run time on the double pendulum for the three
+  rules (orders 1, 2, 4) and DOP853.
 
 How timings are taken is in :mod:`._core`; method and results are in
 ``benchmarks/README.md``.
@@ -38,6 +40,7 @@ from . import (
     rlc,
     spring_chain,
     sweep,
+    work_precision,
 )
 from ._core import BenchmarkError, Result, Row, Settings, load_average, machine_info
 from .report import Report
@@ -55,6 +58,7 @@ BENCHMARKS = {
         sweep,
         compile_latency,
         driven,
+        work_precision,
     )
 }
 

@@ -136,6 +136,7 @@ def trajectory_residual(system, traj) -> np.ndarray:
     The largest of ``|ω_{d±}(q_k, q_{k+1})|``, the base-point mismatch of the momenta and
     the distance of ``α − Ω^♭_{d±}(X_d^k)`` from ``Δ°`` (least squares over the
     multipliers); absolute, in the trajectory's units. A trajectory of the integrator
-    gives round-off; see :class:`StepResiduals` for the pieces.
+    gives round-off; see :class:`StepResiduals` for the pieces. Covers the two-point rules
+    ``"retraction"`` and ``"midpoint"``; a ``"lobatto"`` trajectory raises ``ModelError``.
     """
     return step_residuals(system, traj).total

@@ -148,15 +148,25 @@ def dirac_differential_minus(
 
 
 def as_rule(rule) -> QuadratureRule:
-    if isinstance(rule, QuadratureRule):
-        return rule
-    try:
-        return get_rule(rule)
-    except (KeyError, TypeError):
+    """The two-point rule ``rule`` names; the Dirac-structure code covers ``"retraction"``
+    and ``"midpoint"`` only (a staged rule such as ``"lobatto"`` is refused by name)."""
+    if not isinstance(rule, QuadratureRule):
+        try:
+            rule = get_rule(rule)
+        except (KeyError, TypeError):
+            raise ModelError(
+                f"rule={rule!r} is not a discretization: use 'retraction' or 'midpoint' "
+                "(or a dv.QuadratureRule instance)."
+            ) from None
+    if rule.stages:
         raise ModelError(
-            f"rule={rule!r} is not a discretization: use 'retraction' or 'midpoint' "
-            "(or a dv.QuadratureRule instance)."
-        ) from None
+            f"discretization={rule.name!r} is not covered by the discrete Dirac-structure "
+            "diagnostics: they are defined for two-point rules L_d(q_k, q_(k+1)), and this "
+            "rule's step also has an internal stage Q, which a trajectory does not store. "
+            "Fix: check traj.constraint_residual and traj.energy for it, or run the "
+            "diagnostic on a 'midpoint' or 'retraction' run."
+        )
+    return rule
 
 
 def check_side(side: str) -> str:

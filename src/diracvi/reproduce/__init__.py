@@ -20,6 +20,7 @@ from pathlib import Path
 
 import jax
 
+from . import convergence
 from .experiments import EXAMPLES, Settings, run_example
 from .figures import FIGURES, render_all
 from .progress import Progress
@@ -75,8 +76,12 @@ def reproduce(
     load_before = _load()
     results = {ex.key: run_example(ex, settings, progress) for ex in EXAMPLES}
 
+    progress.step("convergence table: order 2 and order 4 on a forced oscillator")
+    orders = convergence.convergence_table(
+        convergence.STEPS_PER_PERIOD[:3] if settings.quick else convergence.STEPS_PER_PERIOD
+    )
     progress.step(f"writing {len(FIGURES)} figures")
-    figures = tuple(render_all(results, out))
+    figures = (*render_all(results, out), convergence.render(orders, out))
     summary = {
         "diracvi_version": __version__,
         "created": datetime.now(UTC).isoformat(timespec="seconds"),
@@ -93,6 +98,7 @@ def reproduce(
         },
         "figures": {p.name: FIGURES[p.name][0] for p in figures},
         "examples": {key: r.summary for key, r in results.items()},
+        "convergence": orders,
     }
     summary["deviations"] = deviations(summary)
     progress.step("writing summary.json and the report")

@@ -28,6 +28,10 @@ FIGURES = {
     "spring_discretizations.png": ("Energy error: retraction (paper) vs midpoint", None),
     "rlc_discretizations.png": ("Capacitor charge vs exact: retraction vs midpoint", None),
     "rlc_resistor_sign.png": ("RLC energy: physical vs the paper's printed resistor sign", None),
+    "convergence_orders.png": (
+        "Forced oscillator: error vs steps per period, order 2 and order 4",
+        "arXiv:1703.03045, convergence table",
+    ),
 }
 
 _MARKERS = ("o", "s", "^", "D", "v", "P")

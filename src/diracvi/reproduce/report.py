@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from . import paper
+from . import convergence, paper
 from .document import Document
 from .figures import FIGURES
 
@@ -430,6 +430,8 @@ def build(summary: dict, out: Path) -> Document:
         "rlc_discretizations.png",
         "RLC capacitor charge of the two rules against the exact solution, and the error.",
     )
+    if "convergence" in summary:
+        convergence.add_to_report(doc, summary["convergence"], out, fmt)
     doc.heading("The paper's printed resistor sign", level=3)
     sign = rlc["resistor_sign"]
     doc.table(
