@@ -34,7 +34,8 @@ class Part(LagrangeDiracSystem):
         flanges: ``(flange, coordinate, kind)`` triples, ``kind`` ``"translational"``
             or ``"rotational"``.
         currents: ``(label, coordinate)`` pairs: the branch currents reported as
-            ``i(label)`` (``""`` means the part's own name).
+            ``i(label)`` (``""`` means the part's own name). Default: ``i(name)`` for a
+            one-branch part, ``i(name.1)``, ``i(name.2)``, … for several.
         initial_q, initial_v: the part's own initial coordinates and velocities
             (a capacitor's charge, an inductor's current); flange values are set by
             the network's mechanical nodes instead.
@@ -70,8 +71,10 @@ class Part(LagrangeDiracSystem):
         n = len(self.coords)
         self.pins = tuple((str(p), str(c), int(s)) for p, c, s in pins)
         self.flanges = tuple((str(f), str(c), str(k)) for f, c, k in flanges)
-        if currents is None:
-            currents = tuple(("", c) for c in dict.fromkeys(c for _, c, _ in self.pins))
+        if currents is None:  # i(name) for one branch, i(name.1), i(name.2), … for several
+            branch = tuple(dict.fromkeys(c for _, c, _ in self.pins))
+            labels = [""] if len(branch) == 1 else [f"{name}.{j + 1}" for j in range(len(branch))]
+            currents = tuple(zip(labels, branch, strict=True))
         self.currents = tuple((str(a), str(c)) for a, c in currents)
         self.initial_q = _initial("initial_q", initial_q, n, name)
         self.initial_v = _initial("initial_v", initial_v, n, name)

@@ -5,12 +5,12 @@ constraint impulse ``B(q_k)ᵀλ_k`` on the ``p_k`` line, so ``λ_k`` is the imp
 ``−h φ(t_k)``: ``v(n)_k = −λ_k/h``, first order under the left-point rule and second
 order at the nodes under midpoint for ``k ≥ 1``. At ``k = 0`` the midpoint impulse sees
 only the half step after ``t₀`` (the given ``p₀`` carries no half step before it), and
-there is no multiplier for the last node, so both ends are extrapolated linearly from
-their two neighbours (second order).
+there is no multiplier for the last node, so both ends are extrapolated (quadratically,
+from their three neighbours).
 
 Branch currents are ``q̇``: the step velocities ``(q_{k+1} − q_k)/h`` sit at the
 half-nodes; their average gives the current at ``t_k`` (second order), the ends again
-by linear extrapolation.
+by quadratic extrapolation.
 """
 
 from __future__ import annotations
@@ -18,11 +18,17 @@ from __future__ import annotations
 import numpy as np
 
 
-def _extrapolate_ends(values: np.ndarray, first: bool) -> np.ndarray:
-    out = values.copy()
-    if first and len(out) >= 3:
-        out[0] = 2.0 * out[1] - out[2]
-    return out
+# quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
+# half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
+_FROM_NODES = np.array([3.0, -3.0, 1.0])
+_FROM_HALVES = np.array([15.0, -10.0, 3.0]) / 8.0
+
+
+def _end(values: np.ndarray, weights: np.ndarray) -> float:
+    """Extrapolate to the node before ``values[0]`` (fewer than 3 values: the nearest)."""
+    if len(values) < 3:
+        return float(values[0])
+    return float(weights @ values[:3])
 
 
 def waveforms(assembly, traj) -> dict[str, np.ndarray]:
@@ -45,11 +51,9 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         lam = traj.multiplier(assembly.kcl_rows[node])
         phi = np.empty(steps + 1)
         phi[:steps] = -lam / h
-        phi = _extrapolate_ends(phi, first=midpoint)
-        if steps >= 2:
-            phi[steps] = 2.0 * phi[steps - 1] - phi[steps - 2]
-        else:
-            phi[steps] = phi[steps - 1]
+        if midpoint:
+            phi[0] = _end(phi[1:steps], _FROM_NODES)
+        phi[steps] = _end(phi[steps - 1 :: -1], _FROM_NODES)
         out[f"v({node})"] = phi
     index = {c: j for j, c in enumerate(traj.coords)}
     for label, coord in assembly.currents.items():
@@ -57,11 +61,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         vel = np.diff(q) / h  # at the half nodes
         cur = np.empty(len(q))
         cur[1:-1] = 0.5 * (vel[1:] + vel[:-1])
-        if len(vel) >= 2:
-            cur[0] = 1.5 * vel[0] - 0.5 * vel[1]
-            cur[-1] = 1.5 * vel[-1] - 0.5 * vel[-2]
-        else:
-            cur[0] = cur[-1] = vel[0]
+        cur[0], cur[-1] = _end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES)
         out[f"i({label})"] = cur
     return out
 
