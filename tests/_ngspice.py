@@ -58,7 +58,7 @@ C3 d 0 0.5
 .end
 """,
         ("v(b)", "v(c)", "v(d)", "i(L1)", "i(L3)"),
-        0.01,
+        0.005,
     ),
     "coupled": (
         """Coupled inductors (k = 0.9) driven by a 50 Hz sine

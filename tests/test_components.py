@@ -22,9 +22,7 @@ def paper_rlc():
     return c.build()
 
 
-@pytest.mark.parametrize(
-    "rule", [pytest.param("retraction", marks=pytest.mark.slow), "midpoint"]
-)
+@pytest.mark.parametrize("rule", [pytest.param("retraction", marks=pytest.mark.slow), "midpoint"])
 def test_part_built_rlc_equals_the_paper_model(rule):
     built, hand = paper_rlc(), rlc_circuit()
     assert built.system.coords == ("R.q", "L.q", "C.q")
@@ -90,7 +88,9 @@ def test_resistive_network_with_transformer_and_current_source_is_exact():
     c.add(cp.CurrentSource(cp.Sine(0.0, 0.25, 3.0), name="I1"), p="0", n="x")
     c.add(cp.Resistor(8.0, name="R3"), p="x", n="0")
     built = c.build()
-    traj = dv.simulate(built.system, built.q0, built.p0, dt=0.002, steps=300, discretization="midpoint")
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=0.002, steps=300, discretization="midpoint"
+    )
     w = waveforms(built, traj)
     vp = 3.0 * 4 * 1.5 / (4.0 + 4 * 1.5)
     assert np.max(np.abs(w["v(p)"] - vp)) < 1e-10
@@ -111,7 +111,9 @@ def test_diode_operating_point_solves_shockley():
     c.add(cp.Resistor(1e3, name="R1"), p="in", n="a")
     c.add(cp.Diode(1e-14, 1.0, name="D1"), p="a", n="0")
     built = c.build()
-    traj = dv.simulate(built.system, built.q0, built.p0, dt=1e-3, steps=5, discretization="midpoint")
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=1e-3, steps=5, discretization="midpoint"
+    )
     w = waveforms(built, traj)
 
     def kcl(v):
@@ -150,7 +152,9 @@ def test_pendulum_driven_by_a_dc_motor_settles_where_torque_balances_gravity():
     c.add(cp.EMF(0.5, name="emf"), p="c", n="0", flange="shaft")
     c.add(cp.Pendulum(0.5, 0.4, name="arm"), flange="shaft")
     built = c.build()
-    traj = dv.simulate(built.system, built.q0, built.p0, dt=2e-3, steps=2000, discretization="midpoint")
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=2e-3, steps=2000, discretization="midpoint"
+    )
     theta = traj["arm.x"]
     w = waveforms(built, traj)
     # 2 V stall the motor (back-emf K θ̇ damps the swing, τ = m ℓ² R/K² = 0.32 s) where
@@ -173,6 +177,7 @@ def test_pendulum_driven_by_a_dc_motor_settles_where_torque_balances_gravity():
         (
             lambda c: (
                 c.add(cp.Resistor(1.0, name="R1"), p="a", n="0"),
+                c.add(cp.Resistor(1.0, name="R4"), p="a", n="0"),
                 c.add(cp.Resistor(1.0, name="R2"), p="x", n="y"),
                 c.add(cp.Resistor(1.0, name="R3"), p="y", n="x"),
             ),

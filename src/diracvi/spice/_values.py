@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import math
+from decimal import Decimal
 import operator
 import re
 
@@ -66,17 +67,19 @@ def number(token: str) -> float | None:
     m = _NUMBER.match(token)
     if m is None:
         return None
-    value = float(m.group(1))
-    if m.group(2):
-        value *= SCALE[m.group(2).lower()]
-    return value
+    return _scaled(m.group(1), m.group(2))
+
+
+def _scaled(mantissa: str, suffix: str | None) -> float:
+    """Mantissa × scale in exact decimal arithmetic, then rounded once (10u == 1e-5)."""
+    if not suffix:
+        return float(mantissa)
+    return float(Decimal(mantissa) * Decimal(repr(SCALE[suffix.lower()])))
 
 
 def evaluate(text: str, params: dict[str, float]) -> float:
     """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
-    source = _IN_EXPR.sub(
-        lambda m: repr(float(m.group(1)) * SCALE[m.group(2).lower()]), text.strip()
-    )
+    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), text.strip())
     source = source.replace("^", "**")
     try:
         tree = ast.parse(source, mode="eval")
