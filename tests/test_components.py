@@ -14,6 +14,12 @@ from diracvi.problems import dc_motor, rlc_circuit
 from diracvi.spice import waveforms
 
 
+def _midpoint(built, dt, steps):
+    return dv.simulate(
+        built.system, built.q0, built.p0, dt=dt, steps=steps, discretization="midpoint"
+    )
+
+
 def paper_rlc():
     c = cp.Circuit("rlc")
     c.add(cp.Resistor(1.0, name="R"), p="0", n="n1")  # the paper's v^R = v^L + v^C

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 
-
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
 _FROM_NODES = np.array([3.0, -3.0, 1.0])

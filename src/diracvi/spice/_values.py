@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import ast
 import math
-from decimal import Decimal
 import operator
 import re
+from decimal import Decimal
 
 SCALE = {
     "f": 1e-15,
