@@ -15,7 +15,9 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
 - :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
-- :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin.
+- :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
+- :mod:`.circuits` — SPICE netlists against ngspice at matched accuracy, and the energy
+  drift of a lossless LC tank over 10⁶ steps (midpoint against trapezoidal and Gear).
 
 How timings are taken is in :mod:`._core`; method and results are in
 ``benchmarks/README.md``.
@@ -30,6 +32,7 @@ from collections.abc import Callable, Sequence
 
 from . import (
     chain_scaling,
+    circuits,
     compile_latency,
     driven,
     ensemble,
@@ -55,6 +58,7 @@ BENCHMARKS = {
         sweep,
         compile_latency,
         driven,
+        circuits,
     )
 }
 
