@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,13 +48,16 @@ def run(
 ) -> Result:
     """Read a netlist (path, text or :class:`Netlist`) and simulate its ``.tran``.
 
-    ``dt``/``steps`` override ``.tran``; further keywords go to :func:`diracvi.simulate`.
+    ``dt`` overrides ``.tran``'s TSTEP (the run still ends at TSTOP unless ``steps`` is
+    given); further keywords go to :func:`diracvi.simulate`.
     Midpoint is the default rule: the left-point rule cannot step a capacitor joined in a
     loop with voltage sources or other capacitors (its step is singular).
     """
     netlist = source if isinstance(source, Netlist) else read(source)
     h = dt if dt is not None else netlist.dt
-    n = steps if steps is not None else netlist.steps
+    n = steps
+    if n is None and netlist.stop is not None and h is not None:
+        n = max(1, math.ceil(netlist.stop / h - 1e-9))  # .tran's TSTOP at the step used
     if h is None or n is None:
         raise ModelError(
             f"netlist {netlist.title!r} has no '.tran TSTEP TSTOP': add one or pass dt= and steps=."
