@@ -28,9 +28,8 @@ traj = dv.simulate(built.system, built.q0, built.p0, dt=2e-3, steps=2000, discre
 w = waveforms(built, traj)
 theta = traj["arm.x"]
 print("coordinates:", built.system.coords)
-print(
-    f"final angle {theta[-1]:.4f} rad; balance predicts {np.arcsin(K * 2.0 / R / (m * g * ell)):.4f}"
-)
+balance = np.arcsin(K * 2.0 / R / (m * g * ell))  # K V/R = m g ℓ sin θ
+print(f"final angle {theta[-1]:.4f} rad; torque balance predicts {balance:.4f}")
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained")
 ax1.plot(traj.t, w["v(vp)"], label="v(vp) source")
@@ -39,7 +38,7 @@ ax1.plot(traj.t, w["i(R1)"], label="i(R1) armature current")
 ax1.set(xlabel="t [s]", title="electrical side")
 ax1.legend(fontsize=8)
 ax2.plot(traj.t, theta, color="C3")
-ax2.axhline(np.arcsin(K * 2.0 / R / (m * g * ell)), color="0.6", ls="--", label="torque balance")
+ax2.axhline(balance, color="0.6", ls="--", label="torque balance")
 ax2.set(xlabel="t [s]", ylabel="θ [rad]", title="pendulum on the shaft")
 ax2.legend(fontsize=8)
 fig.savefig(figure_path("motor_pendulum.png"), dpi=100)
