@@ -176,7 +176,7 @@ def IdealTransformer(ratio, *, name: str) -> Part:
 def VoltageSource(value, *, name: str) -> Part:
     r"""``φ_p − φ_n = u(t)``: the force ``F = −u(t)`` on the branch charge.
 
-    ``value``: a number, a waveform (:class:`~diracvi.components.waveforms.Sine`, …) or
+    ``value``: a number, a waveform (:class:`~diracvi.components.Sine`, …) or
     ``u(t)``. The branch current is SPICE's ``i(V1)``: into ``p``, through the source,
     out of ``n`` (negative while the source delivers power).
     """
