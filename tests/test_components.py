@@ -223,3 +223,42 @@ def test_part_arguments_are_checked_by_name():
         cp.Circuit().add(cp.Resistor(1.0, name="R1"), p="a")
     with pytest.raises(dv.ModelError, match="TR"):
         cp.Pulse(0, 1, 0, 0.0, 1, 1, 1)
+
+
+@pytest.mark.slow
+def test_user_function_parts_equal_the_linear_ones():
+    def build(nonlinear):
+        c = cp.Circuit("rlc_fn")
+        c.add(cp.VoltageSource(cp.Sine(0.0, 1.0, 0.5), name="V1"), p="in", n="0")
+        if nonlinear:
+            c.add(cp.Resistor(voltage=lambda i: 2.0 * i, name="R1"), p="in", n="a")
+            c.add(cp.Inductor(coenergy=lambda i: 0.5 * 0.3 * i**2, name="L1"), p="a", n="b")
+            c.add(cp.Capacitor(energy=lambda q: q**2 / (2 * 0.7), name="C1"), p="b", n="0")
+        else:
+            c.add(cp.Resistor(2.0, name="R1"), p="in", n="a")
+            c.add(cp.Inductor(0.3, name="L1"), p="a", n="b")
+            c.add(cp.Capacitor(0.7, name="C1"), p="b", n="0")
+        return c.build()
+
+    a, b = _midpoint(build(True), 0.01, 200), _midpoint(build(False), 0.01, 200)
+    assert np.max(np.abs(a.q - b.q)) <= 1e-12
+
+
+@pytest.mark.slow
+def test_voice_coil_pushes_a_spring_to_bl_i_over_k():
+    bl, k, current = 2.5, 40.0, 0.8
+    c = cp.Circuit("voice_coil")
+    c.add(cp.CurrentSource(cp.PWL([0.0, 0.05], [0.0, current]), name="I1"), p="0", n="a")
+    c.add(cp.Resistor(4.0, name="R1"), p="a", n="0")
+    c.add(cp.VoiceCoil(bl, name="coil"), p="a", n="0", flange="cone")
+    c.add(cp.Mass(0.01, name="m"), flange="cone")
+    c.add(cp.Spring(k, name="k"), a="frame", b="cone")
+    c.add(cp.Damper(1.0, name="c"), a="frame", b="cone")
+    c.add(cp.Fixed(name="frame"), flange="frame")
+    built = c.build()
+    traj = _midpoint(built, 1e-3, 1000)
+    w = waveforms(built, traj)
+    # at rest there is no back-emf Bl ẋ: v(a) = 0, R1 carries nothing, the coil all of I,
+    # and its force Bl i holds the spring at x = Bl I / k
+    assert abs(w["i(coil)"][-1] - current) < 1e-4
+    assert abs(traj["m.x"][-1] - bl * current / k) < 1e-4

@@ -251,6 +251,8 @@ class _Reader:
     # -------------------------------------------------------------- elements
     def element(self, line: _Line) -> None:
         pos, kw = _split(line)
+        if not pos:
+            raise line.fail("no element name (an element line starts with its name, e.g. R1)")
         name = pos[0]
         kind = name[0].upper()
         if kind not in "RCLKVID":
@@ -403,7 +405,11 @@ def read(source, name: str | None = None) -> Netlist:
     """
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
         path = Path(source)
-        if not path.is_file():
+        try:
+            exists = path.is_file()
+        except (OSError, ValueError):  # an embedded NUL byte, a name too long
+            exists = False
+        if not exists:
             raise NetlistError(
                 f"read({str(source)!r}): no such file (pass a path to a netlist, or the "
                 "netlist text itself, which has several lines)"
