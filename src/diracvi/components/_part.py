@@ -26,8 +26,10 @@ class Part(LagrangeDiracSystem):
     r"""A Lagrange–Dirac system ``(L, Δ, F)`` with pins and flanges.
 
     Args:
-        coords, lagrangian, constraints, force, name, constraint_names,
-            constraint_offset: as for :class:`~diracvi.LagrangeDiracSystem`.
+        coords: coordinate names, as for :class:`~diracvi.LagrangeDiracSystem`.
+        lagrangian: ``L(q, v)`` or ``L(q, v, t)``, as for
+            :class:`~diracvi.LagrangeDiracSystem`.
+        name: the part's name (its coordinates are ``"name.coordinate"`` in a circuit).
         pins: ``(pin, coordinate, sign)`` triples: the branch charge ``coordinate``
             enters KCL at the node joined to ``pin`` with ``sign`` (+1 where the current
             enters the part, −1 where it leaves).
@@ -42,6 +44,8 @@ class Part(LagrangeDiracSystem):
         role: what the part is (``"resistor"``, ``"voltage"``, ``"current"``, …); the
             network's topology checks read it.
         parameters: the part's defining values, e.g. ``{"inductance": 1e-3}``.
+        **system_kwargs: ``constraints``, ``force``, ``constraint_names``,
+            ``constraint_offset`` of :class:`~diracvi.LagrangeDiracSystem`.
     """
 
     pins: tuple[tuple[str, str, int], ...] = eqx.field(static=True)
