@@ -60,24 +60,33 @@ def Resistor(resistance=None, *, name: str, voltage=None) -> Part:
     return Part(("q",), _zero_l, force=force, name=name, pins=_TWO_PINS, role="resistor")
 
 
-def Capacitor(capacitance=None, *, name: str, v0: float = 0.0, energy=None) -> Part:
+def Capacitor(
+    capacitance=None, *, name: str, v0: float = 0.0, energy=None, q0: float = 0.0
+) -> Part:
     r"""A capacitor: ``L = −q²/(2C)`` (or ``L = −energy(q)``), initial voltage ``v0``.
 
-    A nonlinear capacitor is given by its stored energy ``W(q)`` (voltage ``W′(q)``);
-    its initial charge is then ``0`` unless the network sets ``v0`` through a linear
-    capacitance.
+    A nonlinear capacitor is given by its stored energy ``W(q)`` (voltage ``W′(q)``) and
+    its initial charge ``q0`` (its voltage would need ``W′`` inverted).
     """
+    where = f"Capacitor {name!r}"
     if (capacitance is None) == (energy is None):
-        raise ModelError(f"Capacitor {name!r}: pass exactly one of capacitance=C or energy=W(q).")
+        raise ModelError(f"{where}: pass exactly one of capacitance=C or energy=W(q).")
     if energy is None:
-        c = positive(f"Capacitor {name!r}", "capacitance", capacitance)
-        q0 = c * finite(f"Capacitor {name!r}", "v0", v0)
+        c = positive(where, "capacitance", capacitance)
+        if q0 != 0.0:
+            raise ModelError(f"{where}: give a linear capacitor's initial state as v0=, not q0=.")
+        q0 = c * finite(where, "v0", v0)
 
         def lagrangian(q, v):
             return -(q[0] ** 2) / (2.0 * c) + 0.0 * v[0]
 
     else:
-        q0 = 0.0
+        if v0 != 0.0:
+            raise ModelError(
+                f"{where}: v0={v0!r} needs W′ inverted; give a nonlinear capacitor's "
+                "initial charge as q0= instead."
+            )
+        q0 = finite(where, "q0", q0)
 
         def lagrangian(q, v):
             return -energy(q[0]) + 0.0 * v[0]
