@@ -110,6 +110,7 @@ def test_resistive_network_with_transformer_and_current_source_is_exact():
     assert np.max(np.abs(w["i(I1)"] - u)) < 2e-4
 
 
+@pytest.mark.slow  # the rectifier's ngspice comparison (test_spice.py) runs by default
 def test_diode_operating_point_solves_shockley():
     # 2 V through 1 kΩ into a diode: i = IS (e^{V/VT} − 1) + gmin V, V + 1000 i = 2
     c = cp.Circuit("diode")
