@@ -42,7 +42,13 @@ def test_every_public_name_has_a_docstring():
     import importlib
     import inspect
 
-    for module_name in ("diracvi", "diracvi.dirac", "diracvi.problems"):
+    for module_name in (
+        "diracvi",
+        "diracvi.dirac",
+        "diracvi.problems",
+        "diracvi.components",
+        "diracvi.spice",
+    ):
         module = importlib.import_module(module_name)
         for name in module.__all__:
             obj = getattr(module, name)

@@ -353,8 +353,12 @@ class Trajectory:
             solver=str(ds.attrs.get("solver", "")),
         )
 
-    def save(self, path, extra_attrs: dict | None = None) -> Path:
-        """Write NetCDF atomically (a temporary file in the same folder, then a rename)."""
+    def save(self, path, extra_attrs: dict | None = None, dataset=None) -> Path:
+        """Write NetCDF atomically (a temporary file in the same folder, then a rename).
+
+        ``dataset``: write this ``xarray.Dataset`` (the trajectory's own, with variables
+        added, e.g. by :func:`diracvi.spice.to_dataset`) instead of :meth:`to_xarray`.
+        """
         path = Path(path)
         if not path.parent.exists():
             raise ModelError(
@@ -367,7 +371,7 @@ class Trajectory:
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         try:
-            ds = self.to_xarray()
+            ds = self.to_xarray() if dataset is None else dataset
             ds.attrs.update(extra_attrs or {})
             ds.to_netcdf(tmp, engine="h5netcdf")
             os.replace(tmp, path)

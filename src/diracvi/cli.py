@@ -163,12 +163,23 @@ def list_problems() -> None:
 
 
 # ----------------------------------------------------------------------- run
+#: files read as SPICE netlists by `diracvi run`
+NETLIST_SUFFIXES = (".cir", ".sp", ".spice", ".net", ".ckt")
+
+
 def _resolve_model(target: str):
     """A built-in problem name or a model file path → a ModelSpec-like object."""
     from . import problems
     from ._modelfile import load_model_file
 
     path = Path(target)
+    if path.suffix.lower() in NETLIST_SUFFIXES:
+        if not path.is_file():
+            _fail(f"netlist {target!r} does not exist.", EXIT_USAGE)
+        from . import spice
+
+        with _library_errors():
+            return spice.read(path)
     looks_like_path = target.endswith(".py") or "/" in target or "\\" in target
     if looks_like_path or (path.is_file() and target not in problems.REGISTRY):
         if not path.is_file():
@@ -190,9 +201,10 @@ def run(
     problem: Annotated[
         str,
         typer.Argument(
-            help="A built-in problem (see `diracvi list`) or a model file path/to/model.py "
+            help="A built-in problem (see `diracvi list`), a model file path/to/model.py "
             "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
-            "optionally dt, steps.",
+            "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt; "
+            "its .tran gives dt and steps, the NetCDF holds v(<node>) and i(<element>)).",
             show_default=False,
         ),
     ],
@@ -263,15 +275,29 @@ def run(
             t0=getattr(model, "t0", 0.0),
         )
     _print_summary(model.name, traj)
+    netlist = hasattr(model, "assembly")
+    for note in getattr(model, "notes", ()):
+        _note(f"note: {note}")
     if out is not None:
         with _library_errors():
-            traj.save(out)
+            if netlist:
+                from .spice import to_dataset
+
+                traj.save(out, dataset=to_dataset(model, traj))
+            else:
+                traj.save(out)
         _out().print(f"wrote {out}", markup=False, soft_wrap=True)
     if plot:
-        from .plotting import plot_trajectory
-
         png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
-        plot_trajectory(traj, png, name=model.name)
+        if netlist:
+            from .plotting import plot_waveforms
+            from .spice import waveforms
+
+            plot_waveforms(traj.t, waveforms(model, traj), png, title=model.title)
+        else:
+            from .plotting import plot_trajectory
+
+            plot_trajectory(traj, png, name=model.name)
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 

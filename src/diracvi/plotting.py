@@ -74,3 +74,24 @@ def plot_trajectory(
         ax.grid(alpha=0.3)
     fig.savefig(path, dpi=100)
     return path
+
+
+def plot_waveforms(t, waves: dict, path, title: str = "") -> Path:
+    """Write a PNG of circuit waveforms: node voltages ``v(…)`` above, currents ``i(…)``
+    below (``diracvi run circuit.cir --plot``)."""
+    path = Path(path)
+    fig = Figure(figsize=(8.0, 6.5), layout="constrained")
+    FigureCanvasAgg(fig)
+    ax_v, ax_i = fig.subplots(2, 1, sharex=True)
+    for ax, prefix, unit in ((ax_v, "v(", "V"), (ax_i, "i(", "A")):
+        names = [k for k in waves if k.startswith(prefix)]
+        for key in names:
+            ax.plot(t, waves[key], label=key, lw=1.2)
+        ax.set_ylabel(unit)
+        if 0 < len(names) <= LEGEND_LIMIT:
+            ax.legend(fontsize=8, loc="best")
+        ax.grid(alpha=0.3)
+    ax_v.set_title(title, fontsize=10)
+    ax_i.set_xlabel("time")
+    fig.savefig(path, dpi=110)
+    return path

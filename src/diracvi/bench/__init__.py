@@ -17,7 +17,9 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
 - :mod:`.work_precision` — error against run time on the double pendulum for the three
-  rules (orders 1, 2, 4) and DOP853.
+  rules (orders 1, 2, 4) and DOP853;
+- :mod:`.circuits` — SPICE netlists against ngspice at matched accuracy, and the energy
+  drift of a lossless LC tank over 10⁶ steps (midpoint against trapezoidal and Gear).
 
 How timings are taken is in :mod:`._core`; method and results are in
 ``benchmarks/README.md``.
@@ -32,6 +34,7 @@ from collections.abc import Callable, Sequence
 
 from . import (
     chain_scaling,
+    circuits,
     compile_latency,
     driven,
     ensemble,
@@ -59,6 +62,7 @@ BENCHMARKS = {
         compile_latency,
         driven,
         work_precision,
+        circuits,
     )
 }
 

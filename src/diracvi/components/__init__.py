@@ -1,0 +1,71 @@
+"""Parts for circuits and machines, each an ordinary :class:`~diracvi.LagrangeDiracSystem`.
+
+from diracvi.components import Circuit, Resistor, Capacitor, VoltageSource, Sine
+c = Circuit("rc")
+c.add(VoltageSource(Sine(0, 1, 50), name="V1"), p="in", n="0")
+c.add(Resistor(1e3, name="R1"), p="in", n="out")
+c.add(Capacitor(1e-6, name="C1"), p="out", n="0")
+built = c.build()   # built.system, built.q0, built.p0
+"""
+
+from ._part import Part
+from .diode import Diode
+from .electrical import (
+    Capacitor,
+    CoupledInductors,
+    CurrentSource,
+    Ground,
+    IdealTransformer,
+    Inductor,
+    MutualInductance,
+    Resistor,
+    VoltageSource,
+)
+from .electromechanical import EMF, VoiceCoil
+from .mechanical import (
+    Damper,
+    Fixed,
+    ForceSource,
+    Inertia,
+    Mass,
+    Pendulum,
+    RotationalDamper,
+    Spring,
+    TorqueSource,
+    TorsionSpring,
+)
+from .network import Assembly, Circuit
+from .waveforms import DC, PWL, Pulse, Sine, Waveform
+
+__all__ = [
+    "DC",
+    "EMF",
+    "PWL",
+    "Assembly",
+    "Capacitor",
+    "Circuit",
+    "CoupledInductors",
+    "CurrentSource",
+    "Damper",
+    "Diode",
+    "Fixed",
+    "ForceSource",
+    "Ground",
+    "IdealTransformer",
+    "Inductor",
+    "Inertia",
+    "Mass",
+    "MutualInductance",
+    "Part",
+    "Pendulum",
+    "Pulse",
+    "Resistor",
+    "RotationalDamper",
+    "Sine",
+    "Spring",
+    "TorqueSource",
+    "TorsionSpring",
+    "VoiceCoil",
+    "VoltageSource",
+    "Waveform",
+]

@@ -1,0 +1,134 @@
+r"""A part: an ordinary :class:`~diracvi.LagrangeDiracSystem` with named pins and flanges.
+
+A **pin** is where an electrical branch meets a node. Every branch carries a charge
+coordinate ``q`` whose velocity is the branch current, flowing *into* the part at its
+``+`` pin and out at its ``−`` pin (the passive sign convention, as SPICE reports
+``i(R1)``). Kirchhoff's current law at a node is the one-form
+``Σ_{+ pins at n} dq − Σ_{− pins at n} dq``; :class:`~diracvi.components.Circuit`
+stacks one such row per node. A **flange** is a mechanical port: its coordinate is a
+position (or an angle), and flanges at one mechanical node are joined by
+:func:`diracvi.connect` (equal velocities, the paper's port variables).
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import numpy as np
+
+from .._errors import ModelError
+from .._system import LagrangeDiracSystem
+
+TRANSLATIONAL = "translational"
+ROTATIONAL = "rotational"
+
+
+class Part(LagrangeDiracSystem):
+    r"""A Lagrange–Dirac system ``(L, Δ, F)`` with pins and flanges.
+
+    Args:
+        coords: coordinate names, as for :class:`~diracvi.LagrangeDiracSystem`.
+        lagrangian: ``L(q, v)`` or ``L(q, v, t)``, as for
+            :class:`~diracvi.LagrangeDiracSystem`.
+        name: the part's name (its coordinates are ``"name.coordinate"`` in a circuit).
+        pins: ``(pin, coordinate, sign)`` triples: the branch charge ``coordinate``
+            enters KCL at the node joined to ``pin`` with ``sign`` (+1 where the current
+            enters the part, −1 where it leaves).
+        flanges: ``(flange, coordinate, kind)`` triples, ``kind`` ``"translational"``
+            or ``"rotational"``.
+        currents: ``(label, coordinate)`` pairs: the branch currents reported as
+            ``i(label)`` (``""`` means the part's own name). Default: ``i(name)`` for a
+            one-branch part, ``i(name.1)``, ``i(name.2)``, … for several.
+        initial_q, initial_v: the part's own initial coordinates and velocities
+            (a capacitor's charge, an inductor's current); flange values are set by
+            the network's mechanical nodes instead.
+        role: what the part is (``"resistor"``, ``"voltage"``, ``"current"``, …); the
+            network's topology checks read it.
+        parameters: the part's defining values, e.g. ``{"inductance": 1e-3}``.
+        **system_kwargs: ``constraints``, ``force``, ``constraint_names``,
+            ``constraint_offset`` of :class:`~diracvi.LagrangeDiracSystem`.
+    """
+
+    pins: tuple[tuple[str, str, int], ...] = eqx.field(static=True)
+    flanges: tuple[tuple[str, str, str], ...] = eqx.field(static=True)
+    currents: tuple[tuple[str, str], ...] = eqx.field(static=True)
+    initial_q: tuple[float, ...] = eqx.field(static=True)
+    initial_v: tuple[float, ...] = eqx.field(static=True)
+    role: str = eqx.field(static=True)
+    parameters: tuple[tuple[str, float], ...] = eqx.field(static=True)
+
+    def __init__(
+        self,
+        coords,
+        lagrangian,
+        *,
+        name,
+        pins=(),
+        flanges=(),
+        currents=None,
+        initial_q=None,
+        initial_v=None,
+        role="part",
+        parameters=(),
+        **system_kwargs,
+    ):
+        super().__init__(coords, lagrangian, name=name, **system_kwargs)
+        n = len(self.coords)
+        self.pins = tuple((str(p), str(c), int(s)) for p, c, s in pins)
+        self.flanges = tuple((str(f), str(c), str(k)) for f, c, k in flanges)
+        if currents is None:  # i(name) for one branch, i(name.1), i(name.2), … for several
+            branch = tuple(dict.fromkeys(c for _, c, _ in self.pins))
+            labels = [""] if len(branch) == 1 else [f"{name}.{j + 1}" for j in range(len(branch))]
+            currents = tuple(zip(labels, branch, strict=True))
+        self.currents = tuple((str(a), str(c)) for a, c in currents)
+        self.initial_q = _initial("initial_q", initial_q, n, name)
+        self.initial_v = _initial("initial_v", initial_v, n, name)
+        self.role = str(role)
+        self.parameters = tuple((str(k), float(x)) for k, x in dict(parameters).items())
+        for _, coord, _ in (*self.pins, *self.flanges):
+            if coord not in self.coords:
+                raise ModelError(
+                    f"part {name!r}: pin/flange coordinate {coord!r} not in {self.coords}"
+                )
+
+    @property
+    def pin_names(self) -> tuple[str, ...]:
+        """The part's electrical pins, in order (a pin may touch several branches)."""
+        return tuple(dict.fromkeys(p for p, _, _ in self.pins))
+
+    @property
+    def flange_names(self) -> tuple[str, ...]:
+        """The part's mechanical flanges, in order."""
+        return tuple(f for f, _, _ in self.flanges)
+
+
+def _initial(arg: str, values, n: int, name: str) -> tuple[float, ...]:
+    if values is None:
+        return (0.0,) * n
+    out = np.asarray(values, dtype=np.float64).reshape(-1)
+    if out.shape != (n,) or not np.all(np.isfinite(out)):
+        raise ModelError(f"part {name!r}: {arg}={values!r} must be {n} finite numbers.")
+    return tuple(float(x) for x in out)
+
+
+def positive(part: str, arg: str, value) -> float:
+    """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(
+            f"{part}: {arg}={value!r} is not a number; pass a positive float."
+        ) from None
+    if not np.isfinite(x) or x <= 0.0:
+        raise ModelError(f"{part}: {arg}={value!r} must be a finite positive number.")
+    return x
+
+
+def finite(part: str, arg: str, value) -> float:
+    """``float(value)`` if it is finite, else a :class:`ModelError` naming it."""
+    try:
+        x = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{part}: {arg}={value!r} is not a number.") from None
+    if not np.isfinite(x):
+        raise ModelError(f"{part}: {arg}={value!r} must be finite.")
+    return x

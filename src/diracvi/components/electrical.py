@@ -1,0 +1,213 @@
+r"""Electrical parts. Each branch is a charge coordinate ``q`` (current ``i = q̇``,
+passive sign convention: ``i`` enters at pin ``p`` and leaves at pin ``n``).
+
+With ``V = φ_p − φ_n`` the branch voltage (the node potentials are the multipliers of
+the KCL one-forms), the parts' Euler–Lagrange equations read
+
+    resistor   0 = −R i + V               L = 0,            F = −R q̇
+    capacitor  0 = −q/C + V               L = −q²/(2C)
+    inductor   l di/dt = V                L = ½ l q̇²
+    V source   0 = −u(t) + V              L = 0,            F = −u(t)
+    I source   q̇ − u(t) = 0               A = (1), b = −u(t)  (μ is −V)
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+from .._errors import ModelError
+from ._part import Part, finite, positive
+from .waveforms import as_waveform
+
+_TWO_PINS = (("p", "q", 1), ("n", "q", -1))
+
+
+def _zero_l(q, v):
+    return 0.0 * v[0]
+
+
+class Ground:
+    """Marks a node as the reference (potential 0): ``circuit.add(Ground(), p="n0")``.
+
+    Not a system: the ground node simply has no KCL row (its row is the sum of the
+    others'), and nodes named ``"0"`` or ``"gnd"`` are ground already.
+    """
+
+    pin_names = ("p",)
+    name = "ground"
+
+
+def Resistor(resistance=None, *, name: str, voltage=None) -> Part:
+    r"""A resistor: ``F = −R q̇`` (or ``F = −voltage(q̇)`` for a nonlinear ``V(i)``).
+
+    It removes energy at the rate ``R i²``. Pass either ``resistance`` or a traceable
+    ``voltage(i)``.
+    """
+    if (resistance is None) == (voltage is None):
+        raise ModelError(f"Resistor {name!r}: pass exactly one of resistance=R or voltage=f(i).")
+    if voltage is None:
+        r = positive(f"Resistor {name!r}", "resistance", resistance)
+
+        def force(q, v):
+            return -r * v
+
+    else:
+
+        def force(q, v):
+            return -jnp.atleast_1d(voltage(v[0]))
+
+    return Part(("q",), _zero_l, force=force, name=name, pins=_TWO_PINS, role="resistor")
+
+
+def Capacitor(
+    capacitance=None, *, name: str, v0: float = 0.0, energy=None, q0: float = 0.0
+) -> Part:
+    r"""A capacitor: ``L = −q²/(2C)`` (or ``L = −energy(q)``), initial voltage ``v0``.
+
+    A nonlinear capacitor is given by its stored energy ``W(q)`` (voltage ``W′(q)``) and
+    its initial charge ``q0`` (its voltage would need ``W′`` inverted).
+    """
+    where = f"Capacitor {name!r}"
+    if (capacitance is None) == (energy is None):
+        raise ModelError(f"{where}: pass exactly one of capacitance=C or energy=W(q).")
+    if energy is None:
+        c = positive(where, "capacitance", capacitance)
+        if q0 != 0.0:
+            raise ModelError(f"{where}: give a linear capacitor's initial state as v0=, not q0=.")
+        q0 = c * finite(where, "v0", v0)
+
+        def lagrangian(q, v):
+            return -(q[0] ** 2) / (2.0 * c) + 0.0 * v[0]
+
+    else:
+        if v0 != 0.0:
+            raise ModelError(
+                f"{where}: v0={v0!r} needs W′ inverted; give a nonlinear capacitor's "
+                "initial charge as q0= instead."
+            )
+        q0 = finite(where, "q0", q0)
+
+        def lagrangian(q, v):
+            return -energy(q[0]) + 0.0 * v[0]
+
+    return Part(("q",), lagrangian, name=name, pins=_TWO_PINS, initial_q=[q0], role="capacitor")
+
+
+def Inductor(inductance=None, *, name: str, i0: float = 0.0, coenergy=None) -> Part:
+    r"""An inductor: ``L = ½ l q̇²`` (or ``L = coenergy(q̇)``), initial current ``i0``.
+
+    A nonlinear inductor is given by its magnetic co-energy ``W*(i)`` (flux ``W*′(i)``).
+    """
+    if (inductance is None) == (coenergy is None):
+        raise ModelError(f"Inductor {name!r}: pass exactly one of inductance=l or coenergy=W(i).")
+    i0 = finite(f"Inductor {name!r}", "i0", i0)
+    if coenergy is None:
+        ell = positive(f"Inductor {name!r}", "inductance", inductance)
+
+        def lagrangian(q, v):
+            return 0.5 * ell * v[0] ** 2 + 0.0 * q[0]
+
+    else:
+
+        def lagrangian(q, v):
+            return coenergy(v[0]) + 0.0 * q[0]
+
+    return Part(
+        ("q",),
+        lagrangian,
+        name=name,
+        pins=_TWO_PINS,
+        initial_v=[i0],
+        role="inductor" if coenergy is None else "nonlinear inductor",
+        parameters={"inductance": ell} if coenergy is None else {},
+    )
+
+
+def CoupledInductors(inductances, coupling, *, name: str, labels=None, i0=(0.0, 0.0)) -> Part:
+    r"""Two magnetically coupled inductors: ``L = ½ l₁ q̇₁² + ½ l₂ q̇₂² + M q̇₁ q̇₂``,
+    ``M = k √(l₁ l₂)``, ``|k| < 1`` (SPICE's ``K``; the dotted ends are ``p1``, ``p2``).
+
+    Pins ``p1``, ``n1`` (branch ``q1``) and ``p2``, ``n2`` (branch ``q2``); ``labels``
+    names the two currents (default ``"<name>.1"``, ``"<name>.2"``).
+    """
+    where = f"CoupledInductors {name!r}"
+    l1, l2 = (positive(where, f"inductances[{j}]", x) for j, x in enumerate(inductances))
+    k = finite(where, "coupling", coupling)
+    if not abs(k) < 1.0:
+        raise ModelError(
+            f"{where}: coupling k={coupling!r} must satisfy |k| < 1 (k = 1 makes the "
+            "inductance matrix singular; use IdealTransformer for perfect coupling)."
+        )
+    m = k * np.sqrt(l1 * l2)
+    labels = labels or (f"{name}.1", f"{name}.2")
+
+    def lagrangian(q, v):
+        return 0.5 * l1 * v[0] ** 2 + 0.5 * l2 * v[1] ** 2 + m * v[0] * v[1] + 0.0 * q[0]
+
+    return Part(
+        ("q1", "q2"),
+        lagrangian,
+        name=name,
+        pins=(("p1", "q1", 1), ("n1", "q1", -1), ("p2", "q2", 1), ("n2", "q2", -1)),
+        currents=((labels[0], "q1"), (labels[1], "q2")),
+        initial_v=[finite(where, "i0[0]", i0[0]), finite(where, "i0[1]", i0[1])],
+    )
+
+
+class MutualInductance:
+    """SPICE ``K``: couples two :func:`Inductor` parts already in a circuit, ``k`` as in
+    :func:`CoupledInductors` (the circuit replaces the pair by one coupled part)."""
+
+    def __init__(self, first: str, second: str, coupling: float, *, name: str):
+        self.name, self.first, self.second = str(name), str(first), str(second)
+        self.coupling = finite(f"MutualInductance {name!r}", "coupling", coupling)
+
+
+def IdealTransformer(ratio, *, name: str) -> Part:
+    r"""``V₁ = n V₂``, ``n i₁ + i₂ = 0``: the one-form ``n dq₁ + dq₂`` (``L = 0``), lossless.
+
+    Pins ``p1``, ``n1`` (primary) and ``p2``, ``n2`` (secondary).
+    """
+    n = finite(f"IdealTransformer {name!r}", "ratio", ratio)
+    if n == 0.0:
+        raise ModelError(f"IdealTransformer {name!r}: ratio=0 connects nothing; pass n ≠ 0.")
+    return Part(
+        ("q1", "q2"),
+        lambda q, v: 0.0 * v[0],
+        constraints=np.array([[n, 1.0]]),
+        constraint_names=("ratio",),
+        name=name,
+        pins=(("p1", "q1", 1), ("n1", "q1", -1), ("p2", "q2", 1), ("n2", "q2", -1)),
+    )
+
+
+def VoltageSource(value, *, name: str) -> Part:
+    r"""``φ_p − φ_n = u(t)``: the force ``F = −u(t)`` on the branch charge.
+
+    ``value``: a number, a waveform (:class:`~diracvi.components.Sine`, …) or
+    ``u(t)``. The branch current is SPICE's ``i(V1)``: into ``p``, through the source,
+    out of ``n`` (negative while the source delivers power).
+    """
+    wave = as_waveform(value, f"VoltageSource {name!r}")
+
+    def force(q, v, t):
+        return -jnp.atleast_1d(wave(t)) + 0.0 * v
+
+    return Part(("q",), _zero_l, force=force, name=name, pins=_TWO_PINS, role="voltage")
+
+
+def CurrentSource(value, *, name: str) -> Part:
+    r"""The affine constraint ``q̇ − u(t) = 0``: ``u`` flows from ``p`` through the source
+    to ``n`` (SPICE's ``I`` convention), whatever the voltage."""
+    wave = as_waveform(value, f"CurrentSource {name!r}")
+    return Part(
+        ("q",),
+        _zero_l,
+        constraints=np.array([[1.0]]),
+        constraint_offset=lambda q, t: -jnp.atleast_1d(wave(t)),
+        constraint_names=("I",),
+        name=name,
+        pins=_TWO_PINS,
+        role="current",
+    )

@@ -1,0 +1,319 @@
+r"""Join parts at named nodes: KCL one-forms for electrical nodes, ports for flanges.
+
+For an electrical node ``n`` the Kirchhoff current law is the interaction one-form
+
+    α^n = Σ_{pins at n} sign · dq_branch          (sign +1 where the current enters a part)
+
+over the branch charges of all parts (paper §5.2: ``v^R − v^L − v^C = 0`` for the RLC
+circuit). Stacked, one row per node except ground, they form one
+:class:`~diracvi.Interaction`; their multipliers are the node potentials (the discrete
+λ is the impulse ``−h φ_n``). Mechanical flanges sharing a node are joined by
+:func:`~diracvi.connect`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._errors import ModelError
+from .._interconnect import Interaction, connect, interconnect
+from ._part import Part
+from .electrical import CoupledInductors, Ground, MutualInductance
+
+GROUND_NAMES = ("0", "gnd")
+
+
+@dataclass(frozen=True)
+class Assembly:
+    """A built network: the interconnected system, its initial state and name maps.
+
+    Attributes:
+        system: the :class:`~diracvi.InterconnectedSystem` (or the single part).
+        q0, p0: initial coordinates and momenta (``p0 = ∂L/∂v(q0, v0)`` per part).
+        nodes: the electrical nodes with a KCL row, in row order.
+        kcl_rows: node -> name of its interaction row (a multiplier name).
+        currents: element label -> coordinate name whose velocity is ``i(label)``.
+        mechanical: mechanical node -> one flange coordinate at that node.
+    """
+
+    system: object
+    q0: np.ndarray
+    p0: np.ndarray
+    nodes: tuple[str, ...]
+    kcl_rows: dict = field(default_factory=dict)
+    currents: dict = field(default_factory=dict)
+    mechanical: dict = field(default_factory=dict)
+
+
+class Circuit:
+    """A network of parts joined at named nodes (electrical and mechanical).
+
+    ``circuit.add(part, p="n1", n="0")`` joins each pin/flange of ``part`` to a node.
+    Nodes ``"0"`` and ``"gnd"`` (any case) are ground, as is any node given a
+    :class:`~diracvi.components.Ground`. :meth:`build` checks the topology (floating
+    nodes, loops of voltage sources, cut-sets of current sources) and returns an
+    :class:`Assembly`.
+    """
+
+    def __init__(self, name: str = "circuit"):
+        self.name = str(name)
+        self._parts: list[tuple[Part, dict]] = []
+        self._grounds: set[str] = set()
+        self._couplings: list[MutualInductance] = []
+        self._initial: dict[str, tuple[float, float]] = {}
+        self.origin: dict[str, str] = {}  # part name -> where it came from (netlist line)
+
+    def add(self, part, **nodes):
+        """Join ``part``'s pins/flanges to nodes (keyword = pin, value = node name)."""
+        if isinstance(part, Ground):
+            if set(nodes) != {"p"}:
+                raise ModelError("Ground(): join its single pin, circuit.add(Ground(), p='n0').")
+            self._grounds.add(str(nodes["p"]))
+            return part
+        if isinstance(part, MutualInductance):
+            if nodes:
+                raise ModelError(f"MutualInductance {part.name!r} has no pins; add it alone.")
+            self._couplings.append(part)
+            return part
+        if not isinstance(part, Part):
+            raise ModelError(
+                f"circuit.add({part!r}): not a part; build one with diracvi.components "
+                "(Resistor(1.0, name='R1'), Mass(2.0, name='m'), …)."
+            )
+        if any(p.name == part.name for p, _ in self._parts):
+            raise ModelError(f"circuit {self.name!r}: a part named {part.name!r} exists already.")
+        wanted = (*part.pin_names, *part.flange_names)
+        missing = [w for w in wanted if w not in nodes]
+        extra = [w for w in nodes if w not in wanted]
+        if missing or extra:
+            raise ModelError(
+                f"part {part.name!r}: join every pin/flange {wanted} to a node "
+                f"(missing {missing}, unknown {extra})."
+            )
+        self._parts.append((part, {k: str(v) for k, v in nodes.items()}))
+        return part
+
+    def initial(self, node: str, position: float = 0.0, velocity: float = 0.0) -> None:
+        """Initial position and velocity of a mechanical node (default 0, 0)."""
+        self._initial[str(node)] = (float(position), float(velocity))
+
+    def _is_ground(self, node: str) -> bool:
+        return node.lower() in GROUND_NAMES or node in self._grounds
+
+    def _where(self, name: str) -> str:
+        return self.origin.get(name, f"part {name!r}")
+
+    # ----------------------------------------------------------------- build
+    def _coupled(self) -> list[tuple[Part, dict]]:
+        parts = list(self._parts)
+        used: set[str] = set()
+        for k in self._couplings:
+            found = {}
+            for label in (k.first, k.second):
+                hit = [(i, p, n) for i, (p, n) in enumerate(parts) if p.name == label]
+                if not hit:
+                    raise ModelError(
+                        f"{self._where(k.name)}: coupled inductor {label!r} is not in the "
+                        "circuit; name two inductors added before."
+                    )
+                if label in used:
+                    raise ModelError(
+                        f"{self._where(k.name)}: inductor {label!r} is coupled twice; only "
+                        "pairwise coupling (one K per inductor) is supported."
+                    )
+                found[label] = hit[0]
+            (_, a, na), (_, b, nb) = found[k.first], found[k.second]
+            la, lb = _inductance(a), _inductance(b)
+            if la is None or lb is None:
+                raise ModelError(
+                    f"{self._where(k.name)}: K couples linear inductors only; "
+                    f"{k.first!r}/{k.second!r} is not one."
+                )
+            used.update((k.first, k.second))
+            part = CoupledInductors(
+                (la, lb),
+                k.coupling,
+                name=k.name,
+                labels=(k.first, k.second),
+                i0=(a.initial_v[0], b.initial_v[0]),
+            )
+            nodes = {"p1": na["p"], "n1": na["n"], "p2": nb["p"], "n2": nb["n"]}
+            parts = [x for x in parts if x[0].name not in (k.first, k.second)]
+            parts.append((part, nodes))
+            self.origin.setdefault(k.name, self._where(k.name))
+        return parts
+
+    def build(self) -> Assembly:
+        """Check the topology and assemble the interconnected system."""
+        parts = self._coupled()
+        if not parts:
+            raise ModelError(f"circuit {self.name!r} has no parts; add some before build().")
+        names = [p.name for p, _ in parts]
+        offsets = np.cumsum([0] + [p.n for p, _ in parts])
+        coords = [f"{p.name}.{c}" for p, _ in parts for c in p.coords]
+        index = {c: i for i, c in enumerate(coords)}
+
+        # electrical: branches (part, coordinate) -> the nodes of their + and − pins
+        incidence: dict[str, list[tuple[int, int]]] = {}
+        branches = []  # (part name, kind, node+, node−)
+        for part, nodes in parts:
+            ends: dict[str, dict[int, str]] = {}
+            for pin, coord, sign in part.pins:
+                node = nodes[pin]
+                incidence.setdefault(node, []).append((index[f"{part.name}.{coord}"], sign))
+                ends.setdefault(coord, {})[sign] = node
+            for e in ends.values():
+                branches.append((part.name, _kind(part), e.get(1), e.get(-1)))
+        mech_nodes = {n for part, nodes in parts for f in part.flange_names for n in [nodes[f]]}
+        clash = mech_nodes & set(incidence)
+        if clash:
+            raise ModelError(
+                f"nodes {sorted(clash)} join both electrical pins and mechanical flanges; "
+                "use an EMF or VoiceCoil between the two domains and distinct node names."
+            )
+        node_list = [n for n in incidence if not self._is_ground(n)]
+        if incidence:
+            self._check_topology(incidence, branches, node_list)
+        forms = np.zeros((len(node_list), len(coords)))
+        for r, node in enumerate(node_list):
+            for col, sign in incidence[node]:
+                forms[r, col] += sign
+        kcl_rows = {n: f"KCL({n})" for n in node_list}
+
+        # mechanical: flanges at a node -> connect(first, other)
+        at_node: dict[str, list[tuple[str, str]]] = {}
+        for part, nodes in parts:
+            for flange, coord, kind in part.flanges:
+                at_node.setdefault(nodes[flange], []).append((f"{part.name}.{coord}", kind))
+        ports = []
+        for node, members in at_node.items():
+            kinds = {k for _, k in members}
+            if len(kinds) > 1:
+                raise ModelError(
+                    f"mechanical node {node!r} joins translational and rotational flanges "
+                    f"({[c for c, _ in members]}); a joint needs one kind."
+                )
+            ports += [connect(members[0][0], c, name=f"{node}:{c}") for c, _ in members[1:]]
+
+        q0 = np.concatenate([np.asarray(p.initial_q) for p, _ in parts])
+        v0 = np.concatenate([np.asarray(p.initial_v) for p, _ in parts])
+        for node, members in at_node.items():
+            x, v = self._initial.get(node, (0.0, 0.0))
+            for c, _ in members:
+                q0[index[c]], v0[index[c]] = x, v
+        unknown = set(self._initial) - set(at_node)
+        if unknown:
+            raise ModelError(
+                f"initial(...) names {sorted(unknown)}, which are not mechanical nodes of "
+                f"circuit {self.name!r} (nodes: {sorted(at_node)})."
+            )
+        p0 = np.concatenate(
+            [
+                np.asarray(p.momentum(q0[a:b], v0[a:b]))
+                for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
+            ]
+        )
+        interactions = []
+        if node_list:
+            interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
+        interactions += ports
+        if len(parts) == 1 and not interactions:
+            system = parts[0][0]
+            prefix = ""
+        else:
+            if len(parts) == 1:
+                raise ModelError(
+                    f"circuit {self.name!r} has a single part {names[0]!r}; nothing to join."
+                )
+            system = interconnect([p for p, _ in parts], interactions, name=self.name)
+            prefix = None
+        currents = {}
+        for part, _ in parts:
+            for label, coord in part.currents:
+                key = label or part.name
+                currents[key] = f"{part.name}.{coord}" if prefix is None else coord
+        mechanical = {node: members[0][0] for node, members in at_node.items()}
+        return Assembly(system, q0, p0, tuple(node_list), kcl_rows, currents, mechanical)
+
+    def _check_topology(self, incidence, branches, node_list) -> None:
+        grounds = [n for n in incidence if self._is_ground(n)]
+        if not grounds:
+            raise ModelError(
+                f"circuit {self.name!r} has no ground node: name one node '0' or 'gnd' "
+                "(SPICE's reference, potential 0)."
+            )
+        for node in node_list:
+            touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
+            if len(incidence[node]) < 2:
+                raise ModelError(
+                    f"node {node!r} is floating: only {touching[0]} connects to it (a node "
+                    "needs at least two connections; KCL would force that current to 0)."
+                )
+        gnd = "\0ground"
+
+        def canon(node):
+            return gnd if self._is_ground(node) else node
+
+        def components(kinds_out):
+            uf = _UnionFind()
+            for _name, kind, a, b in branches:
+                uf.find(canon(a)), uf.find(canon(b))
+                if kind not in kinds_out:
+                    uf.union(canon(a), canon(b))
+            return uf
+
+        uf = components(())
+        away = sorted(n for n in node_list if uf.find(n) != uf.find(gnd))
+        if away:
+            raise ModelError(
+                f"nodes {away} are floating: no path of elements joins them to ground "
+                "(node '0'); connect them to the rest of the circuit."
+            )
+        uf = components(("current",))
+        cut = sorted(n for n in node_list if uf.find(n) != uf.find(gnd))
+        if cut:
+            srcs = sorted(
+                self._where(b[0])
+                for b in branches
+                if b[1] == "current" and (canon(b[2]) in cut) != (canon(b[3]) in cut)
+            )
+            raise ModelError(
+                f"nodes {cut} reach ground only through current sources ({', '.join(srcs)}): "
+                "a cut-set of current sources, whose currents KCL cannot reconcile; add a "
+                "resistor to ground."
+            )
+        uf = _UnionFind()
+        for name, kind, a, b in branches:
+            if kind == "voltage":
+                if uf.find(canon(a)) == uf.find(canon(b)):
+                    raise ModelError(
+                        f"{self._where(name)} closes a loop of voltage sources (between "
+                        f"nodes {a!r} and {b!r}): their voltages over-determine the loop; "
+                        "add a series resistance or remove one source."
+                    )
+                uf.union(canon(a), canon(b))
+
+
+def _kind(part: Part) -> str:
+    return part.role
+
+
+def _inductance(part: Part):
+    return dict(part.parameters).get("inductance") if part.role == "inductor" else None
+
+
+class _UnionFind:
+    def __init__(self):
+        self.parent: dict = {}
+
+    def find(self, x):
+        self.parent.setdefault(x, x)
+        while self.parent[x] != x:
+            self.parent[x] = self.parent[self.parent[x]]
+            x = self.parent[x]
+        return x
+
+    def union(self, a, b):
+        self.parent[self.find(a)] = self.find(b)

@@ -1,0 +1,74 @@
+r"""SPICE names for a circuit trajectory: ``v(<node>)`` and ``i(<element>)`` over time.
+
+Node potentials come from the KCL multipliers. The (+) equations put a step's whole
+constraint impulse ``B(q_k)ᵀλ_k`` on the ``p_k`` line, so ``λ_k`` is the impulse
+``−h φ(t_k)``: ``v(n)_k = −λ_k/h``, first order under the left-point rule and second
+order at the nodes under midpoint for ``k ≥ 1``. At ``k = 0`` the midpoint impulse sees
+only the half step after ``t₀`` (the given ``p₀`` carries no half step before it), and
+there is no multiplier for the last node, so both ends are extrapolated (quadratically,
+from their three neighbours).
+
+Branch currents are ``q̇``: the step velocities ``(q_{k+1} − q_k)/h`` sit at the
+half-nodes; their average gives the current at ``t_k`` (second order), the ends again
+by quadratic extrapolation.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
+# half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
+_FROM_NODES = np.array([3.0, -3.0, 1.0])
+_FROM_HALVES = np.array([15.0, -10.0, 3.0]) / 8.0
+
+
+def _end(values: np.ndarray, weights: np.ndarray) -> float:
+    """Extrapolate to the node before ``values[0]`` (fewer than 3 values: the nearest)."""
+    if len(values) < 3:
+        return float(values[0])
+    return float(weights @ values[:3])
+
+
+def waveforms(assembly, traj) -> dict[str, np.ndarray]:
+    """``{"v(n1)": …, "i(R1)": …}`` on ``traj.t`` for a circuit built by
+    :class:`~diracvi.components.Circuit` (or read by :func:`diracvi.spice.read`).
+
+    ``assembly``: the :class:`~diracvi.components.Assembly` (or a
+    :class:`~diracvi.spice.Netlist`); ``traj``: its trajectory (states saved, every step).
+    """
+    assembly = getattr(assembly, "assembly", assembly)
+    if traj.q is None or traj.save_every != 1:
+        raise ValueError(
+            "waveforms(...) needs every state: simulate with save_states=True, save_every=1."
+        )
+    h = float(traj.dt)
+    steps = traj.multipliers.shape[0]
+    out: dict[str, np.ndarray] = {}
+    midpoint = traj.discretization != "retraction"
+    for node in assembly.nodes:
+        lam = traj.multiplier(assembly.kcl_rows[node])
+        phi = np.empty(steps + 1)
+        phi[:steps] = -lam / h
+        if midpoint:
+            phi[0] = _end(phi[1:steps], _FROM_NODES)
+        phi[steps] = _end(phi[steps - 1 :: -1], _FROM_NODES)
+        out[f"v({node})"] = phi
+    index = {c: j for j, c in enumerate(traj.coords)}
+    for label, coord in assembly.currents.items():
+        q = traj.q[:, index[coord]]
+        vel = np.diff(q) / h  # at the half nodes
+        cur = np.empty(len(q))
+        cur[1:-1] = 0.5 * (vel[1:] + vel[:-1])
+        cur[0], cur[-1] = _end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES)
+        out[f"i({label})"] = cur
+    return out
+
+
+def to_dataset(assembly, traj):
+    """The trajectory's dataset (:meth:`~diracvi.Trajectory.to_xarray`) with the
+    waveforms added as data variables ``v(<node>)`` and ``i(<element>)`` over ``time``."""
+    ds = traj.to_xarray()
+    for key, values in waveforms(assembly, traj).items():
+        ds[key] = (("time",), values)
+    return ds

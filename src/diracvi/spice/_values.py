@@ -1,0 +1,124 @@
+"""SPICE numbers (``4.7k``, ``1meg``, ``10uF``) and ``.param`` expressions, evaluated safely.
+
+Expressions are parsed with :mod:`ast` and evaluated by walking the tree: numbers,
+parameter names, ``+ − * / ** ^``, parentheses and a fixed set of functions — never
+``eval``.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+import operator
+import re
+from decimal import Decimal
+
+SCALE = {
+    "f": 1e-15,
+    "p": 1e-12,
+    "n": 1e-9,
+    "u": 1e-6,
+    "m": 1e-3,
+    "k": 1e3,
+    "meg": 1e6,
+    "g": 1e9,
+    "t": 1e12,
+    "mil": 25.4e-6,
+}
+_NUMBER = re.compile(
+    r"^([+-]?(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)(meg|mil|[fpnumkgt])?([a-z]*)$", re.IGNORECASE
+)
+# a number with a suffix inside an expression (not part of a name such as k1)
+_IN_EXPR = re.compile(
+    r"(?<![A-Za-z_\d.])((?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)(meg|mil|[fpnumkgt])[a-z]*",
+    re.IGNORECASE,
+)
+FUNCTIONS = {
+    "sqrt": math.sqrt,
+    "exp": math.exp,
+    "log": math.log,
+    "ln": math.log,
+    "log10": math.log10,
+    "sin": math.sin,
+    "cos": math.cos,
+    "tan": math.tan,
+    "atan": math.atan,
+    "abs": abs,
+    "min": min,
+    "max": max,
+    "pow": math.pow,
+}
+_BINARY = {
+    ast.Add: operator.add,
+    ast.Sub: operator.sub,
+    ast.Mult: operator.mul,
+    ast.Div: operator.truediv,
+    ast.Pow: operator.pow,
+}
+
+
+class ExpressionError(ValueError):
+    """A number or expression that cannot be read (the parser adds the line)."""
+
+
+def number(token: str) -> float | None:
+    """``4.7k`` → 4700.0; trailing letters after a scale (``1kOhm``) are ignored as in
+    SPICE (note ``1F`` is one femto-unit, as SPICE reads it). ``None`` if not a number."""
+    m = _NUMBER.match(token)
+    if m is None:
+        return None
+    return _scaled(m.group(1), m.group(2))
+
+
+def _scaled(mantissa: str, suffix: str | None) -> float:
+    """Mantissa × scale in exact decimal arithmetic, then rounded once (10u == 1e-5)."""
+    if not suffix:
+        return float(mantissa)
+    return float(Decimal(mantissa) * Decimal(repr(SCALE[suffix.lower()])))
+
+
+def evaluate(text: str, params: dict[str, float]) -> float:
+    """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
+    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), text.strip())
+    source = source.replace("^", "**")
+    try:
+        tree = ast.parse(source, mode="eval")
+    except SyntaxError:
+        raise ExpressionError(f"cannot parse expression {text!r}") from None
+    value = _walk(tree.body, {k.lower(): v for k, v in params.items()}, text)
+    if not math.isfinite(value):
+        raise ExpressionError(f"expression {text!r} is not finite ({value})")
+    return float(value)
+
+
+def _walk(node, params, text):
+    if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+        return float(node.value)
+    if isinstance(node, ast.Name):
+        key = node.id.lower()
+        if key in params:
+            return params[key]
+        if key == "pi":
+            return math.pi
+        raise ExpressionError(f"unknown parameter {node.id!r} in {text!r} (define it with .param)")
+    if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
+        x = _walk(node.operand, params, text)
+        return -x if isinstance(node.op, ast.USub) else x
+    if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
+        a, b = _walk(node.left, params, text), _walk(node.right, params, text)
+        try:
+            return _BINARY[type(node.op)](a, b)
+        except (ZeroDivisionError, OverflowError) as exc:
+            raise ExpressionError(f"{text!r}: {exc}") from None
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+        fn = FUNCTIONS.get(node.func.id.lower())
+        if fn is None:
+            raise ExpressionError(
+                f"unknown function {node.func.id!r} in {text!r}; known: {sorted(FUNCTIONS)}"
+            )
+        args = [_walk(a, params, text) for a in node.args]
+        try:
+            return float(fn(*args))
+        except (TypeError, ValueError, OverflowError) as exc:
+            raise ExpressionError(f"{text!r}: {node.func.id}: {exc}") from None
+    raise ExpressionError(f"unsupported syntax in expression {text!r}")
