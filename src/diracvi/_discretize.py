@@ -130,12 +130,9 @@ class Retraction(QuadratureRule):
         return 0.0
 
 
-class Midpoint(QuadratureRule):
-    """The symmetric midpoint rule (order 2); ω_{d+} = ω_{d−}, so (+) and (−) agree."""
-
-    def __init__(self):
-        self.name = "midpoint"
-        self.order = 2
+class _CentredNodes:
+    """Nodes of the symmetric rules: ``q̄ = (q_k + q_{k+1})/2`` at ``t_k + h/2``, for the
+    Lagrangian, the forces and the one-forms alike (both schemes)."""
 
     def node(self, qk, qk1):
         return 0.5 * (qk + qk1)
@@ -148,6 +145,14 @@ class Midpoint(QuadratureRule):
 
     def constraint_time(self, side, tk, h):
         return tk + 0.5 * h
+
+
+class Midpoint(_CentredNodes, QuadratureRule):
+    """The symmetric midpoint rule (order 2); ω_{d+} = ω_{d−}, so (+) and (−) agree."""
+
+    def __init__(self):
+        self.name = "midpoint"
+        self.order = 2
 
     def force_weights(self):
         return 0.5, 0.5
@@ -164,7 +169,7 @@ FIRST_HALF = (5.0 / 24.0, 1.0 / 3.0, -1.0 / 24.0)
 SECOND_HALF = (-1.0 / 24.0, 1.0 / 3.0, 5.0 / 24.0)
 
 
-class Lobatto(QuadratureRule):
+class Lobatto(_CentredNodes, QuadratureRule):
     r"""The order-4 Galerkin rule: a quadratic path and Simpson (3-point Lobatto) quadrature.
 
     The path through ``q_k``, the internal stage ``Q`` and ``q_{k+1}`` has the nodal
@@ -192,18 +197,6 @@ class Lobatto(QuadratureRule):
     @property
     def stages(self) -> int:
         return 1
-
-    def node(self, qk, qk1):
-        return 0.5 * (qk + qk1)
-
-    def time_node(self, tk, h):
-        return tk + 0.5 * h
-
-    def constraint_node(self, side, qk, qk1):
-        return 0.5 * (qk + qk1)
-
-    def constraint_time(self, side, tk, h):
-        return tk + 0.5 * h
 
     def force_weights(self):
         return SIMPSON[0], SIMPSON[2]
