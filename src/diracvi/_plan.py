@@ -1,5 +1,10 @@
 r"""How a run is stepped, decided once per (system, rule, scheme, dt, solver) and cached.
 
+Every analysis that depends on the configuration and not on the call lives here: the
+solver choice, the affine step map, the solvability of the step equations (the step
+Jacobian ``J = ∂r/∂(q_other, μ)`` must be invertible), the initial-data checker and the
+compiled chunks. ``simulate`` only checks its arguments and marches.
+
 ``solver=None`` chooses automatically: the affine step map when the step equations are
 linear (checked numerically, see :mod:`diracvi._solvers.affine`), otherwise Newton. A
 :class:`Plan` holds that choice, the fallback, and the compiled chunk programs, so a
@@ -13,15 +18,19 @@ import weakref
 from collections import OrderedDict
 from typing import NamedTuple
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ._consistency import Checker
+from ._equations import residual
 from ._errors import ModelError
 from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
-from ._solvers.solvability import check_step_jacobian
+from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import CompiledChunk
 
 _CACHE: OrderedDict = OrderedDict()
@@ -88,6 +97,31 @@ def equation_names(system):
     ]
 
 
+@eqx.filter_jit
+def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
+    x0 = jnp.concatenate([q0, jnp.zeros(system.m)])
+    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
+
+
+def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
+    """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular.
+
+    Once per plan: the structural defects the check names (an unconnected massless port,
+    a capacitor loop under the left-point rule) do not depend on the initial state; a
+    Jacobian that turns singular later is reported by the failing step's status.
+    """
+    if system.n + system.m > DENSE_CHECK_LIMIT:
+        return
+    tk = t0 if scheme == "plus" else t0 - float(h)
+    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
+    check_step_jacobian(
+        jac,
+        unknown_names=unknown_names(system, scheme),
+        equation_names=equation_names(system),
+        where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
+    )
+
+
 class Plan:
     """The stepping method of one configuration and its compiled chunks."""
 
@@ -119,8 +153,9 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
+        if self.step_map is None:  # (the affine build has checked J already)
+            check_solvable(system, rule, scheme, q0, p0, self.h_array, t0)
         self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
-        self.solvable_checked = self.step_map is not None  # the affine build checked J_x
         self._chunks: dict = {}
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:

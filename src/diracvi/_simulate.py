@@ -12,20 +12,17 @@ from __future__ import annotations
 from pathlib import Path
 from typing import NamedTuple
 
-import equinox as eqx
 import jax
-import jax.numpy as jnp
 import numpy as np
 
 from . import _checkpoint
 from ._config import ensure_float64
 from ._discretize import RULES, get_rule
-from ._equations import SCHEMES, residual
+from ._equations import SCHEMES
 from ._errors import ModelError, StepFailure
-from ._plan import Layout, equation_names, get_plan, layout, unknown_names
+from ._plan import Layout, get_plan, layout
 from ._solvers import SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
-from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import AFFINE_REJECTED, keeps_nodal
 from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
@@ -37,26 +34,6 @@ from ._validate import (
     check_positive_int,
     check_state,
 )
-
-
-@eqx.filter_jit
-def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
-    x0 = jnp.concatenate([q0, jnp.zeros(system.m)])
-    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
-
-
-def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
-    """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular."""
-    if system.n + system.m > DENSE_CHECK_LIMIT:
-        return
-    tk = t0 if scheme == "plus" else t0 - float(h)
-    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
-    check_step_jacobian(
-        jac,
-        unknown_names=unknown_names(system, scheme),
-        equation_names=equation_names(system),
-        where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
-    )
 
 
 def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
@@ -371,18 +348,8 @@ def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> 
 
 
 def prepared_plan(system, run: RunArguments, solver, q0, p0, t0=0.0):
-    """The cached plan, with the step's solvability checked on its first use.
-
-    Once per plan: the structural defects the check names (an unconnected massless port,
-    a capacitor loop under the left-point rule) do not depend on the initial state; a
-    Jacobian that turns singular later is reported by the failing step's status.
-    """
-    rule = get_rule(run.discretization)
-    plan = get_plan(system, rule, run.scheme, run.h, solver, q0, p0, t0)
-    if not plan.solvable_checked:
-        check_solvable(system, rule, run.scheme, q0, p0, plan.h_array, t0)
-        plan.solvable_checked = True
-    return plan
+    """The cached plan of this configuration (analysed on first use, see :mod:`._plan`)."""
+    return get_plan(system, get_rule(run.discretization), run.scheme, run.h, solver, q0, p0, t0)
 
 
 def check_save_every(steps: int, save_every) -> int:

@@ -23,7 +23,6 @@ How timings are taken is in :mod:`._core`; method and results are in
 
 from __future__ import annotations
 
-import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
@@ -97,12 +96,4 @@ def run(
     return report
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    """``diracvi bench`` with the given arguments (default: the command line's)."""
-    from ..cli import app
-
-    args = list(sys.argv[1:] if argv is None else argv)
-    app(["bench", *args], prog_name="diracvi")
-
-
-__all__ = ["BENCHMARKS", "BenchmarkError", "Report", "Result", "Row", "Settings", "main", "run"]
+__all__ = ["BENCHMARKS", "BenchmarkError", "Report", "Result", "Row", "Settings", "run"]
