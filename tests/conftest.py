@@ -1,5 +1,17 @@
 import os
 
+# -- compilation cache (perf branch): never the user's real cache dir. One directory for
+# the session, shared by the CLI subprocesses the tests start; set before diracvi is
+# imported, which is when the cache is configured. --
+if "DIRACVI_CACHE_DIR" not in os.environ:
+    import atexit
+    import shutil
+    import tempfile
+
+    os.environ["DIRACVI_CACHE_DIR"] = tempfile.mkdtemp(prefix="diracvi-test-cache-")
+    atexit.register(shutil.rmtree, os.environ["DIRACVI_CACHE_DIR"], ignore_errors=True)
+# -- end of the compilation-cache block --
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
