@@ -12,7 +12,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import NamedTuple
 
-import jax
+import equinox as eqx
 import numpy as np
 
 from . import _checkpoint
@@ -387,4 +387,11 @@ def momenta(system: DiracSystem, q, v, t=0.0):
     ensure_float64()
     q = check_state("q", q, system.n, system.coords)
     v = check_state("v", v, system.n, system.coords)
-    return np.asarray(jax.jit(system.momentum)(q, v, check_float("t", t)))
+    return np.asarray(_momentum(system, q, v, check_float("t", t)))
+
+
+@eqx.filter_jit
+def _momentum(system, q, v, t):
+    # the system is an argument, not part of a jitted bound method: its parameters
+    # (lifted constants included) are arrays, which a static function cannot hash
+    return system.momentum(q, v, t)
