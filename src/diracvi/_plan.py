@@ -31,7 +31,7 @@ from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
-from ._stepping import CompiledChunk
+from ._stepping import CompiledChunk, keeps_nodal
 
 _CACHE: OrderedDict = OrderedDict()
 _CACHE_SIZE = 32
@@ -45,11 +45,13 @@ def clear_cache() -> None:
 
 
 class Layout(NamedTuple):
-    """The names and sizes of a system (properties that an interconnection recomputes)."""
+    """The names and sizes of a system (properties that an interconnection recomputes),
+    and whether any of its leaves is a JAX tracer (a model built inside a transformation)."""
 
     coords: tuple[str, ...]
     constraint_names: tuple[str, ...]
     name: str
+    traced: bool = False
 
     @property
     def n(self) -> int:
@@ -64,7 +66,8 @@ def layout(system) -> Layout:
     hit = _LAYOUTS.get(id(system))
     if hit is not None and hit[0]() is system:
         return hit[1]
-    info = Layout(system.coords, system.constraint_names, getattr(system, "name", "system"))
+    traced = any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(system))
+    info = Layout(system.coords, system.constraint_names, getattr(system, "name", "system"), traced)
     key = id(system)
     _LAYOUTS[key] = (weakref.ref(system, lambda _, c=_LAYOUTS: c.pop(key, None)), info)
     return info
@@ -156,6 +159,8 @@ class Plan:
         if self.step_map is None:  # (the affine build has checked J already)
             check_solvable(system, rule, scheme, q0, p0, self.h_array, t0)
         self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
+        # whether a run that saves its states also stores the nodal momenta
+        self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:

@@ -23,7 +23,7 @@ from ._errors import ModelError, StepFailure
 from ._plan import Layout, get_plan, layout
 from ._solvers import SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
-from ._stepping import AFFINE_REJECTED, keeps_nodal
+from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from ._trajectory import STATUS_MESSAGES, Trajectory
@@ -235,7 +235,9 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
-    if is_traced(system, q0, p0, t0):
+    # the system's own leaves are looked at once per system (its layout), not per call
+    system_traced = isinstance(system, DiracSystem) and layout(system).traced
+    if system_traced or is_traced(q0, p0, t0):
         run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
         check_traced_options(checkpoint, project_initial)
         return simulate_traced(
@@ -257,7 +259,7 @@ def simulate(
     plan = prepared_plan(system, run, solver, q0, p0, t0)
     q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
 
-    nodal = keeps_nodal(system, plan.rule, save_states)
+    nodal = bool(save_states) and plan.nodal_when_saved
     march = _March(shape, q0, p0, k, bool(save_states), nodal)
     path, key, chunk = None, None, steps
     if checkpoint is not None:

@@ -15,6 +15,8 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
 - :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
+- :mod:`.cache` — first call in a second process (on-disk compilation cache) ÷ cold;
+- :mod:`.closure_chain` — a torn chain of loop-built closures ÷ the same of shared code;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin.
 
 How timings are taken is in :mod:`._core`; method and results are in
@@ -28,7 +30,9 @@ import traceback
 from collections.abc import Callable, Sequence
 
 from . import (
+    cache,
     chain_scaling,
+    closure_chain,
     compile_latency,
     driven,
     ensemble,
@@ -53,6 +57,8 @@ BENCHMARKS = {
         gradients,
         sweep,
         compile_latency,
+        cache,
+        closure_chain,
         driven,
     )
 }
