@@ -7,9 +7,11 @@ closure over that piece's masses and stiffnesses, as a loop in a user's script m
 them. diracvi traces each closure once and compares the programs (see
 :mod:`diracvi._program`), so both chains should group, compile and step alike.
 
-Each variant runs in a fresh process with the compilation cache off: its first
-``dv.simulate`` call (``save_states=False``, ``STEPS`` steps: tracing, compilation, the
-run), then the warm time per step (min of the long repeats of the same call ÷ steps).
+Each variant's first ``dv.simulate`` call (``save_states=False``, ``STEPS`` steps:
+tracing, compilation, the run) is timed in a fresh process of its own with the
+compilation cache off. The time per step is taken in one more process that builds both,
+warms them up and times them interleaved (min over the long repeats ÷ steps), so a
+change of load between processes does not fall on one side only.
 """
 
 from __future__ import annotations
@@ -64,6 +66,7 @@ def closure_chain(masses: int, pieces: int):
 
 
 def measure(variant: str, masses: int, pieces: int, repeats: int) -> dict:
+    """``variant`` "shared" or "closure": build and first call; "both": per-step times."""
     import diracvi as dv
     from diracvi import problems
 
@@ -71,25 +74,30 @@ def measure(variant: str, masses: int, pieces: int, repeats: int) -> dict:
 
     start = time.perf_counter()
     problem = problems.chain_torn(masses, pieces)
-    system = problem.system if variant == "shared" else closure_chain(masses, pieces)
+    systems = {}
+    if variant in ("shared", "both"):
+        systems["shared"] = problem.system
+    if variant in ("closure", "both"):
+        systems["closure"] = closure_chain(masses, pieces)
     build_s = time.perf_counter() - start
 
-    def call():
-        return dv.simulate(
+    def call(system):
+        return lambda: dv.simulate(
             system, problem.q0, problem.p0, dt=problem.dt, steps=STEPS, save_states=False
         )
 
+    if variant == "both":
+        times = interleaved({name: call(s) for name, s in systems.items()}, repeats)
+        return {name: float(t.min()) / STEPS for name, t in times.items()}
+    (system,) = systems.values()
     start = time.perf_counter()
-    traj = call()
+    traj = call(system)()
     first_s = time.perf_counter() - start
-    warm = float(interleaved({"run": call}, repeats)["run"].min())
-    groups = len(dv.PartitionedSolver.layout(system).groups)
     return {
         "variant": variant,
         "build_s": build_s,
         "first_call_s": first_s,
-        "per_step_s": warm / STEPS,
-        "groups": groups,
+        "groups": len(dv.PartitionedSolver.layout(system).groups),
         "solver": traj.solver,
     }
 
@@ -105,21 +113,21 @@ def run(settings: Settings) -> Result:
     out = {}
     label = f"chain N={masses:,} in {pieces} pieces"
     try:
-        for variant in ("shared", "closure"):
+        for variant in ("shared", "closure", "both"):
             args = ["-c", code, variant, str(masses), str(pieces), str(settings.long_repeats)]
             out[variant] = run_child(args, timeout=TIMEOUT)
     except WorkerFailed as exc:
         row = Row(NAME, f"{label}: not run", None, None, None, notes=str(exc), status="not run")
         return Result([row], out)
-    c, s = out["closure"], out["shared"]
-    note = f"groups: closures {c['groups']}, shared {s['groups']}; fresh process, cache off"
+    c, s, step = out["closure"], out["shared"], out["both"]
+    note = f"groups: closures {c['groups']}, shared {s['groups']}; interleaved, one process"
     rows = [
         Row(
             NAME,
             f"{label}, {STEPS} steps: time/step, closures ÷ shared code",
-            c["per_step_s"],
-            s["per_step_s"],
-            c["per_step_s"] / s["per_step_s"],
+            step["closure"],
+            step["shared"],
+            step["closure"] / step["shared"],
             PER_STEP_TARGET,
             solver=c["solver"],
             notes=note,
@@ -132,7 +140,8 @@ def run(settings: Settings) -> Result:
             c["first_call_s"] / s["first_call_s"],
             FIRST_TARGET,
             solver=c["solver"],
-            notes=f"build: closures {c['build_s']:.2f} s, shared {s['build_s']:.2f} s",
+            notes=f"fresh process each, cache off; build: closures {c['build_s']:.2f} s, "
+            f"shared {s['build_s']:.2f} s",
         ),
     ]
     return Result(rows, out)
