@@ -152,9 +152,13 @@ def _linearizations(system, rule, scheme, h, points, times):
         def f(y):
             return parts(y[:n], y[n : 2 * n], y[2 * n :], tk)
 
-        r, pm = f(point)
+        def value_twice(y):
+            value = f(y)
+            return value, value
+
+        # the values at the point come with the Jacobian (one trace of f, not two)
+        (jr, jp), (r, pm) = jax.jacfwd(value_twice, has_aux=True)(point)
         r0, pm0 = f(jnp.zeros_like(point))
-        jr, jp = jax.jacfwd(f)(point)
         return r, pm, r0, pm0, jr, jp
 
     return jax.vmap(at)(points, times)
