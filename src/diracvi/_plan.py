@@ -106,17 +106,20 @@ def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
     return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
 
 
-def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
+def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0, jacobian=None) -> None:
     """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular.
 
     Once per plan: the structural defects the check names (an unconnected massless port,
     a capacitor loop under the left-point rule) do not depend on the initial state; a
     Jacobian that turns singular later is reported by the failing step's status.
+    ``jacobian``: that Jacobian, if already formed (the affine probes form it).
     """
     if system.n + system.m > DENSE_CHECK_LIMIT:
         return
-    tk = t0 if scheme == "plus" else t0 - float(h)
-    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
+    if jacobian is None:
+        tk = t0 if scheme == "plus" else t0 - float(h)
+        jacobian = _step_jacobian(system, rule, scheme, q0, p0, h, tk)
+    jac = np.asarray(jacobian)
     check_step_jacobian(
         jac,
         unknown_names=unknown_names(system, scheme),
@@ -132,6 +135,7 @@ class Plan:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
         self.h_array = np.asarray(h, dtype=np.float64)
         self.step_map: AffineStepMap | None = None
+        first_jacobian = None  # J of the first step, if the affine probes formed it
         if isinstance(solver, StepSolver):
             self.fallback, self.affine_reason = solver, "a step solver was given"
         else:
@@ -144,7 +148,7 @@ class Plan:
                 # for linear equations too, at O(n) per step against the dense map's O(n²)
                 self.affine_reason = "a large interconnection is stepped by the partitioned solver"
             else:
-                self.step_map, self.affine_reason = build(
+                self.step_map, self.affine_reason, first_jacobian = build(
                     system, rule, scheme, h, q0, p0, options, t0
                 )
             if self.step_map is not None:
@@ -157,7 +161,7 @@ class Plan:
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
         if self.step_map is None:  # (the affine build has checked J already)
-            check_solvable(system, rule, scheme, q0, p0, self.h_array, t0)
+            check_solvable(system, rule, scheme, q0, p0, self.h_array, t0, first_jacobian)
         self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
         # whether a run that saves its states also stores the nodal momenta
         self.nodal_when_saved = keeps_nodal(system, rule, True)
