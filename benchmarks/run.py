@@ -5,7 +5,10 @@ so that the command works after a plain ``pip install .``. Method and results:
 ``benchmarks/README.md``.
 """
 
-from diracvi.bench import main
+import sys
+
+# the command line is the layer above the benchmarks: it imports them, never the reverse
+from diracvi.cli import app
 
 if __name__ == "__main__":
-    main()
+    app(["bench", *sys.argv[1:]], prog_name="diracvi")

@@ -1,17 +1,17 @@
 import os
 
-# One persistent XLA compilation cache for the whole run, shared by the xdist workers and
-# the CLI subprocesses (set before JAX is imported, so they inherit it): tests rebuild the
-# same problems again and again, and a rebuilt model compiles to the same program, so
-# after its first compilation a program is loaded, not compiled (3.7 s → 1.0 s CPU for
-# the torn RLC's second build). Keyed by the program text, so results are unchanged.
-if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+# One on-disk compilation cache for the whole run (diracvi's own, pointed away from the
+# user's cache directory), shared by the xdist workers and the CLI subprocesses: set
+# before diracvi is imported, which is when the cache is configured, so they all inherit
+# it. Tests rebuild the same problems again and again, and a rebuilt model compiles to
+# the same program, which is then loaded, not compiled (3.7 s → 1.0 s CPU for the torn
+# RLC's second build). Keyed by the program text, so results are unchanged. The
+# controller removes it at the end (pytest_unconfigure below).
+if "DIRACVI_CACHE_DIR" not in os.environ:
     _run = os.environ.get("PYTEST_XDIST_TESTRUNUID") or str(os.getpid())
-    os.environ["JAX_COMPILATION_CACHE_DIR"] = os.path.join(
+    os.environ["DIRACVI_CACHE_DIR"] = os.path.join(
         os.environ.get("TMPDIR", "/tmp"), f"diracvi-test-xla-cache-{_run}"
     )
-    os.environ["JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS"] = "0"
-    os.environ["JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES"] = "0"
 
 import numpy as np
 import pytest
@@ -61,7 +61,7 @@ def rng():
 
 def pytest_unconfigure(config):
     """The run's compilation cache goes with the run (the controller removes it last)."""
-    cache = os.environ.get("JAX_COMPILATION_CACHE_DIR", "")
+    cache = os.environ.get("DIRACVI_CACHE_DIR", "")
     if hasattr(config, "workerinput") or "diracvi-test-xla-cache-" not in cache:
         return
     import shutil

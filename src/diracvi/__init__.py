@@ -6,7 +6,7 @@ system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
 traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
-from . import _config  # noqa: F401  (switches JAX float64 on)
+from . import _cache, _config  # noqa: F401  (switches JAX float64 on)
 from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
 from ._consistency import InconsistentInitialDataWarning
 from ._consistency import project as project_initial_state
@@ -19,6 +19,8 @@ from ._solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus
 from ._sweep import sweep
 from ._system import DiracSystem, LagrangeDiracSystem
 from ._trajectory import Trajectory, load
+
+_cache.enable()  # the on-disk compilation cache (DIRACVI_CACHE_DIR; "" switches it off)
 
 __version__ = "0.1.0"
 

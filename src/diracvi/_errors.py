@@ -6,10 +6,7 @@ so that a modelling mistake never surfaces as a deep JAX traceback.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from ._trajectory import Trajectory
+from typing import Any
 
 
 class DiracviError(Exception):
@@ -25,8 +22,10 @@ class UnsolvableStepError(DiracviError, ValueError):
 
 
 class StepFailure(DiracviError, RuntimeError):
-    """A step could not be solved; ``trajectory`` holds every step completed before it."""
+    """A step could not be solved; ``trajectory`` holds every step completed before it
+    (a :class:`~diracvi.Trajectory`; typed loosely so that this module, which every layer
+    imports, imports none of them)."""
 
-    def __init__(self, message: str, trajectory: Trajectory):
+    def __init__(self, message: str, trajectory: Any):
         super().__init__(message)
         self.trajectory = trajectory

@@ -1,5 +1,10 @@
 r"""How a run is stepped, decided once per (system, rule, scheme, dt, solver) and cached.
 
+Every analysis that depends on the configuration and not on the call lives here: the
+solver choice, the affine step map, the solvability of the step equations (the step
+Jacobian ``J = ∂r/∂(q_other, μ)`` must be invertible), the initial-data checker and the
+compiled chunks. ``simulate`` only checks its arguments and marches.
+
 ``solver=None`` chooses automatically: the affine step map when the step equations are
 linear (checked numerically, see :mod:`diracvi._solvers.affine`), otherwise Newton. A
 :class:`Plan` holds that choice, the fallback, and the compiled chunk programs, so a
@@ -13,16 +18,20 @@ import weakref
 from collections import OrderedDict
 from typing import NamedTuple
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 
 from ._consistency import Checker
+from ._equations import first_guess, residual, unknown_count
 from ._errors import ModelError
 from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
-from ._solvers.solvability import check_step_jacobian
-from ._stepping import CompiledChunk
+from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ._stepping import CompiledChunk, keeps_nodal
 
 _CACHE: OrderedDict = OrderedDict()
 _CACHE_SIZE = 32
@@ -36,11 +45,13 @@ def clear_cache() -> None:
 
 
 class Layout(NamedTuple):
-    """The names and sizes of a system (properties that an interconnection recomputes)."""
+    """The names and sizes of a system (properties that an interconnection recomputes),
+    and whether any of its leaves is a JAX tracer (a model built inside a transformation)."""
 
     coords: tuple[str, ...]
     constraint_names: tuple[str, ...]
     name: str
+    traced: bool = False
 
     @property
     def n(self) -> int:
@@ -55,7 +66,8 @@ def layout(system) -> Layout:
     hit = _LAYOUTS.get(id(system))
     if hit is not None and hit[0]() is system:
         return hit[1]
-    info = Layout(system.coords, system.constraint_names, getattr(system, "name", "system"))
+    traced = any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(system))
+    info = Layout(system.coords, system.constraint_names, getattr(system, "name", "system"), traced)
     key = id(system)
     _LAYOUTS[key] = (weakref.ref(system, lambda _, c=_LAYOUTS: c.pop(key, None)), info)
     return info
@@ -96,6 +108,34 @@ def equation_names(system, rule=None):
     return names
 
 
+@eqx.filter_jit
+def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
+    x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
+    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
+
+
+def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0, jacobian=None) -> None:
+    """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular.
+
+    Once per plan: the structural defects the check names (an unconnected massless port,
+    a capacitor loop under the left-point rule) do not depend on the initial state; a
+    Jacobian that turns singular later is reported by the failing step's status.
+    ``jacobian``: that Jacobian, if already formed (the affine probes form it).
+    """
+    if unknown_count(system, rule) > DENSE_CHECK_LIMIT:
+        return
+    if jacobian is None:
+        tk = t0 if scheme == "plus" else t0 - float(h)
+        jacobian = _step_jacobian(system, rule, scheme, q0, p0, h, tk)
+    jac = np.asarray(jacobian)
+    check_step_jacobian(
+        jac,
+        unknown_names=unknown_names(system, scheme, rule),
+        equation_names=equation_names(system, rule),
+        where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
+    )
+
+
 class Plan:
     """The stepping method of one configuration and its compiled chunks."""
 
@@ -103,6 +143,7 @@ class Plan:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
         self.h_array = np.asarray(h, dtype=np.float64)
         self.step_map: AffineStepMap | None = None
+        first_jacobian = None  # J of the first step, if the affine probes formed it
         if isinstance(solver, StepSolver):
             self.fallback, self.affine_reason = solver, "a step solver was given"
         else:
@@ -115,7 +156,7 @@ class Plan:
                 # for linear equations too, at O(n) per step against the dense map's O(n²)
                 self.affine_reason = "a large interconnection is stepped by the partitioned solver"
             else:
-                self.step_map, self.affine_reason = build(
+                self.step_map, self.affine_reason, first_jacobian = build(
                     system, rule, scheme, h, q0, p0, options, t0
                 )
             if self.step_map is not None:
@@ -127,8 +168,11 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
+        if self.step_map is None:  # (the affine build has checked J already)
+            check_solvable(system, rule, scheme, q0, p0, self.h_array, t0, first_jacobian)
         self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
-        self.solvable_checked = self.step_map is not None  # the affine build checked J_x
+        # whether a run that saves its states also stores the nodal momenta
+        self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:

@@ -13,20 +13,17 @@ from pathlib import Path
 from typing import NamedTuple
 
 import equinox as eqx
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from . import _checkpoint
 from ._config import ensure_float64
 from ._discretize import RULES, get_rule
-from ._equations import SCHEMES, first_guess, residual, unknown_count
+from ._equations import SCHEMES
 from ._errors import ModelError, StepFailure
-from ._plan import Layout, equation_names, get_plan, layout, unknown_names
+from ._plan import Layout, get_plan, layout
 from ._solvers import SolveStatus, StepSolver
 from ._solvers.affine import AffineSolver
-from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
-from ._stepping import AFFINE_REJECTED, keeps_nodal
+from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from ._trajectory import STATUS_MESSAGES, Trajectory
@@ -37,26 +34,6 @@ from ._validate import (
     check_positive_int,
     check_state,
 )
-
-
-@eqx.filter_jit
-def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
-    x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
-    return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)
-
-
-def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0) -> None:
-    """Raise :class:`UnsolvableStepError` if the first step's Jacobian is singular."""
-    if unknown_count(system, rule) > DENSE_CHECK_LIMIT:
-        return
-    tk = t0 if scheme == "plus" else t0 - float(h)
-    jac = np.asarray(_step_jacobian(system, rule, scheme, q0, p0, h, tk))
-    check_step_jacobian(
-        jac,
-        unknown_names=unknown_names(system, scheme, rule),
-        equation_names=equation_names(system, rule),
-        where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
-    )
 
 
 def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
@@ -259,7 +236,9 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
-    if is_traced(system, q0, p0, t0):
+    # the system's own leaves are looked at once per system (its layout), not per call
+    system_traced = isinstance(system, DiracSystem) and layout(system).traced
+    if system_traced or is_traced(q0, p0, t0):
         run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
         check_traced_options(checkpoint, project_initial)
         return simulate_traced(
@@ -281,7 +260,7 @@ def simulate(
     plan = prepared_plan(system, run, solver, q0, p0, t0)
     q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
 
-    nodal = keeps_nodal(system, plan.rule, save_states)
+    nodal = bool(save_states) and plan.nodal_when_saved
     march = _March(shape, q0, p0, k, bool(save_states), nodal)
     path, key, chunk = None, None, steps
     if checkpoint is not None:
@@ -372,18 +351,8 @@ def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> 
 
 
 def prepared_plan(system, run: RunArguments, solver, q0, p0, t0=0.0):
-    """The cached plan, with the step's solvability checked on its first use.
-
-    Once per plan: the structural defects the check names (an unconnected massless port,
-    a capacitor loop under the left-point rule) do not depend on the initial state; a
-    Jacobian that turns singular later is reported by the failing step's status.
-    """
-    rule = get_rule(run.discretization)
-    plan = get_plan(system, rule, run.scheme, run.h, solver, q0, p0, t0)
-    if not plan.solvable_checked:
-        check_solvable(system, rule, run.scheme, q0, p0, plan.h_array, t0)
-        plan.solvable_checked = True
-    return plan
+    """The cached plan of this configuration (analysed on first use, see :mod:`._plan`)."""
+    return get_plan(system, get_rule(run.discretization), run.scheme, run.h, solver, q0, p0, t0)
 
 
 def check_save_every(steps: int, save_every) -> int:
@@ -421,4 +390,11 @@ def momenta(system: DiracSystem, q, v, t=0.0):
     ensure_float64()
     q = check_state("q", q, system.n, system.coords)
     v = check_state("v", v, system.n, system.coords)
-    return np.asarray(jax.jit(system.momentum)(q, v, check_float("t", t)))
+    return np.asarray(_momentum(system, q, v, check_float("t", t)))
+
+
+@eqx.filter_jit
+def _momentum(system, q, v, t):
+    # the system is an argument, not part of a jitted bound method: its parameters
+    # (lifted constants included) are arrays, which a static function cannot hash
+    return system.momentum(q, v, t)

@@ -14,9 +14,11 @@ equinox.is_array)``; members whose static parts are equal and whose array leaves
 the same shapes are stacked and stepped by ``jax.jit(jax.vmap(member))``, where
 ``member`` rebuilds the system with ``equinox.combine`` and runs the pure chunk program
 of :mod:`diracvi._stepping`. Programs are cached per structure, so a grid over ``R`` and
-``C`` of an ``equinox.Module`` Lagrangian compiles once. Parameters hidden in a plain
-function's closure are compile-time constants and a new closure is a new structure:
-such members still run, but one compiled program per member.
+``C`` of an ``equinox.Module`` Lagrangian compiles once. A plain function's captured
+arrays and float constants are lifted to leaves when the system is built
+(:mod:`diracvi._program`), so closures that compute the same thing group too; a function
+that cannot be rewritten that way is its own structure: such members still run, but one
+compiled program per member.
 
 **Storage.** ``out=PATH`` creates a NetCDF file (h5netcdf) of the whole result up front,
 writes every batch into its region as soon as it is done and marks it done in the

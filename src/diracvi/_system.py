@@ -28,6 +28,7 @@ import numpy as np
 from ._config import ensure_float64
 from ._discretize import QuadratureRule
 from ._errors import ModelError
+from ._program import Program, lift
 from ._signature import takes_time
 from ._validate import (
     check_callable,
@@ -199,9 +200,12 @@ class _UserFunction(eqx.Module):
     An ``equinox.Module`` callable is split by :func:`equinox.partition`: its arrays are
     a dynamic field (traced, so subsystems that differ only in parameter values share one
     compiled program and can be stacked for ``jax.vmap``); the rest of it is static. A
-    plain function, or a Module whose non-array part is unhashable, is kept whole as a
-    static constant, as before (its captured arrays become compile-time constants).
-    ``driven`` records whether it takes the time as its last argument.
+    plain function (a closure, a lambda) is traced once to a :class:`~._program.Program`
+    with its captured arrays and float constants lifted out as the dynamic field, so
+    closures built in a loop are alike exactly when they compute the same thing. What
+    cannot be traced that way is kept whole as a static constant (its captured arrays
+    become compile-time constants). ``driven`` records whether it takes the time as its
+    last argument.
     """
 
     arrays: Any
@@ -209,8 +213,11 @@ class _UserFunction(eqx.Module):
     driven: bool = eqx.field(static=True, default=False)
 
     def __call__(self, *args, t):
+        args = (*args, t) if self.driven else args
+        if isinstance(self.rest, Program):
+            return self.rest(self.arrays, *args)
         fn = self.rest if self.arrays is None else eqx.combine(self.arrays, self.rest)
-        return fn(*args, t) if self.driven else fn(*args)
+        return fn(*args)
 
 
 def _wrap(fn: Callable, driven: bool = False) -> _UserFunction:
@@ -239,9 +246,15 @@ def _user_function(arg: str, fn, shapes, autonomous: str, driven: str):
             return _wrap(fn, False), out
         except ModelError:
             timed = True
-    out = eval_shape(
-        arg, fn, *shapes, *([()] if timed else []), signature=driven if timed else autonomous
-    )
+    shapes = [*shapes, *([()] if timed else [])]
+    if not isinstance(fn, eqx.Module):
+        # one trace gives both the program and the output shape; a function that fails
+        # to trace is traced again below for the error message
+        lifted = lift(fn, shapes)
+        if lifted is not None:
+            program, consts, out = lifted
+            return _UserFunction(consts, program, bool(timed)), out
+    out = eval_shape(arg, fn, *shapes, signature=driven if timed else autonomous)
     return _wrap(fn, bool(timed)), out
 
 

@@ -155,9 +155,13 @@ def _linearizations(system, rule, scheme, h, points, times):
         def f(y):
             return parts(y[:n], y[n : 2 * n], y[2 * n :], tk)
 
-        r, pm = f(point)
+        def value_twice(y):
+            value = f(y)
+            return value, value
+
+        # the values at the point come with the Jacobian (one trace of f, not two)
+        (jr, jp), (r, pm) = jax.jacfwd(value_twice, has_aux=True)(point)
         r0, pm0 = f(jnp.zeros_like(point))
-        jr, jp = jax.jacfwd(f)(point)
         return r, pm, r0, pm0, jr, jp
 
     return jax.vmap(at)(points, times)
@@ -245,12 +249,16 @@ _REFINE_LIMIT = 400
 
 def build(
     system, rule, scheme, h, q0, p0, solver: AffineSolver, t0: float = 0.0
-) -> tuple[AffineStepMap | None, str]:
-    """The affine step map, or ``(None, reason)`` when the equations are not affine."""
-    n, _m = system.n, system.m
+) -> tuple[AffineStepMap | None, str, np.ndarray | None]:
+    """``(step map, "affine", J)``, or ``(None, reason, J)`` when the equations are not
+    affine. ``J`` is the first step's Jacobian ``∂r/∂(q_other, μ)`` at ``(q0, p0)`` when the
+    probes computed it (an autonomous model, probed at ``t0``), else ``None``: the caller's
+    solvability check needs no compilation of its own then."""
+    n = system.n
     unknowns = unknown_count(system, rule)
     if unknowns > AFFINE_DENSE_LIMIT:
-        return None, f"{unknowns} unknowns exceed the dense step-map limit {AFFINE_DENSE_LIMIT}"
+        limit = AFFINE_DENSE_LIMIT
+        return None, f"{unknowns} unknowns exceed the dense step-map limit {limit}", None
     rng = np.random.default_rng(20261121)
     scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
     size = 2 * n + unknowns
@@ -264,7 +272,7 @@ def build(
     if _clearly_nonlinear(
         system, rule, scheme, jnp.asarray(h), points[1], points[2], jnp.asarray(t0)
     ):
-        return None, "the step equations are not affine"
+        return None, "the step equations are not affine", None
     driven = bool(system.time_dependent)
     # a driven model is probed at three different times (its Jacobians must not move)
     times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
@@ -272,17 +280,19 @@ def build(
         np.asarray(a)
         for a in _linearizations(system, rule, scheme, jnp.asarray(h), points, jnp.asarray(times))
     )
+    # probe 1 is (q0, p0) with no increment: there, ∂r/∂(d, μ) is the first step's J
+    first = None if driven else jr[1][:, 2 * n :]
     if not (np.all(np.isfinite(jr)) and np.all(np.isfinite(jp))):
-        return None, "the step equations are not finite at the probe points"
+        return None, "the step equations are not finite at the probe points", None
     tol = solver.detect_rtol
     for name, val, val0, jac in (("residual", r, r0, jr), ("momentum line", pm, pm0, jp)):
         ref = max(1.0, float(np.max(np.abs(jac))))
         if np.max(np.abs(jac - jac[0])) > tol * ref:
-            return None, f"the {name} of the step equations has a non-constant Jacobian"
+            return None, f"the {name} of the step equations has a non-constant Jacobian", first
         linear = val0 + points @ jac[0].T
         bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val0)
         if np.any(np.abs(val - linear) > tol * np.maximum(bound, 1.0)):
-            return None, f"the {name} of the step equations is not affine"
+            return None, f"the {name} of the step equations is not affine", first
     j_all, p_all = jr[0], jp[0]
     j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
     p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
@@ -290,7 +300,7 @@ def build(
     rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
     sol = _refined_solve(j_x, lu, piv, -rhs)
     if not np.all(np.isfinite(sol)):
-        return None, "the step Jacobian is singular"
+        return None, "the step Jacobian is singular", first
     phi_x, b_x = sol[:, :-1], sol[:, -1]
     phi_p = p_z + p_x @ phi_x
     b_p = pm[0] + p_x @ b_x
@@ -310,4 +320,4 @@ def build(
         verify_rtol=solver.verify_rtol,
         driven=driven,
     )
-    return step_map, "affine"
+    return step_map, "affine", first

@@ -15,6 +15,8 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
 - :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
+- :mod:`.cache` — first call in a second process (on-disk compilation cache) ÷ cold;
+- :mod:`.closure_chain` — a torn chain of loop-built closures ÷ the same of shared code;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
 - :mod:`.work_precision` — error against run time on the double pendulum for the three
   rules (orders 1, 2, 4) and DOP853;
@@ -27,14 +29,15 @@ How timings are taken is in :mod:`._core`; method and results are in
 
 from __future__ import annotations
 
-import sys
 import time
 import traceback
 from collections.abc import Callable, Sequence
 
 from . import (
+    cache,
     chain_scaling,
     circuits,
+    closure_chain,
     compile_latency,
     driven,
     ensemble,
@@ -60,6 +63,8 @@ BENCHMARKS = {
         gradients,
         sweep,
         compile_latency,
+        cache,
+        closure_chain,
         driven,
         work_precision,
         circuits,
@@ -105,12 +110,4 @@ def run(
     return report
 
 
-def main(argv: Sequence[str] | None = None) -> None:
-    """``diracvi bench`` with the given arguments (default: the command line's)."""
-    from ..cli import app
-
-    args = list(sys.argv[1:] if argv is None else argv)
-    app(["bench", *args], prog_name="diracvi")
-
-
-__all__ = ["BENCHMARKS", "BenchmarkError", "Report", "Result", "Row", "Settings", "main", "run"]
+__all__ = ["BENCHMARKS", "BenchmarkError", "Report", "Result", "Row", "Settings", "run"]

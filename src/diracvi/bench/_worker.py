@@ -31,14 +31,20 @@ def _rss_bytes(pid: int) -> int:
         return 0  # no /proc (not Linux) or the child just exited: nothing to watch
 
 
-def run_child(args: list[str], *, timeout: float, max_rss_bytes: int = MAX_RSS_BYTES) -> dict:
+def run_child(
+    args: list[str], *, timeout: float, max_rss_bytes: int = MAX_RSS_BYTES, cache_dir: str = ""
+) -> dict:
     """Run ``python ARGS``; return the JSON object it prints on its last stdout line.
+
+    The child's on-disk compilation cache is ``cache_dir`` (``DIRACVI_CACHE_DIR``); the
+    default, empty, switches it off, so a first call in the child compiles for real.
 
     Raises :class:`WorkerFailed` if it runs longer than ``timeout`` seconds, holds more
     than ``max_rss_bytes`` of resident memory, exits non-zero or prints no JSON.
     """
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        proc = subprocess.Popen([sys.executable, *args], stdout=out, stderr=err, text=True)
+        env = {**os.environ, "DIRACVI_CACHE_DIR": cache_dir}
+        proc = subprocess.Popen([sys.executable, *args], stdout=out, stderr=err, text=True, env=env)
         start, peak, reason = time.perf_counter(), 0, None
         while proc.poll() is None:
             peak = max(peak, _rss_bytes(proc.pid))

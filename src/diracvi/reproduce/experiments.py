@@ -26,7 +26,7 @@ from .._system import LagrangeDiracSystem
 from .._trajectory import Trajectory
 from ..problems import Problem
 from . import metrics, paper
-from .timing import TIMING_PROTOCOL, time_simulation
+from .timing import TIMING_PROTOCOL, time_simulations
 
 
 @dataclass(frozen=True)
@@ -240,16 +240,22 @@ def run_example(example: Example, settings: Settings, progress) -> ExampleResult
             "paper": _run(paper_sign_system(reduced.system), reduced.q0, reduced.p0, dt, steps),
         }
 
-    timing = {}
-    for label, system, q0, p0 in (
-        ("reduced", reduced.system, reduced.q0, reduced.p0),
-        ("monolithic", mono_system, torn.q0, torn.p0),
-        ("interconnected", torn.system, torn.q0, torn.p0),
-    ):
-        progress.step(f"{example.key}: timing the {label} model", total=settings.repeats)
-        timing[label] = time_simulation(
-            system, q0, p0, dt=dt, steps=steps, repeats=settings.repeats, tick=progress.tick
-        )
+    progress.step(
+        f"{example.key}: timing the interconnected model, interleaved with the reduced and "
+        "monolithic ones",
+        total=settings.repeats,
+    )
+    timing = time_simulations(
+        {
+            "reduced": (reduced.system, reduced.q0, reduced.p0),
+            "monolithic": (mono_system, torn.q0, torn.p0),
+            "interconnected": (torn.system, torn.q0, torn.p0),
+        },
+        dt=dt,
+        steps=steps,
+        repeats=settings.repeats,
+        tick=progress.tick,
+    )
 
     result.summary = _summarize(result, settings, rule_summary, timing)
     return result

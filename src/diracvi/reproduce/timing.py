@@ -7,13 +7,16 @@ building the :class:`~diracvi.Trajectory`. "Warm" means the system was simulated
 before timing, so JIT compilation is excluded (as Matlab's is in the paper). Like
 :mod:`timeit`, the garbage collector is paused while timing; the minimum is reported
 because it is the least disturbed by the rest of the machine.
+
+Models that are compared (torn ÷ hand-built) are timed *interleaved*: round ``i`` runs
+each model once, starting from model ``i mod k``, so a burst of load from another
+process falls on all of them alike instead of on whichever block ran at the time.
 """
 
 from __future__ import annotations
 
 import gc
 import time
-from collections.abc import Callable
 
 import numpy as np
 
@@ -22,31 +25,38 @@ from .._simulate import simulate
 TIMING_PROTOCOL = (
     "min over N runs of a warm (already compiled) dv.simulate(system, q0, p0, dt, steps) "
     "call, end to end: argument checks, first-step solvability check, the compiled "
-    "lax.scan over all steps, transfer to NumPy and Trajectory construction; garbage "
-    "collector paused (as timeit does); time.perf_counter."
+    "lax.scan over all steps, transfer to NumPy and Trajectory construction; the models "
+    "compared are timed interleaved (one run of each per round, the first one rotating); "
+    "garbage collector paused (as timeit does); time.perf_counter."
 )
 
 
-def time_calls(fn: Callable[[], object], repeats: int, tick: Callable[[], None] | None = None):
-    """Wall times of ``repeats`` calls of ``fn`` after one untimed warm-up call (seconds)."""
-    fn()
-    times = np.empty(repeats)
+def time_simulations(models: dict, *, dt, steps, repeats, tick=None) -> dict[str, dict]:
+    """``{label: {min_s, median_s, repeats}}`` for ``models = {label: (system, q0, p0)}``,
+    timed interleaved (see module doc); ``tick`` is called after every round."""
+    labels = list(models)
+    calls = {
+        label: (lambda s=s, q=q, p=p: simulate(s, q, p, dt=dt, steps=steps))
+        for label, (s, q, p) in models.items()
+    }
+    for label in labels:
+        calls[label]()
+    times = {label: np.empty(repeats) for label in labels}
     enabled = gc.isenabled()
     gc.disable()
     try:
         for i in range(repeats):
-            start = time.perf_counter()
-            fn()
-            times[i] = time.perf_counter() - start
+            first = i % len(labels)
+            for label in labels[first:] + labels[:first]:
+                start = time.perf_counter()
+                calls[label]()
+                times[label][i] = time.perf_counter() - start
             if tick is not None:
                 tick()
     finally:
         if enabled:
             gc.enable()
-    return times
-
-
-def time_simulation(system, q0, p0, *, dt, steps, repeats, tick=None) -> dict[str, float]:
-    """``{min_s, median_s, repeats}`` for a full ``simulate`` of ``system`` (see module doc)."""
-    times = time_calls(lambda: simulate(system, q0, p0, dt=dt, steps=steps), repeats, tick=tick)
-    return {"min_s": float(times.min()), "median_s": float(np.median(times)), "repeats": repeats}
+    return {
+        label: {"min_s": float(t.min()), "median_s": float(np.median(t)), "repeats": repeats}
+        for label, t in times.items()
+    }

@@ -1,0 +1,121 @@
+r"""User functions compared by what they compute: traced programs with lifted constants.
+
+A model built the natural way makes a fresh closure per piece (``def L(q, v, m=m[i])``
+in a loop, a lambda per part). As Python objects they are all different, so pieces that
+compute the same thing with different numbers would each be traced, compiled and stepped
+on their own. Here a plain function ``f`` is traced once, at model construction, to its
+jaxpr on float64 arguments of the declared shapes, and rewritten as
+
+    f(*args) = P(c, *args),     c = (captured arrays, scalar float literals)
+
+where ``P`` has no constants of its own. Two functions whose ``P`` print the same
+(equation by equation, names aside) are the same program: one :class:`Program` object
+is shared between them (interned), and their ``c`` are ordinary PyTree leaves — stacked
+and vmapped by the partitioned solver, passed as arguments (not baked in) to compiled
+code. Anything this cannot represent faithfully (a traced captured value, a primitive
+whose parameters hold Python callables — custom derivative rules, callbacks) keeps the
+function's identity in the key, so such functions group only with themselves.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable, Sequence
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jax._src import core as jcore
+
+#: equal programs are one object: equality is then mostly identity, hashing is cached
+_INTERNED: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
+
+
+class Program:
+    """A closed-over-nothing jaxpr: ``P(consts, *args)`` with one array result."""
+
+    __slots__ = ("__weakref__", "_hash", "arg_shapes", "jaxpr", "keep", "key", "name")
+
+    def __init__(self, jaxpr, key: str, arg_shapes, name: str, keep):
+        self.jaxpr, self.key, self.arg_shapes, self.name = jaxpr, key, arg_shapes, name
+        self.keep = keep  # objects whose id() is part of the key stay alive with it
+        self._hash = hash(key)
+
+    def __call__(self, consts, *args):
+        values = []
+        for arg, shape in zip(args, self.arg_shapes, strict=True):
+            value = jnp.asarray(arg, dtype=jnp.float64)
+            if value.shape != shape:
+                raise ValueError(
+                    f"{self.name} was traced for arguments of shape {self.arg_shapes} when "
+                    f"the model was built, but is now called with shape {value.shape}."
+                )
+            values.append(value)
+        return jcore.eval_jaxpr(self.jaxpr, consts, *values)[0]
+
+    def __eq__(self, other) -> bool:
+        return self is other or (isinstance(other, Program) and other.key == self.key)
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __repr__(self) -> str:
+        return f"<{self.name}>"
+
+
+def _opaque_params(jaxpr, found: list) -> None:
+    """Collect parameter values that print without their content (Python callables)."""
+    for eqn in jaxpr.eqns:
+        for value in eqn.params.values():
+            for item in value if isinstance(value, tuple | list) else (value,):
+                if isinstance(item, jcore.ClosedJaxpr):
+                    _opaque_params(item.jaxpr, found)
+                elif isinstance(item, jcore.Jaxpr):
+                    _opaque_params(item, found)
+                elif (callable(item) and not isinstance(item, type)) or hasattr(item, "f"):
+                    found.append(item)
+
+
+def _lift_literals(jaxpr):
+    """Replace the scalar float literals of the top-level equations by new constvars."""
+    new_vars, values, eqns = [], [], []
+    for eqn in jaxpr.eqns:
+        invars = list(eqn.invars)
+        for i, v in enumerate(invars):
+            if (
+                isinstance(v, jcore.Literal)
+                and v.aval.shape == ()
+                and jnp.issubdtype(v.aval.dtype, jnp.floating)
+            ):
+                var = jcore.Var(jcore.ShapedArray((), v.aval.dtype))
+                new_vars.append(var)
+                values.append(np.asarray(v.val, dtype=v.aval.dtype))
+                invars[i] = var
+        eqns.append(eqn.replace(invars=invars))
+    lifted = jaxpr.replace(constvars=[*jaxpr.constvars, *new_vars], eqns=eqns)
+    return lifted, values
+
+
+def lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
+    """``(program, consts, out_aval)`` for ``fn`` traced on float64 arrays of ``shapes``,
+    or ``None`` when it cannot be traced that way (the caller keeps the function whole)."""
+    specs = [jax.ShapeDtypeStruct(tuple(s), jnp.float64) for s in shapes]
+    try:
+        closed = jax.make_jaxpr(fn)(*specs)
+    except Exception:  # the caller's own check traces it again and reports the error
+        return None
+    if len(closed.out_avals) != 1 or any(isinstance(c, jax.core.Tracer) for c in closed.consts):
+        return None
+    jaxpr, literals = _lift_literals(closed.jaxpr)
+    consts = [jnp.asarray(c) for c in closed.consts] + [jnp.asarray(v) for v in literals]
+    opaque: list = []
+    _opaque_params(jaxpr, opaque)
+    key = str(jaxpr)
+    if opaque:  # these print by name only: the same name may hide different code
+        key += "\n# opaque: " + " ".join(str(id(o)) for o in opaque)
+    program = _INTERNED.get(key)
+    if program is None:
+        name = getattr(fn, "__qualname__", None) or type(fn).__name__
+        program = Program(jaxpr, key, tuple(tuple(s) for s in shapes), name, tuple(opaque))
+        _INTERNED[key] = program
+    return program, tuple(consts), closed.out_avals[0]
