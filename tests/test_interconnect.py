@@ -210,7 +210,9 @@ def reduced_reference(problem, horizon):
     return sol.sol
 
 
-@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
+@pytest.mark.parametrize(
+    "discretization", [pytest.param("retraction", marks=pytest.mark.slow), "midpoint"]
+)
 def test_torn_double_pendulum_converges_to_the_reduced_one(discretization):
     problem = problems.get("double-pendulum-torn")
     horizon = 1.0

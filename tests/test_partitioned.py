@@ -75,7 +75,15 @@ IDS = [
 
 
 # the heaviest twins (each compiles both solvers) run with -m slow
-SLOW_CASES = {"chain17x5-minus", "nested-chain", "pendulum-minus", "motor-midpoint"}
+SLOW_CASES = {
+    "chain9x9-plus",
+    "chain17x5-minus",
+    "rlc-midpoint-minus",
+    "nested-chain",
+    "pendulum-minus",
+    "motor-minus",
+    "motor-midpoint",
+}
 
 
 @pytest.mark.parametrize(

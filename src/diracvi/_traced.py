@@ -61,7 +61,37 @@ def is_traced(*trees) -> bool:
 
 def _tangent_solve(g, y):
     """Solve ``g(x) = y`` for the linearized step residual ``g`` (dense, (n+m)²)."""
-    return jnp.linalg.solve(jax.jacfwd(g)(y), y)
+    return _gauss_solve(jax.jacfwd(g)(y), y)
+
+
+def _gauss_solve(a, b):
+    """``a⁻¹ b`` by Gaussian elimination with partial pivoting, in plain ``lax`` ops.
+
+    Not ``jnp.linalg.solve``: in the backward pass of a checkpointed scan under
+    ``jax.jit`` (JAX 0.10, CPU), XLA receives the LAPACK call of this solve as an untyped
+    custom call and refuses to compile it ("No registered implementation for untyped
+    custom call to lapack_dgetrf_ffi"). The same elimination LAPACK's ``getrf`` does
+    (row exchange to the largest pivot, then the Schur update), so the accuracy is the
+    same; the cost, O((n+m)³) per step, is what the dense solve cost already.
+    """
+    size = a.shape[0]
+    rows = jnp.arange(size)
+
+    def eliminate(j, ab):
+        a, b = ab
+        pivot = jnp.argmax(jnp.where(rows >= j, jnp.abs(a[:, j]), -1.0))
+        swap = rows.at[j].set(pivot).at[pivot].set(j)
+        a, b = a[swap], b[swap]
+        factors = jnp.where(rows > j, a[:, j] / a[j, j], 0.0)
+        return a - factors[:, None] * a[j][None, :], b - factors * b[j]
+
+    a, b = jax.lax.fori_loop(0, size, eliminate, (a, b))
+
+    def substitute(i, x):
+        k = size - 1 - i
+        return x.at[k].set((b[k] - a[k] @ x) / a[k, k])
+
+    return jax.lax.fori_loop(0, size, substitute, jnp.zeros_like(b))
 
 
 class ImplicitStep(StepSolver):

@@ -671,11 +671,13 @@ def cache_info() -> None:
     info = _cache.info()
     table = Table(show_header=False)
     table.add_row("enabled", "yes" if info["enabled"] else "no")
-    table.add_row("path", info["path"] or "-")
     table.add_row("chosen by", info["source"])
     table.add_row("entries", f"{info['entries']:,}")
     table.add_row("size", f"{info['bytes'] / 1e6:.1f} MB")
-    _out().print(table)
+    out = _out()
+    out.print(table)
+    # the path on a line of its own, never wrapped or cropped: it is meant to be copied
+    out.print(f"path: {info['path'] or '-'}", markup=False, soft_wrap=True)
 
 
 @cache_app.command("clear")
