@@ -67,3 +67,17 @@ def pytest_unconfigure(config):
     import shutil
 
     shutil.rmtree(cache, ignore_errors=True)
+
+
+def one_rule_each(names, rules=("retraction", "midpoint")):
+    """``(name, rule)`` cases where each name runs with one of its rules by default, taking
+    turns, and with the others under ``-m slow``: every model and every rule are covered
+    by default at a fraction of the compilations (each case compiles its own programs).
+    ``rules``: one tuple for all names, or a function ``name -> rules``."""
+    cases = []
+    for i, name in enumerate(names):
+        own = tuple(rules(name) if callable(rules) else rules)
+        for j, rule in enumerate(own):
+            slow = j != i % len(own)
+            cases.append(pytest.param(name, rule, marks=[pytest.mark.slow] if slow else []))
+    return cases

@@ -3,14 +3,11 @@
 import numpy as np
 import pytest
 
-from conftest import run
+from conftest import one_rule_each, run
 from diracvi import problems
 
-CASES = [
-    (name, disc)
-    for name, factory in problems.REGISTRY.items()
-    for disc in factory().discretizations
-]
+# every built-in problem, with one of its rules by default (the others with -m slow)
+CASES = one_rule_each(list(problems.REGISTRY), lambda name: problems.get(name).discretizations)
 
 
 @pytest.mark.parametrize(("name", "discretization"), CASES)

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from conftest import run
+from conftest import one_rule_each, run
 from diracvi import problems
 
 PLAIN = dv.NewtonSolver(reuse_jacobian=False)
@@ -31,8 +31,7 @@ def assert_same_run(fast, plain, tol=1e-12):
         assert rel(fast.multipliers, plain.multipliers) <= tol * 10  # λ carries 1/h
 
 
-@pytest.mark.parametrize("discretization", ["retraction", "midpoint"])
-@pytest.mark.parametrize("name", LINEAR)
+@pytest.mark.parametrize(("name", "discretization"), one_rule_each(LINEAR))
 def test_affine_step_map_equals_plain_newton(name, discretization):
     problem = problems.get(name)
     fast = run(problem, discretization=discretization)
