@@ -395,9 +395,14 @@ class InterconnectedSystem(DiracSystem):
 
     def constraint_forms(self, q, t=0.0):
         r"""``[⊕ A_i(q_i, t); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
+        return self._block_diagonal_rows(q, t, "constraint_forms")
+
+    def _block_diagonal_rows(self, q, t, rows: str):
+        """``[⊕ R_i(q_i, t); B(q)]`` for the subsystems' ``rows`` method (each block padded
+        with zeros to the columns of its subsystem), then the interaction rows."""
         blocks = []
         for k, (sub, qi) in enumerate(zip(self.subsystems, self._split(q), strict=True)):
-            a = sub.constraint_forms(qi, t)
+            a = getattr(sub, rows)(qi, t)
             left = jnp.zeros((a.shape[0], self._offsets[k]))
             right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))
             blocks.append(jnp.concatenate([left, a, right], axis=1))
@@ -480,14 +485,7 @@ class InterconnectedSystem(DiracSystem):
 
     def one_forms(self, q, t=0.0):
         r"""The one-form rows only: ``[⊕ A_i(q_i, t); B(q)]`` (holonomic rows left out)."""
-        blocks = []
-        for k, (sub, qi) in enumerate(zip(self.subsystems, self._split(q), strict=True)):
-            a = sub.one_forms(qi, t)
-            left = jnp.zeros((a.shape[0], self._offsets[k]))
-            right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))
-            blocks.append(jnp.concatenate([left, a, right], axis=1))
-        blocks.append(self.interaction_forms(q))
-        return jnp.concatenate(blocks, axis=0)
+        return self._block_diagonal_rows(q, t, "one_forms")
 
     def constraint_offset(self, q, t=0.0):
         """The affine terms of the one-form rows (zero for linear rows), or ``None``."""

@@ -23,6 +23,18 @@ from .._system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow
 
 
+def _torn_exact(exact_reduced):
+    """The torn motor's exact solution from the reduced one: the armature's four branch
+    charges, the rotor angle, then the gyrator's charge and angle port copies."""
+
+    def exact(t):
+        x = exact_reduced(t)
+        charge, angle = x[:, :1], x[:, 1:]
+        return np.concatenate([np.repeat(charge, 4, axis=1), angle, charge, angle], axis=1)
+
+    return exact
+
+
 def dc_motor(
     voltage: float = 12.0,
     resistance: float = 1.0,
@@ -103,11 +115,6 @@ def dc_motor(
         exact=exact_reduced,
     )
 
-    def exact(t):
-        x = exact_reduced(t)
-        charge, angle = x[:, :1], x[:, 1:]
-        return np.concatenate([np.repeat(charge, 4, axis=1), angle, charge, angle], axis=1)
-
     return Problem(
         name="dc-motor",
         description="DC motor: armature circuit + rotor joined through a gyrator subsystem",
@@ -116,7 +123,7 @@ def dc_motor(
         p0=np.zeros(7),
         dt=dt,
         steps=steps,
-        exact=exact,
+        exact=_torn_exact(exact_reduced),
         reference="Jacobs & Yoshimura 2014 (electromechanical interconnection)",
         parameters={"V": vs, "R": r, "La": la, "J": j, "b": b, "K": k},
         reduced=reduced,
@@ -206,11 +213,6 @@ def dc_motor_driven(
         exact=exact_reduced,
     )
 
-    def exact(t):
-        x = exact_reduced(t)
-        charge, angle = x[:, :1], x[:, 1:]
-        return np.concatenate([np.repeat(charge, 4, axis=1), angle, charge, angle], axis=1)
-
     return Problem(
         name="dc-motor-driven",
         description="DC motor (armature + rotor + gyrator) with a prescribed voltage V₀ sin ωt",
@@ -219,7 +221,7 @@ def dc_motor_driven(
         p0=np.zeros(7),
         dt=dt,
         steps=steps,
-        exact=exact,
+        exact=_torn_exact(exact_reduced),
         reference="Jacobs & Yoshimura 2014 (electromechanical interconnection), driven",
         parameters={"V0": v0, "omega": om, "R": r, "La": la, "J": j, "b": b, "K": k},
         reduced=reduced,
