@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.linalg as sla
 
+from .._compile import run_once_jit
 from .._equations import StepEquations, new_momentum, residual, unknown_count
 from .._errors import ModelError
 from .base import StepSolver
@@ -132,7 +133,7 @@ class AffineStepMap(eqx.Module):
         return -self.inverse @ eqs.residual(x)
 
 
-@eqx.filter_jit
+@run_once_jit
 def _linearizations(system, rule, scheme, h, points, times):
     """Values and Jacobians of the residual and the momentum increment at each
     ``(q, p, d, μ)`` and time ``t_k``, where ``q_other = q + d``.
@@ -169,7 +170,7 @@ def _linearizations(system, rule, scheme, h, points, times):
     return jax.vmap(at)(points, times)
 
 
-@eqx.filter_jit
+@run_once_jit
 def _values(system, rule, scheme, h, points, tk):
     """The residual and the momentum increment at each ``(q, p, d, μ)`` (no derivatives).
 
