@@ -161,8 +161,9 @@ def as_rule(rule) -> QuadratureRule:
     if rule.stages:
         raise ModelError(
             f"discretization={rule.name!r} is not covered by the discrete Dirac-structure "
-            "diagnostics: they are defined for two-point rules L_d(q_k, q_(k+1)), and this "
-            "rule's step also has an internal stage Q, which a trajectory does not store. "
+            "diagnostics, which cover the two-point rules 'retraction' and 'midpoint': they "
+            "are defined for L_d(q_k, q_(k+1)), and this rule's step also has internal "
+            "stages (Q1, Q2 and their multipliers), which a trajectory does not store. "
             "Fix: check traj.constraint_residual and traj.energy for it, or run the "
             "diagnostic on a 'midpoint' or 'retraction' run."
         )

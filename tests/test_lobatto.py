@@ -1,0 +1,56 @@
+"""The order-4 rule keeps the structural properties of the others on the paper's
+degenerate RLC circuit: the affine step map is Newton's step, the (−) scheme inverts
+the (+) scheme (Lobatto IIID is symmetric), and checkpointed and ensemble runs are the
+plain run."""
+
+import numpy as np
+
+import diracvi as dv
+from diracvi import problems
+
+STEPS = 60
+
+
+def rlc_run(q0=None, p0=None, **kw):
+    problem = problems.get("rlc")
+    q0 = problem.q0 if q0 is None else q0
+    p0 = problem.p0 if p0 is None else p0
+    args = dict(dt=0.05, steps=STEPS, discretization="lobatto") | kw
+    return dv.simulate(problem.system, q0, p0, **args)
+
+
+def test_affine_step_map_is_newtons_step():
+    affine = rlc_run()
+    newton = rlc_run(solver=dv.NewtonSolver())
+    assert "affine" in str(affine.solver).lower() and "newton" in str(newton.solver).lower()
+    scale = np.max(np.abs(newton.q))
+    assert np.max(np.abs(affine.q - newton.q)) < 1e-12 * scale
+    assert np.max(np.abs(affine.p - newton.p)) < 1e-12 * np.max(np.abs(newton.p))
+    lam = np.max(np.abs(newton.multipliers))
+    assert np.max(np.abs(affine.multipliers - newton.multipliers)) < 1e-10 * lam
+
+
+def test_minus_scheme_retraces_the_plus_run():
+    """The (−) equations are the (+) equations solved for the other end: marching back
+    from the final state of a (+) run returns its states to round-off."""
+    fwd = rlc_run(solver=dv.NewtonSolver())
+    back = rlc_run(fwd.q[-1], fwd.p[-1], solver=dv.NewtonSolver(), scheme="minus", t0=fwd.t[-1])
+    np.testing.assert_allclose(back.t, fwd.t[::-1], atol=1e-12)
+    assert np.max(np.abs(back.q - fwd.q[::-1])) < 1e-11 * np.max(np.abs(fwd.q))
+    assert np.max(np.abs(back.p - fwd.p[::-1])) < 1e-11 * np.max(np.abs(fwd.p))
+
+
+def test_checkpointed_and_ensemble_runs_are_the_plain_run(tmp_path):
+    problem = problems.get("rlc")
+    plain = rlc_run()
+    chunked = rlc_run(checkpoint=tmp_path / "run.nc", checkpoint_every=STEPS // 3)
+    np.testing.assert_array_equal(chunked.q, plain.q)
+    np.testing.assert_array_equal(chunked.p, plain.p)
+    q0 = np.stack([problem.q0, problem.q0 + np.array([0.0, 0.1, 0.0])])
+    p0 = np.stack([problem.p0, problem.p0])
+    ens = dv.simulate_ensemble(
+        problem.system, q0, p0, dt=0.05, steps=STEPS, discretization="lobatto"
+    )
+    np.testing.assert_allclose(ens.q[0], plain.q, rtol=0, atol=1e-13 * np.max(np.abs(plain.q)))
+    other = rlc_run(q0[1], p0[1])
+    np.testing.assert_allclose(ens.q[1], other.q, rtol=0, atol=1e-13 * np.max(np.abs(other.q)))
