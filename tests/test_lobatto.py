@@ -4,6 +4,7 @@ the (+) scheme (Lobatto IIID is symmetric), and checkpointed and ensemble runs a
 plain run."""
 
 import numpy as np
+import pytest
 
 import diracvi as dv
 from diracvi import problems
@@ -40,6 +41,7 @@ def test_minus_scheme_retraces_the_plus_run():
     assert np.max(np.abs(back.p - fwd.p[::-1])) < 1e-11 * np.max(np.abs(fwd.p))
 
 
+@pytest.mark.slow  # two more compilations (a chunked run, an ensemble)
 def test_checkpointed_and_ensemble_runs_are_the_plain_run(tmp_path):
     problem = problems.get("rlc")
     plain = rlc_run()

@@ -23,11 +23,11 @@ Forces follow the discrete Lagrange–d'Alembert principle
 ``q(t) = q_k + t v_k``: the left-point rule sees ``∂q(0)/∂q_k = 1``, ``∂q(0)/∂q_{k+1} = 0``;
 the midpoint rule sees ``1/2`` for each end.
 
-``"lobatto"`` (order 4) is a Galerkin rule with one *internal stage*: the path is the
-quadratic through ``q_k``, ``Q`` (at ``t_k + h/2``) and ``q_{k+1}``, and Simpson's rule
-(3-point Lobatto quadrature) is applied alike to L, the forces and the constraints. Its
-stage ``Q`` and the stage multipliers are extra unknowns of the step (see :class:`Lobatto`
-and ``docs/discretizations.md``).
+``"lobatto"`` (order 4) is Lobatto IIID in Hamilton–Pontryagin form: three stage
+velocities at ``t_k + (0, ½, 1) h``, stage positions ``Q_i = q_k + h Σ_j a_ij V_j``, and
+L, the forces, the inputs and the one-forms evaluated at the stages. Its stage positions
+``Q₁, Q₂`` and one multiplier vector per stage are extra unknowns of the step (see
+:class:`Lobatto` and ``docs/discretizations.md``).
 """
 
 from __future__ import annotations
