@@ -195,9 +195,10 @@ class Lobatto(_CentredNodes, QuadratureRule):
     order 4 — Lobatto IIIA–IIIB leaves the last stage velocity of such a direction
     undetermined (``docs/discretizations.md``).
 
-    The step's unknowns besides ``q_other`` are the stage positions ``(Q₁, Q₂)`` (an
-    ``(n, 2)`` array ``stage``), with ``Q₃ = q_k + q_{k+1} − Q₁`` (IIID's row 3 is row 1
-    mirrored), and one multiplier vector per stage, in impulse units ``μ_j = −h λ_j``
+    The stages are ``stage = [Q₁ Q₂]`` (an ``(n, 2)`` array), with ``Q₃ = q_k + q_{k+1} −
+    Q₁`` (IIID's row 3 is row 1 mirrored); the step's unknowns besides ``q_other`` are the
+    stage at the known end and ``Q₂`` (:meth:`stage_from_unknowns`), and one multiplier
+    vector per stage, in impulse units ``μ_j = −h λ_j``
     (the sign and scale of the paper's ``μ_k``). ``μ`` of the step is the one at the
     unknown end's stage (``t_{k+1}`` for (+), ``t_k`` for (−)), ``ν`` the other two.
     """
@@ -311,10 +312,20 @@ class Lobatto(_CentredNodes, QuadratureRule):
         nodes = self.nodes(qk, stage, qk1, h, tk)
         return sum(w * energy(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True))
 
+    @staticmethod
+    def stage_from_unknowns(side: str, qk, qk1, unknowns):
+        """``[Q₁ Q₂]`` from the step's stage unknowns ``[Q_near Q₂]``, where ``Q_near`` is the
+        stage at the known end (``Q₁`` for (+), ``Q₃ = q_k + q_{k+1} − Q₁`` for (−)): it is
+        within O(h³) of the known end whichever way the scheme runs, so one guess serves
+        both schemes and the affine map's increment ``Q_near − q`` is small."""
+        if side == "plus":
+            return unknowns
+        return jnp.stack([qk + qk1 - unknowns[..., 0], unknowns[..., 1]], axis=-1)
+
     def stage_guess(self, q, q_other_guess):
-        """Starting ``[Q₁ Q₂]``: both at the midpoint of the two ends (scheme-free)."""
-        mid = 0.5 * (q + q_other_guess)
-        return jnp.stack([mid, mid], axis=-1)
+        """Starting ``[Q_near Q₂]``: the known end and the midpoint (see
+        :meth:`stage_from_unknowns`)."""
+        return jnp.stack([q, 0.5 * (q + q_other_guess)], axis=-1)
 
 
 RULES: dict[str, type[QuadratureRule]] = {

@@ -19,10 +19,11 @@ Each residual function returns the stacked residual of the first two lines; the 
 line is the explicit update :func:`new_momentum`.
 
 A rule with internal stages (``rule.stages == 2``, ``"lobatto"``) has the unknowns
-``x = (q_other, μ, Q₁, Q₂, ν_a, ν_b)``: the stage positions and the multipliers of the
-stage rows follow, so the first ``n + m`` entries mean what they mean for every rule.
-Its multipliers act at the stages (``r_j = −b_j A(Q_j)ᵀ μ_j``, pulled back to the step's
-variables like the forces, see :class:`~diracvi._discretize.Lobatto`)::
+``x = (q_other, μ, S₁, S₂, ν_a, ν_b)``: two stage positions (the stage at the known end
+and the middle one) and the multipliers of the stage rows follow, so the first
+``n + m`` entries mean what they mean for every rule. Its multipliers act at the stages
+(``r_j = −b_j A(Q_j)ᵀ μ_j``, pulled back to the step's variables like the forces, see
+:class:`~diracvi._discretize.Lobatto`)::
 
     p_known = ∓(D_known L_d + f_known + r_known)    (−D₁… for (+), +D₂… for (−))
     0       = D_Q L_d + f_Q + r_Q                     (the stages' variations)
@@ -47,7 +48,7 @@ SCHEMES = ("plus", "minus")
 
 def split(system: DiracSystem, x):
     """``x = (q_other, μ)`` → its two parts (for a staged rule the second part is the
-    whole tail ``(μ, Q₁, Q₂, ν)``; :func:`split_stage` takes it apart)."""
+    whole tail ``(μ, S₁, S₂, ν)``; :func:`split_stage` takes it apart)."""
     return x[: system.n], x[system.n :]
 
 
@@ -57,17 +58,20 @@ def unknown_count(system: DiracSystem, rule: QuadratureRule) -> int:
 
 
 def split_stage(system: DiracSystem, x):
-    """``x = (q_other, μ, Q₁, Q₂, ν_a, ν_b)`` of a staged rule → ``(q_other, μ, stage,
-    ν)`` with ``stage = [Q₁ Q₂]`` of shape (n, 2) and ``ν`` of shape (m, 2)."""
+    """``x = (q_other, μ, S₁, S₂, ν_a, ν_b)`` of a staged rule → ``(q_other, μ, S, ν)`` with
+    the stage unknowns ``S = [S₁ S₂]`` of shape (n, 2) and ``ν`` of shape (m, 2)."""
     n, m = system.n, system.m
     stage = x[n + m : 3 * n + m].reshape(2, n).T
     nu = x[3 * n + m : 3 * (n + m)].reshape(2, m).T
     return x[:n], x[n : n + m], stage, nu
 
 
-def stage_of(system: DiracSystem, rule: QuadratureRule, x):
-    """The internal stages ``[Q₁ Q₂]`` (shape (n, 2)) of a staged rule's ``x``, else ``None``."""
-    return split_stage(system, x)[2] if rule.stages else None
+def stage_of(system: DiracSystem, rule: QuadratureRule, scheme: str, qk, qk1, x):
+    """The internal stages ``[Q₁ Q₂]`` (shape (n, 2)) of a staged rule's step ``x`` between
+    ``q_k`` and ``q_{k+1}``, else ``None``."""
+    if not rule.stages:
+        return None
+    return rule.stage_from_unknowns(scheme, qk, qk1, split_stage(system, x)[2])
 
 
 def first_guess(system: DiracSystem, rule: QuadratureRule, q, q_other, mu):
@@ -104,8 +108,9 @@ def _staged_lines(system, rule, scheme, h, q, x, t):
     """``(q_k, q_{k+1}, left, right, stage lines)`` of a staged rule: ``left = −D₁L_d −
     f_d^− − r^−``, ``right = D₂L_d + f_d^+ + r^+``, ``stage = D_Q L_d + f_Q + r_Q``,
     with ``r`` the pull-back of the stage reactions."""
-    q_other, mu, stage, nu = split_stage(system, x)
+    q_other, mu, unknowns, nu = split_stage(system, x)
     qk, qk1 = ordered(scheme, q, q_other)
+    stage = rule.stage_from_unknowns(scheme, qk, qk1, unknowns)
     p_left, p_right, p_stage = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
     reactions = rule.reaction_covectors(
         system.multiplier_force, scheme, qk, stage, qk1, h, t, mu, nu

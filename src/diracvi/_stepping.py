@@ -183,7 +183,7 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
     diagnostics = step_diagnostics(system, rule, scheme, h)
 
     def one(a, b, q_, p_, x, p1, tk, first):
-        stage = stage_of(system, rule, x)
+        stage = stage_of(system, rule, scheme, a, b, x)
         energy, con = diagnostics(a, b, tk, stage)
         mu = x[system.n : system.n + system.m]
         p_node = nodal_momentum(system, rule, scheme, h, q_, mu, p1, tk, first) if nodal else p1
