@@ -56,3 +56,34 @@ def test_checkpointed_and_ensemble_runs_are_the_plain_run(tmp_path):
     np.testing.assert_allclose(ens.q[0], plain.q, rtol=0, atol=1e-13 * np.max(np.abs(plain.q)))
     other = rlc_run(q0[1], p0[1])
     np.testing.assert_allclose(ens.q[1], other.q, rtol=0, atol=1e-13 * np.max(np.abs(other.q)))
+
+
+def rlc_stage_jacobian(a, a_hat, h=0.1, r=1.0, ell=0.75, cap=3.0):
+    """Jacobian of a partitioned Runge–Kutta step ``(a, a_hat)`` in Hamilton–Pontryagin
+    form on the paper's RLC circuit (``P_i = p_k + h Σ_j â_ij G_j`` with ``P = ∂L/∂v``,
+    ``G = ∂L/∂q + F + Aᵀλ``, and ``A V_j = 0`` at each stage), in the unknowns
+    ``(V_1, V_2, V_3, λ_1, λ_2, λ_3)``: the system is linear, so columns are residuals."""
+    a, a_hat = np.asarray(a), np.asarray(a_hat)
+    forms = np.array([1.0, -1.0, -1.0])
+
+    def residual(x):
+        v, lam = x[:9].reshape(3, 3), x[9:]
+        q = h * a @ v  # stage positions from q_k = 0
+        p = np.stack([[0.0, ell * vj[1], 0.0] for vj in v])
+        g = np.stack([[-r * v[j, 0], 0.0, -q[j, 2] / cap] + forms * lam[j] for j in range(3)])
+        return np.concatenate([(p - h * a_hat @ g).ravel(), v @ forms])
+
+    base = residual(np.zeros(12))
+    return np.stack([residual(e) - base for e in np.eye(12)], axis=1)
+
+
+def test_lobatto_iiia_iiib_is_singular_on_the_degenerate_rlc_and_iiid_is_not():
+    """Why the rule is IIID: under IIIA–IIIB (IIIB's last column is zero) the resistor's
+    last-stage velocity enters no equation but the constraint, so the step is singular
+    on the paper's RLC; IIID's invertible ``a`` determines every stage."""
+    from diracvi._discretize import IIID
+
+    iiia = [[0, 0, 0], [5 / 24, 1 / 3, -1 / 24], [1 / 6, 2 / 3, 1 / 6]]
+    iiib = [[1 / 6, -1 / 6, 0], [1 / 6, 1 / 3, 0], [1 / 6, 5 / 6, 0]]
+    assert np.linalg.matrix_rank(rlc_stage_jacobian(iiia, iiib)) < 12
+    assert np.linalg.matrix_rank(rlc_stage_jacobian(IIID, IIID)) == 12
