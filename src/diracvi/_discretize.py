@@ -222,16 +222,19 @@ class Lobatto(_CentredNodes, QuadratureRule):
     def stage_positions(qk, stage, qk1):
         """``(Q₁, Q₂, Q₃)`` from ``stage = [Q₁ Q₂]`` (shape (n, 2)) and the two ends."""
         q1, q2 = stage[..., 0], stage[..., 1]
-        return q1, q2, qk + qk1 - q1
+        return q1, q2, qk1 - (q1 - qk)
 
     @classmethod
     def nodes(cls, qk, stage, qk1, h, tk):
         """``(Q_j, V_j, t_j)`` at the three stages: ``V = M⁻¹ (Q₁ − q_k, Q₂ − q_k,
         q_{k+1} − q_k)/h`` with ``M`` = the rows ``a₁, a₂, b`` (inverted exactly)."""
         q1, q2, q3 = cls.stage_positions(qk, stage, qk1)
-        v1 = (4.0 * q1 + 4.0 * q2 - 7.0 * qk - qk1) / h
-        v2 = (qk + qk1 - 2.0 * q1) / h
-        v3 = (4.0 * q1 - 4.0 * q2 - 3.0 * qk + 3.0 * qk1) / h
+        # in increments from q_k: each is formed with little rounding (the stages are near
+        # q_k), where 4Q₁ + 4Q₂ − 7q_k − q_{k+1} would cancel terms 16 times |q|
+        d1, d2, d = q1 - qk, q2 - qk, qk1 - qk
+        v1 = (4.0 * d1 + 4.0 * d2 - d) / h
+        v2 = (d - 2.0 * d1) / h
+        v3 = (4.0 * d1 - 4.0 * d2 + 3.0 * d) / h
         return ((q1, v1, tk), (q2, v2, tk + 0.5 * h), (q3, v3, tk + h))
 
     @staticmethod
@@ -320,7 +323,7 @@ class Lobatto(_CentredNodes, QuadratureRule):
         both schemes and the affine map's increment ``Q_near − q`` is small."""
         if side == "plus":
             return unknowns
-        return jnp.stack([qk + qk1 - unknowns[..., 0], unknowns[..., 1]], axis=-1)
+        return jnp.stack([qk - (unknowns[..., 0] - qk1), unknowns[..., 1]], axis=-1)
 
     def stage_guess(self, q, q_other_guess):
         """Starting ``[Q_near Q₂]``: the known end and the midpoint (see
