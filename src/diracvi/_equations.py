@@ -18,12 +18,17 @@ whichever way the scheme runs (the rule picks its own nodes from it).
 Each residual function returns the stacked residual of the first two lines; the third
 line is the explicit update :func:`new_momentum`.
 
-A rule with an internal stage (``rule.stages == 1``, ``"lobatto"``) has the unknowns
-``x = (q_other, μ, Q, ν)``: the stage ``Q`` and its multipliers ``ν`` follow, so the first
-``n + m`` entries mean what they mean for every rule. Two more blocks of equations join::
+A rule with internal stages (``rule.stages == 2``, ``"lobatto"``) has the unknowns
+``x = (q_other, μ, S₁, S₂, ν_a, ν_b)``: two stage positions (the stage at the known end
+and the middle one) and the multipliers of the stage rows follow, so the first
+``n + m`` entries mean what they mean for every rule. Its multipliers act at the stages
+(``r_j = −b_j A(Q_j)ᵀ μ_j``, pulled back to the step's variables like the forces, see
+:class:`~diracvi._discretize.Lobatto`)::
 
-    0 = D_Q L_d + f_Q + A(Q, t_k + h/2)ᵀ ν        (the stage's variation, δQ ∈ Δ(Q))
-    0 = the stage rows of the rule's ω_d    (see :class:`~diracvi._discretize.Lobatto`)
+    p_known = ∓(D_known L_d + f_known + r_known)    (−D₁… for (+), +D₂… for (−))
+    0       = D_Q L_d + f_Q + r_Q                     (the stages' variations)
+    0       = c_end,  0 = c_a, c_b                    (the one-forms at every stage)
+    p_new   = the other end's line, with its reactions
 
 The same code serves a single system
 and an interconnection, because both implement :class:`~diracvi._system.DiracSystem`.
@@ -43,7 +48,7 @@ SCHEMES = ("plus", "minus")
 
 def split(system: DiracSystem, x):
     """``x = (q_other, μ)`` → its two parts (for a staged rule the second part is the
-    whole tail ``(μ, Q, ν)``; :func:`split_stage` takes it apart)."""
+    whole tail ``(μ, S₁, S₂, ν)``; :func:`split_stage` takes it apart)."""
     return x[: system.n], x[system.n :]
 
 
@@ -53,17 +58,28 @@ def unknown_count(system: DiracSystem, rule: QuadratureRule) -> int:
 
 
 def split_stage(system: DiracSystem, x):
-    """``x = (q_other, μ, Q, ν)`` of a staged rule → its four parts."""
+    """``x = (q_other, μ, S₁, S₂, ν_a, ν_b)`` of a staged rule → ``(q_other, μ, S, ν)`` with
+    the stage unknowns ``S = [S₁ S₂]`` of shape (n, 2) and ``ν`` of shape (m, 2)."""
     n, m = system.n, system.m
-    return x[:n], x[n : n + m], x[n + m : 2 * n + m], x[2 * n + m : 2 * (n + m)]
+    stage = x[n + m : 3 * n + m].reshape(2, n).T
+    nu = x[3 * n + m : 3 * (n + m)].reshape(2, m).T
+    return x[:n], x[n : n + m], stage, nu
+
+
+def stage_of(system: DiracSystem, rule: QuadratureRule, scheme: str, qk, qk1, x):
+    """The internal stages ``[Q₁ Q₂]`` (shape (n, 2)) of a staged rule's step ``x`` between
+    ``q_k`` and ``q_{k+1}``, else ``None``."""
+    if not rule.stages:
+        return None
+    return rule.stage_from_unknowns(scheme, qk, qk1, split_stage(system, x)[2])
 
 
 def first_guess(system: DiracSystem, rule: QuadratureRule, q, q_other, mu):
-    """A starting ``x`` from guesses of ``q_other`` and ``μ`` (stages: ``Q`` at the
-    rule's guess between the ends, ``ν = μ``)."""
+    """A starting ``x`` from guesses of ``q_other`` and ``μ`` (stages: the rule's guess
+    between the ends, every stage multiplier ``= μ``)."""
     parts = [q_other, mu]
     if rule.stages:
-        parts += [rule.stage_guess(q, q_other), mu]
+        parts += [rule.stage_guess(q, q_other).T.ravel(), jnp.tile(mu, rule.stages)]
     return jnp.concatenate(parts)
 
 
@@ -88,27 +104,35 @@ def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x,
     return jnp.concatenate([r_mom, r_con])
 
 
-def _staged_residual(system, rule, scheme, h, q, p, x, t):
-    """:func:`residual` of a rule with an internal stage: ``[momentum; ω_d; stage; stage ω_d]``."""
-    q_other, mu, stage, nu = split_stage(system, x)
+def _staged_lines(system, rule, scheme, h, q, x, t):
+    """``(q_k, q_{k+1}, left, right, stage lines)`` of a staged rule: ``left = −D₁L_d −
+    f_d^− − r^−``, ``right = D₂L_d + f_d^+ + r^+``, ``stage = D_Q L_d + f_Q + r_Q``,
+    with ``r`` the pull-back of the stage reactions."""
+    q_other, mu, unknowns, nu = split_stage(system, x)
     qk, qk1 = ordered(scheme, q, q_other)
+    stage = rule.stage_from_unknowns(scheme, qk, qk1, unknowns)
     p_left, p_right, p_stage = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
-    if scheme == "plus":
-        r_mom = p_left + system.multiplier_force(qk, mu, t) - p
-    else:
-        r_mom = p_right + system.multiplier_force(qk1, mu, t + h) - p
-    r_stage = p_stage + system.multiplier_force(stage, nu, t + 0.5 * h)
+    reactions = rule.reaction_covectors(
+        system.multiplier_force, scheme, qk, stage, qk1, h, t, mu, nu
+    )
+    r_left, r_stage, r_right = rule.pullback(reactions)
+    return qk, qk1, p_left - r_left, p_right + r_right, p_stage + r_stage, stage
+
+
+def _staged_residual(system, rule, scheme, h, q, p, x, t):
+    """:func:`residual` of a staged rule: ``[momentum; c_end; stage lines; stage rows]``."""
+    qk, qk1, left, right, lines, stage = _staged_lines(system, rule, scheme, h, q, x, t)
+    r_mom = (left if scheme == "plus" else right) - p
     c_end, c_stage = system.discrete_constraints(rule, scheme, qk, qk1, h, t, stage=stage)
-    return jnp.concatenate([r_mom, c_end, r_stage, c_stage])
+    return jnp.concatenate([r_mom, c_end, lines.T.ravel(), c_stage.T.ravel()])
 
 
 def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x, t=0.0):
-    """The explicit line: ``p_{k+1} = D₂L_d + f_d^+`` (plus) or ``p_k = −D₁L_d − f_d^−``."""
+    """The explicit line: ``p_{k+1} = D₂L_d + f_d^+`` (plus) or ``p_k = −D₁L_d − f_d^−``
+    (a staged rule adds its stage reactions' share)."""
     if rule.stages:
-        q_other, _, stage, _ = split_stage(system, x)
-        qk, qk1 = ordered(scheme, q, q_other)
-        p_left, p_right, _ = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
-        return p_right if scheme == "plus" else p_left
+        _, _, left, right, _, _ = _staged_lines(system, rule, scheme, h, q, x, t)
+        return right if scheme == "plus" else left
     q_other, _ = split(system, x)
     if scheme == "plus":
         return system.discrete_momenta(rule, q, q_other, h, t)[1]

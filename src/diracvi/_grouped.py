@@ -33,7 +33,7 @@ def _plain(system, rule, scheme, h):
 
 def step_diagnostics(system, rule, scheme: str, h):
     """``(q_k, q_{k+1}, t_k, Q) ↦ (E, ω_d)`` for one step (traceable, vmappable over steps);
-    ``Q`` is the internal stage of a staged rule (``None`` otherwise)."""
+    ``Q`` holds the internal stages of a staged rule (``None`` otherwise)."""
     subs = getattr(system, "subsystems", ())
     if not isinstance(system, InterconnectedSystem) or len(subs) < GROUPED_MIN_SUBSYSTEMS:
         return _plain(system, rule, scheme, h)

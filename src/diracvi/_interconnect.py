@@ -351,8 +351,8 @@ class InterconnectedSystem(DiracSystem):
     def interaction_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
         r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``.
 
-        With an internal stage ``Q``: the pair (end rows, stage rows), the staged rule's
-        quadratures of ``B(q_j) v_j`` along the step's path."""
+        With internal stages: the pair (end rows, stage rows), the staged rule's rows
+        ``B(Q_j) V_j`` at its stages."""
         if stage is not None:
             return self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
         out = jnp.zeros(len(self._interaction_names), dtype=qk.dtype)
@@ -369,7 +369,7 @@ class InterconnectedSystem(DiracSystem):
     def _staged_interaction(self, rule, side, qk, stage, qk1, h, tk):
         rows = len(self._interaction_names)
         end = jnp.zeros(rows, dtype=qk.dtype)
-        mid = jnp.zeros(rows, dtype=qk.dtype)
+        mid = jnp.zeros((rows, *stage.shape[1:]), dtype=qk.dtype)  # one column per stage row
         if self._port_index:
             a, b, index = self._port_arrays()
             # row by row, the rule's quadratures of v[x] − v[y] along the path: the

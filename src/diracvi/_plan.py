@@ -92,9 +92,11 @@ def default_solver(system, rule, scheme) -> StepSolver:
 def unknown_names(system, scheme, rule=None):
     other = "q_{k+1}" if scheme == "plus" else "q_k"
     names = [f"{other}[{c}]" for c in system.coords] + [f"μ[{c}]" for c in system.constraint_names]
-    if rule is not None and rule.stages:  # a staged rule's (Q, ν) follow
-        names += [f"Q[{c}]" for c in system.coords]
-        names += [f"ν[{c}]" for c in system.constraint_names]
+    if rule is not None and rule.stages:  # a staged rule's stages Q_j, then their ν_j
+        for j in range(1, rule.stages + 1):
+            names += [f"Q{j}[{c}]" for c in system.coords]
+        for j in range(1, rule.stages + 1):
+            names += [f"ν{j}[{c}]" for c in system.constraint_names]
     return names
 
 
@@ -103,8 +105,10 @@ def equation_names(system, rule=None):
         f"constraint {c}" for c in system.constraint_names
     ]
     if rule is not None and rule.stages:
-        names += [f"stage balance of {c}" for c in system.coords]
-        names += [f"stage constraint {c}" for c in system.constraint_names]
+        for j in range(1, rule.stages + 1):
+            names += [f"stage {j} balance of {c}" for c in system.coords]
+        for j in range(1, rule.stages + 1):
+            names += [f"stage {j} constraint {c}" for c in system.constraint_names]
     return names
 
 

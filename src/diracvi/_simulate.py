@@ -193,8 +193,8 @@ def simulate(
     ``scheme="plus"`` marches the (+) equations forward from ``(q0, p0)`` at time
     ``t0``; ``scheme="minus"`` marches the (−) equations backward from it, so ``t``
     decreases. ``discretization`` picks the quadrature rule (``"retraction"``, order 1,
-    the paper's; ``"midpoint"``, order 2; or ``"lobatto"``, order 4, with one internal
-    stage per step). Step ``j`` covers ``[t_j, t_j + h]`` with
+    the paper's; ``"midpoint"``, order 2; or ``"lobatto"``, order 4, Lobatto IIID with
+    three stages per step). Step ``j`` covers ``[t_j, t_j + h]`` with
     ``t_j = t0 + j·h`` (``t0 − (j+1)·h`` backward); a driven model (``L``, ``F``, ``A``,
     ``b`` or ``g`` taking ``t``) is evaluated at the rule's time node in it.
 

@@ -34,7 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split
+from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split, stage_of
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
@@ -183,7 +183,7 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
     diagnostics = step_diagnostics(system, rule, scheme, h)
 
     def one(a, b, q_, p_, x, p1, tk, first):
-        stage = x[system.n + system.m : 2 * system.n + system.m] if rule.stages else None
+        stage = stage_of(system, rule, scheme, a, b, x)
         energy, con = diagnostics(a, b, tk, stage)
         mu = x[system.n : system.n + system.m]
         p_node = nodal_momentum(system, rule, scheme, h, q_, mu, p1, tk, first) if nodal else p1

@@ -126,8 +126,8 @@ class DiracSystem(eqx.Module):
 
         These are the two discrete Legendre transforms of the forced system: the (+)
         equations read ``p_k = first + A(q_k)ᵀ μ`` and ``p_{k+1} = second``. A rule with
-        an internal stage (``rule.stages``) takes it as ``stage=Q`` and returns a third
-        entry, ``D_Q L_d + f_Q``: the stage equation is ``0 = third + A(Q)ᵀ ν``.
+        internal stages (``rule.stages``) takes them as ``stage=`` and returns a third
+        entry, ``D_Q L_d + f_Q`` (the stage equations add the stage reactions).
         """
         if stage is not None:
             return self._staged_momenta(rule, qk, stage, qk1, h, tk)
@@ -498,9 +498,9 @@ class LagrangeDiracSystem(DiracSystem):
         rows are evaluated at the unknown end of the step (``q_{k+1}`` for (+), ``q_k``
         for (−)) and scaled by ``1/h`` to the size of a velocity row.
 
-        With an internal stage ``Q`` (``stage=``), the pair (end rows, stage rows): the
-        staged rule's quadratures of the one-forms, and ``g`` at the unknown end and at
-        ``(Q, t_k + h/2)``."""
+        With internal stages (``stage=``), the pair (end rows, stage rows): the staged
+        rule's one-form rows at its stages, and ``g`` at the unknown end and at the
+        rule's other stages (:meth:`~diracvi._discretize.Lobatto.holonomic_points`)."""
         if stage is not None:
             return self._staged_constraints(rule, side, qk, stage, qk1, h, tk)
         rows = rule.discrete_constraints(
@@ -523,9 +523,10 @@ class LagrangeDiracSystem(DiracSystem):
             self.one_forms, side, qk, qk1, h, tk, offset=offset, stage=stage
         )
         if self._holonomic is not None:
-            q_end, t_end = (qk1, tk + h) if side == "plus" else (qk, tk)
+            (q_end, t_end), points = rule.holonomic_points(side, qk, stage, qk1, h, tk)
             end = jnp.concatenate([end, self._holonomic(q_end, t=t_end) / h])
-            mid = jnp.concatenate([mid, self._holonomic(stage, t=tk + 0.5 * h) / h])
+            held = jnp.stack([self._holonomic(q, t=t) / h for q, t in points], axis=-1)
+            mid = jnp.concatenate([mid, held])
         return self._ordered(end), self._ordered(mid)
 
     @property

@@ -231,9 +231,8 @@ class Trajectory:
         r"""Per-step residual of ``(X_d^k, 𝔇^±L_d) ∈ D^{d±}_Δ``, shape (steps,).
 
         ``system`` is the system that produced this trajectory; see
-        :func:`diracvi.dirac.trajectory_residual`. Covers the two-point rules
-        ``"retraction"`` and ``"midpoint"``; a ``"lobatto"`` run raises ``ModelError``
-        (its internal stages are not stored).
+        :func:`diracvi.dirac.trajectory_residual`. Covers every rule (a ``"lobatto"``
+        run's internal stages, which are not stored, are re-solved from its states).
         """
         from .dirac import trajectory_residual  # imported here: dirac imports this module
 

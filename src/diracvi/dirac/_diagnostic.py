@@ -32,9 +32,17 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from .._discretize import RULES, get_rule
 from .._errors import ModelError
 from ._discrete import InducedDiscrete, combine
+from ._staged import staged_parts
 from ._tulczyjew import as_rule
+
+
+def _rule(name):
+    """The rule of a trajectory: a staged one is checked by :mod:`._staged`, a two-point one
+    by the structure ``D^{d±}_Δ`` (:func:`~diracvi.dirac._tulczyjew.as_rule`)."""
+    return get_rule(name) if name in RULES and get_rule(name).stages else as_rule(name)
 
 
 class StepResiduals(NamedTuple):
@@ -47,7 +55,8 @@ class StepResiduals(NamedTuple):
             ``P⁻ − p_k`` (minus) in the momentum slot, zero in the ``q`` slot; shape (K, 2n)
             in the base point's ordering ``(q, p⁺)`` / ``(p⁻, q)``.
         fiber: the part of ``α − Ω^♭_{d±}(X_d^k)`` outside ``Δ°_{Q×Q*}`` (``Δ°_{Q*×Q}``),
-            shape (K, 2n).
+            shape (K, 2n); for a staged rule the least-squares residual of the known
+            end's momentum line, the stage lines and the stage rows, (K, 3n + 2m).
         multipliers: the multipliers ``μ`` (least squares) in the library's convention
             ``p_k = P⁻ + A(q_k)ᵀμ`` (plus) or ``p_{k+1} = P⁺ + A(q_{k+1})ᵀμ`` (minus),
             shape (K, m); comparable with ``Trajectory.multipliers``.
@@ -93,13 +102,19 @@ def step_residuals(system, traj) -> StepResiduals:
             "distribution Δ, so this diagnostic does not apply; check "
             "traj.constraint_residual (each step's constraints) instead."
         )
-    rule, h, side = as_rule(traj.discretization), float(traj.dt), traj.scheme
+    rule, h, side = _rule(traj.discretization), float(traj.dt), traj.scheme
     q0, p0, q1, p1 = _pairs(traj)
     if q0.shape[0] == 0:
         empty = np.zeros((0, 2 * n))
         return StepResiduals(np.zeros(0), np.zeros((0, system.m)), empty, empty, empty[:, :0])
     t = np.asarray(traj.t)
     tk = t[:-1] if side == "plus" else t[1:]  # each step's earlier end
+    if rule.stages:  # the stages are re-solved from the stored states (see _staged)
+        parts = staged_parts(system, rule, side, h, q0, p0, q1, p1, tk)
+        zeros = np.zeros_like(parts["base"])
+        slot = [zeros, parts["base"]] if side == "plus" else [parts["base"], zeros]
+        parts["base"] = np.concatenate(slot, axis=1)  # the base point's (q, p⁺) / (p⁻, q)
+        return StepResiduals(total=combine(parts), **parts)
 
     momenta = jax.jit(jax.vmap(lambda a, b, s: system.discrete_momenta(rule, a, b, h, s)))
     p_minus, p_plus = (
@@ -136,7 +151,9 @@ def trajectory_residual(system, traj) -> np.ndarray:
     The largest of ``|ω_{d±}(q_k, q_{k+1})|``, the base-point mismatch of the momenta and
     the distance of ``α − Ω^♭_{d±}(X_d^k)`` from ``Δ°`` (least squares over the
     multipliers); absolute, in the trajectory's units. A trajectory of the integrator
-    gives round-off; see :class:`StepResiduals` for the pieces. Covers the two-point rules
-    ``"retraction"`` and ``"midpoint"``; a ``"lobatto"`` trajectory raises ``ModelError``.
+    gives round-off; see :class:`StepResiduals` for the pieces. Covers every rule: the
+    two-point rules ``"retraction"`` and ``"midpoint"`` through the structure itself, and
+    ``"lobatto"`` through its stage-reduced relation, with the stages re-solved from the
+    stored states (:mod:`diracvi.dirac._staged`).
     """
     return step_residuals(system, traj).total

@@ -148,8 +148,9 @@ def dirac_differential_minus(
 
 
 def as_rule(rule) -> QuadratureRule:
-    """The two-point rule ``rule`` names; the Dirac-structure code covers ``"retraction"``
-    and ``"midpoint"`` only (a staged rule such as ``"lobatto"`` is refused by name)."""
+    """The two-point rule ``rule`` names; the Dirac-structure constructions cover
+    ``"retraction"`` and ``"midpoint"`` only (a staged rule such as ``"lobatto"`` is refused
+    by name; its trajectories are checked by :mod:`diracvi.dirac._staged`)."""
     if not isinstance(rule, QuadratureRule):
         try:
             rule = get_rule(rule)
@@ -161,10 +162,11 @@ def as_rule(rule) -> QuadratureRule:
     if rule.stages:
         raise ModelError(
             f"discretization={rule.name!r} is not covered by the discrete Dirac-structure "
-            "diagnostics: they are defined for two-point rules L_d(q_k, q_(k+1)), and this "
-            "rule's step also has an internal stage Q, which a trajectory does not store. "
-            "Fix: check traj.constraint_residual and traj.energy for it, or run the "
-            "diagnostic on a 'midpoint' or 'retraction' run."
+            "constructions (D^{d±}_Δ, 𝔇^±L_d), which cover the two-point rules 'retraction' "
+            "and 'midpoint': they are defined for L_d(q_k, q_(k+1)), and this rule's step "
+            "also has internal stages. Fix: check a run of it with traj.dirac_residual(system) "
+            "or diracvi.dirac.step_residuals (they re-solve the stages), or build the "
+            "structure with 'midpoint'."
         )
     return rule
 
