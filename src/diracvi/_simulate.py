@@ -28,6 +28,7 @@ from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from ._trajectory import STATUS_MESSAGES, Trajectory
 from ._validate import (
+    CONCRETE_TYPES,
     check_choice,
     check_float,
     check_positive_float,
@@ -236,10 +237,11 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
-    # the system's own leaves are looked at once per system (its layout), not per call
-    system_traced = isinstance(system, DiracSystem) and layout(system).traced
-    if system_traced or is_traced(q0, p0, t0):
-        run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    # the system's own leaves are looked at once per system (its layout), not per call;
+    # arguments of plain NumPy / Python types cannot hold a tracer (only the active
+    # transformation is then looked up)
+    if run.shape.traced or is_traced(*(x for x in (q0, p0, t0) if type(x) not in CONCRETE_TYPES)):
         check_traced_options(checkpoint, project_initial)
         return simulate_traced(
             system,
@@ -252,16 +254,119 @@ def simulate(
             throw=bool(throw),
             adjoint=adjoint,
         )
-    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
-    scheme, discretization, h, steps, k, shape = run
+    h, steps, k, shape = run.h, run.steps, run.save_every, run.shape
     q0 = check_state("q0", q0, shape.n, shape.coords)
     p0 = check_state("p0", p0, shape.n, shape.coords)
     t0 = check_float("t0", t0)
     plan = prepared_plan(system, run, solver, q0, p0, t0)
-    q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
+    # consistent data of a linear model pass with one precomputed product; anything
+    # else (and every inconsistent state) goes through the full check
+    if not plan.checker.accepts(q0, p0):
+        q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
+    save_states = bool(save_states)
+    first = None
+    if checkpoint is None:
+        # the whole run is one compiled chunk; a run that took every step is returned
+        # directly (the march below handles a failure or an affine fallback)
+        affine = plan.step_map is not None
+        chunk = plan.chunk(affine, k, save_states, steps // k)
+        carry = (q0, p0, q0, np.zeros(shape.m))
+        flat = chunk.run(chunk.flat_input(h, (t0, 0.0), carry))
+        if flat[chunk.layout.code] == 0:
+            return _whole_run(plan, run, q0, p0, t0, chunk.layout, flat)
+        first = affine, chunk.layout.unpack(flat)
+    traj = _march(
+        plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+    )
+    if traj.status and throw:
+        raise StepFailure(traj.message, traj)
+    return traj
 
-    nodal = bool(save_states) and plan.nodal_when_saved
-    march = _March(shape, q0, p0, k, bool(save_states), nodal)
+
+def _whole_run(plan, run, q0, p0, t0, layout, flat) -> Trajectory:
+    """The trajectory of a run whose one chunk took every step: what :class:`_March`
+    builds in that case. Times, states and energies are made here; the rest stays in the
+    packed output until read (see :class:`_Unpacked`)."""
+    scheme, discretization, h, steps, k, shape = run
+    rows = flat[: layout.rows_end].reshape(layout.blocks, layout.width)
+    cols = layout.columns
+    index = np.arange(0, steps + 1, k)
+    sign = 1.0 if scheme == "plus" else -1.0
+    q = p = None
+    if "q" in cols:
+        q = np.concatenate((q0[None], rows[:, cols["q"]]))
+        p = np.concatenate((p0[None], rows[:, cols["p"]]))
+    return Trajectory.of_run(
+        _Unpacked(layout, flat, p0),
+        t=t0 + sign * h * index,
+        q=q,
+        p=p,
+        energy=rows[:, cols["energy"]].copy(),
+        step_index=index,
+        save_every=k,
+        coords=shape.coords,
+        constraint_names=shape.constraint_names,
+        dt=h,
+        scheme=scheme,
+        discretization=discretization,
+        system_name=shape.name,
+        status=0,
+        message=STATUS_MESSAGES[0],
+        solver=plan.describe(),
+        steps_requested=steps,
+    )
+
+
+#: a Trajectory attribute → its name in a chunk's saved outputs
+_SAVED_AS = {
+    "multipliers": "mu",
+    "constraint_residual": "con",
+    "constraint_violation": "violation",
+    "_p_nodal": "p_node",
+}
+
+
+class _Unpacked:
+    """The fields of a whole run's :class:`Trajectory` that most callers never read,
+    made from the packed chunk output on first access (as :class:`_March` makes them)."""
+
+    names = frozenset(
+        (
+            "final_state",
+            "multipliers",
+            "constraint_residual",
+            "constraint_violation",
+            "newton_iterations",
+            "_p_nodal",
+        )
+    )
+    __slots__ = ("_flat", "_layout", "_p0", "_parts")
+
+    def __init__(self, layout, flat, p0):
+        self._layout, self._flat, self._p0, self._parts = layout, flat, p0, None
+
+    def __call__(self, name: str):
+        if self._parts is None:
+            self._parts = self._layout.unpack(self._flat)
+        carry, _, saved = self._parts
+        if name == "final_state":
+            return carry
+        if name == "newton_iterations":
+            return saved["iterations"]
+        value = saved.get(_SAVED_AS[name])
+        if value is None or name != "_p_nodal":
+            return None if value is None else value.copy()
+        return np.concatenate((self._p0[None], value))  # the given p0 is the nodal one
+
+
+def _march(
+    plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+) -> Trajectory:
+    """Run chunk after chunk: checkpoints, a failed step, the affine map's fallback.
+    ``first``: ``(affine, chunk output)`` of the whole run's chunk, already computed."""
+    scheme, discretization, h, steps, k, shape = run
+    nodal = save_states and plan.nodal_when_saved
+    march = _March(shape, q0, p0, k, save_states, nodal)
     path, key, chunk = None, None, steps
     if checkpoint is not None:
         chunk = steps if checkpoint_every is None else check_checkpoint_every(checkpoint_every, k)
@@ -276,7 +381,7 @@ def simulate(
             discretization=discretization,
             solver=solver,
             chunk=chunk,
-            save=(k, bool(save_states)),
+            save=(k, save_states),
             t0=t0,
         )
         saved = _checkpoint.read(path, key)
@@ -291,10 +396,14 @@ def simulate(
     while march.done < steps and march.status == 0:
         length = min(chunk - march.done % chunk, steps - march.done)
         affine = plan.step_map is not None and march.fallback_from is None
-        clock = np.array([t0, march.done], dtype=np.float64)
-        carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
-            plan.h_array, clock, march.carry
-        )
+        if first is not None and first[0] == affine:
+            carry, fail, saved = first[1]
+        else:
+            clock = np.array([t0, march.done], dtype=np.float64)
+            carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
+                plan.h_array, clock, march.carry
+            )
+        first = None
         if affine and int(fail[0]) == AFFINE_REJECTED:
             # the equations are not affine after all: redo this chunk with the fallback
             at = march.done + int(np.argmin(np.asarray(saved["n_good"]) == k)) * k
@@ -318,10 +427,7 @@ def simulate(
                 in_progress=march.status == 0 and march.done < steps,
                 extra=attrs,
             )
-    traj = march.trajectory(t0, sign, h, scheme, discretization, steps, describe())
-    if traj.status and throw:
-        raise StepFailure(traj.message, traj)
-    return traj
+    return march.trajectory(t0, sign, h, scheme, discretization, steps, describe())
 
 
 class RunArguments(NamedTuple):
