@@ -296,7 +296,7 @@ def _whole_run(plan, run, q0, p0, t0, layout, flat) -> Trajectory:
     if "q" in cols:
         q = np.concatenate((q0[None], rows[:, cols["q"]]))
         p = np.concatenate((p0[None], rows[:, cols["p"]]))
-    return Trajectory.of_run(
+    return Trajectory._of_run(
         _Unpacked(layout, flat, p0),
         t=t0 + sign * h * index,
         q=q,

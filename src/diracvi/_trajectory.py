@@ -167,7 +167,7 @@ class Trajectory:
         return self
 
     @classmethod
-    def of_run(cls, lazy, **fields) -> Trajectory:
+    def _of_run(cls, lazy, **fields) -> Trajectory:
         """A trajectory of a host run, built from arrays of the right dtypes as they are
         (no conversions). ``lazy(name)`` makes each attribute in ``lazy.names`` on first
         access: a warm call does not pay for the diagnostics a user never reads."""
@@ -177,7 +177,7 @@ class Trajectory:
         return self
 
     def __getattr__(self, name: str):
-        # only reached for an attribute not set: one that of_run left to make lazily
+        # only reached for an attribute not set: one that _of_run left to make lazily
         lazy = self.__dict__.get("_lazy")
         if lazy is None or name not in lazy.names:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
