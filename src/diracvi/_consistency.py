@@ -19,11 +19,13 @@ Everything is evaluated at the initial time ``t₀`` (driven models).
 from __future__ import annotations
 
 import warnings
+from functools import partial
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._compile import RUN_ONCE_OPTIONS
 from ._system import DiracSystem
 
 
@@ -57,15 +59,49 @@ def _port_groups(system) -> list[list[int]]:
     return [g for g in groups.values() if len(g) > 1]
 
 
-@jax.jit
-def _legendre_pieces(system, q, t=0.0):
-    zero = jnp.zeros_like(q)
-    g = jax.grad(system.lagrangian, argnums=1)(q, zero, t)
-    w = jax.hessian(system.lagrangian, argnums=1)(q, zero, t)
-    return g, w, system.constraint_forms(q, t)
+#: the Legendre data is evaluated at this many (q, t) rows at once, so one compiled program
+#: serves the checker's construction (zero, the probe, the probe at later times) and every
+#: later check of a nonlinear model (the row padded); above ``_BATCH_LIMIT`` coordinates
+#: the n × n blocks are large and the rows go one at a time
+_ROWS = 4
+_BATCH_LIMIT = 256
 
 
-@jax.jit
+@partial(jax.jit, compiler_options=RUN_ONCE_OPTIONS)
+def _legendre_rows(system, qs, ts):
+    """Per row ``(q, t)``: ``∂L/∂v(q, 0, t)``, ``W = ∂²L/∂v²(q, 0, t)``, ``A(q, t)`` and the
+    slope ``G = ∂/∂q ∂L/∂v(q, 0, t)`` (with W and A constant, ``∂L/∂v(q, 0) = g₀ + G q``)."""
+
+    def momentum_at_rest(q, t):
+        return jax.grad(system.lagrangian, argnums=1)(q, jnp.zeros_like(q), t)
+
+    def one(q, t):
+        w = jax.hessian(system.lagrangian, argnums=1)(q, jnp.zeros_like(q), t)
+        slope = jax.jacfwd(momentum_at_rest)(q, t)
+        return momentum_at_rest(q, t), w, system.constraint_forms(q, t), slope
+
+    return jax.vmap(one)(qs, ts)
+
+
+def _legendre_pieces(system, rows):
+    """:func:`_legendre_rows` at the rows ``(q, t)``, as NumPy arrays stacked over rows.
+
+    Rows go in batches of a fixed size (the last padded by repeating its final row), so
+    every call on a system reuses one compiled program."""
+    size = _ROWS if system.n <= _BATCH_LIMIT else 1
+    qs = np.stack([np.asarray(q, dtype=np.float64) for q, _ in rows])
+    ts = np.array([float(t) for _, t in rows])
+    pad = -len(rows) % size
+    qs = np.concatenate([qs, np.repeat(qs[-1:], pad, axis=0)])
+    ts = np.concatenate([ts, np.repeat(ts[-1:], pad)])
+    parts = [
+        [np.asarray(a) for a in _legendre_rows(system, qs[i : i + size], ts[i : i + size])]
+        for i in range(0, len(qs), size)
+    ]
+    return [np.concatenate(group)[: len(rows)] for group in zip(*parts, strict=True)]
+
+
+@partial(jax.jit, compiler_options=RUN_ONCE_OPTIONS)
 def _holonomic_pieces(system, q, t=0.0):
     """``g(q, t)`` and its Jacobian (empty when there are no holonomic rows)."""
     return system.position_constraints(q, t), jax.jacfwd(system.position_constraints)(q, t)
@@ -74,17 +110,13 @@ def _holonomic_pieces(system, q, t=0.0):
 def _onto_holonomic(system, q, t, iterations: int = 20):
     """The nearest ``q`` with ``g(q, t) = 0``: Gauss–Newton minimal-norm corrections."""
     for _ in range(iterations):
-        g, jac = (np.asarray(a) for a in _holonomic_pieces(system, jnp.asarray(q), t))
+        g, jac = (
+            np.asarray(a) for a in _holonomic_pieces(system, np.asarray(q, dtype=np.float64), t)
+        )
         if np.max(np.abs(g), initial=0.0) <= 1e-15 * max(1.0, float(np.max(np.abs(q)))):
             break
         q = q - np.linalg.lstsq(jac, g, rcond=None)[0]
     return q
-
-
-@jax.jit
-def _legendre_slope(system, q):
-    """``G = ∂/∂q ∂L/∂v(q, 0)``: with W and A constant, ``∂L/∂v(q, 0) = g₀ + G q``."""
-    return jax.jacfwd(lambda x: jax.grad(system.lagrangian, argnums=1)(x, jnp.zeros_like(x)))(q)
 
 
 def _complement(w, forms) -> np.ndarray:
@@ -126,27 +158,23 @@ class Checker:
         )
         self._linear = None
         if linear and system.n <= MOMENTUM_CHECK_LIMIT:
-            zero = jnp.zeros(system.n)
-            g0, w, forms = (np.asarray(a) for a in _legendre_pieces(system, zero))
-            slope = np.asarray(_legendre_slope(system, zero))
             probe = np.zeros(system.n) if q_probe is None else np.asarray(q_probe)
             scale = 1.0 + np.max(np.abs(probe), initial=0.0)
             # a driven system keeps this path only if nothing here moves with time either
             times = [0.0]
             if system.time_dependent:
                 times += [t_probe, t_probe + 1.37 * (1.0 + abs(t_probe))]
-            same = True
-            for t in times:
-                g1, w1, forms1 = (
-                    np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(probe), t)
-                )
-                same = same and (
-                    np.allclose(w, w1, rtol=1e-12, atol=1e-12)
-                    and np.allclose(forms, forms1, rtol=1e-12, atol=1e-12)
-                    and np.allclose(g0 + slope @ probe, g1, rtol=1e-12, atol=1e-12 * scale)
-                )
+            rows = [(np.zeros(system.n), 0.0)] + [(probe, t) for t in times]
+            g, w, forms, slope = _legendre_pieces(system, rows)
+            g0, slope0 = g[0], slope[0]
+            same = all(
+                np.allclose(w[0], w[i], rtol=1e-12, atol=1e-12)
+                and np.allclose(forms[0], forms[i], rtol=1e-12, atol=1e-12)
+                and np.allclose(g0 + slope0 @ probe, g[i], rtol=1e-12, atol=1e-12 * scale)
+                for i in range(1, len(rows))
+            )
             if same:
-                self._linear = (g0, slope, _complement(w, forms))
+                self._linear = (g0, slope0, _complement(w[0], forms[0]))
         self._quick = self._quick_check()
 
     def _quick_check(self):
@@ -281,7 +309,7 @@ class Checker:
 
 
 def _momentum_projection(system, q, p, t=0.0):
-    g, w, forms = (np.asarray(a) for a in _legendre_pieces(system, jnp.asarray(q), t))
+    g, w, forms, _ = (a[0] for a in _legendre_pieces(system, [(q, t)]))
     basis = np.concatenate([w, forms.T], axis=1)
     if basis.size == 0:
         return g

@@ -53,7 +53,7 @@ class Interaction(eqx.Module):
             self._fn, self._const = forms, None
         else:
             const = check_forms_array("Interaction(forms=...)", forms)
-            self._fn, self._const = None, jnp.asarray(const)
+            self._fn, self._const = None, jax.device_put(const)
         self.names = None if names is None else tuple(str(n) for n in names)
 
 

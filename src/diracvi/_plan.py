@@ -18,11 +18,11 @@ import weakref
 from collections import OrderedDict
 from typing import NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._compile import run_once_jit
 from ._consistency import Checker
 from ._equations import first_guess, residual, unknown_count
 from ._errors import ModelError
@@ -108,7 +108,7 @@ def equation_names(system, rule=None):
     return names
 
 
-@eqx.filter_jit
+@run_once_jit
 def _step_jacobian(system, rule, scheme, q0, p0, h, tk):
     x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
     return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q0, p0, x, tk))(x0)

@@ -372,7 +372,7 @@ class LagrangeDiracSystem(DiracSystem):
                 m = forms.shape[0]
             else:
                 forms = check_forms_array("constraints", constraints, n, self._coords)
-                self._forms_const = jnp.asarray(forms)
+                self._forms_const = jax.device_put(forms)  # no per-shape program
                 m = forms.shape[0]
         self._m_forms = m
         self._offset_fn, self._offset_const = None, None
@@ -417,7 +417,7 @@ class LagrangeDiracSystem(DiracSystem):
                 ) from exc
             if not np.all(np.isfinite(const)):
                 raise ModelError("constraint_offset contains NaN or Inf: b must be finite.")
-            self._offset_const = jnp.asarray(const)
+            self._offset_const = jax.device_put(const)
             shape = const.shape
         if shape != (m,):
             raise ModelError(

@@ -28,12 +28,15 @@ back to the general solver from the start of that chunk.
 
 from __future__ import annotations
 
+import warnings
+
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-import jax.scipy.linalg as jsl
 import numpy as np
+import scipy.linalg as sla
 
+from .._compile import run_once_jit
 from .._equations import StepEquations, new_momentum, residual, unknown_count
 from .._errors import ModelError
 from .base import StepSolver
@@ -130,7 +133,7 @@ class AffineStepMap(eqx.Module):
         return -self.inverse @ eqs.residual(x)
 
 
-@eqx.filter_jit
+@run_once_jit
 def _linearizations(system, rule, scheme, h, points, times):
     """Values and Jacobians of the residual and the momentum increment at each
     ``(q, p, d, μ)`` and time ``t_k``, where ``q_other = q + d``.
@@ -167,7 +170,7 @@ def _linearizations(system, rule, scheme, h, points, times):
     return jax.vmap(at)(points, times)
 
 
-@eqx.filter_jit
+@run_once_jit
 def _values(system, rule, scheme, h, points, tk):
     """The residual and the momentum increment at each ``(q, p, d, μ)`` (no derivatives).
 
@@ -201,7 +204,7 @@ def _clearly_nonlinear(system, rule, scheme, h, a, b, tk) -> bool:
     curvature between two generic points breaks it. Only a defect far above round-off
     counts, so an affine model is never turned away here."""
     points = np.stack([a, b, 0.5 * (a + b)])
-    values = np.asarray(_values(system, rule, scheme, h, jnp.asarray(points), tk))
+    values = np.asarray(_values(system, rule, scheme, h, points, tk))
     if not np.all(np.isfinite(values)):
         return False  # left to the full test, which reports non-finite equations
     defect = np.abs(values[2] - 0.5 * (values[0] + values[1]))
@@ -209,21 +212,22 @@ def _clearly_nonlinear(system, rule, scheme, h, a, b, tk) -> bool:
     return bool(np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0)))
 
 
-def _refined_solve(a, lu, piv, b):
+def _refined_solve(a, factors, b):
     """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision.
 
     The map is applied thousands of times, so an error in it is systematic: it adds up
     linearly over the run, unlike the independent round-off of a per-step solve. One
     refinement with an extended-precision residual makes ``Φ`` accurate to about one
     rounding of its entries, whatever the conditioning of ``J_x`` (within reason).
+    (Host LAPACK through SciPy: the map is built once, and device solves would each
+    compile a program for this shape.)
     """
-    factors = (jnp.asarray(lu), jnp.asarray(piv))
-    x = np.asarray(jsl.lu_solve(factors, jnp.asarray(b)))
+    x = sla.lu_solve(factors, b, check_finite=False)
     if a.shape[0] > _REFINE_LIMIT or not np.all(np.isfinite(x)):
         return x  # a singular J_x is reported by the caller
     wide = np.longdouble
     resid = (b.astype(wide) - a.astype(wide) @ x.astype(wide)).astype(np.float64)
-    return x + np.asarray(jsl.lu_solve(factors, jnp.asarray(resid)))
+    return x + sla.lu_solve(factors, resid, check_finite=False)
 
 
 def _block_maps(delta, offset):
@@ -269,16 +273,14 @@ def build(
             scale * rng.uniform(-1.0, 1.0, size),
         ]
     )
-    if _clearly_nonlinear(
-        system, rule, scheme, jnp.asarray(h), points[1], points[2], jnp.asarray(t0)
-    ):
+    h, t0 = np.asarray(h, dtype=np.float64), np.asarray(t0, dtype=np.float64)
+    if _clearly_nonlinear(system, rule, scheme, h, points[1], points[2], t0):
         return None, "the step equations are not affine", None
     driven = bool(system.time_dependent)
     # a driven model is probed at three different times (its Jacobians must not move)
     times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
     r, pm, r0, pm0, jr, jp = (
-        np.asarray(a)
-        for a in _linearizations(system, rule, scheme, jnp.asarray(h), points, jnp.asarray(times))
+        np.asarray(a) for a in _linearizations(system, rule, scheme, h, points, times)
     )
     # probe 1 is (q0, p0) with no increment: there, ∂r/∂(d, μ) is the first step's J
     first = None if driven else jr[1][:, 2 * n :]
@@ -296,9 +298,11 @@ def build(
     j_all, p_all = jr[0], jp[0]
     j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
     p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
-    lu, piv = (np.asarray(a) for a in jsl.lu_factor(jnp.asarray(j_x)))
     rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
-    sol = _refined_solve(j_x, lu, piv, -rhs)
+    with warnings.catch_warnings():  # a singular J_x is reported below, by name
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        factors = sla.lu_factor(j_x, check_finite=False)
+        sol = _refined_solve(j_x, factors, -rhs)
     if not np.all(np.isfinite(sol)):
         return None, "the step Jacobian is singular", first
     phi_x, b_x = sol[:, :-1], sol[:, -1]
@@ -307,17 +311,19 @@ def build(
     delta = np.concatenate([phi_x[:n], phi_p])
     offset = np.concatenate([b_x[:n], b_p])
     powers, power_offsets = _block_maps(delta, offset)
-    step_map = AffineStepMap(
-        delta=jnp.asarray(delta),
-        offset=jnp.asarray(offset),
-        powers=jnp.asarray(powers),
-        power_offsets=jnp.asarray(power_offsets),
-        mu_map=jnp.asarray(phi_x[n:]),
-        mu_offset=jnp.asarray(b_x[n:]),
-        inverse=jnp.asarray(np.linalg.inv(j_x)),
-        jacobian=jnp.asarray(j_x),
-        momentum_x=jnp.asarray(p_x),
-        verify_rtol=solver.verify_rtol,
-        driven=driven,
+    # device_put, not jnp.asarray: the latter compiles a small program per shape
+    arrays = jax.device_put(
+        dict(
+            delta=delta,
+            offset=offset,
+            powers=powers,
+            power_offsets=power_offsets,
+            mu_map=phi_x[n:],
+            mu_offset=b_x[n:],
+            inverse=np.linalg.inv(j_x),
+            jacobian=j_x,
+            momentum_x=p_x,
+        )
     )
+    step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
     return step_map, "affine", first
