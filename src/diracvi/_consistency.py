@@ -131,6 +131,8 @@ def _complement(w, forms) -> np.ndarray:
 #: above this many coordinates the momentum check (a dense n × n Hessian and a
 #: least-squares solve) is skipped; ports are still checked
 MOMENTUM_CHECK_LIMIT = 3000
+#: up to this many coordinates a warm call's check is one precomputed matrix product
+QUICK_CHECK_LIMIT = 256
 
 
 class Checker:
@@ -173,6 +175,39 @@ class Checker:
             )
             if same:
                 self._linear = (g0, slope0, _complement(w[0], forms[0]))
+        self._quick = self._quick_check()
+
+    def _quick_check(self):
+        """``(M, c)`` for :meth:`accepts`, or ``None`` (holonomic rows, the general path,
+        or a model too large for a dense ``(pairs + n) × 2n`` matrix)."""
+        if self._linear is None or self.holonomic or self.system.n > QUICK_CHECK_LIMIT:
+            return None
+        n = self.system.n
+        g0, slope, comp = self._linear
+        a, b = self._pairs if self._pairs is not None else (np.zeros(0, int), np.zeros(0, int))
+        ports = np.zeros((len(a), 2 * n))
+        ports[np.arange(len(a)), a] = 1.0  # rows q[a] − q[b]: exact differences
+        ports[np.arange(len(a)), b] = -1.0
+        # momenta: comp (p − g0 − slope q), the distance _momentum_projection measures
+        momenta = np.concatenate([-comp @ slope, comp], axis=1)
+        # Each row divided by half its threshold in check() at the smallest scales (1):
+        # ‖M z − c‖₂ ≤ 1 then passes there whatever the rounding of the two formulas
+        # (ports: the spread of a group is at most twice its largest pair difference).
+        tol = np.concatenate([np.full(len(a), 0.25e-12), np.full(n, 0.5e-10)])
+        matrix = np.concatenate([ports, momenta]) / tol[:, None]
+        offset = np.concatenate([np.zeros(len(a)), comp @ g0]) / tol
+        return matrix, (offset if np.any(offset) else None)
+
+    def accepts(self, q0, p0) -> bool:
+        """Whether ``(q0, p0)`` certainly passes :meth:`check` (one matrix–vector product
+        for a linear model); ``False`` means only that :meth:`check` must decide."""
+        if self._quick is None:
+            return False
+        matrix, offset = self._quick
+        r = matrix @ np.concatenate((q0, p0))
+        if offset is not None:
+            r -= offset
+        return bool(r @ r <= 1.0)
 
     def _momentum_projection(self, q, p, t=0.0):
         if self.system.n > MOMENTUM_CHECK_LIMIT:

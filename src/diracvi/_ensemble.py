@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 
 from ._errors import ModelError, StepFailure
-from ._simulate import _failure_message, check_run, prepared_plan
+from ._record import failure_message
+from ._simulate import check_run, prepared_plan
 from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._trajectory import Trajectory
@@ -67,7 +68,7 @@ class Ensemble:
         if code:
             steps = int(self.steps[i])
             its, res, q_bad = self.failure[i]
-            message = _failure_message(
+            message = failure_message(
                 code, steps, self.t0 + self.sign * self.dt * steps, its, res, self.coords, q_bad
             )
         return Trajectory(

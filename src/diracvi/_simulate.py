@@ -21,152 +21,21 @@ from ._discretize import RULES, get_rule
 from ._equations import SCHEMES
 from ._errors import ModelError, StepFailure
 from ._plan import Layout, get_plan, layout
-from ._solvers import SolveStatus, StepSolver
+from ._record import March, whole_run
+from ._solvers import StepSolver
 from ._solvers.affine import AffineSolver
 from ._stepping import AFFINE_REJECTED
 from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
-from ._trajectory import STATUS_MESSAGES, Trajectory
+from ._trajectory import Trajectory
 from ._validate import (
+    CONCRETE_TYPES,
     check_choice,
     check_float,
     check_positive_float,
     check_positive_int,
     check_state,
 )
-
-
-def _failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
-    where = f"at step {step} (t = {t:.6g})"
-    if status == SolveStatus.MAX_ITERATIONS:
-        return (
-            f"Newton did not converge {where} after {iterations} iterations; residual "
-            f"‖r‖∞ = {res_norm:.3e}. Try a smaller dt, check that the initial data are "
-            "consistent, or raise NewtonSolver(max_steps=...)."
-        )
-    if status == SolveStatus.SINGULAR:
-        return (
-            f"The step equations are not solvable {where}: the step Jacobian became singular "
-            "(the linear solve returned non-finite values). The constraints or the "
-            "Lagrangian degenerate at this state; try a smaller dt or check the model."
-        )
-    bad = [c for c, x in zip(coords, q, strict=True) if not np.isfinite(x)]
-    return (
-        f"NaN or Inf appeared {where}" + (f" in {bad}" if bad else "") + ": the model "
-        "returned non-finite values (a division by zero, a singular mass matrix, or a "
-        "blow-up). Try a smaller dt; check L, the constraints and the force at this state."
-    )
-
-
-class _March:
-    """The run so far: host-side arrays of the saved states and the chunk carry."""
-
-    def __init__(self, system: Layout, q0, p0, k: int, save_states: bool, nodal: bool):
-        self.system, self.k, self.save_states, self.nodal = system, k, save_states, nodal
-        self.index = [np.zeros(1, dtype=np.int64)]
-        self.states = [(np.asarray(q0)[None], np.asarray(p0)[None])] if save_states else []
-        # the given p0 is the momentum at t0 itself (no impulse lag)
-        self.nodal_p = [np.asarray(p0)[None]] if nodal else []
-        self.diag: list[tuple] = []  # (energy, violation, iterations[, mu, con])
-        self.carry = (q0, p0, q0, np.zeros(system.m))
-        self.done = 0
-        self.status, self.failure = 0, None
-        self.fallback_from: int | None = None
-        self.fallback_reason = ""
-
-    def resume(self, saved: Trajectory, in_progress: bool, attrs: dict):
-        self.index = [saved.step_index]
-        if self.save_states:
-            self.states = [(saved.q, saved.p)]
-        if self.nodal:
-            self.nodal_p = [saved.p_nodal]
-        diag = (saved.energy, saved.constraint_violation, saved.newton_iterations)
-        if self.save_states:
-            diag += (saved.multipliers, saved.constraint_residual)
-        self.diag = [diag]
-        self.done = saved.steps
-        if not in_progress and saved.status:
-            self.status = saved.status
-            self.failure = (saved.message,)
-        if "fallback_from" in attrs:
-            self.fallback_from = int(attrs["fallback_from"])
-            self.fallback_reason = str(attrs.get("fallback_reason", ""))
-        self.carry = tuple(np.asarray(a) for a in saved.final_state)
-
-    def extend(self, carry, fail, saved):
-        n_good = saved["n_good"]
-        full = n_good == self.k
-        whole = len(full) if full.all() else int(np.argmin(full))
-        keep = whole + int(whole < len(full) and n_good[whole] > 0)
-        steps = np.minimum(n_good[:keep], self.k)
-        self.index.append(self.done + np.cumsum(steps))
-        self.done += int(steps.sum())
-        if self.save_states:
-            self.states.append((saved["q"][:keep], saved["p"][:keep]))
-        if self.nodal:
-            self.nodal_p.append(saved["p_node"][:keep])
-        diag = (saved["energy"], saved["violation"], saved["iterations"])
-        if self.save_states:
-            diag += (saved["mu"], saved["con"])
-        self.diag.append(tuple(a[:keep] for a in diag))
-        self.carry = carry
-        if whole < len(full):
-            code, iterations, res_norm, q_bad = fail
-            self.status = int(code)
-            self.failure = (int(iterations), float(res_norm), q_bad)
-
-    def trajectory(self, t0, sign, h, scheme, discretization, steps, solver) -> Trajectory:
-        code, message = self.status, STATUS_MESSAGES[0]
-        if code and len(self.failure) == 1:
-            message = self.failure[0]
-        elif code:
-            iterations, res_norm, q_bad = self.failure
-            message = _failure_message(
-                code,
-                self.done,
-                t0 + sign * h * self.done,
-                iterations,
-                res_norm,
-                self.system.coords,
-                q_bad,
-            )
-        index = np.concatenate(self.index)
-        cols = [np.concatenate(c) for c in zip(*self.diag, strict=True)] if self.diag else []
-        m = self.system.m
-        if not cols:
-            cols = [np.zeros(0), np.zeros(0), np.zeros(0, np.int64)]
-            if self.save_states:
-                cols += [np.zeros((0, m)), np.zeros((0, m))]
-        energy, violation, iterations = cols[:3]
-        q = p = mu = con = None
-        if self.save_states:
-            q = np.concatenate([s[0] for s in self.states])
-            p = np.concatenate([s[1] for s in self.states])
-            mu, con = (c.reshape(len(energy), m) for c in cols[3:])
-        return Trajectory(
-            t=t0 + sign * h * index,
-            q=q,
-            p=p,
-            p_nodal=np.concatenate(self.nodal_p) if self.nodal else None,
-            multipliers=mu,
-            energy=energy,
-            constraint_residual=con,
-            newton_iterations=iterations,
-            constraint_violation=violation,
-            step_index=index,
-            save_every=self.k,
-            final_state=self.carry,
-            coords=self.system.coords,
-            constraint_names=self.system.constraint_names,
-            dt=h,
-            scheme=scheme,
-            discretization=discretization,
-            system_name=self.system.name,
-            status=code,
-            message=message,
-            steps_requested=steps,
-            solver=solver,
-        )
 
 
 def simulate(
@@ -236,10 +105,11 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
-    # the system's own leaves are looked at once per system (its layout), not per call
-    system_traced = isinstance(system, DiracSystem) and layout(system).traced
-    if system_traced or is_traced(q0, p0, t0):
-        run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
+    # the system's own leaves are looked at once per system (its layout), not per call;
+    # arguments of plain NumPy / Python types cannot hold a tracer (only the active
+    # transformation is then looked up)
+    if run.shape.traced or is_traced(*(x for x in (q0, p0, t0) if type(x) not in CONCRETE_TYPES)):
         check_traced_options(checkpoint, project_initial)
         return simulate_traced(
             system,
@@ -252,16 +122,43 @@ def simulate(
             throw=bool(throw),
             adjoint=adjoint,
         )
-    run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
-    scheme, discretization, h, steps, k, shape = run
+    h, steps, k, shape = run.h, run.steps, run.save_every, run.shape
     q0 = check_state("q0", q0, shape.n, shape.coords)
     p0 = check_state("p0", p0, shape.n, shape.coords)
     t0 = check_float("t0", t0)
     plan = prepared_plan(system, run, solver, q0, p0, t0)
-    q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
+    # consistent data of a linear model pass with one precomputed product; anything
+    # else (and every inconsistent state) goes through the full check
+    if not plan.checker.accepts(q0, p0):
+        q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
+    save_states = bool(save_states)
+    first = None
+    if checkpoint is None:
+        # the whole run is one compiled chunk; a run that took every step is returned
+        # directly (the march below handles a failure or an affine fallback)
+        affine = plan.step_map is not None
+        chunk = plan.chunk(affine, k, save_states, steps // k)
+        carry = (q0, p0, q0, np.zeros(shape.m))
+        flat = chunk.run(chunk.flat_input(h, (t0, 0.0), carry))
+        if flat[chunk.layout.code] == 0:
+            return whole_run(plan, run, q0, p0, t0, chunk.layout, flat)
+        first = affine, chunk.layout.unpack(flat)
+    traj = _march(
+        plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+    )
+    if traj.status and throw:
+        raise StepFailure(traj.message, traj)
+    return traj
 
-    nodal = bool(save_states) and plan.nodal_when_saved
-    march = _March(shape, q0, p0, k, bool(save_states), nodal)
+
+def _march(
+    plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+) -> Trajectory:
+    """Run chunk after chunk: checkpoints, a failed step, the affine map's fallback.
+    ``first``: ``(affine, chunk output)`` of the whole run's chunk, already computed."""
+    scheme, discretization, h, steps, k, shape = run
+    nodal = save_states and plan.nodal_when_saved
+    march = March(shape, q0, p0, k, save_states, nodal)
     path, key, chunk = None, None, steps
     if checkpoint is not None:
         chunk = steps if checkpoint_every is None else check_checkpoint_every(checkpoint_every, k)
@@ -276,7 +173,7 @@ def simulate(
             discretization=discretization,
             solver=solver,
             chunk=chunk,
-            save=(k, bool(save_states)),
+            save=(k, save_states),
             t0=t0,
         )
         saved = _checkpoint.read(path, key)
@@ -291,10 +188,14 @@ def simulate(
     while march.done < steps and march.status == 0:
         length = min(chunk - march.done % chunk, steps - march.done)
         affine = plan.step_map is not None and march.fallback_from is None
-        clock = np.array([t0, march.done], dtype=np.float64)
-        carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
-            plan.h_array, clock, march.carry
-        )
+        if first is not None and first[0] == affine:
+            carry, fail, saved = first[1]
+        else:
+            clock = np.array([t0, march.done], dtype=np.float64)
+            carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
+                plan.h_array, clock, march.carry
+            )
+        first = None
         if affine and int(fail[0]) == AFFINE_REJECTED:
             # the equations are not affine after all: redo this chunk with the fallback
             at = march.done + int(np.argmin(np.asarray(saved["n_good"]) == k)) * k
@@ -318,10 +219,18 @@ def simulate(
                 in_progress=march.status == 0 and march.done < steps,
                 extra=attrs,
             )
-    traj = march.trajectory(t0, sign, h, scheme, discretization, steps, describe())
-    if traj.status and throw:
-        raise StepFailure(traj.message, traj)
-    return traj
+    return march.trajectory(t0, sign, h, scheme, discretization, steps, describe())
+
+
+#: classes found to be DiracSystems (an isinstance check of a Module class costs ~1 µs)
+_SYSTEM_TYPES: set[type] = set()
+
+
+def _is_system(system) -> bool:
+    if isinstance(system, DiracSystem):
+        _SYSTEM_TYPES.add(type(system))
+        return True
+    return False
 
 
 class RunArguments(NamedTuple):
@@ -336,7 +245,7 @@ class RunArguments(NamedTuple):
 def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> RunArguments:
     """The arguments ``simulate`` and ``simulate_ensemble`` share, checked."""
     ensure_float64()
-    if not isinstance(system, DiracSystem):
+    if type(system) not in _SYSTEM_TYPES and not _is_system(system):
         raise ModelError(
             f"system={system!r} is not a diracvi system: build one with "
             "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."

@@ -344,8 +344,7 @@ class CompiledChunk:
     def __init__(self, system, rule, scheme, method, k, save_states, blocks, batched=False):
         dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
         n, m = system.n, system.m
-        self._n, self._m, self._save_states, self._blocks = n, m, save_states, blocks
-        self._nodal = keeps_nodal(system, rule, save_states)
+        nodal = keeps_nodal(system, rule, save_states)
 
         def packed(dynamic, h, clock, carry):
             system_, rule_, method_ = eqx.combine(dynamic, static)
@@ -354,7 +353,7 @@ class CompiledChunk:
             cols = [saved["energy"][:, None], saved["violation"][:, None]]
             if save_states:
                 cols += [saved["q"], saved["p"], saved["mu"], saved["con"]]
-            if self._nodal:
+            if nodal:
                 cols.append(saved["p_node"])
             steps_f = jnp.concatenate(cols, axis=1)
             steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
@@ -377,8 +376,16 @@ class CompiledChunk:
             # only the state (dispatch cost does not grow with the number of subsystems)
             self._dynamic = None
             packed = partial(_with_constants, packed, dynamic)
+        self.layout = OutputLayout(n, m, blocks, save_states, nodal)
+        self._batched = batched
         if not batched:
-            self._fn = jax.jit(packed)
+            # one flat input (h, t0, first index, q, p, q_prev, μ): a jitted call costs
+            # about a microsecond per argument array, more than the arithmetic of a step
+            def flat(dynamic, x):
+                carry = (x[3 : 3 + n], x[3 + n : 3 + 2 * n], x[3 + 2 * n : 3 + 3 * n])
+                return packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
+
+            self._fn = jax.jit(flat)
         elif isinstance(method, AffineStepMap):
             # Each affine run is already vectorized over its steps; batching members
             # only multiplies the size of every intermediate (memory-bound), so the
@@ -393,36 +400,60 @@ class CompiledChunk:
             # Newton's many tiny operations per step amortize well over a batch.
             self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, None, 0)))
 
+    @staticmethod
+    def flat_input(h, clock, carry) -> np.ndarray:
+        """The one input vector ``(h, t0, first index, q, p, q_prev, μ)`` of :meth:`run`;
+        ``h``, ``t0`` and the index may be Python floats."""
+        return np.concatenate(((h, clock[0], clock[1]), *carry))
+
+    def run(self, x) -> np.ndarray:
+        """The packed output (see :class:`OutputLayout`) of an unbatched chunk."""
+        return np.asarray(self._fn(self._dynamic, x))
+
     def __call__(self, h, clock, carry):
         """``(carry, fail, saved)`` as numpy arrays (views into the packed output);
         ``clock = (t0, index of the first step)`` as a float64 array."""
-        flat = np.asarray(self._fn(self._dynamic, h, clock, carry))
-        n, m, blocks = self._n, self._m, self._blocks
-        width = 2 + (2 * n + 2 * m if self._save_states else 0) + (n if self._nodal else 0)
+        if self._batched:
+            flat = np.asarray(self._fn(self._dynamic, h, clock, carry))
+        else:
+            flat = self.run(self.flat_input(h, clock, carry))
+        return self.layout.unpack(flat)
+
+
+class OutputLayout:
+    """Where each output of a chunk lies in its packed float64 buffer (leading batch
+    axes allowed): ``blocks`` rows of :attr:`columns`, then the per-row
+    ``(n_good, iterations)``, the final carry ``(q, p, q_prev, μ)``, the first failure's
+    residual and state, and its ``(code, iterations)``."""
+
+    def __init__(self, n: int, m: int, blocks: int, save_states: bool, nodal: bool):
+        names = [("energy", None), ("violation", None)]
+        if save_states:
+            names += [("q", n), ("p", n), ("mu", m), ("con", m)]
+        if nodal:
+            names.append(("p_node", n))
+        self.columns: dict = {}  # name → column (a scalar) or slice of columns
+        width = 0
+        for name, size in names:
+            self.columns[name] = width if size is None else slice(width, width + size)
+            width += 1 if size is None else size
+        self.n, self.m, self.blocks, self.width = n, m, blocks, width
+        self.rows_end = blocks * width  # [0, rows_end): the rows, row-major
+        self.counts_end = self.rows_end + 2 * blocks  # then (n_good, iterations) per row
+        self.final = self.counts_end  # then q, p, q_prev, μ, residual, q_bad
+        self.code = self.final + 4 * n + m + 1  # then the failure code and its iterations
+
+    def unpack(self, flat):
+        """``(carry, fail, saved)``: views into ``flat`` (the counts as int64 copies)."""
+        n, m, blocks, width = self.n, self.m, self.blocks, self.width
         lead = flat.shape[:-1]
-        cut = [blocks * width, blocks * 2, 3 * n + m + 1 + n, 2]
-        steps_f, steps_i, final_f, final_i = np.split(flat, np.cumsum(cut)[:-1], axis=-1)
-        steps_f = steps_f.reshape(*lead, blocks, width)
-        steps_i = steps_i.reshape(*lead, blocks, 2).astype(np.int64)
-        final_i = final_i.astype(np.int64)
-        q, p, q_prev = final_f[..., :n], final_f[..., n : 2 * n], final_f[..., 2 * n : 3 * n]
-        mu, rest = final_f[..., 3 * n : 3 * n + m], final_f[..., 3 * n + m :]
-        carry = (q, p, q_prev, mu)
-        fail = (final_i[..., 0], final_i[..., 1], rest[..., 0], rest[..., 1:])
-        saved = {
-            "energy": steps_f[..., 0],
-            "violation": steps_f[..., 1],
-            "n_good": steps_i[..., 0],
-            "iterations": steps_i[..., 1],
-        }
-        if self._save_states:
-            cols = steps_f[..., 2:]
-            saved.update(
-                q=cols[..., :n],
-                p=cols[..., n : 2 * n],
-                mu=cols[..., 2 * n : 2 * n + m],
-                con=cols[..., 2 * n + m : 2 * n + 2 * m],
-            )
-            if self._nodal:
-                saved["p_node"] = cols[..., 2 * n + 2 * m :]
+        rows = flat[..., : self.rows_end].reshape(*lead, blocks, width)
+        counts = flat[..., self.rows_end : self.counts_end].reshape(*lead, blocks, 2)
+        counts = counts.astype(np.int64)
+        final, codes = flat[..., self.final : self.code], flat[..., self.code :].astype(np.int64)
+        carry = tuple(final[..., i * n : (i + 1) * n] for i in range(3))
+        carry += (final[..., 3 * n : 3 * n + m],)
+        fail = (codes[..., 0], codes[..., 1], final[..., 3 * n + m], final[..., 3 * n + m + 1 :])
+        saved = {name: rows[..., col] for name, col in self.columns.items()}
+        saved.update(n_good=counts[..., 0], iterations=counts[..., 1])
         return carry, fail, saved

@@ -53,7 +53,8 @@ from ._discretize import get_rule
 from ._equations import first_guess, residual
 from ._errors import DiracviError, ModelError, UnsolvableStepError
 from ._plan import equation_names, unknown_names
-from ._simulate import _failure_message, check_run
+from ._record import failure_message
+from ._simulate import check_run
 from ._solvers import NewtonSolver
 from ._solvers.base import SolveStatus
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
@@ -512,7 +513,7 @@ def run_batch(build, names, values, settings: SweepSettings, cap: int | None = N
         out["status"][index] = status
         out["steps_taken"][index] = taken
         for j in np.nonzero(status)[0]:
-            out["message"][index[j]] = _failure_message(
+            out["message"][index[j]] = failure_message(
                 int(status[j]),
                 int(taken[j]),
                 settings.t0 + sign * h * int(taken[j]),

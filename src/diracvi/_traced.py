@@ -43,20 +43,22 @@ from ._trajectory import Trajectory
 ADJOINTS = ("checkpoint", "full")
 
 
+try:  # the active trace, looked up once here rather than on every call
+    from jax._src.core import EvalTrace as _EvalTrace
+    from jax._src.core import trace_ctx as _trace_ctx
+except ImportError:  # pragma: no cover - another JAX version
+    _trace_ctx = None
+
+
 def is_traced(*trees) -> bool:
     """Whether a JAX transformation is active, or any leaf of ``trees`` is a tracer.
 
     The first test catches a system whose *closures* capture traced values (a model
     built inside the differentiated function), which no leaf would reveal.
     """
-    try:
-        from jax._src import core
-
-        if not isinstance(core.trace_ctx.trace, core.EvalTrace):
-            return True
-    except (ImportError, AttributeError):  # pragma: no cover - another JAX version
-        pass
-    return any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(trees))
+    if _trace_ctx is not None and not isinstance(_trace_ctx.trace, _EvalTrace):
+        return True
+    return bool(trees) and any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(trees))
 
 
 def _tangent_solve(g, y):

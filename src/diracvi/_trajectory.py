@@ -166,6 +166,32 @@ class Trajectory:
         self.constraint_names = tuple(self.constraint_names)
         return self
 
+    @classmethod
+    def _of_run(cls, lazy, **fields) -> Trajectory:
+        """A trajectory of a host run, built from arrays of the right dtypes as they are
+        (no conversions). ``lazy(name)`` makes each attribute in ``lazy.names`` on first
+        access: a warm call does not pay for the diagnostics a user never reads."""
+        self = object.__new__(cls)
+        self.__dict__.update(fields)
+        self._lazy = lazy
+        return self
+
+    def __getattr__(self, name: str):
+        # only reached for an attribute not set: one that _of_run left to make lazily
+        lazy = self.__dict__.get("_lazy")
+        if lazy is None or name not in lazy.names:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        value = lazy(name)
+        setattr(self, name, value)
+        return value
+
+    def __getstate__(self):
+        # a pickled or copied trajectory carries its arrays, not the packed output
+        lazy = self.__dict__.get("_lazy")
+        for name in lazy.names if lazy is not None else ():
+            getattr(self, name)
+        return {k: v for k, v in self.__dict__.items() if k != "_lazy"}
+
     @property
     def p_nodal(self):
         """Momenta at the nodes to the rule's order (see the class documentation)."""

@@ -120,9 +120,16 @@ def _eval_shape(arg: str, fn: Callable, *shapes: tuple[int, ...], signature: str
     return out
 
 
+#: types whose values are never (and never contain) a JAX tracer: a warm call passing
+#: them skips the PyTree walk (the common case costs a set lookup, not microseconds)
+CONCRETE_TYPES = frozenset({float, int, np.ndarray, np.float64})
+
+
 def reject_tracer(arg: str, value) -> None:
     """A JAX tracer where a concrete value is needed (``dt``, or an initial state given to
     a host-only entry point) is refused by name."""
+    if type(value) in CONCRETE_TYPES:
+        return
     if isinstance(value, jax.core.Tracer) or any(
         isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(value)
     ):
@@ -136,6 +143,16 @@ def reject_tracer(arg: str, value) -> None:
 
 
 def check_state(arg: str, value, n: int, coords: Sequence[str]) -> np.ndarray:
+    # The common case first: a float64 vector of the right length with a finite x·x
+    # (a NaN or an infinity makes it non-finite; a finite vector whose square overflows
+    # only sends the call to the full check below, which decides).
+    if (
+        type(value) is np.ndarray
+        and value.dtype == np.float64
+        and value.shape == (n,)
+        and math.isfinite(value @ value)
+    ):
+        return value
     reject_tracer(arg, value)
     try:
         arr = np.asarray(value, dtype=np.float64)
@@ -159,6 +176,8 @@ def check_state(arg: str, value, n: int, coords: Sequence[str]) -> np.ndarray:
 
 
 def check_positive_float(arg: str, value) -> float:
+    if type(value) is float and 0.0 < value < math.inf:  # the common case, as below
+        return value
     reject_tracer(arg, value)
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise ModelError(f"{arg}={_short(value)} must be a positive real number, e.g. {arg}=0.01.")
@@ -170,6 +189,8 @@ def check_positive_float(arg: str, value) -> float:
 
 def check_float(arg: str, value) -> float:
     """A finite real number (a time, say)."""
+    if type(value) is float and math.isfinite(value):  # the common case, as below
+        return value
     if isinstance(value, bool) or not isinstance(value, numbers.Real | np.ndarray | np.generic):
         raise ModelError(f"{arg}={_short(value)} must be a real number, e.g. {arg}=0.0.")
     try:
@@ -182,6 +203,8 @@ def check_float(arg: str, value) -> float:
 
 
 def check_positive_int(arg: str, value) -> int:
+    if type(value) is int and value > 0:  # the common case, as below (bool is not int)
+        return value
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or int(value) <= 0:
         raise ModelError(f"{arg}={_short(value)} must be a whole number ≥ 1, e.g. {arg}=1000.")
     return int(value)

@@ -1,0 +1,94 @@
+"""A warm ``simulate`` (plan cached, the quick consistency check, a whole run returned
+from one compiled chunk) checks exactly what a cold call checks, and returns what the
+general chunk-by-chunk march returns."""
+
+import pickle
+
+import numpy as np
+import pytest
+
+import diracvi as dv
+from diracvi import problems
+
+
+@pytest.fixture(scope="module")
+def chain():
+    problem = problems.get("spring-chain-torn")
+    # warm: the plan, its checker and the compiled chunk of this configuration exist
+    dv.simulate(problem.system, problem.q0, problem.p0, dt=0.01, steps=20)
+    return problem
+
+
+@pytest.mark.parametrize(
+    ("change", "needles"),
+    [
+        ({"q0": np.array([0.0, np.nan, 1.0, 2.0])}, ["q0", "not finite", "left.q2"]),
+        ({"p0": np.array([0.0, 0.0, np.inf, 3.0])}, ["p0", "not finite", "right.q2bar"]),
+        ({"q0": np.zeros(3)}, ["q0", "(3,)", "length 4"]),
+        ({"dt": -0.01}, ["dt=-0.01", "> 0"]),
+        ({"dt": np.inf}, ["dt=inf", "finite"]),
+        ({"steps": True}, ["steps=True", "whole number"]),
+        ({"steps": 0}, ["steps=0", "≥ 1"]),
+        ({"t0": np.nan}, ["t0=nan", "finite"]),
+        ({"save_every": 3}, ["save_every=3", "does not divide steps=20"]),
+    ],
+)
+def test_a_warm_call_still_rejects_bad_arguments(chain, change, needles):
+    args = {"q0": chain.q0, "p0": chain.p0, "dt": 0.01, "steps": 20, **change}
+    with pytest.raises(dv.ModelError) as info:
+        dv.simulate(chain.system, args.pop("q0"), args.pop("p0"), **args)
+    for needle in needles:
+        assert needle in str(info.value)
+
+
+@pytest.mark.parametrize("offset", [0.25, 1e-9])
+def test_a_warm_call_still_reports_joined_ports_apart(chain, offset):
+    q0 = chain.q0.copy()
+    q0[2] += offset  # right.q2bar no longer at left.q2
+    with pytest.warns(dv.InconsistentInitialDataWarning, match="joined ports differ"):
+        dv.simulate(chain.system, q0, chain.p0, dt=0.01, steps=20)
+    fixed = dv.simulate(chain.system, q0, chain.p0, dt=0.01, steps=20, project_initial=True)
+    assert fixed.q[0, 1] == fixed.q[0, 2]
+
+
+def test_a_warm_call_still_reports_momenta_a_degenerate_lagrangian_forbids(recwarn):
+    problem = problems.get("lc")
+    kwargs = {"dt": 0.01, "steps": 20, "discretization": "midpoint"}
+    dv.simulate(problem.system, problem.q0, problem.p0, **kwargs)
+    assert not [w for w in recwarn if issubclass(w.category, dv.InconsistentInitialDataWarning)]
+    p0 = problem.p0 + np.array([0.0, 1e-7, 0.0])
+    with pytest.warns(dv.InconsistentInitialDataWarning, match="momenta a degenerate"):
+        dv.simulate(problem.system, problem.q0, p0, **kwargs)
+
+
+def test_a_whole_run_returns_what_the_chunked_march_returns(chain, tmp_path):
+    """The direct path (one chunk, every step taken, fields unpacked on first access)
+    against the general march, which a checkpointed run takes."""
+    kwargs = {"dt": 0.01, "steps": 20, "save_every": 2}
+    fast = dv.simulate(chain.system, chain.q0, chain.p0, **kwargs)
+    march = dv.simulate(chain.system, chain.q0, chain.p0, checkpoint=tmp_path / "c.nc", **kwargs)
+    for name in (
+        "t",
+        "q",
+        "p",
+        "p_nodal",
+        "multipliers",
+        "energy",
+        "constraint_residual",
+        "constraint_violation",
+        "newton_iterations",
+        "step_index",
+    ):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(march, name), err_msg=name)
+    for a, b in zip(fast.final_state, march.final_state, strict=True):
+        np.testing.assert_array_equal(a, b)
+    assert (fast.solver, fast.status, fast.message, fast.steps) == (
+        march.solver,
+        march.status,
+        march.message,
+        march.steps,
+    )
+    copy = pickle.loads(pickle.dumps(dv.simulate(chain.system, chain.q0, chain.p0, **kwargs)))
+    np.testing.assert_array_equal(copy.multipliers, fast.multipliers)
+    with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
+        fast.nonsense  # noqa: B018
