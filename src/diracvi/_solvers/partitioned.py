@@ -70,6 +70,7 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
+from functools import partial
 from typing import NamedTuple
 
 import equinox as eqx
@@ -83,8 +84,12 @@ from .._equations import SCHEMES, new_momentum, ordered, residual
 from .._errors import ModelError
 from .._interconnect import InterconnectedSystem
 from .._validate import check_choice
+from . import _banded
+from ._sparsity import step_pattern
 from .base import StepResult, StepSolver, check_newton_options
 from .newton import chord_newton
+
+LOCAL_FACTORS = ("auto", "dense")
 
 
 class PartitionLayout(NamedTuple):
@@ -92,12 +97,16 @@ class PartitionLayout(NamedTuple):
 
     ``groups``: the subsystem names stepped together with one ``jax.vmap``;
     ``interface``: ``"tridiagonal"``, ``"dense"`` or ``"none"`` (no interaction rows);
-    ``interface_size``: the number of slot unknowns (two per row joining two subsystems).
+    ``interface_size``: the number of slot unknowns (two per row joining two subsystems);
+    ``local_factors``: per group, ``"banded(kl, ku)"`` (a banded LU of bandwidths
+    ``kl``, ``ku``) or ``"dense"`` (an explicit inverse), as ``local_factors="auto"``
+    picks them.
     """
 
     groups: tuple[tuple[str, ...], ...]
     interface: str
     interface_size: int
+    local_factors: tuple[str, ...] = ()
 
 
 # ----------------------------------------------------------------------------- checks
@@ -360,6 +369,52 @@ def _build_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
     )
 
 
+def _local_band(group: _Group, system, rule, scheme: str):
+    """``(kl, ku)`` of every member's ``K_i = J_i + G_i W H_i``, or ``None`` for dense.
+
+    ``J_i``'s pattern comes from :func:`~diracvi._solvers._sparsity.step_pattern`;
+    ``G_i W H_i = (s/h) B_iᵀ W B_i`` couples the columns one interface row touches: for
+    a connection within the group that is one column (a diagonal entry) per member and
+    row. A row of ``general_forms`` may touch any column, so its groups stay dense. The
+    band is used in the given order of the unknowns when it is narrow enough to pay
+    (:func:`~diracvi._solvers._banded.worth_it`).
+    """
+    if group.general[0].size:
+        return None
+    first = system.subsystems[int(group.members[0])]
+    key = (_structure_key(first), type(rule), rule.name, scheme)
+    pattern = step_pattern(first, rule, scheme, key).copy()
+    cols = group.ports[2]
+    pattern[cols, cols] = True
+    for cols in _port_cliques(group):
+        pattern[np.ix_(cols, cols)] = True
+    kl, ku = _banded.bandwidths(pattern)
+    return (kl, ku) if _banded.worth_it(group.n + group.m, kl, ku) else None
+
+
+def _port_cliques(group: _Group):
+    """The local columns of each (member, row) that touches more than one of them."""
+    k, r, c, _ = group.ports
+    if not k.size:
+        return []
+    which = k * max(group.rows_each, 1) + r
+    order = np.argsort(which, kind="stable")
+    which, c = which[order], c[order]
+    starts = np.flatnonzero(np.r_[True, which[1:] != which[:-1]])
+    ends = np.r_[starts[1:], which.size]
+    return [np.unique(c[a:b]) for a, b in zip(starts, ends, strict=True) if b - a > 1]
+
+
+def _aug_entries(group: _Group):
+    """The entries ``(a, b)`` of ``G_i W H_i`` (local columns) over the union of the
+    members' port columns: static tables."""
+    pairs = {(col, col) for col in group.ports[2].tolist()}
+    for cols in _port_cliques(group):
+        pairs.update((a, b) for a in cols.tolist() for b in cols.tolist())
+    pairs = np.array(sorted(pairs), dtype=np.int64).reshape(-1, 2)
+    return pairs[:, 0], pairs[:, 1]
+
+
 # ------------------------------------------------------------------------- numerics
 def _stack(plan: _Plan, system) -> tuple:
     """Each group's array leaves, stacked along a new leading axis (under the first
@@ -382,9 +437,10 @@ class _Step:
     """One step's operators over the plan: residual, factorization and linear solve on
     the stacked representation ``X = ((y_g for each group), λ)``."""
 
-    def __init__(self, plan: _Plan, eqs, stacked):
+    def __init__(self, plan: _Plan, eqs, stacked, bands):
         self.plan = plan
         self.eqs = eqs
+        self.bands = bands  # per group: (kl, ku) of banded local factors, or None
         system = eqs.system
         self.h = eqs.h
         self.stacks, self.index, self.q, self.p, self.blocks = [], [], [], [], []
@@ -445,6 +501,14 @@ class _Step:
 
         return rho
 
+    def _band_jacobian(self, index, arrays, q, p, y):
+        """One member's ``J_i`` as banded rows, from ``kl + ku + 1`` compressed JVPs."""
+        kl, ku = self.bands[index]
+        rho = self._local(index)
+        seeds = jnp.asarray(_banded.seeds(y.shape[0], kl, ku), dtype=y.dtype)
+        _, products = jax.vmap(lambda s: jax.jvp(lambda y: rho(arrays, q, p, y), (y,), (s,)))(seeds)
+        return _banded.from_products(products, kl, ku)
+
     def residual(self, ys, lam):
         """The step residual, per group ``ρ_i + G_i λ``, and the interface rows ``α_d``."""
         plan, out = self.plan, []
@@ -465,9 +529,11 @@ class _Step:
         jacs, scales = [], jnp.zeros(plan.subsystems, dtype=self.q[0].dtype)
         for index, (g, y) in enumerate(zip(plan.groups, ys, strict=True)):
             arrays, _ = self.stacks[index]
-            jac = jax.vmap(jax.jacfwd(self._local(index), argnums=3))(
-                arrays, self.q[index], self.p[index], y
-            )
+            args = (arrays, self.q[index], self.p[index], y)
+            if self.bands[index] is None:
+                jac = jax.vmap(jax.jacfwd(self._local(index), argnums=3))(*args)
+            else:  # banded rows R[i, d] = J[i, i − kl + d]: kl + ku + 1 JVPs per member
+                jac = jax.vmap(partial(self._band_jacobian, index))(*args)
             jacs.append(jac)
             # max|J_i| / max|G_i H_i|: the weight that makes G_i W H_i comparable to J_i
             bmax = jnp.max(jnp.abs(self.blocks[index]), axis=(1, 2), initial=0.0)
@@ -487,10 +553,20 @@ class _Step:
         for index, (g, jac) in enumerate(zip(plan.groups, jacs, strict=True)):
             block = self.blocks[index]
             weight = w[g.rows]
-            aug = plan.sign / h * jnp.einsum("krn,kr,krp->knp", block, weight, block)
-            # explicit inverses: see the module documentation
-            kinv = jnp.linalg.inv(jac.at[:, : g.n, : g.n].add(aug))
-            kinv_g = jnp.einsum("ksn,krn->ksr", kinv[:, :, : g.n], block)  # K⁻¹ G_i
+            if self.bands[index] is None:
+                aug = plan.sign / h * jnp.einsum("krn,kr,krp->knp", block, weight, block)
+                # explicit inverses: see the module documentation
+                kinv = jnp.linalg.inv(jac.at[:, : g.n, : g.n].add(aug))
+                kinv_g = jnp.einsum("ksn,krn->ksr", kinv[:, :, : g.n], block)  # K⁻¹ G_i
+            else:
+                kl, ku = self.bands[index]
+                a, b = _aug_entries(g)  # G_i W H_i's entries, all inside the band
+                aug = jnp.einsum("kre,kr,kre->ke", block[:, :, a], weight, block[:, :, b])
+                rows = jac.at[:, a, b - a + kl].add(plan.sign / h * aug)
+                kinv = jax.vmap(partial(_banded.lu, kl=kl, ku=ku))(rows)  # banded P K = L U
+                rhs = jnp.zeros((len(g.members), g.n + g.m, g.rows_each), dtype=block.dtype)
+                rhs = rhs.at[:, : g.n].set(jnp.swapaxes(block, 1, 2))
+                kinv_g = jax.vmap(partial(_banded.solve, kl=kl, ku=ku))(kinv, rhs)
             p_mat = plan.sign / h * jnp.einsum("krn,knc->krc", block, kinv_g[:, : g.n, :])
             pos, eq_row, k, r, c, coef = g.assembly
             if pos.size:
@@ -510,8 +586,11 @@ class _Step:
         plan, h = self.plan, self.h
         local, w, interface = factors
         base, z = [], jnp.zeros(plan.slots, dtype=w.dtype)
-        for g, (kinv, _, block), r in zip(plan.groups, local, rs, strict=True):
-            kinv_a = -jnp.einsum("kst,kt->ks", kinv, r)
+        for g, band, (kinv, _, block), r in zip(plan.groups, self.bands, local, rs, strict=True):
+            if band is None:
+                kinv_a = -jnp.einsum("kst,kt->ks", kinv, r)
+            else:
+                kinv_a = -jax.vmap(partial(_banded.solve, kl=band[0], ku=band[1]))(kinv, r)
             base.append(kinv_a)
             z = z.at[g.slots].set(plan.sign / h * jnp.einsum("krn,kn->kr", block, kinv_a[:, : g.n]))
         dys = []
@@ -547,7 +626,12 @@ class PartitionedSolver(StepSolver):
     structure are batched with ``jax.vmap``; a chain-like interface is solved as a
     tridiagonal system. See the module documentation for the method.
 
-    Args: as :class:`~diracvi.NewtonSolver` (same defaults, same meaning).
+    Args: as :class:`~diracvi.NewtonSolver` (same defaults, same meaning), and
+        local_factors: ``"auto"`` (default) factorizes a group's local matrices as banded
+            LU when their structure, read at plan time, has a narrow band (O(s·b²) work
+            and O(s·b) memory per member of s unknowns); ``"dense"`` keeps explicit
+            inverses for every group (O(s³) and O(s²)). Both give the same steps to
+            round-off.
     """
 
     rtol: float = eqx.field(static=True, default=1e-13)
@@ -555,9 +639,11 @@ class PartitionedSolver(StepSolver):
     floor: float = eqx.field(static=True, default=1e-9)
     reuse_jacobian: bool = eqx.field(static=True, default=True)
     contraction: float = eqx.field(static=True, default=0.25)
+    local_factors: str = eqx.field(static=True, default="auto")
 
     def __check_init__(self):
         check_newton_options(self)
+        check_choice("local_factors", self.local_factors, LOCAL_FACTORS)
 
     @staticmethod
     def check(system, rule="retraction", scheme: str = "plus") -> None:
@@ -572,13 +658,20 @@ class PartitionedSolver(StepSolver):
         plan = _build_plan(system, scheme)
         names = tuple(tuple(system.subsystems[int(i)].name for i in g.members) for g in plan.groups)
         kind = "none" if plan.slots == 0 else "tridiagonal" if plan.tridiagonal else "dense"
-        return PartitionLayout(names, kind, plan.slots)
+        rule = _as_rule(rule)
+        bands = (_local_band(g, system, rule, scheme) for g in plan.groups)
+        local = tuple("dense" if b is None else f"banded{b}" for b in bands)
+        return PartitionLayout(names, kind, plan.slots, local)
 
     def _prepare(self, eqs, state=None) -> _Step:
         check_partitionable(eqs.system, eqs.rule, eqs.scheme)
         plan = _build_plan(eqs.system, eqs.scheme)
         stacked = _stack(plan, eqs.system) if state is None else state[0]
-        return _Step(plan, eqs, stacked)
+        if self.local_factors == "dense":
+            bands = [None] * len(plan.groups)
+        else:
+            bands = [_local_band(g, eqs.system, eqs.rule, eqs.scheme) for g in plan.groups]
+        return _Step(plan, eqs, stacked, bands)
 
     def momentum(self, eqs, x, state=None):
         """``eqs.momentum(x)`` computed group by group: the same numbers, traced once per
