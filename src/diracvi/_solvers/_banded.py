@@ -74,7 +74,7 @@ def lu(rows, kl: int, ku: int):
     size = rows.shape[0]
     width = kl + ku + 1
     if kl == 0:  # nothing below the diagonal: A = U already
-        return rows, jnp.zeros((size, 0), rows.dtype), jnp.zeros(size, jnp.int32)
+        return rows, jnp.zeros((size, 0), rows.dtype), jnp.zeros(0, jnp.int32)
     padded = jnp.concatenate([rows, jnp.zeros((kl + 1, width), rows.dtype)])
     # the first window: rows 0 … kl, columns 0 … kl+ku (row t starts at column t − kl)
     first = jnp.stack(

@@ -58,6 +58,20 @@ inverses as one batched product many times faster than a batch of triangular sol
 they are applied at every iteration of every step while reused; the converged ``x`` is
 fixed by the residual test, not by them.
 
+**Banded local factors.** A group whose ``K_i`` has a narrow band in the given order of
+its unknowns — a chain piece: diagonal masses under the left-point rule, tridiagonal
+stiffness under the midpoint rule, and a connection only adds to the diagonal — is
+factorized as a banded LU with partial pivoting instead
+(``_solvers._banded``): the band is read once per group structure from
+``J_i``'s sparsity pattern (``_solvers._sparsity``), ``J_i`` is formed from
+``kl + ku + 1`` compressed JVPs instead of ``s`` and solves cost O(s·(2kl+ku)) instead
+of O(s²) per member, so a step is O(N) for pieces of any size. Pivoting keeps the
+multipliers ≤ 1 as in the dense LU; the two agree to round-off. Groups with a row of
+``general_forms`` (which may touch every column) or a wide band keep dense inverses
+(``local_factors="dense"`` forces them everywhere). A group whose members' unknowns lie
+side by side in ``x`` is read and written as a reshaped slice, and connections at the
+same local places of every member act through one small matrix: no N-sized index tables.
+
 The solver state is ``(stacked group parameters, factors, factors valid)``; ``init``
 stacks each group's parameters once per chunk, so inside the time loop a group is a few
 arrays, not one operand per subsystem.
@@ -241,8 +255,30 @@ def _slot_equations(slots_of_row):
     return cg, cs, cc
 
 
+#: plans by the system's PyTree structure (static fields included) and scheme: a plan
+#: depends on nothing else, and a traced step asks for it several times per trace
+_PLANS: dict = {}
+_PLANS_SIZE = 16
+
+
 def _build_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
-    """Index tables for one system (host side, at trace time: O(N + slots) work)."""
+    """Index tables for one system (host side, at trace time: O(N + slots) work, once
+    per structure)."""
+    try:
+        leaves, treedef = jax.tree.flatten(system)
+        shapes = tuple((jnp.shape(x), jnp.result_type(x)) if eqx.is_array(x) else x for x in leaves)
+        key = (treedef, shapes, scheme)
+        hit = _PLANS.get(key)
+    except TypeError:  # an unhashable static field: no caching
+        return _new_plan(system, scheme)
+    if hit is None:
+        hit = _PLANS[key] = _new_plan(system, scheme)
+        while len(_PLANS) > _PLANS_SIZE:
+            _PLANS.pop(next(iter(_PLANS)))
+    return hit
+
+
+def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
     subs = system.subsystems
     count = len(subs)
     n_total = system.n
@@ -372,12 +408,12 @@ def _build_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
 def _local_band(group: _Group, system, rule, scheme: str):
     """``(kl, ku)`` of every member's ``K_i = J_i + G_i W H_i``, or ``None`` for dense.
 
-    ``J_i``'s pattern comes from :func:`~diracvi._solvers._sparsity.step_pattern`;
+    ``J_i``'s pattern comes from ``_sparsity.step_pattern``;
     ``G_i W H_i = (s/h) B_iᵀ W B_i`` couples the columns one interface row touches: for
     a connection within the group that is one column (a diagonal entry) per member and
     row. A row of ``general_forms`` may touch any column, so its groups stay dense. The
     band is used in the given order of the unknowns when it is narrow enough to pay
-    (:func:`~diracvi._solvers._banded.worth_it`).
+    (``_banded.worth_it``).
     """
     if group.general[0].size:
         return None
@@ -415,6 +451,56 @@ def _aug_entries(group: _Group):
     return pairs[:, 0], pairs[:, 1]
 
 
+def _tile(group: _Group):
+    """``(first coordinate, first multiplier)`` if the members' unknowns lie side by
+    side in ``x`` (member k's coordinates at ``first + k n …``, its multipliers at
+    ``first_μ + k m …``), else ``None``."""
+    count, n, m = len(group.members), group.n, group.m
+    index = group.y_index
+    q_at, mu_at = int(index[0, 0]), int(index[0, n]) if m else 0
+    if not np.array_equal(index[:, :n], q_at + np.arange(count * n).reshape(count, n)):
+        return None
+    if m and not np.array_equal(index[:, n:], mu_at + np.arange(count * m).reshape(count, m)):
+        return None
+    return q_at, mu_at
+
+
+def _uniform_ports(group: _Group):
+    """The (rows × n) matrix ``E`` with ``B_i = E`` for every member, if only
+    connections touch the group and at the same local rows, columns and signs; else
+    ``None``."""
+    if group.general[0].size:
+        return None
+    count = len(group.members)
+    k, r, c, val = group.ports
+    if k.size % count:
+        return None
+    each = k.size // count
+    order = np.lexsort((c, r, k))
+    table = np.stack([r[order], c[order], val[order]], axis=1).reshape(count, each, 3)
+    if not (
+        np.array_equal(k[order], np.repeat(np.arange(count), each)) and (table == table[:1]).all()
+    ):
+        return None
+    e = np.zeros((group.rows_each, group.n))
+    e[table[0, :, 0].astype(np.int64), table[0, :, 1].astype(np.int64)] = table[0, :, 2]
+    return e
+
+
+def _concatenate_tiles(pieces, size: int):
+    """``x`` of length ``size`` from ``(start, values)`` pieces that tile it exactly, by one
+    concatenation (``None`` if they leave a gap or overlap)."""
+    pieces = sorted((p for p in pieces if p[1].shape[0]), key=lambda p: p[0])
+    at = 0
+    for start, values in pieces:
+        if start != at:
+            return None
+        at += values.shape[0]
+    if at != size:
+        return None
+    return jnp.concatenate([values for _, values in pieces])
+
+
 # ------------------------------------------------------------------------- numerics
 def _stack(plan: _Plan, system) -> tuple:
     """Each group's array leaves, stacked along a new leading axis (under the first
@@ -444,50 +530,120 @@ class _Step:
         system = eqs.system
         self.h = eqs.h
         self.stacks, self.index, self.q, self.p, self.blocks = [], [], [], [], []
+        self.tiles, self.uniform = [], []
         general = system.general_forms(eqs.q) if system.interactions else None
         for g, arrays in zip(plan.groups, stacked, strict=True):
             first = system.subsystems[int(g.members[0])]
             self.stacks.append((arrays, eqx.partition(first, eqx.is_array)[1]))
+            # a group whose members' unknowns lie side by side is a reshaped slice of x
+            # (no gather, no scatter, no N-sized index table in the program)
+            self.tiles.append(_tile(g))
             # one constant per table (not one per use): N-sized tables bloat the program
-            self.index.append(jnp.asarray(g.y_index))
-            qi = self.index[-1][:, : g.n]
-            self.q.append(eqs.q[qi])
-            self.p.append(eqs.p[qi])
-            # B restricted to each member's columns and rows, at the known configuration
+            self.index.append(None if self.tiles[-1] else jnp.asarray(g.y_index))
+            self.q.append(self._take(index=len(self.q), x=eqs.q, coords_only=True))
+            self.p.append(self._take(index=len(self.p), x=eqs.p, coords_only=True))
+            # B restricted to each member's columns and rows, at the known configuration:
+            # the same small (rows × n) matrix E for every member when only connections
+            # touch the group at the same local places, else one block per member
+            self.uniform.append(_uniform_ports(g))
+            if self.uniform[-1] is not None:
+                self.blocks.append(None)
+                continue
             block = jnp.zeros((len(g.members), g.rows_each, g.n), dtype=eqs.q.dtype)
             k, r, c, val = g.ports
             if k.size:
                 block = block.at[k, r, c].set(jnp.asarray(val))
             k, r, grow = g.general
             if k.size:
-                cols = self.index[-1][k, : g.n]
+                cols = jnp.asarray(g.y_index)[k, : g.n]
                 block = block.at[k, r].set(general[grow[:, None], cols])
             self.blocks.append(block)
 
+    def _take(self, index, x, coords_only=False):
+        """Group ``index``'s unknowns (or only its coordinates) of ``x``, (G, ·)."""
+        g, tile = self.plan.groups[index], self.tiles[index]
+        if tile is None:
+            table = self.index[index]
+            return x[table[:, : g.n]] if coords_only else x[table]
+        count = len(g.members)
+        q_at, mu_at = tile
+        q = x[q_at : q_at + count * g.n].reshape(count, g.n)
+        if coords_only or not g.m:
+            return q
+        return jnp.concatenate([q, x[mu_at : mu_at + count * g.m].reshape(count, g.m)], axis=1)
+
+    def block(self, index):
+        """``B_i`` of every member of group ``index``, (G, rows, n)."""
+        if self.blocks[index] is not None:
+            return self.blocks[index]
+        shape = (len(self.plan.groups[index].members), *self.uniform[index].shape)
+        return jnp.broadcast_to(jnp.asarray(self.uniform[index]), shape)
+
+    def spread(self, index, v, block=None):
+        """``B_iᵀ v`` for every member: (G, rows) → (G, n)."""
+        if block is None and self.uniform[index] is not None:
+            return v @ jnp.asarray(self.uniform[index])
+        block = self.blocks[index] if block is None else block
+        return jnp.einsum("krn,kr->kn", block, v)
+
+    def project_columns(self, index, u):
+        """``B_i U`` for every member: (G, n, c) → (G, rows, c)."""
+        if self.uniform[index] is not None:
+            return jnp.einsum("rn,knc->krc", jnp.asarray(self.uniform[index]), u)
+        return jnp.einsum("krn,knc->krc", self.blocks[index], u)
+
+    def project(self, index, u, block=None):
+        """``B_i u`` for every member: (G, n) → (G, rows)."""
+        if block is None and self.uniform[index] is not None:
+            return u @ jnp.asarray(self.uniform[index]).T
+        block = self.blocks[index] if block is None else block
+        return jnp.einsum("krn,kn->kr", block, u)
+
     # ---------------------------------------------------------------- layout
     def split(self, x):
-        ys = tuple(x[index] for index in self.index)
+        ys = tuple(self._take(i, x) for i in range(len(self.plan.groups)))
         return ys, x[self.plan.lam_start :]
 
     def join(self, ys, lam):
-        x = jnp.zeros(self.plan.size, dtype=lam.dtype)
-        for index, y in zip(self.index, ys, strict=True):
-            x = x.at[index].set(y)
-        return x.at[self.plan.lam_start :].set(lam)
+        plan = self.plan
+        pieces = [(plan.lam_start, lam)]
+        for g, tile, y in zip(plan.groups, self.tiles, ys, strict=True):
+            if tile is None:
+                break
+            pieces.append((tile[0], y[:, : g.n].ravel()))
+            if g.m:
+                pieces.append((tile[1], y[:, g.n :].ravel()))
+        else:
+            joined = _concatenate_tiles(pieces, plan.size)
+            if joined is not None:
+                return joined
+        x = jnp.zeros(plan.size, dtype=lam.dtype)
+        for index, y in enumerate(ys):
+            table = jnp.asarray(plan.groups[index].y_index)
+            x = x.at[table].set(y)
+        return x.at[plan.lam_start :].set(lam)
 
     # -------------------------------------------------------------- equations
     def momentum(self, ys):
         """The explicit line ``p_{k+1} = D₂L_d + f_d^+`` (or ``p_k``), group by group."""
         eqs, plan = self.eqs, self.plan
-        out = jnp.zeros(eqs.system.n, dtype=eqs.q.dtype)
-        for index, (g, y) in enumerate(zip(plan.groups, ys, strict=True)):
+        lines = []
+        for index, y in enumerate(ys):
             arrays, rest = self.stacks[index]
 
             def line(arrays, q, y, rest=rest):
                 sub = eqx.combine(arrays, rest)
                 return new_momentum(sub, eqs.rule, eqs.scheme, eqs.h, q, y, eqs.t)
 
-            out = out.at[self.index[index][:, : g.n]].set(jax.vmap(line)(arrays, self.q[index], y))
+            lines.append(jax.vmap(line)(arrays, self.q[index], y))
+        if all(tile is not None for tile in self.tiles):
+            pieces = [(tile[0], p.ravel()) for tile, p in zip(self.tiles, lines, strict=True)]
+            joined = _concatenate_tiles(pieces, eqs.system.n)
+            if joined is not None:
+                return joined
+        out = jnp.zeros(eqs.system.n, dtype=eqs.q.dtype)
+        for g, p in zip(plan.groups, lines, strict=True):
+            out = out.at[jnp.asarray(g.y_index)[:, : g.n]].set(p)
         return out
 
     def _local(self, index):
@@ -515,12 +671,10 @@ class _Step:
         alpha = jnp.zeros(plan.rows, dtype=lam.dtype)
         for index, (g, y) in enumerate(zip(plan.groups, ys, strict=True)):
             arrays, _ = self.stacks[index]
-            block = self.blocks[index]
             r = jax.vmap(self._local(index))(arrays, self.q[index], self.p[index], y)
-            force = jnp.einsum("krn,kr->kn", block, lam[g.rows])
-            out.append(r.at[:, : g.n].add(force))
+            out.append(r.at[:, : g.n].add(self.spread(index, lam[g.rows])))
             rate = plan.sign * (y[:, : g.n] - self.q[index]) / self.h
-            alpha = alpha.at[g.rows].add(jnp.einsum("krn,kn->kr", block, rate))
+            alpha = alpha.at[g.rows].add(self.project(index, rate))
         return tuple(out), alpha
 
     def factorize(self, ys):
@@ -536,7 +690,10 @@ class _Step:
                 jac = jax.vmap(partial(self._band_jacobian, index))(*args)
             jacs.append(jac)
             # max|J_i| / max|G_i H_i|: the weight that makes G_i W H_i comparable to J_i
-            bmax = jnp.max(jnp.abs(self.blocks[index]), axis=(1, 2), initial=0.0)
+            if self.uniform[index] is None:
+                bmax = jnp.max(jnp.abs(self.blocks[index]), axis=(1, 2), initial=0.0)
+            else:
+                bmax = jnp.full(len(g.members), np.abs(self.uniform[index]).max(initial=0.0))
             jmax = jnp.max(jnp.abs(jac), axis=(1, 2))
             tau = jnp.where(bmax > 0, jmax * h / jnp.where(bmax > 0, bmax, 1.0) ** 2, 0.0)
             scales = scales.at[g.members].set(tau)
@@ -551,7 +708,7 @@ class _Step:
         flat = flat.at[pos].add(jnp.asarray(val))
         local = []
         for index, (g, jac) in enumerate(zip(plan.groups, jacs, strict=True)):
-            block = self.blocks[index]
+            block = self.block(index)
             weight = w[g.rows]
             if self.bands[index] is None:
                 aug = plan.sign / h * jnp.einsum("krn,kr,krp->knp", block, weight, block)
@@ -567,11 +724,12 @@ class _Step:
                 rhs = jnp.zeros((len(g.members), g.n + g.m, g.rows_each), dtype=block.dtype)
                 rhs = rhs.at[:, : g.n].set(jnp.swapaxes(block, 1, 2))
                 kinv_g = jax.vmap(partial(_banded.solve, kl=kl, ku=ku))(kinv, rhs)
-            p_mat = plan.sign / h * jnp.einsum("krn,knc->krc", block, kinv_g[:, : g.n, :])
+            p_mat = plan.sign / h * self.project_columns(index, kinv_g[:, : g.n, :])
             pos, eq_row, k, r, c, coef = g.assembly
             if pos.size:
                 flat = flat.at[pos].add(jnp.asarray(coef) * w[eq_row] * p_mat[k, r, c])
-            local.append((kinv, kinv_g, block))
+            # B_i with the factors: a configuration-dependent one is kept as it was
+            local.append((kinv, kinv_g, self.blocks[index]))
         if plan.slots == 0:
             interface = ()
         elif plan.tridiagonal:
@@ -586,13 +744,14 @@ class _Step:
         plan, h = self.plan, self.h
         local, w, interface = factors
         base, z = [], jnp.zeros(plan.slots, dtype=w.dtype)
-        for g, band, (kinv, _, block), r in zip(plan.groups, self.bands, local, rs, strict=True):
+        for index, (g, (kinv, _, block), r) in enumerate(zip(plan.groups, local, rs, strict=True)):
+            band = self.bands[index]
             if band is None:
                 kinv_a = -jnp.einsum("kst,kt->ks", kinv, r)
             else:
                 kinv_a = -jax.vmap(partial(_banded.solve, kl=band[0], ku=band[1]))(kinv, r)
             base.append(kinv_a)
-            z = z.at[g.slots].set(plan.sign / h * jnp.einsum("krn,kn->kr", block, kinv_a[:, : g.n]))
+            z = z.at[g.slots].set(plan.sign / h * self.project(index, kinv_a[:, : g.n], block))
         dys = []
         if plan.slots:
             eq, slot, coef = plan.sigma_terms
@@ -607,10 +766,12 @@ class _Step:
         else:
             g_all = jnp.zeros(0, dtype=w.dtype)
         sigma = jnp.zeros(plan.slots, dtype=w.dtype)
-        for g, (_, kinv_g, block), kinv_a in zip(plan.groups, local, base, strict=True):
+        for index, (g, (_, kinv_g, block), kinv_a) in enumerate(
+            zip(plan.groups, local, base, strict=True)
+        ):
             dy = kinv_a - jnp.einsum("ksr,kr->ks", kinv_g, g_all[g.slots])
             dys.append(dy)
-            share = plan.sign / h * jnp.einsum("krn,kn->kr", block, dy[:, : g.n])
+            share = plan.sign / h * self.project(index, dy[:, : g.n], block)
             sigma = sigma.at[g.slots].set(share)
         first = plan.first_slot
         dlam = g_all[first] + w * sigma[first]
