@@ -325,3 +325,68 @@ def test_the_order_four_rule_is_refused_by_name_and_the_default_falls_back_to_ne
     big = problems.chain_torn(masses=200, pieces=100).system  # 299 + 99 unknowns
     assert isinstance(default_solver(big, get_rule("midpoint"), "plus"), dv.PartitionedSolver)
     assert isinstance(default_solver(big, get_rule("lobatto"), "plus"), dv.NewtonSolver)
+
+
+# ------------------------------------------------------------------ banded local factors
+@pytest.mark.parametrize(
+    ("kl", "ku"),
+    [(2, 1), (0, 2), *(pytest.param(*b, marks=pytest.mark.slow) for b in ((0, 0), (1, 1), (3, 0)))],
+)
+def test_banded_lu_with_pivoting_solves_like_numpy(rng, kl, ku):
+    from diracvi._solvers import _banded
+
+    size = 23
+    i, j = np.indices((size, size))
+    a = np.where((j - i <= ku) & (i - j <= kl), rng.normal(size=(size, size)), 0.0)
+    if kl and ku:  # zeros on the diagonal: elimination without row swaps would fail
+        a[np.arange(0, size, 3), np.arange(0, size, 3)] = 0.0
+    assert _banded.bandwidths(a != 0) == (kl, ku)
+
+    @jax.jit
+    def solve(products, b):
+        factors = _banded.lu(_banded.from_products(products, kl, ku), kl, ku)
+        return _banded.solve(factors, b, kl, ku)
+
+    b = rng.normal(size=(size, 3))
+    x = np.asarray(solve(jnp.asarray(_banded.seeds(size, kl, ku) @ a.T), jnp.asarray(b)))
+    np.testing.assert_allclose(x, np.linalg.solve(a, b), rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("discretization", "scheme", "band"),
+    [
+        ("midpoint", "plus", "(1, 1)"),
+        pytest.param("retraction", "minus", "(0, 0)", marks=pytest.mark.slow),
+    ],
+)
+def test_chain_pieces_get_banded_factors_and_the_same_step_as_dense(discretization, scheme, band):
+    problem = problems.chain_torn(40, 2)  # pieces of 20 and 21 unknowns
+    system, rule = problem.system, get_rule(discretization)
+    layout = dv.PartitionedSolver.layout(system, rule, scheme)
+    assert layout.local_factors == (f"banded{band}",) * 2
+    q0, p0 = jnp.asarray(problem.q0), jnp.asarray(problem.p0 + 0.3)
+    eqs = StepEquations(system, rule, scheme, jnp.asarray(0.05), q0, p0)
+    guess = jnp.concatenate([q0 + 0.01, jnp.zeros(system.m)])  # two Newton iterations
+
+    @eqx.filter_jit
+    def step(solver):
+        return solver.solve(eqs, guess, solver.init(eqs))
+
+    banded, dense = step(PARTITIONED), step(dv.PartitionedSolver(local_factors="dense"))
+    assert int(banded.status) == int(dense.status) == 0
+    assert relative(np.asarray(dense.x), np.asarray(banded.x)) <= 1e-13
+
+
+def test_a_piece_whose_step_jacobian_is_not_banded_keeps_dense_factors(rng):
+    # a full mass matrix couples every velocity: J_i is dense in any order
+    pieces = [
+        dv.LagrangeDiracSystem(tuple(f"q{i}" for i in range(12)), quadratic(rng, 12), name=f"p{k}")
+        for k in range(2)
+    ]
+    system = dv.interconnect(pieces, [dv.connect("p0.q11", "p1.q0")])
+    assert dv.PartitionedSolver.layout(system, "midpoint").local_factors == ("dense",)
+    # a diagonal mass and nearest-neighbour springs: banded in the given order
+    chain = problems.chain_torn(40, 2).system
+    assert dv.PartitionedSolver.layout(chain, "midpoint").local_factors[0] == "banded(1, 1)"
+    with pytest.raises(ValueError, match="local_factors"):
+        dv.PartitionedSolver(local_factors="sparse")

@@ -265,7 +265,9 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 
     With ``k = 1`` the chunk is one flat scan whose diagnostics are vectorized over the
     whole chunk (every step is saved anyway); with ``k > 1`` an outer scan over blocks
-    keeps only one record per block, so memory stays O(blocks) beyond one block.
+    keeps only one record per block, so memory stays O(blocks) beyond one block. A long
+    ``k = 1`` chunk of a large model that saves no states runs as blocks of one step
+    (:data:`FLAT_DIAGNOSTICS_VALUES`), so its memory stays O(n + steps).
     """
 
     run = stateful_chunk_runner(system, rule, scheme, method, k, save_states, blocks)
@@ -281,6 +283,12 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
         return carry, fail, saved
 
     return chunk
+
+
+#: without saved states, a chunk longer than this many (steps × n) values computes its
+#: diagnostics step by step inside the scan: vectorized over the chunk they would hold
+#: every step's state at once (8 GB for 10⁶ coordinates × 1000 steps)
+FLAT_DIAGNOSTICS_VALUES = 1 << 22
 
 
 def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
@@ -308,7 +316,7 @@ def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: boo
             fail = _first_failure(raw, checked, fail)
             return new, fail, raw, checked
 
-        if k == 1:
+        if k == 1 and (save_states or blocks * system.n <= FLAT_DIAGNOSTICS_VALUES):
             inner, fail, raw, checked = block(init, fail0, 0.0, blocks)
             return inner[:4], inner[4], fail, _saved_every_step(raw, checked, save_states)
 

@@ -1,12 +1,18 @@
 r"""Torn N-mass chain: time per step against N, and against a streaming-memory kernel.
 
-For each N (10² … 10⁶; up to 10³ with ``--quick``) the chain ``problems.chain_torn(N, M)``
-with ``M = max(2, N // 100)`` pieces is simulated warm with ``dv.simulate(...,
+For each N (10³ … 10⁶; 10² and 10³ with ``--quick``) the chain ``problems.chain_torn(N,
+M)`` with ``M = max(2, N // 100)`` pieces is simulated warm with ``dv.simulate(...,
 save_states=False)`` (the automatic solver choice; only energies and constraint
 violations are kept per step). The step count is calibrated from two short runs (10
 and 40 steps), which separate the fixed cost of a call from the cost per step, so that
 the stepping alone takes about ``RUN_TARGET`` (0.5 s; 0.05 s with ``--quick``). Time per
 step = min wall time of the whole call ÷ steps (the fixed cost included, and small).
+
+From ``END_TO_END_MIN`` masses (10⁶) a size is measured **end to end** instead, as a
+user meets it: in a fresh process with the on-disk compilation cache off, the wall time
+of building the problem plus the first ``simulate`` of ``END_TO_END_STEPS`` (1000)
+steps, compilation included (target ≤ 120 s), and the process's peak resident memory;
+time per step is then one warm repeat of that call ÷ 1000.
 
 The lower bound it is compared with is a *streaming kernel*: a jitted ``lax.scan`` of the
 same number of steps whose body is ``y ← a·y + b`` over V float64 values. V is the state
@@ -35,13 +41,16 @@ from ._core import Result, Row, Settings, Target, interleaved
 from ._worker import WorkerFailed, run_child
 
 NAME = "chain-scaling"
-DESCRIPTION = "torn N-mass chain, N = 10²…10⁶: time/step vs N and vs a streaming kernel"
+DESCRIPTION = "torn N-mass chain, N = 10³…10⁶: time/step vs N and vs a streaming kernel"
 
-SIZES = (10**2, 10**3, 10**4, 10**5, 10**6)
+SIZES = (10**3, 10**4, 10**5, 10**6)
 QUICK_SIZES = (10**2, 10**3)
 RUN_TARGET = {False: 0.5, True: 0.05}  # seconds per timed run
-TIMEOUT = {False: 300.0, True: 15.0}  # seconds per size, build and compile included
-BUDGET = {False: 600.0, True: 15.0}  # seconds for all sizes together
+TIMEOUT = {False: 600.0, True: 15.0}  # seconds per size, build and compile included
+BUDGET = {False: 1500.0, True: 15.0}  # seconds for all sizes together
+END_TO_END_MIN = 10**6
+END_TO_END_STEPS = 1000
+END_TO_END_TARGET = Target("<=", 120.0)
 CALIBRATION_STEPS = 10
 CALIBRATION_REPEATS = 3
 MAX_STEPS = 100_000
@@ -49,7 +58,7 @@ MAX_STEPS = 100_000
 FACTOR_KERNEL_BYTES = 1024**3
 MIN_TIMEOUT = 5.0  # a size is not started with less time than this left
 STREAM_TARGET = Target("<=", 5.0)
-EXPONENT_TARGET = Target("in", 0.9, 1.1)
+EXPONENT_TARGET = Target("<=", 1.1)
 
 
 def pieces(masses: int) -> int:
@@ -155,8 +164,59 @@ def measure(masses: int, run_target: float, repeats: int, factor_kernel: bool = 
     }
 
 
+def end_to_end(masses: int, steps: int = END_TO_END_STEPS) -> dict:
+    """Build + first ``simulate`` of ``steps`` steps (compilation included), then one warm
+    repeat of the same call; ``state_values`` as in :func:`measure`."""
+    t0 = time.perf_counter()
+    import diracvi as dv
+    from diracvi import problems
+
+    import_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    problem = problems.chain_torn(masses, pieces(masses))
+    build_s = time.perf_counter() - t0
+    system = problem.system
+
+    def simulate():
+        return dv.simulate(
+            system, problem.q0, problem.p0, dt=problem.dt, steps=steps, save_states=False
+        )
+
+    t0 = time.perf_counter()
+    traj = simulate()
+    first_call_s = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    simulate()
+    warm_s = time.perf_counter() - t0
+    state_values = 2 * system.n
+    stream = stream_kernel(state_values, steps)
+    stream()  # compile
+    stream_s = float(interleaved({"stream": stream}, 3)["stream"].min())
+    return {
+        "N": masses,
+        "M": pieces(masses),
+        "n": system.n,
+        "m": system.m,
+        "steps": steps,
+        "import_s": import_s,
+        "build_s": build_s,
+        "first_call_s": first_call_s,
+        "end_to_end_s": build_s + first_call_s,
+        "success": bool(traj.success),
+        "solver": traj.solver,
+        "state_values": state_values,
+        "factor_values": 0,
+        "min_s": {"diracvi": warm_s, "stream_state": stream_s},
+        "median_s": {"diracvi": warm_s, "stream_state": stream_s},
+        "repeats": 1,
+    }
+
+
 def _worker_main() -> None:
     masses, run_target, repeats = int(sys.argv[1]), float(sys.argv[2]), int(sys.argv[3])
+    if masses >= END_TO_END_MIN:
+        print(json.dumps(end_to_end(masses)))
+        return
     print(json.dumps(measure(masses, run_target, repeats, factor_kernel=sys.argv[4] == "1")))
 
 
@@ -176,6 +236,22 @@ def _not_run(masses: int, what: str, why) -> Row:
         STREAM_TARGET,
         notes=f"not run: {why}",
         status="not run",
+    )
+
+
+def _end_to_end_row(m: dict) -> Row:
+    peak = m["peak_rss_bytes"] / 1024**3
+    return Row(
+        NAME,
+        f"{_label(m['N'], m['steps'])}: end to end (build + compile + steps), fresh process",
+        m["end_to_end_s"],
+        None,
+        m["end_to_end_s"],
+        END_TO_END_TARGET,
+        solver=m["solver"],
+        notes=f"build {m['build_s']:.1f} s, first simulate {m['first_call_s']:.1f} s (compile "
+        f"included), import {m['import_s']:.1f} s not counted; peak memory {peak:.2f} GB; "
+        f"ratio = seconds" + ("" if m["success"] else "; the run FAILED"),
     )
 
 
@@ -202,6 +278,8 @@ def run(settings: Settings) -> Result:
             rows.append(_not_run(masses, what, exc))
             continue
         measured.append(m)
+        if "end_to_end_s" in m:
+            rows.append(_end_to_end_row(m))
         per_step = {name: t / m["steps"] for name, t in m["min_s"].items()}
         m["per_step_s"] = per_step
         notes = f"2n = {m['state_values']:,} values; min of {m['repeats']}"
