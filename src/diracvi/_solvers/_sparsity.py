@@ -67,7 +67,15 @@ def step_pattern(sub, rule, scheme: str, key) -> np.ndarray:
         # compiled ahead of time and run on concrete numbers, also while the caller is
         # being traced under jit (evaluated op by op it would take seconds)
         compiled = compiled or jax.jit(jac).lower(*args).compile()
-        values = np.asarray(compiled(*args))
+        try:
+            values = np.asarray(compiled(*args))
+        except TypeError as exc:
+            if "compiled for" not in str(exc):
+                raise
+            # The model's functions close over values being traced (a closure over a
+            # parameter under jax.grad): the program has inputs no concrete call can
+            # supply. Every entry then counts, and the group keeps dense factors.
+            return np.ones((size, size), dtype=bool)
         pattern |= (values != 0) | ~np.isfinite(values)
     _CACHE[key] = pattern
     while len(_CACHE) > _CACHE_SIZE:
