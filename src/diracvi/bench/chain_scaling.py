@@ -147,11 +147,7 @@ def measure(masses: int, run_target: float, repeats: int, factor_kernel: bool = 
         calls["stream_factors"] = stream_kernel(factors, steps)
     times = interleaved(calls, repeats)
     return {
-        "N": masses,
-        "M": pieces(masses),
-        "n": system.n,
-        "m": system.m,
-        "steps": steps,
+        **_sizes(masses, system, steps),
         "build_s": build_s,
         "first_call_s": first_call_s,
         "calibration": {"fixed_s": fixed, "per_step_s": per_step},
@@ -162,6 +158,11 @@ def measure(masses: int, run_target: float, repeats: int, factor_kernel: bool = 
         "median_s": {name: float(np.median(t)) for name, t in times.items()},
         "repeats": repeats,
     }
+
+
+def _sizes(masses: int, system, steps: int) -> dict:
+    """The size columns every row of the details carries."""
+    return {"N": masses, "M": pieces(masses), "n": system.n, "m": system.m, "steps": steps}
 
 
 def end_to_end(masses: int, steps: int = END_TO_END_STEPS) -> dict:
@@ -193,11 +194,7 @@ def end_to_end(masses: int, steps: int = END_TO_END_STEPS) -> dict:
     stream()  # compile
     stream_s = float(interleaved({"stream": stream}, 3)["stream"].min())
     return {
-        "N": masses,
-        "M": pieces(masses),
-        "n": system.n,
-        "m": system.m,
-        "steps": steps,
+        **_sizes(masses, system, steps),
         "import_s": import_s,
         "build_s": build_s,
         "first_call_s": first_call_s,
