@@ -153,26 +153,11 @@ class March:
         )
 
 
-def whole_run(plan, run, q0, p0, t0, layout, flat) -> Trajectory:
-    """The trajectory of a run whose one chunk took every step: what :class:`March`
-    builds in that case. Times, states and energies are made here; the rest stays in the
-    packed output until read (see :class:`_Unpacked`)."""
+def run_fields(plan, run) -> dict:
+    """The attributes of a whole run's :class:`Trajectory` that depend on the
+    configuration only (made once per configuration by the warm-call path)."""
     scheme, discretization, h, steps, k, shape = run
-    rows = flat[: layout.rows_end].reshape(layout.blocks, layout.width)
-    cols = layout.columns
-    index = np.arange(0, steps + 1, k)
-    sign = 1.0 if scheme == "plus" else -1.0
-    q = p = None
-    if "q" in cols:
-        q = np.concatenate((q0[None], rows[:, cols["q"]]))
-        p = np.concatenate((p0[None], rows[:, cols["p"]]))
-    return Trajectory._of_run(
-        _Unpacked(layout, flat, p0),
-        t=t0 + sign * h * index,
-        q=q,
-        p=p,
-        energy=rows[:, cols["energy"]].copy(),
-        step_index=index,
+    return dict(
         save_every=k,
         coords=shape.coords,
         constraint_names=shape.constraint_names,
@@ -187,6 +172,14 @@ def whole_run(plan, run, q0, p0, t0, layout, flat) -> Trajectory:
     )
 
 
+def whole_run(fields: dict, run, t0, layout, flat, x) -> Trajectory:
+    """The trajectory of a run whose one chunk took every step: what :class:`March`
+    builds in that case, every array left in the packed output ``flat`` (and the initial
+    state in the chunk's input ``x``, a private copy) until it is read (see
+    :class:`_Unpacked`). ``fields``: :func:`run_fields`."""
+    return Trajectory._of_run(_Unpacked(layout, flat, x, t0, run), fields)
+
+
 #: a Trajectory attribute → its name in a chunk's saved outputs
 _SAVED_AS = {
     "multipliers": "mu",
@@ -197,11 +190,16 @@ _SAVED_AS = {
 
 
 class _Unpacked:
-    """The fields of a whole run's :class:`Trajectory` that most callers never read,
-    made from the packed chunk output on first access (as :class:`March` makes them)."""
+    """The arrays of a whole run's :class:`Trajectory`, made from the packed chunk output
+    on first access (as :class:`March` makes them): a warm call builds none of them."""
 
     names = frozenset(
         (
+            "t",
+            "q",
+            "p",
+            "energy",
+            "step_index",
             "final_state",
             "multipliers",
             "constraint_residual",
@@ -210,14 +208,36 @@ class _Unpacked:
             "_p_nodal",
         )
     )
-    __slots__ = ("_flat", "_layout", "_p0", "_parts")
+    __slots__ = ("_flat", "_layout", "_parts", "_run", "_t0", "_x")
 
-    def __init__(self, layout, flat, p0):
-        self._layout, self._flat, self._p0, self._parts = layout, flat, p0, None
+    def __init__(self, layout, flat, x, t0, run):
+        self._layout, self._flat, self._x, self._t0, self._run = layout, flat, x, t0, run
+        self._parts = None
+
+    def _initial(self, which: int):
+        """``q0`` (0) or ``p0`` (1) from the chunk's input ``(h, t0, index, q, p, …)``."""
+        n = self._layout.n
+        return self._x[3 + which * n : 3 + (which + 1) * n]
 
     def __call__(self, name: str):
+        layout, run = self._layout, self._run
+        if name in ("t", "step_index"):
+            index = np.arange(0, run.steps + 1, run.save_every)
+            if name == "step_index":
+                return index
+            sign = 1.0 if run.scheme == "plus" else -1.0
+            return self._t0 + sign * run.h * index
+        if name == "energy":
+            rows = self._flat[: layout.rows_end].reshape(layout.blocks, layout.width)
+            return rows[:, layout.columns["energy"]].copy()
+        if name in ("q", "p"):
+            col = layout.columns.get(name)
+            if col is None:  # a run without saved states
+                return None
+            rows = self._flat[: layout.rows_end].reshape(layout.blocks, layout.width)
+            return np.concatenate((self._initial(name == "p")[None], rows[:, col]))
         if self._parts is None:
-            self._parts = self._layout.unpack(self._flat)
+            self._parts = layout.unpack(self._flat)
         carry, _, saved = self._parts
         if name == "final_state":
             return carry
@@ -226,4 +246,4 @@ class _Unpacked:
         value = saved.get(_SAVED_AS[name])
         if value is None or name != "_p_nodal":
             return None if value is None else value.copy()
-        return np.concatenate((self._p0[None], value))  # the given p0 is the nodal one
+        return np.concatenate((self._initial(1)[None], value))  # the given p0 is the nodal one

@@ -9,6 +9,8 @@ carry, so everything computed before it is returned intact.
 
 from __future__ import annotations
 
+import math
+import weakref
 from pathlib import Path
 from typing import NamedTuple
 
@@ -21,7 +23,7 @@ from ._discretize import RULES, get_rule
 from ._equations import SCHEMES
 from ._errors import ModelError, StepFailure
 from ._plan import Layout, get_plan, layout
-from ._record import March, whole_run
+from ._record import March, run_fields, whole_run
 from ._solvers import StepSolver
 from ._solvers.affine import AffineSolver
 from ._stepping import AFFINE_REJECTED
@@ -104,6 +106,19 @@ def simulate(
     ``throw=True`` makes a failed step a runtime error (``equinox.error_if``),
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
+    key = None
+    if checkpoint is None and solver is None:
+        # a warm call of a configuration that ran whole before (see _WarmRun)
+        key = (id(system), type(dt), dt, type(steps), steps, scheme, discretization)
+        key += (type(save_every), save_every, type(save_states), save_states, adjoint)
+        try:
+            warm = _WARM.get(key)
+        except TypeError:  # an unhashable argument: the full path says what is wrong
+            warm = key = None
+        if warm is not None:
+            traj = warm(system, q0, p0, t0)
+            if traj is not None:
+                return traj
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
     run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
     # the system's own leaves are looked at once per system (its layout), not per call;
@@ -139,9 +154,13 @@ def simulate(
         affine = plan.step_map is not None
         chunk = plan.chunk(affine, k, save_states, steps // k)
         carry = (q0, p0, q0, np.zeros(shape.m))
-        flat = chunk.run(chunk.flat_input(h, (t0, 0.0), carry))
+        x = chunk.flat_input(h, (t0, 0.0), carry)
+        flat = chunk.run(x)
         if flat[chunk.layout.code] == 0:
-            return whole_run(plan, run, q0, p0, t0, chunk.layout, flat)
+            fields = run_fields(plan, run)
+            if key is not None:
+                _remember(key, system, plan, run, chunk, fields)
+            return whole_run(fields, run, t0, chunk.layout, flat, x)
         first = affine, chunk.layout.unpack(flat)
     traj = _march(
         plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
@@ -149,6 +168,97 @@ def simulate(
     if traj.status and throw:
         raise StepFailure(traj.message, traj)
     return traj
+
+
+class _WarmRun:
+    """A warm call's whole path, for one configuration that ran whole before.
+
+    Everything that depends only on the configuration — the system, scheme, rule, dt,
+    steps and saving were accepted, the plan was analysed, the compiled chunk exists, the
+    Trajectory's names and labels are known — was settled by that first call; left per
+    call are the checks of the values passed now: ``q0``, ``p0`` float64 vectors of the
+    right length, finite and consistent (one precomputed product, see
+    :meth:`~diracvi._consistency.Checker.input_check`), ``t0`` a finite float, float64
+    on and no transformation active. Anything else (another type, a non-finite or
+    inconsistent state, a step that failed or left the affine map) returns ``None``,
+    and ``simulate`` takes its full path, which raises and warns as always.
+
+    The plan is held weakly: once it leaves the plan cache this path is dead too.
+    """
+
+    __slots__ = (
+        "_check",
+        "_code",
+        "_dynamic",
+        "_fields",
+        "_fn",
+        "_head",
+        "_layout",
+        "_offset",
+        "_plan",
+        "_run",
+        "_shape",
+        "_system",
+        "_zeros",
+    )
+
+    def __init__(self, system, plan, run, chunk, fields, check):
+        self._system, self._plan = weakref.ref(system), weakref.ref(plan)
+        self._fn, self._dynamic, self._layout = chunk._fn, chunk._dynamic, chunk.layout
+        self._head = np.array([run.h, 0.0, 0.0])  # (h, t0, index of the first step)
+        self._zeros = np.zeros(run.shape.m)  # μ of the step before the first
+        self._shape = (run.shape.n,)
+        self._check, self._offset = check
+        self._code = chunk.layout.code
+        self._fields, self._run = fields, run
+
+    def __call__(self, system, q0, p0, t0):
+        if self._system() is not system or self._plan() is None:
+            return None
+        ensure_float64()
+        if type(t0) is not float or not math.isfinite(t0) or is_traced():
+            return None
+        shape, f64 = self._shape, np.float64
+        if not (
+            type(q0) is np.ndarray
+            and type(p0) is np.ndarray
+            and q0.dtype == f64
+            and p0.dtype == f64
+            and q0.shape == shape
+            and p0.shape == shape
+        ):
+            return None
+        x = np.concatenate((self._head, q0, p0, q0, self._zeros))
+        x[1] = t0
+        # a NaN or an infinity makes x·x non-finite (without a floating-point warning)
+        if not math.isfinite(x @ x):
+            return None
+        r = self._check @ x
+        if self._offset is not None:
+            r -= self._offset
+        if not r @ r <= 1.0:  # the full check decides (and warns)
+            return None
+        flat = np.asarray(self._fn(self._dynamic, x))
+        if flat[self._code] != 0:
+            return None
+        return whole_run(self._fields, self._run, t0, self._layout, flat, x)
+
+
+#: warm-call paths by (system id, the call's configuration); see _WarmRun
+_WARM: dict = {}
+_WARM_LIMIT = 64
+
+
+def _remember(key, system, plan, run, chunk, fields) -> None:
+    """Keep the warm path of a whole run that took every step under ``key`` (the call's
+    arguments as given). Linear models only: their consistency check is one product;
+    others keep the full check every call."""
+    check = plan.checker.input_check(3, 3 + 3 * run.shape.n + run.shape.m)
+    if check is None or run.shape.traced:
+        return
+    if len(_WARM) >= _WARM_LIMIT:
+        _WARM.clear()
+    _WARM[key] = _WarmRun(system, plan, run, chunk, fields, check)
 
 
 def _march(

@@ -167,10 +167,10 @@ class Trajectory:
         return self
 
     @classmethod
-    def _of_run(cls, lazy, **fields) -> Trajectory:
-        """A trajectory of a host run, built from arrays of the right dtypes as they are
-        (no conversions). ``lazy(name)`` makes each attribute in ``lazy.names`` on first
-        access: a warm call does not pay for the diagnostics a user never reads."""
+    def _of_run(cls, lazy, fields: dict) -> Trajectory:
+        """A trajectory of a host run: the attributes ``fields`` as they are (no
+        conversions), and ``lazy(name)`` makes each attribute in ``lazy.names`` on first
+        access: a warm call does not pay for the arrays a user never reads."""
         self = object.__new__(cls)
         self.__dict__.update(fields)
         self._lazy = lazy

@@ -79,6 +79,56 @@ class AffineSolver(eqx.Module):
                 )
 
 
+class ReducedMap(eqx.Module):
+    r"""The step map on the subspace a run's increments lie in: ``z_k = z_1 + T y_k``.
+
+    Every increment after the first step, ``d_k = z_{k+1} − z_k = Δ z_k + b``, lies in
+    ``V = range(Δ Φ) + span(Δ b + b)`` (``Φ = I + Δ``: ``d_k = ΔΦ z_{k−1} + Δb + b``), and
+    ``V`` is invariant under ``Δ`` (``Φ`` commutes with ``Δ``). With ``T`` an orthonormal
+    basis of ``V`` (``r = dim V``) the states from the first step on are
+    ``z_k = z_1 + T y_k``, ``y_1 = 0``, exactly: the directions a torn model carries
+    beyond its hand-built reduced model never move along a run (the velocity constraints
+    ``A v = 0`` keep ``A q`` fixed, a massless port's momentum stays 0), so they are left
+    out of the recursion. ``r = 6`` for the torn chain (``2n = 8``), as for the 3-mass
+    hand-built chain.
+
+    With the ``B``-step maps ``z_{s+j} = z_s + P_j z_s + c_j`` of :class:`AffineStepMap`
+    and ``z_s = z_1 + T y_s`` at every block start ``s = 1 + iB``::
+
+        z_{s+j} = (z_1 + P_j z_1 + c_j) + (T + P_j T) y_s,      j = 1..B
+        y_{s+B} = (I + Tᵀ P_B T) y_s + Tᵀ (P_B z_1 + c_B)
+
+    The first bracket is the first block of the run (the full map applied to ``z_1``
+    once); the block starts follow from ``k/B`` sequential ``r × r`` products; then every
+    state of the run is one batched product of the starts with the lifts ``T + P_j T``
+    (formed in extended precision). Each block start is a rounding of its exact value, so
+    the error grows with the number of blocks, not of steps.
+    """
+
+    basis: jax.Array  # T (2n, r)
+    lifts: jax.Array  # (B, 2n, r): T + P_j T
+
+    def states(self, step_map, z0, k: int):
+        """``z_1 … z_k`` from ``z0`` (shape (k, 2n)); ``k ≥ 2``."""
+        z1 = z0 + (step_map.delta @ z0 + step_map.offset)
+        width = min(self.lifts.shape[0], k - 1)  # static: no block longer than the run
+        lifts = self.lifts[:width]
+        first = z1 + (step_map.powers[:width] @ z1 + step_map.power_offsets[:width])
+        final = self.basis.T @ lifts[-1]  # I + Tᵀ P_B T
+        step = self.basis.T @ (first[-1] - z1)
+        blocks = -(-(k - 1) // width)
+
+        def advance(y, _):
+            return final @ y + step, y
+
+        _, starts = jax.lax.scan(
+            advance, jnp.zeros_like(step), None, length=blocks, unroll=min(blocks, 8)
+        )
+        # (blocks, B, 2n): every state of every block in one product
+        zs = jnp.einsum("sr,jnr->sjn", starts, lifts) + first
+        return jnp.concatenate([z1[None], zs.reshape(-1, z0.shape[0])[: k - 1]])
+
+
 class AffineStepMap(eqx.Module):
     """``(q_other, p_other) = (q, p) + Δ (q, p) + b`` and ``μ = C (q, p) + c``.
 
@@ -97,6 +147,8 @@ class AffineStepMap(eqx.Module):
     momentum_x: jax.Array  # P_x, for the offsets of a driven model
     verify_rtol: float = eqx.field(static=True)
     driven: bool = eqx.field(static=True, default=False)
+    #: the map on the run's invariant subspace (:class:`ReducedMap`), when it is smaller
+    reduced: ReducedMap | None = None
 
     def advance(self, z):
         """One step of ``z = (q, p)``, in increments."""
@@ -230,12 +282,17 @@ def _refined_solve(a, factors, b):
     return x + sla.lu_solve(factors, resid, check_finite=False)
 
 
+def _block_count(size: int) -> int:
+    """``B``: the stack of ``B`` maps of ``size × size`` holds about 2¹⁸ numbers."""
+    return int(np.clip(2**18 // max(size * size, 1), 1, 64))
+
+
 def _block_maps(delta, offset):
     """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
     precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
     ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
     size = delta.shape[0]
-    count = int(np.clip(2**18 // max(size * size, 1), 1, 64))
+    count = _block_count(size)
     wide = np.longdouble
     d1, b1 = delta.astype(wide), offset.astype(wide)
     d, b = d1.copy(), b1.copy()
@@ -249,6 +306,52 @@ def _block_maps(delta, offset):
 
 #: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
 _REFINE_LIMIT = 400
+
+#: singular values of the increments ``[ΔΦ, Δb + b]`` above this (relative to the largest)
+#: span ``V``; at most :data:`_NULL_RTOL` counts as zero (round-off of a structural zero).
+#: A value in between is neither clearly a direction nor clearly none: no reduction then.
+_RANK_RTOL = 1e-10
+_NULL_RTOL = 1e-14
+
+
+def _reduction(delta, offset) -> dict | None:
+    """The arrays of a :class:`ReducedMap`, or ``None`` when ``dim V = dim z`` (nothing
+    to reduce) or the rank of the increments is ambiguous.
+
+    ``T`` is the leading left singular vectors of ``[ΔΦ, Δb + b]`` (formed in extended
+    precision); it is accepted only with a clear gap in the singular values and when
+    ``Δ T`` stays in its span to round-off (the invariance the recursion relies on)."""
+    size = delta.shape[0]
+    wide = np.longdouble
+    d, b = delta.astype(wide), offset.astype(wide)
+    cols = np.concatenate([d + d @ d, (d @ b + b)[:, None]], axis=1).astype(np.float64)
+    u, sv, _ = np.linalg.svd(cols)
+    top = sv[0] if sv.size else 0.0
+    if not top > 0.0:
+        return None  # the state never moves: nothing worth a second path
+    rank = int(np.sum(sv > _RANK_RTOL * top))
+    if rank >= size or np.any((sv > _NULL_RTOL * top) & (sv <= _RANK_RTOL * top)):
+        return None
+    basis = u[:, :rank]
+    # Coordinates whose increments are the same (joined ports, a series branch's charges)
+    # or nil (a massless port's momentum) must stay so to the bit: an SVD's rows differ
+    # by round-off, which the reconstruction z₁ + T y would turn into constraint
+    # residuals of order ε|z|/h on a long run. Their rows of T are made identical (zero).
+    _, first, group = np.unique(cols, axis=0, return_index=True, return_inverse=True)
+    basis = basis[first[group.ravel()]]
+    basis[~np.any(cols, axis=1)] = 0.0
+    scale = max(float(np.max(np.abs(delta))), 1e-300)
+    moved = delta @ basis
+    if np.max(np.abs(moved - basis @ (basis.T @ moved)), initial=0.0) > 1e3 * _NULL_RTOL * scale:
+        return None
+    # the lifts T + P_j T from the B-step maps, in extended precision (as _block_maps)
+    t = basis.astype(wide)
+    count = _block_count(size)
+    lifts, pj = [], np.zeros((size, size), dtype=wide)
+    for _ in range(count):
+        pj = pj + d + d @ pj
+        lifts.append(t + pj @ t)
+    return dict(basis=basis, lifts=np.stack(lifts).astype(np.float64))
 
 
 def build(
@@ -325,5 +428,12 @@ def build(
             momentum_x=p_x,
         )
     )
-    step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
+    # A driven model's offsets b(t_k) need not lie in one subspace, and a staged rule's
+    # stage constraints are formed from the states (their residuals grew to 1e-11 on
+    # the DC motor): both keep the full map.
+    parts = None if driven or rule.stages else _reduction(delta, offset)
+    reduced = None if parts is None else ReducedMap(**jax.device_put(parts))
+    step_map = AffineStepMap(
+        **arrays, verify_rtol=solver.verify_rtol, driven=driven, reduced=reduced
+    )
     return step_map, "affine", first
