@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import problems
+from diracvi import _simulate, problems
 
 
 @pytest.fixture(scope="module")
@@ -92,3 +92,32 @@ def test_a_whole_run_returns_what_the_chunked_march_returns(chain, tmp_path):
     np.testing.assert_array_equal(copy.multipliers, fast.multipliers)
     with pytest.raises(AttributeError, match="no attribute 'nonsense'"):
         fast.nonsense  # noqa: B018
+
+
+def test_a_warm_call_takes_the_configurations_path_and_returns_the_same_run(chain, monkeypatch):
+    """The second call of a configuration skips the configuration's checks and plan
+    (they would raise here) and returns, bitwise, what the first call returned; the
+    trajectory keeps its own copy of the initial state."""
+    kwargs = {"dt": 0.01, "steps": 20, "save_every": 4}
+    first = dv.simulate(chain.system, chain.q0, chain.p0, **kwargs)
+
+    def refused(*args, **kw):
+        raise AssertionError("the configuration was checked again")
+
+    monkeypatch.setattr(_simulate, "check_run", refused)
+    q0, p0 = chain.q0.copy(), chain.p0.copy()
+    warm = dv.simulate(chain.system, q0, p0, **kwargs)
+    q0[:] = 99.0  # the caller's arrays change after the call
+    p0[:] = 99.0
+    for name in ("t", "q", "p", "p_nodal", "multipliers", "energy", "constraint_residual"):
+        np.testing.assert_array_equal(getattr(warm, name), getattr(first, name), err_msg=name)
+    assert (warm.solver, warm.status, warm.steps, warm.coords) == (
+        first.solver,
+        first.status,
+        first.steps,
+        first.coords,
+    )
+    # another t0 is a value of the call, not of the configuration
+    later = dv.simulate(chain.system, chain.q0, chain.p0, t0=2.5, **kwargs)
+    np.testing.assert_array_equal(later.t, first.t + 2.5)
+    np.testing.assert_array_equal(later.q, first.q)
