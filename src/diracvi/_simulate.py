@@ -230,7 +230,10 @@ class _WarmRun:
             return None
         x = np.concatenate((self._head, q0, p0, q0, self._zeros))
         x[1] = t0
-        # a NaN or an infinity makes x·x non-finite (without a floating-point warning)
+        # The run is dispatched first and checked while it runs (dispatch is
+        # asynchronous); its result is used only if the data pass. A NaN or an infinity
+        # makes x·x non-finite (without a floating-point warning).
+        out = self._fn(self._dynamic, x)
         if not math.isfinite(x @ x):
             return None
         r = self._check @ x
@@ -238,7 +241,7 @@ class _WarmRun:
             r -= self._offset
         if not r @ r <= 1.0:  # the full check decides (and warns)
             return None
-        flat = np.asarray(self._fn(self._dynamic, x))
+        flat = np.asarray(out)
         if flat[self._code] != 0:
             return None
         return whole_run(self._fields, self._run, t0, self._layout, flat, x)

@@ -102,18 +102,23 @@ class ReducedMap(eqx.Module):
     once); the block starts follow from ``k/B`` sequential ``r × r`` products; then every
     state of the run is one batched product of the starts with the lifts ``T + P_j T``
     (formed in extended precision). Each block start is a rounding of its exact value, so
-    the error grows with the number of blocks, not of steps.
+    the error grows with the number of blocks, not of steps. Where ``V`` is all of the
+    state space (a model without port variables, e.g. the hand-built chain) ``T = I``:
+    the same two levels without a reduction, which spares the loop of ``k/B`` block
+    iterations the one-level scan pays (several microseconds each on a CPU).
     """
 
     basis: jax.Array  # T (2n, r)
     lifts: jax.Array  # (B, 2n, r): T + P_j T
+    maps: jax.Array  # (B, 2n, 2n): P_j
+    offsets: jax.Array  # (B, 2n): c_j
 
     def states(self, step_map, z0, k: int):
         """``z_1 … z_k`` from ``z0`` (shape (k, 2n)); ``k ≥ 2``."""
         z1 = z0 + (step_map.delta @ z0 + step_map.offset)
         width = min(self.lifts.shape[0], k - 1)  # static: no block longer than the run
         lifts = self.lifts[:width]
-        first = z1 + (step_map.powers[:width] @ z1 + step_map.power_offsets[:width])
+        first = z1 + (self.maps[:width] @ z1 + self.offsets[:width])
         final = self.basis.T @ lifts[-1]  # I + Tᵀ P_B T
         step = self.basis.T @ (first[-1] - z1)
         blocks = -(-(k - 1) // width)
@@ -121,12 +126,16 @@ class ReducedMap(eqx.Module):
         def advance(y, _):
             return final @ y + step, y
 
-        _, starts = jax.lax.scan(
-            advance, jnp.zeros_like(step), None, length=blocks, unroll=min(blocks, 8)
-        )
+        # a few block starts are unrolled: a loop iteration costs microseconds on a CPU
+        unroll = True if blocks <= _UNROLL_BLOCKS else 8
+        _, starts = jax.lax.scan(advance, jnp.zeros_like(step), None, length=blocks, unroll=unroll)
         # (blocks, B, 2n): every state of every block in one product
         zs = jnp.einsum("sr,jnr->sjn", starts, lifts) + first
         return jnp.concatenate([z1[None], zs.reshape(-1, z0.shape[0])[: k - 1]])
+
+
+#: runs of at most this many blocks compute their block starts without a loop
+_UNROLL_BLOCKS = 16
 
 
 class AffineStepMap(eqx.Module):
@@ -147,7 +156,8 @@ class AffineStepMap(eqx.Module):
     momentum_x: jax.Array  # P_x, for the offsets of a driven model
     verify_rtol: float = eqx.field(static=True)
     driven: bool = eqx.field(static=True, default=False)
-    #: the map on the run's invariant subspace (:class:`ReducedMap`), when it is smaller
+    #: the two-level map on the run's invariant subspace (:class:`ReducedMap`; ``T = I``
+    #: if there is none smaller); ``None`` for a driven model or a staged rule
     reduced: ReducedMap | None = None
 
     def advance(self, z):
@@ -314,24 +324,49 @@ _RANK_RTOL = 1e-10
 _NULL_RTOL = 1e-14
 
 
-def _reduction(delta, offset) -> dict | None:
-    """The arrays of a :class:`ReducedMap`, or ``None`` when ``dim V = dim z`` (nothing
-    to reduce) or the rank of the increments is ambiguous.
+def _reduction(delta, offset) -> dict:
+    """The arrays of a :class:`ReducedMap`.
 
     ``T`` is the leading left singular vectors of ``[ΔΦ, Δb + b]`` (formed in extended
-    precision); it is accepted only with a clear gap in the singular values and when
-    ``Δ T`` stays in its span to round-off (the invariance the recursion relies on)."""
+    precision), taken only with a clear gap in the singular values and when ``Δ T``
+    stays in its span to round-off (the invariance the recursion relies on); otherwise,
+    and when ``dim V = dim z``, ``T = I``: the same two-level evaluation of the full
+    block maps, without a reduction."""
     size = delta.shape[0]
     wide = np.longdouble
     d, b = delta.astype(wide), offset.astype(wide)
     cols = np.concatenate([d + d @ d, (d @ b + b)[:, None]], axis=1).astype(np.float64)
+    basis = _invariant_basis(delta, cols)
+    # the B-step maps P_j, c_j and the lifts T + P_j T, in extended precision
+    rank = basis.shape[1]
+    count = int(np.clip(2**18 // max(size * (size + rank), 1), 1, 256))
+    t = basis.astype(wide)
+    lifts, maps, offsets = [], [], []
+    pj, cj = np.zeros((size, size), dtype=wide), np.zeros(size, dtype=wide)
+    for _ in range(count):
+        pj, cj = pj + d + d @ pj, cj + d @ cj + b
+        lifts.append(t + pj @ t)
+        maps.append(pj)
+        offsets.append(cj)
+    return dict(
+        basis=basis,
+        lifts=np.stack(lifts).astype(np.float64),
+        maps=np.stack(maps).astype(np.float64),
+        offsets=np.stack(offsets).astype(np.float64),
+    )
+
+
+def _invariant_basis(delta, cols) -> np.ndarray:
+    """An orthonormal basis ``T`` of ``V = range(cols)`` (see :func:`_reduction`)."""
+    size = delta.shape[0]
+    identity = np.eye(size)
     u, sv, _ = np.linalg.svd(cols)
     top = sv[0] if sv.size else 0.0
     if not top > 0.0:
-        return None  # the state never moves: nothing worth a second path
+        return identity  # the state never moves
     rank = int(np.sum(sv > _RANK_RTOL * top))
     if rank >= size or np.any((sv > _NULL_RTOL * top) & (sv <= _RANK_RTOL * top)):
-        return None
+        return identity
     basis = u[:, :rank]
     # Coordinates whose increments are the same (joined ports, a series branch's charges)
     # or nil (a massless port's momentum) must stay so to the bit: an SVD's rows differ
@@ -343,15 +378,8 @@ def _reduction(delta, offset) -> dict | None:
     scale = max(float(np.max(np.abs(delta))), 1e-300)
     moved = delta @ basis
     if np.max(np.abs(moved - basis @ (basis.T @ moved)), initial=0.0) > 1e3 * _NULL_RTOL * scale:
-        return None
-    # the lifts T + P_j T from the B-step maps, in extended precision (as _block_maps)
-    t = basis.astype(wide)
-    count = _block_count(size)
-    lifts, pj = [], np.zeros((size, size), dtype=wide)
-    for _ in range(count):
-        pj = pj + d + d @ pj
-        lifts.append(t + pj @ t)
-    return dict(basis=basis, lifts=np.stack(lifts).astype(np.float64))
+        return identity
+    return basis
 
 
 def build(
@@ -431,8 +459,9 @@ def build(
     # A driven model's offsets b(t_k) need not lie in one subspace, and a staged rule's
     # stage constraints are formed from the states (their residuals grew to 1e-11 on
     # the DC motor): both keep the full map.
-    parts = None if driven or rule.stages else _reduction(delta, offset)
-    reduced = None if parts is None else ReducedMap(**jax.device_put(parts))
+    reduced = (
+        None if driven or rule.stages else ReducedMap(**jax.device_put(_reduction(delta, offset)))
+    )
     step_map = AffineStepMap(
         **arrays, verify_rtol=solver.verify_rtol, driven=driven, reduced=reduced
     )
