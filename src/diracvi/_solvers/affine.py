@@ -317,6 +317,9 @@ def _block_maps(delta, offset):
 #: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
 _REFINE_LIMIT = 400
 
+#: the two-level map (:class:`ReducedMap`) is built for states z of at most this size
+_REDUCE_LIMIT = 256
+
 #: singular values of the increments ``[ΔΦ, Δb + b]`` above this (relative to the largest)
 #: span ``V``; at most :data:`_NULL_RTOL` counts as zero (round-off of a structural zero).
 #: A value in between is neither clearly a direction nor clearly none: no reduction then.
@@ -458,10 +461,11 @@ def build(
     )
     # A driven model's offsets b(t_k) need not lie in one subspace, and a staged rule's
     # stage constraints are formed from the states (their residuals grew to 1e-11 on
-    # the DC motor): both keep the full map.
-    reduced = (
-        None if driven or rule.stages else ReducedMap(**jax.device_put(_reduction(delta, offset)))
-    )
+    # the DC motor): both keep the one-level map, as do large models (the SVD and the
+    # extended-precision products below are O(size³) in slow generic loops).
+    reduced = None
+    if not (driven or rule.stages) and delta.shape[0] <= _REDUCE_LIMIT:
+        reduced = ReducedMap(**jax.device_put(_reduction(delta, offset)))
     step_map = AffineStepMap(
         **arrays, verify_rtol=solver.verify_rtol, driven=driven, reduced=reduced
     )
