@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._compile import chunk_jit
 from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split, stage_of
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
@@ -396,20 +397,20 @@ class CompiledChunk:
                 carry = (x[3 : 3 + n], x[3 + n : 3 + 2 * n], x[3 + 2 * n : 3 + 3 * n])
                 return packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
 
-            self._fn = jax.jit(flat)
+            self._fn = chunk_jit(flat)
         elif isinstance(method, AffineStepMap):
             # Each affine run is already vectorized over its steps; batching members
             # only multiplies the size of every intermediate (memory-bound), so the
             # members run one after another inside the one compiled call (measured 3.5×
             # faster than vmap at 10³ members of the torn chain).
-            self._fn = jax.jit(
+            self._fn = chunk_jit(
                 lambda dynamic, h, clock, carry: jax.lax.map(
                     lambda c: packed(dynamic, h, clock, c), carry
                 )
             )
         else:
             # Newton's many tiny operations per step amortize well over a batch.
-            self._fn = jax.jit(jax.vmap(packed, in_axes=(None, None, None, 0)))
+            self._fn = chunk_jit(jax.vmap(packed, in_axes=(None, None, None, 0)))
 
     @staticmethod
     def flat_input(h, clock, carry) -> np.ndarray:

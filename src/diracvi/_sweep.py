@@ -47,6 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._compile import RUN_ONCE_OPTIONS, chunk_jit
 from ._config import ensure_float64
 from ._consistency import Checker, InconsistentInitialDataWarning
 from ._discretize import get_rule
@@ -311,7 +312,7 @@ def _program(static, rule, scheme, solver, k: int, blocks: int):
     return _cached(
         "chunk",
         (static, rule.name, scheme, repr(solver), k, blocks),
-        lambda: jax.jit(jax.vmap(member, in_axes=(0, None, None, 0))),
+        lambda: chunk_jit(jax.vmap(member, in_axes=(0, None, None, 0))),
     )
 
 
@@ -347,7 +348,9 @@ def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
             x0 = first_guess(system, rule, q, q, jnp.zeros(system.m))
             return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q, p, x, tk))(x0)
 
-        return jax.jit(jax.vmap(one, in_axes=(0, 0, 0, None, None)))
+        return jax.jit(
+            jax.vmap(one, in_axes=(0, 0, 0, None, None)), compiler_options=RUN_ONCE_OPTIONS
+        )
 
     fn = _cached("jacobian", (static, rule.name, scheme), make)
     return np.asarray(fn(dynamic, q0, p0, np.float64(h), np.float64(t0)))
@@ -379,7 +382,7 @@ def _legendre_batch(static, t0, dynamic, q0):
             w = jax.hessian(system.lagrangian, argnums=1)(q, zero, t0)
             return g, w, system.constraint_forms(q, t0)
 
-        return jax.jit(jax.vmap(one, in_axes=(0, 0, None)))
+        return jax.jit(jax.vmap(one, in_axes=(0, 0, None)), compiler_options=RUN_ONCE_OPTIONS)
 
     fn = _cached("legendre", (static,), make)
     return [np.asarray(a) for a in fn(dynamic, q0, np.float64(t0))]
