@@ -52,9 +52,16 @@ def relative(a, b) -> float:
     return float(np.max(np.abs(a - b), initial=0.0) / max(1.0, np.max(np.abs(a), initial=0.0)))
 
 
-@pytest.mark.parametrize("max_runs", [_stacked.MAX_RUNS, 2])  # slices, then index tables
-@pytest.mark.parametrize("rule_name", ["retraction", "midpoint"])
-def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, max_runs, rule_name):
+@pytest.mark.parametrize(
+    ("rule_name", "max_runs"),
+    [
+        ("retraction", 2),  # blocks read and written through index tables
+        ("midpoint", _stacked.MAX_RUNS),  # one slice per run
+        pytest.param("retraction", _stacked.MAX_RUNS, marks=pytest.mark.slow),
+        pytest.param("midpoint", 2, marks=pytest.mark.slow),
+    ],
+)
+def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, rule_name, max_runs):
     monkeypatch.setattr(_stacked, "MAX_RUNS", max_runs)
     system = two_kinds()
     packed = system.packed()
@@ -87,9 +94,13 @@ def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, max_runs, rule_n
     for i in (0, 3, len(system.subsystems) - 1):  # a member in full, with its own name
         full = packed.subsystem(i)
         assert full.name == system.subsystems[i].name
-        assert relative(full.energy(q[: full.n], v[: full.n]), system.subsystems[i].energy(
-            q[: full.n], v[: full.n]
-        )) == 0.0
+        assert (
+            relative(
+                full.energy(q[: full.n], v[: full.n]),
+                system.subsystems[i].energy(q[: full.n], v[: full.n]),
+            )
+            == 0.0
+        )
 
 
 def _simulate(system, packed: bool, monkeypatch, **kwargs):
@@ -103,7 +114,7 @@ def _simulate(system, packed: bool, monkeypatch, **kwargs):
         plan_module.clear_cache()
 
 
-@pytest.mark.parametrize("model", ["chain", "kinds"])
+@pytest.mark.parametrize("model", [pytest.param("chain", marks=pytest.mark.slow), "kinds"])
 def test_packed_trajectory_matches_unpacked(monkeypatch, model):
     if model == "chain":
         problem = problems.chain_torn(40, 8)
