@@ -465,6 +465,11 @@ def _uniform_ports(group: _Group):
     return e
 
 
+#: from this many unknowns on, ``x`` is assembled by in-place updates, not a concatenation
+#: (below it a concatenation is faster: 2.1 against 3.6 ms per step at 10⁴)
+CONCATENATE_MAX = 1 << 16
+
+
 def _concatenate_tiles(pieces, size: int):
     """``x`` of length ``size`` from ``(start, values)`` pieces that tile it exactly, by one
     concatenation (``None`` if they leave a gap or overlap)."""
@@ -476,7 +481,16 @@ def _concatenate_tiles(pieces, size: int):
         at += values.shape[0]
     if at != size:
         return None
-    return jnp.concatenate([values for _, values in pieces])
+    if size < CONCATENATE_MAX:
+        return jnp.concatenate([values for _, values in pieces])
+    # Large: written piece by piece into one buffer. XLA fuses a concatenation into each
+    # of its consumers (the finiteness checks, the slices of the next step) and the
+    # fused loops cost 2–5× a step at 10⁵ unknowns (measured: 155 → 66 ms per step, the
+    # same bits); in-place updates are written once.
+    out = jnp.zeros(size, dtype=pieces[0][1].dtype)
+    for start, values in pieces:
+        out = jax.lax.dynamic_update_slice(out, values, (start,))
+    return out
 
 
 # ------------------------------------------------------------------------- numerics
