@@ -64,7 +64,7 @@ def relative(a, b) -> float:
 def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, rule_name, max_runs):
     monkeypatch.setattr(_stacked, "MAX_RUNS", max_runs)
     system = two_kinds()
-    packed = system.packed()
+    packed = system._packed()
     assert len(packed._packing.stacks) == 4  # wall piece, 3-mass, 4-mass, constrained
     assert packed._packing.tables.sliced == (max_runs > 2)
     rule = get_rule(rule_name)
@@ -92,7 +92,7 @@ def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, rule_name, max_r
     assert packed.coords == system.coords
     assert (packed.time_dependent, packed.has_force) == (system.time_dependent, system.has_force)
     for i in (0, 3, len(system.subsystems) - 1):  # a member in full, with its own name
-        full = packed.subsystem(i)
+        full = packed._member(i)
         assert full.name == system.subsystems[i].name
         assert (
             relative(
@@ -137,7 +137,7 @@ def _chunk_program(pieces: int):
     ``pieces`` pieces of 5 masses (its arrays as inputs, as ``CompiledChunk`` passes
     them when they are too large to bake in)."""
     problem = problems.chain_torn(5 * pieces, pieces)
-    packed = problem.system.packed()
+    packed = problem.system._packed()
     rule = get_rule("retraction")
     dynamic, static = eqx.partition(packed, eqx.is_array)
 

@@ -151,7 +151,7 @@ class InterconnectedSystem(DiracSystem):
     # every row name (subsystems' own, prefixed, then the interaction rows): read per
     # trace many times over (``system.m``), so formed once
     _all_constraint_names: tuple[str, ...] = eqx.field(static=True)
-    # set only on the copy :meth:`packed` makes: alike subsystems' parameters stacked
+    # set only on the copy :meth:`_packed` makes: alike subsystems' parameters stacked
     _packing: Packing | None
 
     def __init__(self, subsystems, interactions, name=None):
@@ -248,12 +248,12 @@ class InterconnectedSystem(DiracSystem):
         return shape[0]
 
     # -------------------------------------------------------------- packing
-    def packed(self) -> InterconnectedSystem:
+    def _packed(self) -> InterconnectedSystem:
         """The same interconnection with alike subsystems' parameters stacked once per
         group (:mod:`diracvi._stacked`): every per-subsystem term is then one ``jax.vmap``
         per group, so a compiled step takes a few arrays per kind of subsystem and its
         size does not grow with their number. Its ``subsystems`` are placeholders
-        (names, sizes and flags only); :meth:`subsystem` gives one in full."""
+        (names, sizes and flags only); :meth:`_member` gives one in full."""
         if self._packing is not None:
             return self
         skeletons, packing = pack(self.subsystems)
@@ -264,8 +264,8 @@ class InterconnectedSystem(DiracSystem):
         object.__setattr__(out, "_packing", packing)
         return out
 
-    def subsystem(self, i: int) -> DiracSystem:
-        """Subsystem ``i`` with its parameters (also of a :meth:`packed` system)."""
+    def _member(self, i: int) -> DiracSystem:
+        """Subsystem ``i`` with its parameters (also of a :meth:`_packed` system)."""
         if self._packing is None:
             return self.subsystems[i]
         return self._packing.member(i)

@@ -193,7 +193,7 @@ class Plan:
     @property
     def stepped_system(self):
         """The system the compiled chunks step: an interconnection of many subsystems
-        :meth:`~diracvi.InterconnectedSystem.packed` (alike subsystems' parameters
+        packed (``InterconnectedSystem._packed``: alike subsystems' parameters
         stacked once per plan, so the program takes a few arrays per kind of subsystem,
         not a few per subsystem), any other system as it is."""
         if self._packed is None:
@@ -203,7 +203,7 @@ class Plan:
                 and len(system.subsystems) >= GROUPED_MIN_SUBSYSTEMS
                 and not layout(system).traced
             ):
-                system = system.packed()
+                system = system._packed()
             self._packed = system
         return self._packed
 

@@ -395,7 +395,7 @@ def _local_band(group: _Group, system, rule, scheme: str):
     """
     if group.general[0].size:
         return None
-    first = system.subsystem(int(group.members[0]))  # in full, also when packed
+    first = system._member(int(group.members[0]))  # in full, also when packed
     key = (_structure_key(first), type(rule), rule.name, scheme)
     pattern = step_pattern(first, rule, scheme, key).copy()
     cols = group.ports[2]
@@ -500,7 +500,7 @@ def _stack(plan: _Plan, system) -> tuple:
 
     Done once per chunk, in ``init``, and carried in the solver state: stacked inside the
     time loop, every subsystem's leaves would be separate operands of every step. A
-    :meth:`~diracvi.InterconnectedSystem.packed` system holds them stacked already: a
+    packed system (``InterconnectedSystem._packed``) holds them stacked already: a
     group is then a slice of its stacks (no per-subsystem operand at all).
     """
     if system._packing is not None:
