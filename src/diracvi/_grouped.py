@@ -3,7 +3,7 @@ r"""Per-step diagnostics of an interconnection, evaluated group by group.
 ``E = Σ_i E^i(q̄_i, v_i)`` and the stacked ``ω^i_{d±}`` written as a Python sum over
 subsystems trace once per subsystem: a chain torn into 10⁴ pieces would compile 10⁴
 copies. Subsystems that are alike (the same PyTree structure and leaf shapes — see
-:func:`~diracvi._solvers.partitioned._structure_key`) are instead stacked once and
+:func:`~diracvi._stacked.structure_key`) are instead stacked once and
 evaluated with one ``jax.vmap``, exactly as the partitioned solver steps them.
 """
 
@@ -15,7 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ._interconnect import InterconnectedSystem
-from ._solvers.partitioned import _structure_key
+from ._stacked import structure_key as _structure_key
 
 #: below this many subsystems the plain per-subsystem sum traces quickly enough
 GROUPED_MIN_SUBSYSTEMS = 8
@@ -36,6 +36,8 @@ def step_diagnostics(system, rule, scheme: str, h):
     ``Q`` holds the internal stages of a staged rule (``None`` otherwise)."""
     subs = getattr(system, "subsystems", ())
     if not isinstance(system, InterconnectedSystem) or len(subs) < GROUPED_MIN_SUBSYSTEMS:
+        return _plain(system, rule, scheme, h)
+    if system._packing is not None:  # its own sums are vmapped group by group already
         return _plain(system, rule, scheme, h)
     offsets = np.cumsum([0] + [s.n for s in subs])
     own = np.cumsum([0] + [s.m for s in subs])

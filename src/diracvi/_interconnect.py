@@ -17,6 +17,7 @@ can be checked to round-off.
 
 from __future__ import annotations
 
+import dataclasses
 from collections import Counter
 from collections.abc import Callable, Sequence
 
@@ -27,7 +28,8 @@ import numpy as np
 
 from ._config import ensure_float64
 from ._errors import ModelError
-from ._system import DiracSystem, LagrangeDiracSystem, with_row_order
+from ._stacked import Packing, pack
+from ._system import DiracSystem, LagrangeDiracSystem, StaticTuple, with_row_order
 from ._validate import check_forms_array, check_name, eval_shape
 
 
@@ -86,7 +88,8 @@ def connect(a: str, b: str, name: str | None = None) -> Connection:
 
 
 def _prefixed(system: DiracSystem, names: Sequence[str]) -> tuple[str, ...]:
-    return tuple(f"{system.name}.{n}" for n in names)
+    prefix = system.name + "."  # once: an attribute of a Module costs a microsecond
+    return tuple(prefix + n for n in names)
 
 
 def _index_of(subsystems, full: str, where: str, index: dict[str, int]) -> int:
@@ -145,6 +148,11 @@ class InterconnectedSystem(DiracSystem):
     _form_rows: tuple[tuple[int, int], ...] = eqx.field(static=True)
     # the subsystems each interaction row involves (every one, for a callable B(q))
     _row_subsystems: tuple[tuple[int, ...], ...] = eqx.field(static=True)
+    # every row name (subsystems' own, prefixed, then the interaction rows): read per
+    # trace many times over (``system.m``), so formed once
+    _all_constraint_names: tuple[str, ...] = eqx.field(static=True)
+    # set only on the copy :meth:`_packed` makes: alike subsystems' parameters stacked
+    _packing: Packing | None
 
     def __init__(self, subsystems, interactions, name=None):
         ensure_float64()
@@ -171,11 +179,12 @@ class InterconnectedSystem(DiracSystem):
                 "a distinct name=... (coordinates are addressed as 'name.coordinate')."
             )
         self.subsystems = subsystems
+        self._packing = None
         offsets = [0]
         for sub in subsystems:
             offsets.append(offsets[-1] + sub.n)
-        self._offsets = tuple(offsets)
-        self._coords = tuple(c for sub in subsystems for c in _prefixed(sub, sub.coords))
+        self._offsets = StaticTuple(offsets)
+        self._coords = StaticTuple(c for sub in subsystems for c in _prefixed(sub, sub.coords))
         if isinstance(interactions, Interaction | Connection) or not isinstance(
             interactions, Sequence
         ):
@@ -215,11 +224,13 @@ class InterconnectedSystem(DiracSystem):
             inames.extend(given)
             general.append(inter)
         self.interactions = tuple(general)
-        self._interaction_names = tuple(inames)
-        self._port_index = tuple(ports)
-        self._port_rows = tuple(port_rows)
-        self._form_rows = tuple(form_rows)
-        self._row_subsystems = tuple(involved)
+        self._interaction_names = StaticTuple(inames)
+        self._port_index = StaticTuple(ports)
+        self._port_rows = StaticTuple(port_rows)
+        self._form_rows = StaticTuple(form_rows)
+        self._row_subsystems = StaticTuple(involved)
+        own = (c for sub in subsystems for c in _prefixed(sub, sub.constraint_names))
+        self._all_constraint_names = StaticTuple((*own, *inames))
 
     # ----------------------------------------------------------- construction
     def _rows(self, inter: Interaction, j: int) -> int:
@@ -236,6 +247,49 @@ class InterconnectedSystem(DiracSystem):
             )
         return shape[0]
 
+    # -------------------------------------------------------------- packing
+    def _packed(self) -> InterconnectedSystem:
+        """The same interconnection with alike subsystems' parameters stacked once per
+        group (:mod:`diracvi._stacked`): every per-subsystem term is then one ``jax.vmap``
+        per group, so a compiled step takes a few arrays per kind of subsystem and its
+        size does not grow with their number. Its ``subsystems`` are placeholders
+        (names, sizes and flags only); :meth:`_member` gives one in full."""
+        if self._packing is not None:
+            return self
+        skeletons, packing = pack(self.subsystems)
+        out = object.__new__(type(self))
+        for f in dataclasses.fields(self):
+            object.__setattr__(out, f.name, getattr(self, f.name))
+        object.__setattr__(out, "subsystems", skeletons)
+        object.__setattr__(out, "_packing", packing)
+        return out
+
+    def _member(self, i: int) -> DiracSystem:
+        """Subsystem ``i`` with its parameters (also of a :meth:`_packed` system)."""
+        if self._packing is None:
+            return self.subsystems[i]
+        return self._packing.member(i)
+
+    def _members(self) -> tuple[DiracSystem, ...]:
+        """Every subsystem in full (a packed system slices each out of its stacks: used
+        only by the dense, O(n²) forms, never inside the time loop)."""
+        if self._packing is None:
+            return self.subsystems
+        return tuple(self._packing.member(i) for i in range(len(self.subsystems)))
+
+    def _kinds(self) -> tuple[DiracSystem, ...]:
+        """One subsystem per group of a packed system (alike members share every flag),
+        every subsystem otherwise."""
+        if self._packing is None:
+            return self.subsystems
+        return tuple(self.subsystems[int(m[0])] for m in self._packing.tables.members)
+
+    def _per_group(self, fn, *vectors):
+        """``fn(subsystem, *blocks)`` for every subsystem, vmapped group by group;
+        ``vectors`` are ``(x, kind)`` pairs of global vectors and their block kind."""
+        pk = self._packing
+        return pk.map(fn, *(pk.split(x, kind) for x, kind in vectors))
+
     # ------------------------------------------------------------- protocol
     @property
     def coords(self) -> tuple[str, ...]:
@@ -243,8 +297,7 @@ class InterconnectedSystem(DiracSystem):
 
     @property
     def constraint_names(self) -> tuple[str, ...]:
-        own = tuple(c for sub in self.subsystems for c in _prefixed(sub, sub.constraint_names))
-        return own + self._interaction_names
+        return self._all_constraint_names
 
     @property
     def interaction_names(self) -> tuple[str, ...]:
@@ -267,18 +320,21 @@ class InterconnectedSystem(DiracSystem):
 
     @property
     def time_dependent(self) -> bool:
-        return any(s.time_dependent for s in self.subsystems)
+        return any(s.time_dependent for s in self._kinds())
 
     @property
     def affine_constraints(self) -> bool:
-        return any(s.affine_constraints for s in self.subsystems)
+        return any(s.affine_constraints for s in self._kinds())
 
     @property
     def constraints_time_dependent(self) -> bool:
-        return any(s.constraints_time_dependent for s in self.subsystems)
+        return any(s.constraints_time_dependent for s in self._kinds())
 
     def lagrangian(self, q, v, t=0.0):
         r"""``L = Σ_i L^i(q_i, v_i, t)``."""
+        if self._packing is not None:
+            parts = self._per_group(lambda s, a, b: s.lagrangian(a, b, t), (q, "n"), (v, "n"))
+            return sum(jnp.sum(e) for e in parts)
         return sum(
             sub.lagrangian(qi, vi, t)
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
@@ -286,6 +342,9 @@ class InterconnectedSystem(DiracSystem):
 
     def force(self, q, v, t=0.0):
         r"""``F = Σ_i π_{Q_i}^* F_i``: each subsystem's force, pulled back to Q."""
+        if self._packing is not None:
+            parts = self._per_group(lambda s, a, b: s.force(a, b, t), (q, "n"), (v, "n"))
+            return self._packing.join(parts, "n")
         return jnp.concatenate(
             [
                 sub.force(qi, vi, t)
@@ -294,6 +353,9 @@ class InterconnectedSystem(DiracSystem):
         )
 
     def energy(self, q, v, t=0.0):
+        if self._packing is not None:
+            parts = self._per_group(lambda s, a, b: s.energy(a, b, t), (q, "n"), (v, "n"))
+            return sum(jnp.sum(e) for e in parts)
         return sum(
             sub.energy(qi, vi, t)
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
@@ -301,6 +363,9 @@ class InterconnectedSystem(DiracSystem):
 
     def position_constraints(self, q, t=0.0):
         """Every subsystem's holonomic constraints ``g^i(q_i, t)``, stacked."""
+        if self._packing is not None:
+            parts = self._per_group(lambda s, a: s.position_constraints(a, t), (q, "n"))
+            return self._packing.join(parts, "k")
         return jnp.concatenate(
             [
                 sub.position_constraints(qi, t)
@@ -401,7 +466,7 @@ class InterconnectedSystem(DiracSystem):
         """``[⊕ R_i(q_i, t); B(q)]`` for the subsystems' ``rows`` method (each block padded
         with zeros to the columns of its subsystem), then the interaction rows."""
         blocks = []
-        for k, (sub, qi) in enumerate(zip(self.subsystems, self._split(q), strict=True)):
+        for k, (sub, qi) in enumerate(self._pairs(q)):
             a = getattr(sub, rows)(qi, t)
             left = jnp.zeros((a.shape[0], self._offsets[k]))
             right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))
@@ -418,6 +483,12 @@ class InterconnectedSystem(DiracSystem):
 
     def multiplier_force(self, q, mu, t=0.0):
         r"""``A_i(q_i, t)ᵀ μ_i`` per subsystem, plus ``B(q)ᵀ λ`` over the whole of Q."""
+        if self._packing is not None:
+            own_rows = mu.shape[0] - len(self._interaction_names)
+            parts = self._per_group(
+                lambda s, a, b: s.multiplier_force(a, b, t), (q, "n"), (mu[:own_rows], "m")
+            )
+            return self._packing.join(parts, "n") + self.interaction_force(q, mu[own_rows:])
         mus, lam = self._split_multipliers(mu)
         own = jnp.concatenate(
             [
@@ -430,6 +501,14 @@ class InterconnectedSystem(DiracSystem):
     def discrete_momenta(self, rule, qk, qk1, h, tk=0.0, stage=None):
         r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked (and
         each one's stage line ``D_Q L_d^i + f_Q^i`` for a staged rule)."""
+        if self._packing is not None:
+            vectors = [(qk, "n"), (qk1, "n")] + ([] if stage is None else [(stage, "n")])
+            parts = self._per_group(
+                lambda s, a, b, *st: s.discrete_momenta(rule, a, b, h, tk, *st), *vectors
+            )
+            return tuple(
+                self._packing.join([p[j] for p in parts], "n") for j in range(len(parts[0]))
+            )
         if stage is not None:
             parts = [
                 sub.discrete_momenta(rule, a, b, h, tk, stage=s)
@@ -454,6 +533,22 @@ class InterconnectedSystem(DiracSystem):
     def discrete_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
         r"""Each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product retraction); for a
         staged rule the pair (end rows, stage rows), each in that order."""
+        if self._packing is not None:
+            vectors = [(qk, "n"), (qk1, "n")] + ([] if stage is None else [(stage, "n")])
+            parts = self._per_group(
+                lambda s, a, b, *st: s.discrete_constraints(rule, side, a, b, h, tk, *st),
+                *vectors,
+            )
+            pk = self._packing
+            if stage is None:
+                own = pk.join(parts, "m")
+                return jnp.concatenate(
+                    [own, self.interaction_constraints(rule, side, qk, qk1, h, tk)]
+                )
+            end, mid = self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
+            own_end = pk.join([p[0] for p in parts], "m")
+            own_mid = pk.join([p[1] for p in parts], "m")
+            return jnp.concatenate([own_end, end]), jnp.concatenate([own_mid, mid])
         if stage is not None:
             own = [
                 sub.discrete_constraints(rule, side, a, b, h, tk, stage=s)
@@ -500,7 +595,7 @@ class InterconnectedSystem(DiracSystem):
         return jnp.concatenate(parts)
 
     def _pairs(self, q):
-        return zip(self.subsystems, self._split(q), strict=True)
+        return zip(self._members(), self._split(q), strict=True)
 
     def monolithic(self) -> LagrangeDiracSystem:
         r"""The single system ``(Σ L^i, (⊕Δ_i) ∩ Σ, Σ π_i^* F_i)`` on the same coordinates.
@@ -511,7 +606,7 @@ class InterconnectedSystem(DiracSystem):
         Lagrangian in one piece — a different computation from the per-subsystem
         assembly, which is what makes the comparison a check of the paper's theorem.
         """
-        subsystems, split = self.subsystems, self._split
+        subsystems, split = self._members(), self._split
         timed = self.time_dependent
 
         def lagrangian(q, v, t=0.0):
@@ -571,7 +666,7 @@ class InterconnectedSystem(DiracSystem):
 
     @property
     def has_force(self) -> bool:
-        return any(s.has_force for s in self.subsystems)
+        return any(s.has_force for s in self._kinds())
 
     def __repr__(self) -> str:
         subs = ", ".join(f"{s.name}({s.n})" for s in self.subsystems)

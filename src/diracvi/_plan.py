@@ -26,6 +26,8 @@ from ._compile import run_once_jit
 from ._consistency import Checker
 from ._equations import first_guess, residual, unknown_count
 from ._errors import ModelError
+from ._grouped import GROUPED_MIN_SUBSYSTEMS
+from ._interconnect import InterconnectedSystem
 from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
@@ -178,6 +180,7 @@ class Plan:
         # whether a run that saves its states also stores the nodal momenta
         self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}
+        self._packed = None
         self._fallback_name = repr(self.fallback)  # once: a Module's repr takes ~0.1 ms
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:
@@ -187,12 +190,30 @@ class Plan:
             return "affine step map"
         return f"affine step map, then {self._fallback_name} from step {fallback_from} ({reason})"
 
+    @property
+    def stepped_system(self):
+        """The system the compiled chunks step: an interconnection of many subsystems
+        packed (``InterconnectedSystem._packed``: alike subsystems' parameters
+        stacked once per plan, so the program takes a few arrays per kind of subsystem,
+        not a few per subsystem), any other system as it is."""
+        if self._packed is None:
+            system = self.system
+            if (
+                isinstance(system, InterconnectedSystem)
+                and len(system.subsystems) >= GROUPED_MIN_SUBSYSTEMS
+                and not layout(system).traced
+            ):
+                system = system._packed()
+            self._packed = system
+        return self._packed
+
     def chunk(self, affine: bool, k: int, save_states: bool, blocks: int, batched=False):
         key = (affine, k, save_states, blocks, batched)
         if key not in self._chunks:
             method = self.step_map if affine else self.fallback
+            system = self.system if affine else self.stepped_system
             self._chunks[key] = CompiledChunk(
-                self.system, self.rule, self.scheme, method, k, save_states, blocks, batched
+                system, self.rule, self.scheme, method, k, save_states, blocks, batched
             )
         return self._chunks[key]
 

@@ -39,6 +39,15 @@ from ._validate import (
 )
 
 
+class StaticTuple(tuple):
+    """A tuple kept in a static field of a system (coordinate and row names, index
+    tables): one PyTree leaf to JAX, so equinox's checks of every static field at
+    construction do not walk its entries (10⁶ names of a large interconnection, 10⁴
+    systems of 100 names each); it compares and hashes as the tuple it is."""
+
+    __slots__ = ()
+
+
 class DiracSystem(eqx.Module):
     """What the discrete (±) equations need from a system on ``R^n``.
 
@@ -231,10 +240,48 @@ def _wrap(fn: Callable, driven: bool = False) -> _UserFunction:
     return _UserFunction(None, _Opaque(fn), driven)
 
 
+#: ``(timed, output shape)`` of ``equinox.Module`` callables by what decides both: the
+#: class (its ``__call__`` signature), the static part and the shapes of the arrays
+_MODULE_FORMS: dict = {}
+_MODULE_FORMS_LIMIT = 256
+
+
+def _module_key(fn, shapes, autonomous: str):
+    """The cache key of a Module callable, its ``(arrays, rest)`` split, or ``None``."""
+    arrays, rest = eqx.partition(fn, eqx.is_array)
+    leaves, treedef = jax.tree.flatten(arrays)
+    key = (type(fn), rest, treedef, tuple((tuple(a.shape), str(a.dtype)) for a in leaves))
+    key += (tuple(tuple(s) for s in shapes), autonomous)
+    try:
+        hash(key)
+    except TypeError:  # e.g. a list field: cannot be static (see _wrap)
+        return None, None
+    return key, (arrays, rest)
+
+
 def _user_function(arg: str, fn, shapes, autonomous: str, driven: str):
     """Wrap user callable ``fn`` after deciding its form once; return it and the shape
-    and dtype it returns (traced abstractly on float64 arrays of ``shapes``)."""
+    and dtype it returns (traced abstractly on float64 arrays of ``shapes``).
+
+    A Module's form and output shape depend only on its class, its static part and the
+    shapes of its arrays: a model of 10⁴ alike pieces reads the signature and traces
+    once, not 10⁴ times (each costs ~0.3 ms), and every check below still applies."""
     check_callable(arg, fn)
+    if isinstance(fn, eqx.Module) and not isinstance(getattr(fn, "__self__", None), DiracSystem):
+        key, split = _module_key(fn, shapes, autonomous)
+        hit = _MODULE_FORMS.get(key) if key is not None else None
+        if hit is not None:
+            return _UserFunction(split[0], split[1], hit[0]), hit[1]
+        wrapped, out = _user_function_uncached(arg, fn, shapes, autonomous, driven)
+        if key is not None and isinstance(wrapped.rest, type(split[1])):
+            if len(_MODULE_FORMS) >= _MODULE_FORMS_LIMIT:
+                _MODULE_FORMS.clear()
+            _MODULE_FORMS[key] = (wrapped.driven, out)
+        return wrapped, out
+    return _user_function_uncached(arg, fn, shapes, autonomous, driven)
+
+
+def _user_function_uncached(arg: str, fn, shapes, autonomous: str, driven: str):
     if isinstance(getattr(fn, "__self__", None), DiracSystem):
         # a system's own method (L, F, A of another system) takes t as documented
         timed = True
@@ -256,6 +303,28 @@ def _user_function(arg: str, fn, shapes, autonomous: str, driven: str):
             return _UserFunction(consts, program, bool(timed)), out
     out = eval_shape(arg, fn, *shapes, signature=driven if timed else autonomous)
     return _wrap(fn, bool(timed)), out
+
+
+#: coordinate tuples already checked (pieces of a torn model share their local names)
+_COORDS: dict = {}
+_COORDS_LIMIT = 256
+
+
+def _checked_coords(coords) -> StaticTuple:
+    """``check_names("coords", coords)``, remembered for a tuple of strings that passed."""
+    try:
+        key = tuple(coords) if isinstance(coords, tuple | list) else None
+        hit = _COORDS.get(key) if key is not None else None
+    except TypeError:  # an unhashable entry: the check below names it
+        key = hit = None
+    if hit is not None and all(type(c) is str for c in key):
+        return hit
+    names = StaticTuple(check_names("coords", coords))
+    if key is not None:
+        if len(_COORDS) >= _COORDS_LIMIT:
+            _COORDS.clear()
+        _COORDS[key] = names
+    return names
 
 
 class LagrangeDiracSystem(DiracSystem):
@@ -326,7 +395,7 @@ class LagrangeDiracSystem(DiracSystem):
         holonomic_names=None,
     ):
         ensure_float64()
-        self._coords = check_names("coords", coords)
+        self._coords = _checked_coords(coords)
         n = len(self._coords)
         self.name = "system" if name is None else check_name("name", name)
         self._row_order = None
@@ -390,7 +459,7 @@ class LagrangeDiracSystem(DiracSystem):
                     "lambda q: jnp.array([q @ q - 1.0])."
                 )
             k = out.shape[0]
-        self._constraint_names = _row_names(constraint_names, m, holonomic_names, k)
+        self._constraint_names = StaticTuple(_row_names(constraint_names, m, holonomic_names, k))
 
     def _set_offset(self, offset, n: int, m: int) -> None:
         if m == 0:
