@@ -43,10 +43,11 @@ side's outputs, so a chain of subsystems — slots ordered by row, sides by subs
 gives a *tridiagonal* ``T`` of size ``2(M − 1)``, solved in O(M) by
 ``jax.lax.linalg.tridiagonal_solve`` (LAPACK ``gtsv``, partial pivoting). Rows that
 involve one or three or more subsystems use the direct form (``w_b(Σσ − c) = 0`` and
-``λ_{b,i−1} = λ_{b,i}``); any interface that is not tridiagonal in the given row order
-(a star, a loop, a configuration-dependent ``Interaction``, which involves every
-subsystem) is solved with a dense LU of ``T``: O(slots³) — fine for a few hundred rows,
-not for a large general mesh.
+``λ_{b,i−1} = λ_{b,i}``); an interface that is not tridiagonal in the given row order
+but narrow-banded (``_banded.worth_it``: the stage copies of a chain's rows, below) is
+solved by a banded LU with partial pivoting, and any other (a star, a loop, a
+configuration-dependent ``Interaction``, which involves every subsystem) with a dense LU
+of ``T``: O(slots³) — fine for a few hundred rows, not for a large general mesh.
 
 Work per linear solve is O(Σ_i s_i² + l) with stored factors, O(Σ_i s_i³ + l) with a
 refactorization; nothing is ever O(N · l). Subsystems with the same PyTree structure
@@ -71,6 +72,32 @@ multipliers ≤ 1 as in the dense LU; the two agree to round-off. Groups with a 
 (``local_factors="dense"`` forces them everywhere). A group whose members' unknowns lie
 side by side in ``x`` is read and written as a reshaped slice, and connections at the
 same local places of every member act through one small matrix: no N-sized index tables.
+
+**Stages stay local ("lobatto").** Under the order-4 rule a subsystem's step has the
+unknowns ``y_i = (q_other_i, S_i, μ_i, ν_i)`` — its two stage unknowns ``S_i`` (n × 2)
+and a multiplier vector per stage — ``3(n_i + m_i)`` in all, and every one of them is
+local: the rule forms the stages coordinate by coordinate, so the interconnection's
+stages are the subsystems' stages stacked, and a subsystem's own one-forms at its
+stages involve nothing else. Each interaction row is imposed as the rule imposes it in
+the monolithic equations, at all three stages (``B V_j = 0``: the unknown end's stage and
+the two stage rows), each *copy* with its own multiplier ``λ_j`` (``x`` holds them in
+``μ`` and in ``ν_1, ν_2``), acting as the reaction ``−b_j Bᵀλ_j`` at its stage, pulled
+back to the momentum line, the two stage lines and the explicit line. With ``B``
+constant this is still linear: ``G_i = C_G ⊗ B_iᵀ`` and ``H_i = (1/h) C_H ⊗ B_i`` with
+3 × 3 rule constants read off the rule's own step equations on a one-coordinate probe
+(:func:`_couplings`), and ``λ`` has ``3l`` entries. The Robin interface then carries one
+slot set per copy: slot ``(b, j, i)`` per row, copy and subsystem involved, ordered by
+row, then copy, then subsystem, so that a chain's ``T`` is banded (bandwidths (9, 9),
+solved by the banded LU of ``_solvers._banded``) where copy-major order would spread it
+over ``3l``. The weights take the scheme's sign: for a unit mass the eigenvalues of
+``M⁻¹ C_G C_H`` have real parts of that sign (0.31 and 0.09 ± 0.24i under (+), their
+negatives under (−)), so ``K_i = J_i + G_i W H_i`` stays invertible for a massive
+coordinate and is ``C_G W C_H`` (invertible) for a massless one. Locally the unknowns are
+interleaved per coordinate, ``[(q_other_c, S_1c, S_2c) for c]`` then per multiplier
+(:func:`_local_order`), so a chain piece's ``K_i`` keeps a band of (4, 4) where the
+step's own order (all ``q_other``, then all stages) would give a band of ≈ n. A
+configuration-dependent ``Interaction`` is refused, as under the midpoint rule: at the
+stages it moves with the unknowns.
 
 The solver state is ``(stacked group parameters, factors, factors valid)``; ``init``
 stacks each group's parameters once per chunk, so inside the time loop a group is a few
@@ -1006,7 +1033,11 @@ class PartitionedSolver(StepSolver):
     with the unknowns: constant ones (``dv.connect``, a constant ``dv.Interaction``) under
     any rule, configuration-dependent ones under ``"retraction"``. Subsystems of equal
     structure are batched with ``jax.vmap``; a chain-like interface is solved as a
-    tridiagonal system. See the module documentation for the method.
+    tridiagonal (banded under ``"lobatto"``) system. Under ``"lobatto"`` each subsystem's
+    stages and stage multipliers are its own local unknowns, and every interaction row
+    is imposed at the three stages with one multiplier and one slot set per stage
+    (:meth:`layout` reports ``row_copies`` and ``local_unknowns``). See the module
+    documentation for the method.
 
     Args: as :class:`~diracvi.NewtonSolver` (same defaults, same meaning), and
         local_factors: ``"auto"`` (default) factorizes a group's local matrices as banded
