@@ -89,15 +89,17 @@ constant this is still linear: ``G_i = C_G ⊗ B_iᵀ`` and ``H_i = (1/h) C_H �
 slot set per copy: slot ``(b, j, i)`` per row, copy and subsystem involved, ordered by
 row, then copy, then subsystem, so that a chain's ``T`` is banded (bandwidths (9, 9),
 solved by the banded LU of ``_solvers._banded``) where copy-major order would spread it
-over ``3l``. The weights take the scheme's sign: for a unit mass the eigenvalues of
-``M⁻¹ C_G C_H`` have real parts of that sign (0.31 and 0.09 ± 0.24i under (+), their
-negatives under (−)), so ``K_i = J_i + G_i W H_i`` stays invertible for a massive
-coordinate and is ``C_G W C_H`` (invertible) for a massless one. Locally the unknowns are
-interleaved per coordinate, ``[(q_other_c, S_1c, S_2c) for c]`` then per multiplier
-(:func:`_local_order`), so a chain piece's ``K_i`` keeps a band of (4, 4) where the
-step's own order (all ``q_other``, then all stages) would give a band of ≈ n. A
-configuration-dependent ``Interaction`` is refused, as under the midpoint rule: at the
-stages it moves with the unknowns.
+over ``3l``. The weights take the scheme's sign: for a free unit mass, whose step
+Jacobian is ``M``, the eigenvalues of ``M⁻¹ C_G C_H`` are 0.31 and 0.09 ± 0.24i under
+(+) and their negatives under (−), none on the negative real axis once the sign is
+taken, so ``M + t C_G C_H`` (a massive coordinate with Robin weight ``t``) is invertible
+for every ``t > 0``, and a massless coordinate's block is ``C_G W C_H`` (invertible).
+Locally the unknowns are interleaved per coordinate, ``[(q_other_c, S_1c, S_2c) for
+c]``, then per multiplier (:func:`_local_order`), so a chain piece's ``K_i`` keeps a
+band of (4, 4) where the step's own order (all ``q_other``, then all stages) would give
+a band of 2n ((202, 202) for a piece of 101 coordinates). A configuration-dependent
+``Interaction`` is refused, as under the midpoint rule: at the stages it moves with the
+unknowns.
 
 The solver state is ``(stacked group parameters, factors, factors valid)``; ``init``
 stacks each group's parameters once per chunk, so inside the time loop a group is a few
@@ -240,9 +242,10 @@ def _couplings(rule: QuadratureRule, scheme: str) -> _Couplings:
     so the coefficients are the derivatives of :func:`~diracvi._equations.residual` and
     :func:`~diracvi._equations.new_momentum` themselves, not a copy of their algebra.
 
-    The Robin weights then take the sign of the scheme: ``rateᵀ``-weighted
-    ``reaction · rate`` has the sign of the mass block of the lines under both schemes
-    (for (−) both are negative), so ``K_i`` is invertible for a massless port."""
+    The Robin weights then take the sign of the scheme (see the module documentation:
+    ``reaction · rate`` is then, like the mass block of the lines, never of opposite
+    sign to it along a real eigendirection), so ``K_i`` is invertible for a massive or
+    a massless coordinate."""
     key = (type(rule), rule.name, rule.stages, scheme)
     hit = _COUPLINGS.get(key)
     if hit is not None:
