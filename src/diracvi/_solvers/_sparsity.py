@@ -23,7 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._equations import residual
+from .._equations import residual, unknown_count
 
 _CACHE: dict = {}
 _CACHE_SIZE = 256
@@ -42,12 +42,13 @@ def _random_like(leaf, rng):
 
 
 def step_pattern(sub, rule, scheme: str, key) -> np.ndarray:
-    """Boolean ``(n+m) × (n+m)`` pattern of ``∂ρ/∂y`` for one subsystem (see the module
+    """Boolean ``s × s`` pattern of ``∂ρ/∂y`` for one subsystem, ``s`` its step's unknowns
+    (``n + m``, or ``3(n + m)`` with the stages of ``"lobatto"``; see the module
     documentation); ``key`` identifies what the pattern depends on (cache key)."""
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
-    size = sub.n + sub.m
+    size = unknown_count(sub, rule)
     rng = np.random.default_rng(20261123)
     # the rule too: a user's rule may hold arrays, traced like the model's
     arrays, static = eqx.partition((sub, rule), eqx.is_array)

@@ -43,10 +43,11 @@ side's outputs, so a chain of subsystems — slots ordered by row, sides by subs
 gives a *tridiagonal* ``T`` of size ``2(M − 1)``, solved in O(M) by
 ``jax.lax.linalg.tridiagonal_solve`` (LAPACK ``gtsv``, partial pivoting). Rows that
 involve one or three or more subsystems use the direct form (``w_b(Σσ − c) = 0`` and
-``λ_{b,i−1} = λ_{b,i}``); any interface that is not tridiagonal in the given row order
-(a star, a loop, a configuration-dependent ``Interaction``, which involves every
-subsystem) is solved with a dense LU of ``T``: O(slots³) — fine for a few hundred rows,
-not for a large general mesh.
+``λ_{b,i−1} = λ_{b,i}``); an interface that is not tridiagonal in the given row order
+but narrow-banded (``_banded.worth_it``: the stage copies of a chain's rows, below) is
+solved by a banded LU with partial pivoting, and any other (a star, a loop, a
+configuration-dependent ``Interaction``, which involves every subsystem) with a dense LU
+of ``T``: O(slots³) — fine for a few hundred rows, not for a large general mesh.
 
 Work per linear solve is O(Σ_i s_i² + l) with stored factors, O(Σ_i s_i³ + l) with a
 refactorization; nothing is ever O(N · l). Subsystems with the same PyTree structure
@@ -71,6 +72,34 @@ multipliers ≤ 1 as in the dense LU; the two agree to round-off. Groups with a 
 (``local_factors="dense"`` forces them everywhere). A group whose members' unknowns lie
 side by side in ``x`` is read and written as a reshaped slice, and connections at the
 same local places of every member act through one small matrix: no N-sized index tables.
+
+**Stages stay local ("lobatto").** Under the order-4 rule a subsystem's step has the
+unknowns ``y_i = (q_other_i, S_i, μ_i, ν_i)`` — its two stage unknowns ``S_i`` (n × 2)
+and a multiplier vector per stage — ``3(n_i + m_i)`` in all, and every one of them is
+local: the rule forms the stages coordinate by coordinate, so the interconnection's
+stages are the subsystems' stages stacked, and a subsystem's own one-forms at its
+stages involve nothing else. Each interaction row is imposed as the rule imposes it in
+the monolithic equations, at all three stages (``B V_j = 0``: the unknown end's stage and
+the two stage rows), each *copy* with its own multiplier ``λ_j`` (``x`` holds them in
+``μ`` and in ``ν_1, ν_2``), acting as the reaction ``−b_j Bᵀλ_j`` at its stage, pulled
+back to the momentum line, the two stage lines and the explicit line. With ``B``
+constant this is still linear: ``G_i = C_G ⊗ B_iᵀ`` and ``H_i = (1/h) C_H ⊗ B_i`` with
+3 × 3 rule constants read off the rule's own step equations on a one-coordinate probe
+(:func:`_couplings`), and ``λ`` has ``3l`` entries. The Robin interface then carries one
+slot set per copy: slot ``(b, j, i)`` per row, copy and subsystem involved, ordered by
+row, then copy, then subsystem, so that a chain's ``T`` is banded (bandwidths (9, 9),
+solved by the banded LU of ``_solvers._banded``) where copy-major order would spread it
+over ``3l``. The weights take the scheme's sign: for a free unit mass, whose step
+Jacobian is ``M``, the eigenvalues of ``M⁻¹ C_G C_H`` are 0.31 and 0.09 ± 0.24i under
+(+) and their negatives under (−), none on the negative real axis once the sign is
+taken, so ``M + t C_G C_H`` (a massive coordinate with Robin weight ``t``) is invertible
+for every ``t > 0``, and a massless coordinate's block is ``C_G W C_H`` (invertible).
+Locally the unknowns are interleaved per coordinate, ``[(q_other_c, S_1c, S_2c) for
+c]``, then per multiplier (:func:`_local_order`), so a chain piece's ``K_i`` keeps a
+band of (4, 4) where the step's own order (all ``q_other``, then all stages) would give
+a band of 2n ((202, 202) for a piece of 101 coordinates). A configuration-dependent
+``Interaction`` is refused, as under the midpoint rule: at the stages it moves with the
+unknowns.
 
 The solver state is ``(stacked group parameters, factors, factors valid)``; ``init``
 stacks each group's parameters once per chunk, so inside the time loop a group is a few
@@ -98,6 +127,7 @@ from .._equations import SCHEMES, new_momentum, ordered, residual
 from .._errors import ModelError
 from .._interconnect import InterconnectedSystem
 from .._stacked import structure_key as _structure_key
+from .._system import LagrangeDiracSystem
 from .._validate import check_choice
 from . import _banded
 from ._sparsity import step_pattern
@@ -111,17 +141,27 @@ class PartitionLayout(NamedTuple):
     """How :class:`PartitionedSolver` splits a system (see :meth:`PartitionedSolver.layout`).
 
     ``groups``: the subsystem names stepped together with one ``jax.vmap``;
-    ``interface``: ``"tridiagonal"``, ``"dense"`` or ``"none"`` (no interaction rows);
-    ``interface_size``: the number of slot unknowns (two per row joining two subsystems);
+    ``interface``: ``"tridiagonal"``, ``"banded(kl, ku)"``, ``"dense"`` or ``"none"`` (no
+    interaction rows): how the slot system ``T`` is solved;
+    ``interface_size``: the number of slot unknowns (two per copy of a row joining two
+    subsystems);
     ``local_factors``: per group, ``"banded(kl, ku)"`` (a banded LU of bandwidths
     ``kl``, ``ku``) or ``"dense"`` (an explicit inverse), as ``local_factors="auto"``
-    picks them.
+    picks them;
+    ``row_copies``: copies of every interaction row (and of its multiplier) in the step:
+    1, or 3 for ``"lobatto"`` (the row at the unknown end's stage and at the two stage
+    rows);
+    ``local_unknowns``: per group, the unknowns of one member: ``n + m``, or for
+    ``"lobatto"`` ``3(n + m)``: ``q_other``, the two stage unknowns and the three stage
+    multipliers, all kept local to the member.
     """
 
     groups: tuple[tuple[str, ...], ...]
     interface: str
     interface_size: int
     local_factors: tuple[str, ...] = ()
+    row_copies: int = 1
+    local_unknowns: tuple[int, ...] = ()
 
 
 # ----------------------------------------------------------------------------- checks
@@ -152,14 +192,6 @@ def check_partitionable(system, rule="retraction", scheme: str = "plus") -> None
         )
     scheme = check_choice("scheme", scheme, SCHEMES)
     rule = _as_rule(rule)
-    if rule.stages:
-        raise ModelError(
-            f"solver=PartitionedSolver() cannot step discretization={rule.name!r}: its "
-            "internal stage adds stage rows to every interface (the interaction one-forms "
-            "are imposed on the stage too), which the slot system of this solver does not "
-            "carry yet. Fix: use solver=dv.NewtonSolver() (the default picks it), or "
-            "discretization='midpoint' with the partitioned solver."
-        )
     if _node_is_known(rule, scheme):
         return
     for inter, (first, count) in zip(system.interactions, system._form_rows, strict=True):
@@ -168,26 +200,126 @@ def check_partitionable(system, rule="retraction", scheme: str = "plus") -> None
             raise ModelError(
                 f"solver=PartitionedSolver() cannot step {system.name!r} with "
                 f"discretization={rule.name!r}, scheme={scheme!r}: the interaction with rows "
-                f"{names} depends on the configuration, and this rule evaluates it at a point "
-                "that moves with the unknowns (q̄ = (q_k + q_(k+1))/2 for 'midpoint'), so the "
-                "interface equations are not linear in them and do not split by subsystem. "
+                f"{names} depends on the configuration, and this rule evaluates it at points "
+                "that move with the unknowns (q̄ = (q_k + q_(k+1))/2 for 'midpoint', the "
+                "stages Q_j for 'lobatto'), so the interface equations are not linear in them "
+                "and do not split by subsystem. "
                 "Fix: use solver=dv.NewtonSolver(), or discretization='retraction' (which "
                 "evaluates the one-forms at the known configuration)."
             )
 
 
+# ------------------------------------------------------------------- stage couplings
+class _Couplings(NamedTuple):
+    """How one interaction row enters a subsystem's step equations under a rule, per unit
+    coefficient of ``B`` (rule constants, the same for every row and coordinate).
+
+    ``copies``: the rows' copies (1, or 1 + stages: the row at the unknown end's stage,
+    then one per stage row, each with its own multiplier); ``reaction[i, j]``: the share
+    of copy ``j``'s multiplier in the coordinate line ``i`` (the momentum line, then the
+    stage lines); ``rate[j, u]``: ``h ∂(copy j of B v)/∂(unknown u)`` (``q_other``, then
+    the stage unknowns); ``momentum[j]``: copy ``j``'s multiplier in the explicit line;
+    ``sign``: the sign the Robin weights take (see :func:`_couplings`).
+    """
+
+    copies: int
+    reaction: np.ndarray
+    rate: np.ndarray
+    momentum: np.ndarray
+    sign: float
+
+
+_COUPLINGS: dict = {}
+
+
+def _couplings(rule: QuadratureRule, scheme: str) -> _Couplings:
+    """The rule's :class:`_Couplings`, read off its own step equations on a probe.
+
+    Without stages: ``B_iᵀλ`` on the momentum line and ``(s/h) B_i`` (``s = ±1`` for
+    (±)) in ``α``. With stages the probe is one coordinate with the constant one-form
+    ``dx`` and ``L = 0``: its multipliers enter its lines and its one-form rows enter in
+    the unknowns exactly as an interaction row's multipliers and rows do in the
+    interconnection's equations (both are ``A`` of a constant one-form at each stage),
+    so the coefficients are the derivatives of :func:`~diracvi._equations.residual` and
+    :func:`~diracvi._equations.new_momentum` themselves, not a copy of their algebra.
+
+    The Robin weights then take the sign of the scheme (see the module documentation:
+    ``reaction · rate`` is then, like the mass block of the lines, never of opposite
+    sign to it along a real eigendirection), so ``K_i`` is invertible for a massive or
+    a massless coordinate."""
+    key = (type(rule), rule.name, rule.stages, scheme)
+    hit = _COUPLINGS.get(key)
+    if hit is not None:
+        return hit
+    sign = 1.0 if scheme == "plus" else -1.0
+    if not rule.stages:
+        out = _Couplings(1, np.ones((1, 1)), np.full((1, 1), sign), np.zeros(1), 1.0)
+    else:
+        copies = 1 + rule.stages
+        # natural layout of one coordinate and one row: [q_other, μ, S_1.., ν_1..]
+        coord = np.array([0, *range(2, 2 + rule.stages)])
+        mult = np.array([1, *range(2 + rule.stages, 2 + 2 * rule.stages)])
+        with jax.ensure_compile_time_eval():
+            probe = LagrangeDiracSystem(
+                ("x",), lambda q, v: 0.0 * v[0], constraints=np.ones((1, 1)), name="probe"
+            )
+            zero = jnp.zeros(1)
+            x = jnp.linspace(0.1, 0.7, 2 * copies)
+            jac = np.asarray(
+                jax.jacfwd(lambda x: residual(probe, rule, scheme, 1.0, zero, zero, x))(x)
+            )
+            mom = np.asarray(
+                jax.jacfwd(lambda x: new_momentum(probe, rule, scheme, 1.0, zero, x))(x)
+            )
+        out = _Couplings(
+            copies, jac[np.ix_(coord, mult)], jac[np.ix_(mult, coord)], mom[0, mult], sign
+        )
+    _COUPLINGS[key] = out
+    return out
+
+
+def _local_order(n: int, m: int, copies: int) -> np.ndarray:
+    """``perm``: local unknown ``i`` is unknown ``perm[i]`` of the subsystem's own step
+    (and local equation ``i`` its equation ``perm[i]``).
+
+    The own step orders its unknowns by kind, ``[q_other, μ, S_1 … S_s, ν_1 … ν_s]``;
+    locally they are interleaved per coordinate, ``[(q_other_c, S_1c … S_sc) for c]``,
+    then per multiplier, so that a chain piece, whose coordinate ``c`` couples to ``c ± 1``
+    at every stage, keeps a band of ``≈ 2·copies`` instead of ``≈ 2n`` (the identity
+    without stages)."""
+    stages = copies - 1
+
+    def coord(k, c):
+        return c if k == 0 else n + m + (k - 1) * n + c
+
+    def mult(k, r):
+        return n + r if k == 0 else n + m + stages * n + (k - 1) * m + r
+
+    return np.array(
+        [coord(k, c) for c in range(n) for k in range(copies)]
+        + [mult(k, r) for r in range(m) for k in range(copies)],
+        dtype=np.int64,
+    )
+
+
 # ------------------------------------------------------------------------------ plan
 @dataclasses.dataclass(frozen=True, eq=False)
 class _Group:
-    """Subsystems stepped together (host-side index tables; G members, all alike)."""
+    """Subsystems stepped together (host-side index tables; G members, all alike).
+
+    A member's unknowns ``y_i`` are in the local order of :func:`_local_order` (``s =
+    copies·(n + m)`` of them); its interface rows come in ``copies`` copies, copy-major:
+    local row ``j·rows_each + r`` is copy ``j`` of its ``r``-th row."""
 
     members: np.ndarray  # (G,) subsystem indices
     n: int  # coordinates per member
     m: int  # own multipliers per member
-    rows_each: int  # interface rows per member
-    y_index: np.ndarray  # (G, n + m) positions of (q_other_i, μ_i) in x
-    rows: np.ndarray  # (G, l) the interface rows each member is involved in
-    slots: np.ndarray  # (G, l) the slot (row, member) of each of them
+    rows_each: int  # interface rows per member (each in `copies` copies)
+    copies: int
+    perm: np.ndarray  # (s,) local unknown/equation i = the own step's perm[i]
+    y_index: np.ndarray  # (G, s) positions of the local unknowns in x
+    rows: np.ndarray  # (G, copies·rows_each) the stage rows each member is involved in
+    slots: np.ndarray  # (G, copies·rows_each) the slot (stage row, member) of each
     ports: tuple[np.ndarray, ...]  # (member, local row, local column, ±1) of connections
     general: tuple[np.ndarray, ...]  # (member, local row, row of general_forms)
     # T[e, s'] += coefficient · w_(row of e) · P_member[row, column], at (position, row of e)
@@ -198,11 +330,11 @@ class _Group:
 class _Plan:
     groups: tuple[_Group, ...]
     size: int  # len(x)
-    lam_start: int  # λ = x[lam_start:]
-    rows: int  # l
+    lam_at: tuple[int, ...]  # copy j of λ is x[lam_at[j] : lam_at[j] + base_rows]
+    base_rows: int  # l
+    rows: int  # stage rows: copies · l, copy-major
     slots: int  # interface unknowns
-    sign: float  # ∂v_k/∂q_other · h
-    tridiagonal: bool
+    band: tuple[int, int] | None  # (kl, ku) of T in slot order; (1, 1): tridiagonal
     subsystems: int
     slot_row: np.ndarray  # (slots,)
     slot_sub: np.ndarray  # (slots,)
@@ -210,6 +342,15 @@ class _Plan:
     sigma_terms: tuple[np.ndarray, ...]  # (equation, slot, coefficient) of the σ's
     flux_coef: np.ndarray  # (slots,) coefficient of c_b in each equation
     fixed: tuple[np.ndarray, ...]  # (position in T, ±1): the g terms of the equations
+
+    @property
+    def tridiagonal(self) -> bool:
+        return self.band == (1, 1)
+
+    @property
+    def width(self) -> int:
+        """Entries stored per row of ``T``."""
+        return self.slots if self.band is None else self.band[0] + self.band[1] + 1
 
 
 def _slot_equations(slots_of_row):
@@ -239,47 +380,59 @@ _PLANS: dict = {}
 _PLANS_SIZE = 16
 
 
-def _build_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
+def _build_plan(system: InterconnectedSystem, scheme: str, copies: int = 1) -> _Plan:
     """Index tables for one system (host side, at trace time: O(N + slots) work, once
     per structure)."""
     try:
         leaves, treedef = jax.tree.flatten(system)
         shapes = tuple((jnp.shape(x), jnp.result_type(x)) if eqx.is_array(x) else x for x in leaves)
-        key = (treedef, shapes, scheme)
+        key = (treedef, shapes, scheme, copies)
         hit = _PLANS.get(key)
     except TypeError:  # an unhashable static field: no caching
-        return _new_plan(system, scheme)
+        return _new_plan(system, scheme, copies)
     if hit is None:
-        hit = _PLANS[key] = _new_plan(system, scheme)
+        hit = _PLANS[key] = _new_plan(system, scheme, copies)
         while len(_PLANS) > _PLANS_SIZE:
             _PLANS.pop(next(iter(_PLANS)))
     return hit
 
 
-def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
+def _new_plan(system: InterconnectedSystem, scheme: str, copies: int) -> _Plan:
     subs = system.subsystems
     count = len(subs)
     n_total = system.n
+    stages = copies - 1
     q_start = np.asarray(system._offsets[:-1])
     mu_sizes = np.array([s.m for s in subs], dtype=np.int64)
-    mu_start = n_total + np.concatenate([[0], np.cumsum(mu_sizes)[:-1]]).astype(np.int64)
-    lam_start = n_total + int(mu_sizes.sum())
+    mu_rel = np.concatenate([[0], np.cumsum(mu_sizes)[:-1]]).astype(np.int64)
+    own = int(mu_sizes.sum())
     nrows = len(system.interaction_names)
+    m_total = own + nrows
+    # where copy j of the coordinates and of the multipliers starts in x (the step's
+    # layout: [q_other, μ, S_1 … S_s, ν_1 … ν_s], see _equations.split_stage)
+    q_at = [0, *(n_total + m_total + (j - 1) * n_total for j in range(1, copies))]
+    nu_at = n_total + m_total + stages * n_total
+    mu_at = [n_total, *(nu_at + (j - 1) * m_total for j in range(1, copies))]
+    lam_at = tuple(at + own for at in mu_at)
 
-    # slots: one per (row, subsystem involved), rows in order, subsystems ascending
-    slots_of_row, slot_row, slot_sub = [], [], []
-    rows_of_sub = [[] for _ in range(count)]
-    slots_of_sub = [[] for _ in range(count)]
+    # slots: one per (stage row, subsystem involved); ordered by row, then copy, then
+    # subsystem, so that a chain's T stays banded (copy-major would spread it by l)
+    slot_row, slot_sub, slots_of_row = [], [], [[] for _ in range(copies * nrows)]
+    base_rows_of_sub = [[] for _ in range(count)]
+    slot_of = {}
     for b, involved in enumerate(system.row_subsystems):
-        here = []
         for i in involved:
-            here.append(len(slot_row))
-            rows_of_sub[i].append(b)
-            slots_of_sub[i].append(len(slot_row))
-            slot_row.append(b)
-            slot_sub.append(i)
-        slots_of_row.append(here)
+            base_rows_of_sub[i].append(b)
+        for j in range(copies):
+            for i in involved:
+                slot_of[(j * nrows + b, i)] = len(slot_row)
+                slots_of_row[j * nrows + b].append(len(slot_row))
+                slot_row.append(j * nrows + b)
+                slot_sub.append(i)
     nslots = len(slot_row)
+    # a member's stage rows, copy-major (its local order)
+    rows_of_sub = [[j * nrows + b for j in range(copies) for b in rs] for rs in base_rows_of_sub]
+    slots_of_sub = [[slot_of[(t, i)] for t in rs] for i, rs in enumerate(rows_of_sub)]
 
     # which rows are connections (coefficients ±1) and which come from general_forms
     pairs = zip(system._port_index, system._port_rows, strict=True)
@@ -289,7 +442,7 @@ def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
     # groups: same structure and the same number of interface rows
     keyed: dict = {}
     for i, sub in enumerate(subs):
-        keyed.setdefault((_structure_key(sub), len(rows_of_sub[i])), []).append(i)
+        keyed.setdefault((_structure_key(sub), len(base_rows_of_sub[i])), []).append(i)
 
     cg, cs, cc = _slot_equations(slots_of_row)
     equations_of_slot: dict[int, list] = {}
@@ -301,16 +454,21 @@ def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
     for (_, nrow), members in keyed.items():
         members = np.asarray(members, dtype=np.int64)
         n, m = subs[members[0]].n, subs[members[0]].m
+        coords = [q_at[j] + q_start[members, None] + np.arange(n) for j in range(copies)]
+        mults = [mu_at[j] + mu_rel[members, None] + np.arange(m) for j in range(copies)]
         y_index = np.concatenate(
-            [q_start[members, None] + np.arange(n), mu_start[members, None] + np.arange(m)],
+            [
+                np.stack(coords, axis=-1).reshape(len(members), n * copies),
+                np.stack(mults, axis=-1).reshape(len(members), m * copies),
+            ],
             axis=1,
         )
-        shape = (len(members), nrow)
+        shape = (len(members), nrow * copies)
         rows = np.array([rows_of_sub[i] for i in members], dtype=np.int64).reshape(shape)
         slots = np.array([slots_of_sub[i] for i in members], dtype=np.int64).reshape(shape)
         ports, general = [], []
         for k, i in enumerate(members):
-            for r, b in enumerate(rows_of_sub[i]):
+            for r, b in enumerate(base_rows_of_sub[i]):
                 if b in port_of_row:
                     for col, val in zip(port_of_row[b], (1.0, -1.0), strict=True):
                         if q_start[i] <= col < q_start[i] + n:
@@ -326,11 +484,19 @@ def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
                         positions.append((e, s2))
         raw_groups.append((members, n, m, nrow, y_index, rows, slots, ports, general, assembly))
 
-    tridiagonal = all(abs(e - s) <= 1 for e, s in positions)
-    width = 3 if tridiagonal else nslots
+    pos = np.array(positions, dtype=np.int64).reshape(-1, 2)
+    kl = int(max(0, (pos[:, 0] - pos[:, 1]).max(initial=0)))
+    ku = int(max(0, (pos[:, 1] - pos[:, 0]).max(initial=0)))
+    if kl <= 1 and ku <= 1:
+        band = (1, 1)  # tridiagonal (the storage of a band (1, 1))
+    elif _banded.worth_it(nslots, kl, ku):
+        band = (kl, ku)
+    else:
+        band = None
+    width = nslots if band is None else band[0] + band[1] + 1
 
     def position(e, s):
-        return e * width + (s - e + 1) if tridiagonal else e * width + s
+        return e * width + s if band is None else e * width + (s - e + band[0])
 
     slot_row_arr = np.asarray(slot_row, dtype=np.int64)
     groups = []
@@ -344,6 +510,8 @@ def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
                 n=n,
                 m=m,
                 rows_each=nrow,
+                copies=copies,
+                perm=_local_order(n, m, copies),
                 y_index=y_index,
                 rows=rows,
                 slots=slots,
@@ -359,19 +527,19 @@ def _new_plan(system: InterconnectedSystem, scheme: str) -> _Plan:
         )
     cs_arr = np.array(cs, dtype=np.float64).reshape(-1, 3)
     cg_arr = np.array(cg, dtype=np.float64).reshape(-1, 3)
-    first = np.full(nrows, -1, dtype=np.int64)
-    for b, here in enumerate(slots_of_row):
-        first[b] = here[0]
+    first = np.full(copies * nrows, -1, dtype=np.int64)
+    for t, here in enumerate(slots_of_row):
+        first[t] = here[0]
     return _Plan(
         groups=tuple(groups),
-        size=system.n + system.m,
-        lam_start=lam_start,
-        rows=nrows,
+        size=(n_total + m_total) * copies,
+        lam_at=lam_at,
+        base_rows=nrows,
+        rows=copies * nrows,
         slots=nslots,
-        sign=1.0 if scheme == "plus" else -1.0,
-        tridiagonal=tridiagonal,
+        band=band,
         subsystems=count,
-        slot_row=np.asarray(slot_row, dtype=np.int64),
+        slot_row=slot_row_arr,
         slot_sub=np.asarray(slot_sub, dtype=np.int64),
         first_slot=first,
         sigma_terms=(cs_arr[:, 0].astype(np.int64), cs_arr[:, 1].astype(np.int64), cs_arr[:, 2]),
@@ -397,13 +565,12 @@ def _local_band(group: _Group, system, rule, scheme: str):
         return None
     first = system._member(int(group.members[0]))  # in full, also when packed
     key = (_structure_key(first), type(rule), rule.name, scheme)
-    pattern = step_pattern(first, rule, scheme, key).copy()
-    cols = group.ports[2]
-    pattern[cols, cols] = True
-    for cols in _port_cliques(group):
-        pattern[np.ix_(cols, cols)] = True
+    perm = group.perm
+    pattern = step_pattern(first, rule, scheme, key)[np.ix_(perm, perm)]  # local order
+    a, b = _aug_entries(group)
+    pattern[a, b] = True
     kl, ku = _banded.bandwidths(pattern)
-    return (kl, ku) if _banded.worth_it(group.n + group.m, kl, ku) else None
+    return (kl, ku) if _banded.worth_it(perm.size, kl, ku) else None
 
 
 def _port_cliques(group: _Group):
@@ -419,8 +586,8 @@ def _port_cliques(group: _Group):
     return [np.unique(c[a:b]) for a, b in zip(starts, ends, strict=True) if b - a > 1]
 
 
-def _aug_entries(group: _Group):
-    """The entries ``(a, b)`` of ``G_i W H_i`` (local columns) over the union of the
+def _port_pairs(group: _Group):
+    """The coordinate pairs ``(c, c')`` that ``B_iᵀ W B_i`` couples, over the union of the
     members' port columns: static tables."""
     pairs = {(col, col) for col in group.ports[2].tolist()}
     for cols in _port_cliques(group):
@@ -429,18 +596,34 @@ def _aug_entries(group: _Group):
     return pairs[:, 0], pairs[:, 1]
 
 
+def _aug_entries(group: _Group):
+    """The entries ``(a, b)`` of ``G_i W H_i`` in the local order: every copy of each
+    coordinate pair of :func:`_port_pairs`, shape (pairs, copies, copies)."""
+    c, c2 = _port_pairs(group)
+    k = np.arange(group.copies)
+    rows = c[:, None, None] * group.copies + k[None, :, None]
+    cols = c2[:, None, None] * group.copies + k[None, None, :]
+    return np.broadcast_arrays(rows, cols)
+
+
 def _tile(group: _Group):
-    """``(first coordinate, first multiplier)`` if the members' unknowns lie side by
-    side in ``x`` (member k's coordinates at ``first + k n …``, its multipliers at
-    ``first_μ + k m …``), else ``None``."""
-    count, n, m = len(group.members), group.n, group.m
-    index = group.y_index
-    q_at, mu_at = int(index[0, 0]), int(index[0, n]) if m else 0
-    if not np.array_equal(index[:, :n], q_at + np.arange(count * n).reshape(count, n)):
-        return None
-    if m and not np.array_equal(index[:, n:], mu_at + np.arange(count * m).reshape(count, m)):
-        return None
-    return q_at, mu_at
+    """``(coordinate starts, multiplier starts)``, one per copy, if the members' unknowns
+    lie side by side in ``x`` (copy j of member k's coordinates at ``start_j + k n …``,
+    of its multipliers at ``start_μj + k m …``), else ``None``."""
+    count, n, m, copies = len(group.members), group.n, group.m, group.copies
+    coords = group.y_index[:, : n * copies].reshape(count, n, copies)
+    mults = group.y_index[:, n * copies :].reshape(count, m, copies)
+    starts = []
+    for index, size in ((coords, n), (mults, m)):
+        at = []
+        for j in range(copies):
+            first = int(index[0, 0, j]) if size else 0
+            want = first + np.arange(count * size).reshape(count, size)
+            if size and not np.array_equal(index[:, :, j], want):
+                return None
+            at.append(first)
+        starts.append(tuple(at))
+    return starts[0], starts[1]
 
 
 def _uniform_ports(group: _Group):
@@ -517,20 +700,26 @@ def _stack(plan: _Plan, system) -> tuple:
 
 class _Step:
     """One step's operators over the plan: residual, factorization and linear solve on
-    the stacked representation ``X = ((y_g for each group), λ)``."""
+    the stacked representation ``X = ((y_g for each group), λ)``.
 
-    def __init__(self, plan: _Plan, eqs, stacked, bands):
+    ``λ`` holds every copy of the interaction multipliers, copy-major (``plan.rows``);
+    a member's coordinates ``y[:, : n·copies]`` are ``(n, copies)`` row-major (local order)."""
+
+    def __init__(self, plan: _Plan, eqs, stacked, bands, couplings: _Couplings):
         self.plan = plan
         self.eqs = eqs
         self.bands = bands  # per group: (kl, ku) of banded local factors, or None
+        self.c = couplings
         system = eqs.system
         self.h = eqs.h
         self.stacks, self.index, self.q, self.p, self.blocks = [], [], [], [], []
-        self.tiles, self.uniform = [], []
+        self.tiles, self.uniform, self.inverse = [], [], []
         general = system.general_forms(eqs.q) if system.interactions else None
         for g, arrays in zip(plan.groups, stacked, strict=True):
             first = system.subsystems[int(g.members[0])]
             self.stacks.append((arrays, eqx.partition(first, eqx.is_array)[1]))
+            # local order → the own step's order (None: they are the same)
+            self.inverse.append(None if g.copies == 1 else np.argsort(g.perm))
             # a group whose members' unknowns lie side by side is a reshaped slice of x
             # (no gather, no scatter, no N-sized index table in the program)
             self.tiles.append(_tile(g))
@@ -551,22 +740,32 @@ class _Step:
                 block = block.at[k, r, c].set(jnp.asarray(val))
             k, r, grow = g.general
             if k.size:
-                cols = jnp.asarray(g.y_index)[k, : g.n]
+                cols = jnp.asarray(g.y_index[:, : g.n * g.copies : g.copies])[k]
                 block = block.at[k, r].set(general[grow[:, None], cols])
             self.blocks.append(block)
 
     def _take(self, index, x, coords_only=False):
-        """Group ``index``'s unknowns (or only its coordinates) of ``x``, (G, ·)."""
+        """Group ``index``'s unknowns (or only its ``q_other``, of ``x = q``), (G, ·)."""
         g, tile = self.plan.groups[index], self.tiles[index]
+        copies = g.copies
         if tile is None:
             table = self.index[index]
-            return x[table[:, : g.n]] if coords_only else x[table]
+            return x[table[:, : g.n * copies : copies]] if coords_only else x[table]
         count = len(g.members)
         q_at, mu_at = tile
-        q = x[q_at : q_at + count * g.n].reshape(count, g.n)
-        if coords_only or not g.m:
+        if coords_only:
+            return x[q_at[0] : q_at[0] + count * g.n].reshape(count, g.n)
+
+        def interleaved(starts, size):
+            parts = [x[a : a + count * size].reshape(count, size) for a in starts]
+            if copies == 1:
+                return parts[0]
+            return jnp.stack(parts, axis=-1).reshape(count, size * copies)
+
+        q = interleaved(q_at, g.n)
+        if not g.m:
             return q
-        return jnp.concatenate([q, x[mu_at : mu_at + count * g.m].reshape(count, g.m)], axis=1)
+        return jnp.concatenate([q, interleaved(mu_at, g.m)], axis=1)
 
     def block(self, index):
         """``B_i`` of every member of group ``index``, (G, rows, n)."""
@@ -575,40 +774,67 @@ class _Step:
         shape = (len(self.plan.groups[index].members), *self.uniform[index].shape)
         return jnp.broadcast_to(jnp.asarray(self.uniform[index]), shape)
 
-    def spread(self, index, v, block=None):
-        """``B_iᵀ v`` for every member: (G, rows) → (G, n)."""
-        if block is None and self.uniform[index] is not None:
-            return v @ jnp.asarray(self.uniform[index])
-        block = self.blocks[index] if block is None else block
-        return jnp.einsum("krn,kr->kn", block, v)
-
-    def project_columns(self, index, u):
-        """``B_i U`` for every member: (G, n, c) → (G, rows, c)."""
+    def spread(self, index, lam):
+        """``B_iᵀ λ_j`` for every member and copy: (G, copies·rows) → (G, copies, n)."""
+        g = self.plan.groups[index]
+        v = lam.reshape(len(g.members), g.copies, g.rows_each)
         if self.uniform[index] is not None:
-            return jnp.einsum("rn,knc->krc", jnp.asarray(self.uniform[index]), u)
-        return jnp.einsum("krn,knc->krc", self.blocks[index], u)
+            return v @ jnp.asarray(self.uniform[index])
+        return jnp.einsum("krn,kjr->kjn", self.blocks[index], v)
 
-    def project(self, index, u, block=None):
-        """``B_i u`` for every member: (G, n) → (G, rows)."""
+    def reaction(self, index, lam):
+        """``G_i λ_i`` on the coordinate lines, (G, n·copies) in the local order."""
+        g = self.plan.groups[index]
+        u = jnp.einsum("ij,kjn->kni", jnp.asarray(self.c.reaction), self.spread(index, lam))
+        return u.reshape(len(g.members), g.n * g.copies)
+
+    def sigma(self, index, y, block=None):
+        """``H_i y`` for every member: its share of every copy of its interface rows.
+
+        ``y``: (G, n·copies, …) in the local order (the coordinate rows of ``y_i``, or of
+        a matrix); returns (G, copies·rows, …)."""
+        g = self.plan.groups[index]
+        count, extra = len(g.members), y.shape[2:]
+        y = y.reshape(count, g.n, g.copies, *extra)
+        z = jnp.einsum("ju,knu...->kjn...", jnp.asarray(self.c.rate), y) / self.h
         if block is None and self.uniform[index] is not None:
-            return u @ jnp.asarray(self.uniform[index]).T
-        block = self.blocks[index] if block is None else block
-        return jnp.einsum("krn,kn->kr", block, u)
+            out = jnp.einsum("rn,kjn...->kjr...", jnp.asarray(self.uniform[index]), z)
+        else:
+            block = self.blocks[index] if block is None else block
+            out = jnp.einsum("krn,kjn...->kjr...", block, z)
+        return out.reshape(count, g.copies * g.rows_each, *extra)
+
+    def g_matrix(self, index, block):
+        """``G_i`` restricted to the coordinate lines, (G, n·copies, copies·rows)."""
+        g = self.plan.groups[index]
+        gm = jnp.einsum("ij,krc->kcijr", jnp.asarray(self.c.reaction), block)
+        return gm.reshape(len(g.members), g.n * g.copies, g.copies * g.rows_each)
 
     # ---------------------------------------------------------------- layout
     def split(self, x):
         ys = tuple(self._take(i, x) for i in range(len(self.plan.groups)))
-        return ys, x[self.plan.lam_start :]
+        plan = self.plan
+        if len(plan.lam_at) == 1:
+            return ys, x[plan.lam_at[0] : plan.lam_at[0] + plan.base_rows]
+        return ys, jnp.concatenate([x[a : a + plan.base_rows] for a in plan.lam_at])
+
+    def _lam_pieces(self, lam):
+        size = self.plan.base_rows
+        return [(a, lam[j * size : (j + 1) * size]) for j, a in enumerate(self.plan.lam_at)]
 
     def join(self, ys, lam):
         plan = self.plan
-        pieces = [(plan.lam_start, lam)]
+        pieces = self._lam_pieces(lam)
         for g, tile, y in zip(plan.groups, self.tiles, ys, strict=True):
             if tile is None:
                 break
-            pieces.append((tile[0], y[:, : g.n].ravel()))
-            if g.m:
-                pieces.append((tile[1], y[:, g.n :].ravel()))
+            count = len(g.members)
+            coords = y[:, : g.n * g.copies].reshape(count, g.n, g.copies)
+            mults = y[:, g.n * g.copies :].reshape(count, g.m, g.copies)
+            for j in range(g.copies):
+                pieces.append((tile[0][j], coords[:, :, j].ravel()))
+                if g.m:
+                    pieces.append((tile[1][j], mults[:, :, j].ravel()))
         else:
             joined = _concatenate_tiles(pieces, plan.size)
             if joined is not None:
@@ -617,39 +843,51 @@ class _Step:
         for index, y in enumerate(ys):
             table = jnp.asarray(plan.groups[index].y_index)
             x = x.at[table].set(y)
-        return x.at[plan.lam_start :].set(lam)
+        for at, values in self._lam_pieces(lam):
+            x = x.at[at : at + values.shape[0]].set(values)
+        return x
 
     # -------------------------------------------------------------- equations
-    def momentum(self, ys):
-        """The explicit line ``p_{k+1} = D₂L_d + f_d^+`` (or ``p_k``), group by group."""
+    def momentum(self, ys, lam):
+        """The explicit line ``p_{k+1} = D₂L_d + f_d^+`` (or ``p_k``), group by group (a
+        staged rule's line carries its stage reactions, the interaction's among them)."""
         eqs, plan = self.eqs, self.plan
         lines = []
         for index, y in enumerate(ys):
+            g = plan.groups[index]
             arrays, rest = self.stacks[index]
 
-            def line(arrays, q, y, rest=rest):
+            def line(arrays, q, y, rest=rest, inverse=self.inverse[index]):
                 sub = eqx.combine(arrays, rest)
+                y = y if inverse is None else y[inverse]
                 return new_momentum(sub, eqs.rule, eqs.scheme, eqs.h, q, y, eqs.t)
 
-            lines.append(jax.vmap(line)(arrays, self.q[index], y))
+            p = jax.vmap(line)(arrays, self.q[index], y)
+            if np.any(self.c.momentum) and g.rows_each:
+                u = self.spread(index, lam[g.rows])
+                p = p + jnp.einsum("j,kjn->kn", jnp.asarray(self.c.momentum), u)
+            lines.append(p)
         if all(tile is not None for tile in self.tiles):
-            pieces = [(tile[0], p.ravel()) for tile, p in zip(self.tiles, lines, strict=True)]
+            pieces = [(tile[0][0], p.ravel()) for tile, p in zip(self.tiles, lines, strict=True)]
             joined = _concatenate_tiles(pieces, eqs.system.n)
             if joined is not None:
                 return joined
         out = jnp.zeros(eqs.system.n, dtype=eqs.q.dtype)
         for g, p in zip(plan.groups, lines, strict=True):
-            out = out.at[jnp.asarray(g.y_index)[:, : g.n]].set(p)
+            out = out.at[jnp.asarray(g.y_index[:, : g.n * g.copies : g.copies])].set(p)
         return out
 
     def _local(self, index):
-        """``ρ_i(y_i)`` of group ``index``, vmapped over its members."""
+        """``ρ_i(y_i)`` of group ``index`` in the local order, for one member."""
         eqs = self.eqs
         _, rest = self.stacks[index]
+        inverse, perm = self.inverse[index], self.plan.groups[index].perm
 
         def rho(arrays, q, p, y):
             sub = eqx.combine(arrays, rest)
-            return residual(sub, eqs.rule, eqs.scheme, eqs.h, q, p, y, eqs.t)
+            if inverse is None:
+                return residual(sub, eqs.rule, eqs.scheme, eqs.h, q, p, y, eqs.t)
+            return residual(sub, eqs.rule, eqs.scheme, eqs.h, q, p, y[inverse], eqs.t)[perm]
 
         return rho
 
@@ -668,9 +906,11 @@ class _Step:
         for index, (g, y) in enumerate(zip(plan.groups, ys, strict=True)):
             arrays, _ = self.stacks[index]
             r = jax.vmap(self._local(index))(arrays, self.q[index], self.p[index], y)
-            out.append(r.at[:, : g.n].add(self.spread(index, lam[g.rows])))
-            rate = plan.sign * (y[:, : g.n] - self.q[index]) / self.h
-            alpha = alpha.at[g.rows].add(self.project(index, rate))
+            coords = g.n * g.copies
+            out.append(r.at[:, :coords].add(self.reaction(index, lam[g.rows])))
+            # α is linear in the unknowns and vanishes when every copy is the known q
+            moved = y[:, :coords] - jnp.repeat(self.q[index], g.copies, axis=1)
+            alpha = alpha.at[g.rows].add(self.sigma(index, moved))
         return tuple(out), alpha
 
     def factorize(self, ys):
@@ -697,30 +937,37 @@ class _Step:
         total = jax.ops.segment_sum(tau, plan.slot_row, num_segments=plan.rows)
         used = jax.ops.segment_sum((tau > 0).astype(tau.dtype), plan.slot_row, plan.rows)
         w = jnp.where(total > 0, total / jnp.where(used > 0, used, 1.0), 1.0)
+        w = self.c.sign * w  # the scheme's sign (see _couplings)
 
-        width = 3 if plan.tridiagonal else plan.slots
-        flat = jnp.zeros(plan.slots * width, dtype=w.dtype)
+        flat = jnp.zeros(plan.slots * plan.width, dtype=w.dtype)
         pos, val = plan.fixed
         flat = flat.at[pos].add(jnp.asarray(val))
+        reaction, rate = jnp.asarray(self.c.reaction), jnp.asarray(self.c.rate)
         local = []
         for index, (g, jac) in enumerate(zip(plan.groups, jacs, strict=True)):
             block = self.block(index)
-            weight = w[g.rows]
+            count, coords = len(g.members), g.n * g.copies
+            weight = w[g.rows].reshape(count, g.copies, g.rows_each)
+            gmat = self.g_matrix(index, block)
             if self.bands[index] is None:
-                aug = plan.sign / h * jnp.einsum("krn,kr,krp->knp", block, weight, block)
+                bwb = jnp.einsum("krn,kjr,krp->kjnp", block, weight, block)
+                aug = jnp.einsum("ij,kjnp,ju->knipu", reaction, bwb, rate) / h
+                aug = aug.reshape(count, coords, coords)
                 # explicit inverses: see the module documentation
-                kinv = jnp.linalg.inv(jac.at[:, : g.n, : g.n].add(aug))
-                kinv_g = jnp.einsum("ksn,krn->ksr", kinv[:, :, : g.n], block)  # K⁻¹ G_i
+                kinv = jnp.linalg.inv(jac.at[:, :coords, :coords].add(aug))
+                kinv_g = jnp.einsum("ksn,knr->ksr", kinv[:, :, :coords], gmat)  # K⁻¹ G_i
             else:
                 kl, ku = self.bands[index]
+                c, c2 = _port_pairs(g)
                 a, b = _aug_entries(g)  # G_i W H_i's entries, all inside the band
-                aug = jnp.einsum("kre,kr,kre->ke", block[:, :, a], weight, block[:, :, b])
-                rows = jac.at[:, a, b - a + kl].add(plan.sign / h * aug)
+                bwb = jnp.einsum("kre,kjr,kre->kje", block[:, :, c], weight, block[:, :, c2])
+                aug = jnp.einsum("ij,kje,ju->keiu", reaction, bwb, rate) / h
+                rows = jac.at[:, a, b - a + kl].add(aug)
                 kinv = jax.vmap(partial(_banded.lu, kl=kl, ku=ku))(rows)  # banded P K = L U
-                rhs = jnp.zeros((len(g.members), g.n + g.m, g.rows_each), dtype=block.dtype)
-                rhs = rhs.at[:, : g.n].set(jnp.swapaxes(block, 1, 2))
+                rhs = jnp.zeros((count, jac.shape[1], gmat.shape[2]), dtype=block.dtype)
+                rhs = rhs.at[:, :coords].set(gmat)
                 kinv_g = jax.vmap(partial(_banded.solve, kl=kl, ku=ku))(kinv, rhs)
-            p_mat = plan.sign / h * self.project_columns(index, kinv_g[:, : g.n, :])
+            p_mat = self.sigma(index, kinv_g[:, :coords])  # H_i K_i⁻¹ G_i
             pos, eq_row, k, r, c, coef = g.assembly
             if pos.size:
                 flat = flat.at[pos].add(jnp.asarray(coef) * w[eq_row] * p_mat[k, r, c])
@@ -731,13 +978,15 @@ class _Step:
         elif plan.tridiagonal:
             tri = flat.reshape(plan.slots, 3)
             interface = (tri[:, 0], tri[:, 1], tri[:, 2])
+        elif plan.band is not None:
+            interface = _banded.lu(flat.reshape(plan.slots, plan.width), *plan.band)
         else:
             interface = jsl.lu_factor(flat.reshape(plan.slots, plan.slots))
         return tuple(local), w, interface
 
     def solve_linear(self, factors, rs, r_alpha):
         """``(dy, dλ)`` with ``J_i dy_i + G_i dλ = −r_i`` and ``Σ_i H_i dy_i = −r_α``."""
-        plan, h = self.plan, self.h
+        plan = self.plan
         local, w, interface = factors
         base, z = [], jnp.zeros(plan.slots, dtype=w.dtype)
         for index, (g, (kinv, _, block), r) in enumerate(zip(plan.groups, local, rs, strict=True)):
@@ -747,7 +996,7 @@ class _Step:
             else:
                 kinv_a = -jax.vmap(partial(_banded.solve, kl=band[0], ku=band[1]))(kinv, r)
             base.append(kinv_a)
-            z = z.at[g.slots].set(plan.sign / h * self.project(index, kinv_a[:, : g.n], block))
+            z = z.at[g.slots].set(self.sigma(index, kinv_a[:, : g.n * g.copies], block))
         dys = []
         if plan.slots:
             eq, slot, coef = plan.sigma_terms
@@ -757,6 +1006,8 @@ class _Step:
             if plan.tridiagonal:
                 dl, d, du = interface
                 g_all = jax.lax.linalg.tridiagonal_solve(dl, d, du, rhs[:, None])[:, 0]
+            elif plan.band is not None:
+                g_all = _banded.solve(interface, rhs, *plan.band)
             else:
                 g_all = jsl.lu_solve(interface, rhs)
         else:
@@ -767,7 +1018,7 @@ class _Step:
         ):
             dy = kinv_a - jnp.einsum("ksr,kr->ks", kinv_g, g_all[g.slots])
             dys.append(dy)
-            share = plan.sign / h * self.project(index, dy[:, : g.n], block)
+            share = self.sigma(index, dy[:, : g.n * g.copies], block)
             sigma = sigma.at[g.slots].set(share)
         first = plan.first_slot
         dlam = g_all[first] + w * sigma[first]
@@ -781,7 +1032,11 @@ class PartitionedSolver(StepSolver):
     with the unknowns: constant ones (``dv.connect``, a constant ``dv.Interaction``) under
     any rule, configuration-dependent ones under ``"retraction"``. Subsystems of equal
     structure are batched with ``jax.vmap``; a chain-like interface is solved as a
-    tridiagonal system. See the module documentation for the method.
+    tridiagonal (banded under ``"lobatto"``) system. Under ``"lobatto"`` each subsystem's
+    stages and stage multipliers are its own local unknowns, and every interaction row
+    is imposed at the three stages with one multiplier and one slot set per stage
+    (:meth:`layout` reports ``row_copies`` and ``local_unknowns``). See the module
+    documentation for the method.
 
     Args: as :class:`~diracvi.NewtonSolver` (same defaults, same meaning), and
         local_factors: ``"auto"`` (default) factorizes a group's local matrices as banded
@@ -812,23 +1067,31 @@ class PartitionedSolver(StepSolver):
     def layout(system, rule="retraction", scheme: str = "plus") -> PartitionLayout:
         """The groups of batched subsystems and the kind of interface solve."""
         check_partitionable(system, rule, scheme)
-        plan = _build_plan(system, scheme)
-        names = tuple(tuple(system.subsystems[int(i)].name for i in g.members) for g in plan.groups)
-        kind = "none" if plan.slots == 0 else "tridiagonal" if plan.tridiagonal else "dense"
         rule = _as_rule(rule)
+        couplings = _couplings(rule, scheme)
+        plan = _build_plan(system, scheme, couplings.copies)
+        names = tuple(tuple(system.subsystems[int(i)].name for i in g.members) for g in plan.groups)
+        if plan.slots == 0:
+            kind = "none"
+        elif plan.tridiagonal:
+            kind = "tridiagonal"
+        else:
+            kind = "dense" if plan.band is None else f"banded{plan.band}"
         bands = (_local_band(g, system, rule, scheme) for g in plan.groups)
         local = tuple("dense" if b is None else f"banded{b}" for b in bands)
-        return PartitionLayout(names, kind, plan.slots, local)
+        sizes = tuple(g.perm.size for g in plan.groups)
+        return PartitionLayout(names, kind, plan.slots, local, couplings.copies, sizes)
 
     def _prepare(self, eqs, state=None) -> _Step:
         check_partitionable(eqs.system, eqs.rule, eqs.scheme)
-        plan = _build_plan(eqs.system, eqs.scheme)
+        couplings = _couplings(eqs.rule, eqs.scheme)
+        plan = _build_plan(eqs.system, eqs.scheme, couplings.copies)
         stacked = _stack(plan, eqs.system) if state is None else state[0]
         if self.local_factors == "dense":
             bands = [None] * len(plan.groups)
         else:
             bands = [_local_band(g, eqs.system, eqs.rule, eqs.scheme) for g in plan.groups]
-        return _Step(plan, eqs, stacked, bands)
+        return _Step(plan, eqs, stacked, bands, couplings)
 
     def momentum(self, eqs, x, state=None):
         """``eqs.momentum(x)`` computed group by group: the same numbers, traced once per
@@ -836,7 +1099,7 @@ class PartitionedSolver(StepSolver):
         ``state`` to reuse its stacked parameters (what a driver for thousands of
         subsystems wants inside its time loop)."""
         step = self._prepare(eqs, state)
-        return step.momentum(step.split(x)[0])
+        return step.momentum(*step.split(x))
 
     def init(self, eqs):
         """``(stacked group parameters, zero factors, factors valid = False)``."""
