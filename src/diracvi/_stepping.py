@@ -127,9 +127,6 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
                 return z1, z1
 
             _, zs = jax.lax.scan(driven, z0, offsets, length=k, unroll=2)
-    elif step_map.reduced is not None and k >= 2:
-        # on the run's invariant subspace, block starts then one batched product
-        zs = step_map.reduced.states(step_map, z0, k)
     elif k >= 2 * width:
         # whole blocks of B steps per iteration; the surplus of the last block is dropped
         def block(z, _):

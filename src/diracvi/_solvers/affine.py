@@ -79,65 +79,6 @@ class AffineSolver(eqx.Module):
                 )
 
 
-class ReducedMap(eqx.Module):
-    r"""The step map on the subspace a run's increments lie in: ``z_k = z_1 + T y_k``.
-
-    Every increment after the first step, ``d_k = z_{k+1} − z_k = Δ z_k + b``, lies in
-    ``V = range(Δ Φ) + span(Δ b + b)`` (``Φ = I + Δ``: ``d_k = ΔΦ z_{k−1} + Δb + b``), and
-    ``V`` is invariant under ``Δ`` (``Φ`` commutes with ``Δ``). With ``T`` an orthonormal
-    basis of ``V`` (``r = dim V``) the states from the first step on are
-    ``z_k = z_1 + T y_k``, ``y_1 = 0``, exactly: the directions a torn model carries
-    beyond its hand-built reduced model never move along a run (the velocity constraints
-    ``A v = 0`` keep ``A q`` fixed, a massless port's momentum stays 0), so they are left
-    out of the recursion. ``r = 6`` for the torn chain (``2n = 8``), as for the 3-mass
-    hand-built chain.
-
-    With the ``B``-step maps ``z_{s+j} = z_s + P_j z_s + c_j`` of :class:`AffineStepMap`
-    and ``z_s = z_1 + T y_s`` at every block start ``s = 1 + iB``::
-
-        z_{s+j} = (z_1 + P_j z_1 + c_j) + (T + P_j T) y_s,      j = 1..B
-        y_{s+B} = (I + Tᵀ P_B T) y_s + Tᵀ (P_B z_1 + c_B)
-
-    The first bracket is the first block of the run (the full map applied to ``z_1``
-    once); the block starts follow from ``k/B`` sequential ``r × r`` products; then every
-    state of the run is one batched product of the starts with the lifts ``T + P_j T``
-    (formed in extended precision). Each block start is a rounding of its exact value, so
-    the error grows with the number of blocks, not of steps. Where ``V`` is all of the
-    state space (a model without port variables, e.g. the hand-built chain) ``T = I``:
-    the same two levels without a reduction, which spares the loop of ``k/B`` block
-    iterations the one-level scan pays (several microseconds each on a CPU).
-    """
-
-    basis: jax.Array  # T (2n, r)
-    lifts: jax.Array  # (B, 2n, r): T + P_j T
-    maps: jax.Array  # (B, 2n, 2n): P_j
-    offsets: jax.Array  # (B, 2n): c_j
-
-    def states(self, step_map, z0, k: int):
-        """``z_1 … z_k`` from ``z0`` (shape (k, 2n)); ``k ≥ 2``."""
-        z1 = z0 + (step_map.delta @ z0 + step_map.offset)
-        width = min(self.lifts.shape[0], k - 1)  # static: no block longer than the run
-        lifts = self.lifts[:width]
-        first = z1 + (self.maps[:width] @ z1 + self.offsets[:width])
-        final = self.basis.T @ lifts[-1]  # I + Tᵀ P_B T
-        step = self.basis.T @ (first[-1] - z1)
-        blocks = -(-(k - 1) // width)
-
-        def advance(y, _):
-            return final @ y + step, y
-
-        # a few block starts are unrolled: a loop iteration costs microseconds on a CPU
-        unroll = True if blocks <= _UNROLL_BLOCKS else 8
-        _, starts = jax.lax.scan(advance, jnp.zeros_like(step), None, length=blocks, unroll=unroll)
-        # (blocks, B, 2n): every state of every block in one product
-        zs = jnp.einsum("sr,jnr->sjn", starts, lifts) + first
-        return jnp.concatenate([z1[None], zs.reshape(-1, z0.shape[0])[: k - 1]])
-
-
-#: runs of at most this many blocks compute their block starts without a loop
-_UNROLL_BLOCKS = 16
-
-
 class AffineStepMap(eqx.Module):
     """``(q_other, p_other) = (q, p) + Δ (q, p) + b`` and ``μ = C (q, p) + c``.
 
@@ -156,9 +97,6 @@ class AffineStepMap(eqx.Module):
     momentum_x: jax.Array  # P_x, for the offsets of a driven model
     verify_rtol: float = eqx.field(static=True)
     driven: bool = eqx.field(static=True, default=False)
-    #: the two-level map on the run's invariant subspace (:class:`ReducedMap`; ``T = I``
-    #: if there is none smaller); ``None`` for a driven model or a staged rule
-    reduced: ReducedMap | None = None
 
     def advance(self, z):
         """One step of ``z = (q, p)``, in increments."""
@@ -292,17 +230,12 @@ def _refined_solve(a, factors, b):
     return x + sla.lu_solve(factors, resid, check_finite=False)
 
 
-def _block_count(size: int) -> int:
-    """``B``: the stack of ``B`` maps of ``size × size`` holds about 2¹⁸ numbers."""
-    return int(np.clip(2**18 // max(size * size, 1), 1, 64))
-
-
 def _block_maps(delta, offset):
     """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
     precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
     ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
     size = delta.shape[0]
-    count = _block_count(size)
+    count = int(np.clip(2**18 // max(size * size, 1), 1, 64))
     wide = np.longdouble
     d1, b1 = delta.astype(wide), offset.astype(wide)
     d, b = d1.copy(), b1.copy()
@@ -316,73 +249,6 @@ def _block_maps(delta, offset):
 
 #: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
 _REFINE_LIMIT = 400
-
-#: the two-level map (:class:`ReducedMap`) is built for states z of at most this size
-_REDUCE_LIMIT = 256
-
-#: singular values of the increments ``[ΔΦ, Δb + b]`` above this (relative to the largest)
-#: span ``V``; at most :data:`_NULL_RTOL` counts as zero (round-off of a structural zero).
-#: A value in between is neither clearly a direction nor clearly none: no reduction then.
-_RANK_RTOL = 1e-10
-_NULL_RTOL = 1e-14
-
-
-def _reduction(delta, offset) -> dict:
-    """The arrays of a :class:`ReducedMap`.
-
-    ``T`` is the leading left singular vectors of ``[ΔΦ, Δb + b]`` (formed in extended
-    precision), taken only with a clear gap in the singular values and when ``Δ T``
-    stays in its span to round-off (the invariance the recursion relies on); otherwise,
-    and when ``dim V = dim z``, ``T = I``: the same two-level evaluation of the full
-    block maps, without a reduction."""
-    size = delta.shape[0]
-    wide = np.longdouble
-    d, b = delta.astype(wide), offset.astype(wide)
-    cols = np.concatenate([d + d @ d, (d @ b + b)[:, None]], axis=1).astype(np.float64)
-    basis = _invariant_basis(delta, cols)
-    # the B-step maps P_j, c_j and the lifts T + P_j T, in extended precision
-    rank = basis.shape[1]
-    count = int(np.clip(2**18 // max(size * (size + rank), 1), 1, 256))
-    t = basis.astype(wide)
-    lifts, maps, offsets = [], [], []
-    pj, cj = np.zeros((size, size), dtype=wide), np.zeros(size, dtype=wide)
-    for _ in range(count):
-        pj, cj = pj + d + d @ pj, cj + d @ cj + b
-        lifts.append(t + pj @ t)
-        maps.append(pj)
-        offsets.append(cj)
-    return dict(
-        basis=basis,
-        lifts=np.stack(lifts).astype(np.float64),
-        maps=np.stack(maps).astype(np.float64),
-        offsets=np.stack(offsets).astype(np.float64),
-    )
-
-
-def _invariant_basis(delta, cols) -> np.ndarray:
-    """An orthonormal basis ``T`` of ``V = range(cols)`` (see :func:`_reduction`)."""
-    size = delta.shape[0]
-    identity = np.eye(size)
-    u, sv, _ = np.linalg.svd(cols)
-    top = sv[0] if sv.size else 0.0
-    if not top > 0.0:
-        return identity  # the state never moves
-    rank = int(np.sum(sv > _RANK_RTOL * top))
-    if rank >= size or np.any((sv > _NULL_RTOL * top) & (sv <= _RANK_RTOL * top)):
-        return identity
-    basis = u[:, :rank]
-    # Coordinates whose increments are the same (joined ports, a series branch's charges)
-    # or nil (a massless port's momentum) must stay so to the bit: an SVD's rows differ
-    # by round-off, which the reconstruction z₁ + T y would turn into constraint
-    # residuals of order ε|z|/h on a long run. Their rows of T are made identical (zero).
-    _, first, group = np.unique(cols, axis=0, return_index=True, return_inverse=True)
-    basis = basis[first[group.ravel()]]
-    basis[~np.any(cols, axis=1)] = 0.0
-    scale = max(float(np.max(np.abs(delta))), 1e-300)
-    moved = delta @ basis
-    if np.max(np.abs(moved - basis @ (basis.T @ moved)), initial=0.0) > 1e3 * _NULL_RTOL * scale:
-        return identity
-    return basis
 
 
 def build(
@@ -459,14 +325,5 @@ def build(
             momentum_x=p_x,
         )
     )
-    # A driven model's offsets b(t_k) need not lie in one subspace, and a staged rule's
-    # stage constraints are formed from the states (their residuals grew to 1e-11 on
-    # the DC motor): both keep the one-level map, as do large models (the SVD and the
-    # extended-precision products below are O(size³) in slow generic loops).
-    reduced = None
-    if not (driven or rule.stages) and delta.shape[0] <= _REDUCE_LIMIT:
-        reduced = ReducedMap(**jax.device_put(_reduction(delta, offset)))
-    step_map = AffineStepMap(
-        **arrays, verify_rtol=solver.verify_rtol, driven=driven, reduced=reduced
-    )
+    step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
     return step_map, "affine", first
