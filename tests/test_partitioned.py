@@ -239,7 +239,7 @@ def constant_interconnection(draw, discretizations=("retraction", "midpoint")):
     return system, q0, p0, discretization, scheme
 
 
-@examples(3)  # each example compiles both solvers (~3 s)
+@examples(2)  # each example compiles both solvers (~5–10 s); 20 with the slow profile
 @given(case=constant_interconnection())
 def test_random_constant_interconnections_match_dense_newton(case):
     check_random_interconnection(case)

@@ -83,10 +83,13 @@ def newton_iterates(system, q0, p0, scheme, iterations):
 
 
 @pytest.mark.parametrize(
-    "counts", [(40,), pytest.param((1, 2), marks=pytest.mark.slow)], ids=["converged", "1-2"]
+    # with -m slow: the default run shows partitioned lobatto = dense on the torn RLC below
+    "counts",
+    [pytest.param((40,), marks=pytest.mark.slow), pytest.param((1, 2), marks=pytest.mark.slow)],
+    ids=["converged", "1-2"],
 )
 def test_partitioned_newton_takes_dense_newtons_iterates(rng, counts):
-    """Iterate by iterate (1, 2 with -m slow; converged by default) the same ``x`` as
+    """Iterate by iterate (1, 2) and converged (both with -m slow) the same ``x`` as
     dense Newton on the interconnection's own step equations, after the same number of
     iterations: a nonlinear hub (``cos q`` terms) joined to three massless ports, under
     (−), with a dense interface."""
