@@ -189,9 +189,8 @@ class _WarmRun:
     __slots__ = (
         "_check",
         "_code",
-        "_dynamic",
+        "_dispatch",
         "_fields",
-        "_fn",
         "_head",
         "_layout",
         "_offset",
@@ -204,7 +203,7 @@ class _WarmRun:
 
     def __init__(self, system, plan, run, chunk, fields, check):
         self._system, self._plan = weakref.ref(system), weakref.ref(plan)
-        self._fn, self._dynamic, self._layout = chunk._fn, chunk._dynamic, chunk.layout
+        self._dispatch, self._layout = chunk.dispatch, chunk.layout
         self._head = np.array([run.h, 0.0, 0.0])  # (h, t0, index of the first step)
         self._zeros = np.zeros(run.shape.m)  # μ of the step before the first
         self._shape = (run.shape.n,)
@@ -233,7 +232,7 @@ class _WarmRun:
         # The run is dispatched first and checked while it runs (dispatch is
         # asynchronous); its result is used only if the data pass. A NaN or an infinity
         # makes x·x non-finite (without a floating-point warning).
-        out = self._fn(self._dynamic, x)
+        out = self._dispatch(x)
         if not math.isfinite(x @ x):
             return None
         r = self._check @ x

@@ -415,9 +415,14 @@ class CompiledChunk:
         ``h``, ``t0`` and the index may be Python floats."""
         return np.concatenate(((h, clock[0], clock[1]), *carry))
 
+    def dispatch(self, x):
+        """Start an unbatched chunk on the flat input ``x``; returns the (device) packed
+        output at once, before the run ends (JAX dispatch is asynchronous)."""
+        return self._fn(self._dynamic, x)
+
     def run(self, x) -> np.ndarray:
         """The packed output (see :class:`OutputLayout`) of an unbatched chunk."""
-        return np.asarray(self._fn(self._dynamic, x))
+        return np.asarray(self.dispatch(x))
 
     def __call__(self, h, clock, carry):
         """``(carry, fail, saved)`` as numpy arrays (views into the packed output);
