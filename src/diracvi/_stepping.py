@@ -39,6 +39,7 @@ from ._equations import StepEquations, first_guess, nodal_momentum, ordered, spl
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
+from ._tiny import max_abs
 
 #: internal status of a step the affine map computed but its verification rejected
 AFFINE_REJECTED = 4
@@ -89,6 +90,10 @@ def _newton_block(system, rule, scheme, solver, h, k, carry, times):
     return jax.lax.scan(body, carry, times, length=k)
 
 
+#: up to this many blocks the recursion of their starts is unrolled
+_UNROLL_BLOCKS = 8
+
+
 def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     q, p, _, _, state, failed = carry
     n = q.shape[0]
@@ -127,22 +132,27 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
                 return z1, z1
 
             _, zs = jax.lax.scan(driven, z0, offsets, length=k, unroll=2)
-    elif k >= 2 * width:
-        # whole blocks of B steps per iteration; the surplus of the last block is dropped
-        def block(z, _):
-            zs = step_map.advance_block(z)
-            return zs[-1], zs
-
-        _, zs = jax.lax.scan(block, z0, None, length=-(-k // width))
-        zs = zs.reshape(-1, z0.shape[0])[:k]
     else:
+        # blocks of equal width ≤ B: only the blocks' starts form a sequential
+        # recursion; every state then follows from its block's start at once
+        blocks = -(-k // width)
+        width = -(-k // blocks)
+        if width == 1:  # one step: elementwise, no library call
+            zs = step_map.next_start(z0, 1)[None]
+        elif blocks == 1:
+            zs = step_map.advance_blocks(z0[None], width)[0]
+        else:
 
-        def body(z, _):
-            z1 = step_map.advance(z)
-            return z1, z1
+            def start(z, _):
+                z1 = step_map.next_start(z, width)
+                return z1, z1
 
-        # a 2-fold unroll halves the loop overhead of these tiny steps (measured best)
-        _, zs = jax.lax.scan(body, z0, None, length=k, unroll=2)
+            # a few blocks are unrolled (no loop), many looped
+            unroll = blocks if blocks <= _UNROLL_BLOCKS else 1
+            _, ends = jax.lax.scan(start, z0, None, length=blocks, unroll=unroll)
+            zs = step_map.advance_blocks(jnp.concatenate([z0[None], ends[:-1]]), width)
+            # each block ends where the next starts, bitwise (the recursion's own result)
+            zs = zs.at[:, -1].set(ends).reshape(-1, z0.shape[0])[:k]
     z_end = zs[-1]
     z_from = jnp.concatenate([z0[None], zs[:-1]])
     mus = step_map.multipliers(z_from)
@@ -191,8 +201,8 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
         if not affine:
             return energy, con, jnp.zeros((), q_.dtype), p_node
         dx = method.correction(StepEquations(system, rule, scheme, h, q_, p_, tk), x)
-        size = jnp.maximum(jnp.max(jnp.abs(x)), jnp.max(jnp.abs(q_), initial=0.0))
-        return energy, con, jnp.max(jnp.abs(dx), initial=0.0) / jnp.maximum(size, 1e-300), p_node
+        size = jnp.maximum(max_abs(x), max_abs(q_))
+        return energy, con, max_abs(dx) / jnp.maximum(size, 1e-300), p_node
 
     x = jnp.concatenate([q1s, mus], axis=1)
     energy, con, correction, p_node = jax.vmap(one)(
@@ -219,19 +229,24 @@ def _first_failure(raw, checked, fail):
     )
 
 
+def _good_prefix(ok):
+    """How many of ``ok``'s entries (last axis) are true before the first false one:
+    ``Σ cumprod(ok)``, as one reduction (a cumulative product is a chain of kernels)."""
+    return jnp.where(jnp.all(ok, axis=-1), ok.shape[-1], jnp.argmin(ok, axis=-1))
+
+
 def _saved(raw, checked, k: int, save_states: bool):
     """Reduce steps shaped ``(blocks, k, …)`` to one saved record per block."""
     q1s, p1s, mus = raw[:3]
     energy, con, its, _, status, p_node = checked
-    ok = (status == 0).astype(jnp.int32)
-    n_good = jnp.sum(jnp.cumprod(ok, axis=-1), axis=-1)
+    n_good = _good_prefix(status == 0).astype(jnp.int32)
     last = jnp.maximum(n_good - 1, 0)
 
     def at(a):
         return jnp.take_along_axis(a, last.reshape(last.shape + (1,) * (a.ndim - 1)), axis=1)[:, 0]
 
     good = jnp.arange(k) < n_good[:, None]
-    abs_con = jnp.max(jnp.abs(con), axis=-1, initial=0.0)
+    abs_con = max_abs(con)
     saved = {
         "n_good": n_good,
         "energy": at(energy),
@@ -247,11 +262,11 @@ def _saved_every_step(raw, checked, save_states: bool):
     """:func:`_saved` for ``k = 1``: every step is its own record."""
     q1s, p1s, mus = raw[:3]
     energy, con, its, _, status, p_node = checked
-    ok = status == 0
+    # 1 up to the first failing step, 0 from there on
     saved = {
-        "n_good": jnp.cumprod(ok.astype(jnp.int32)),
+        "n_good": (jnp.arange(status.shape[0]) < _good_prefix(status == 0)).astype(jnp.int32),
         "energy": energy,
-        "violation": jnp.max(jnp.abs(con), axis=-1, initial=0.0),
+        "violation": max_abs(con),
         "iterations": its,
     }
     if save_states:

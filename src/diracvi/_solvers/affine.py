@@ -39,6 +39,7 @@ import scipy.linalg as sla
 from .._compile import run_once_jit
 from .._equations import StepEquations, new_momentum, residual, unknown_count
 from .._errors import ModelError
+from .._tiny import matvec
 from .base import StepSolver
 from .newton import NewtonSolver
 
@@ -98,22 +99,30 @@ class AffineStepMap(eqx.Module):
     verify_rtol: float = eqx.field(static=True)
     driven: bool = eqx.field(static=True, default=False)
 
-    def advance(self, z):
-        """One step of ``z = (q, p)``, in increments."""
-        return z + (self.delta @ z + self.offset)
-
-    def advance_block(self, z):
-        """The next ``B`` states from ``z``, each straight from ``z`` (shape (B, 2n)).
+    def advance_blocks(self, starts, width: int):
+        """The ``width`` states after each row of ``starts`` (shape (blocks, 2n) ↦
+        (blocks, width, 2n)), each straight from its start: ``z_{k+j} = z_k + Δ_j z_k + b_j``.
 
         A scan of single steps pays the loop's overhead per step; these ``B``-step maps
-        (formed once in extended precision) cut the iterations ``B``-fold. Each is an
-        increment map rounded once, so the error per unit time is that of single steps.
+        (formed once in extended precision) leave only the blocks' starts to a
+        sequential recursion (:meth:`next_start`), and every state of the run to one
+        matrix product. Each is an increment map rounded once, so the error per unit
+        time is that of single steps.
         """
-        return z + (self.powers @ z + self.power_offsets)
+        size = self.powers.shape[1]
+        powers = self.powers[:width].reshape(width * size, size)
+        # (width·2n, 2n) × (2n, blocks): one product for all blocks (one library call; as
+        # elementwise code XLA would recompute it inside each consumer)
+        steps = (powers @ starts.T).T.reshape(-1, width, size)
+        return starts[:, None, :] + (steps + self.power_offsets[:width])
+
+    def next_start(self, z, width: int):
+        """The state ``width`` steps after ``z`` (the last row of :meth:`advance_blocks`)."""
+        return z + (matvec(self.powers[width - 1], z) + self.power_offsets[width - 1])
 
     def multipliers(self, z_from):
         """``μ`` of the steps taken from each row of ``z_from``."""
-        return z_from @ self.mu_map.T + self.mu_offset
+        return matvec(self.mu_map, z_from) + self.mu_offset
 
     def offsets_at(self, system, rule, scheme, h, times):
         """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets."""
@@ -130,7 +139,7 @@ class AffineStepMap(eqx.Module):
 
     def correction(self, eqs: StepEquations, x):
         """One Newton correction ``−J_x⁻¹ r(x)`` of a computed step."""
-        return -self.inverse @ eqs.residual(x)
+        return -matvec(self.inverse, eqs.residual(x))
 
 
 @run_once_jit
@@ -230,12 +239,17 @@ def _refined_solve(a, factors, b):
     return x + sla.lu_solve(factors, resid, check_finite=False)
 
 
+#: the longest block of steps that one map takes from its start (a run of k steps is
+#: ⌈k / MAX_BLOCK⌉ blocks: the sequential part of an affine run)
+MAX_BLOCK = 64
+
+
 def _block_maps(delta, offset):
     """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
     precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
     ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
     size = delta.shape[0]
-    count = int(np.clip(2**18 // max(size * size, 1), 1, 64))
+    count = int(np.clip(2**18 // max(size * size, 1), 1, MAX_BLOCK))
     wide = np.longdouble
     d1, b1 = delta.astype(wide), offset.astype(wide)
     d, b = d1.copy(), b1.copy()
