@@ -137,8 +137,15 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
         # recursion; every state then follows from its block's start at once
         blocks = -(-k // width)
         width = -(-k // blocks)
-        if width == 1:  # one step: elementwise, no library call
+        if k == 1:  # one step: elementwise, no library call
             zs = step_map.next_start(z0, 1)[None]
+        elif width == 1:  # single steps (a map too large for blocks): the recursion is the run
+
+            def single(z, _):
+                z1 = step_map.next_start(z, 1)
+                return z1, z1
+
+            _, zs = jax.lax.scan(single, z0, None, length=k, unroll=2)
         elif blocks == 1:
             zs = step_map.advance_blocks(z0[None], width)[0]
         else:

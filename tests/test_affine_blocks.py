@@ -1,0 +1,44 @@
+"""An affine run in blocks (the blocks' starts by a recursion, every state from its
+block's start) is the single-step recursion ``z_{k+1} = z_k + Δ z_k + b``, whatever the
+block length and however the run's length falls on the blocks."""
+
+import numpy as np
+import pytest
+
+import diracvi as dv
+from diracvi import problems
+from diracvi._simulate import check_run, prepared_plan
+from diracvi._solvers import affine
+
+
+@pytest.mark.parametrize(
+    ("block", "steps"),
+    [
+        (1, 1),  # one step
+        (1, 4),  # blocks of one step: a map too large for longer blocks
+        (5, 1),
+        (5, 13),  # three blocks of 5, the last one partly used
+        (64, 130),  # the default: three blocks of 44 (equal widths), two starts
+    ],
+)
+def test_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
+    monkeypatch.setattr(affine, "MAX_BLOCK", block)  # read when the plan builds its map
+    prob = problems.spring_chain_torn(dt=0.01, steps=steps)  # a fresh system: a fresh plan
+    q0, p0 = np.asarray(prob.q0, float), np.asarray(prob.p0, float)
+    traj = dv.simulate(prob.system, q0, p0, dt=prob.dt, steps=steps, solver=dv.AffineSolver())
+    run = check_run(prob.system, "plus", "retraction", prob.dt, steps, 1, dv.AffineSolver())
+    step_map = prepared_plan(prob.system, run, dv.AffineSolver(), q0, p0).step_map
+    assert step_map.powers.shape[0] == block
+
+    delta, offset = np.asarray(step_map.delta), np.asarray(step_map.offset)
+    mu_map, mu_offset = np.asarray(step_map.mu_map), np.asarray(step_map.mu_offset)
+    z = [np.concatenate([q0, p0])]
+    for _ in range(steps):
+        z.append(z[-1] + (delta @ z[-1] + offset))
+    z = np.array(z)
+    n = prob.system.n
+    scale = np.max(np.abs(z))
+    np.testing.assert_allclose(traj.q, z[:, :n], rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(traj.p, z[:, n:], rtol=0, atol=1e-13 * scale)
+    mu = z[:-1] @ mu_map.T + mu_offset
+    np.testing.assert_allclose(traj.multipliers, mu, rtol=0, atol=1e-13 * np.max(np.abs(mu)))
