@@ -25,7 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._compile import RUN_ONCE_OPTIONS
+from ._compile import run_once_jit
 from ._system import DiracSystem
 
 
@@ -67,7 +67,7 @@ _ROWS = 4
 _BATCH_LIMIT = 256
 
 
-@partial(jax.jit, compiler_options=RUN_ONCE_OPTIONS)
+@partial(run_once_jit, filtered=False)
 def _legendre_rows(system, qs, ts):
     """Per row ``(q, t)``: ``∂L/∂v(q, 0, t)``, ``W = ∂²L/∂v²(q, 0, t)``, ``A(q, t)`` and the
     slope ``G = ∂/∂q ∂L/∂v(q, 0, t)`` (with W and A constant, ``∂L/∂v(q, 0) = g₀ + G q``)."""
@@ -101,7 +101,7 @@ def _legendre_pieces(system, rows):
     return [np.concatenate(group)[: len(rows)] for group in zip(*parts, strict=True)]
 
 
-@partial(jax.jit, compiler_options=RUN_ONCE_OPTIONS)
+@partial(run_once_jit, filtered=False)
 def _holonomic_pieces(system, q, t=0.0):
     """``g(q, t)`` and its Jacobian (empty when there are no holonomic rows)."""
     return system.position_constraints(q, t), jax.jacfwd(system.position_constraints)(q, t)
