@@ -4,14 +4,17 @@ From a few hundred coordinates on, the initial-data check's complement projector
 ``I − B B⁺`` (``B = [W, Aᵀ]``) is formed block by block, and a clearly regular step
 Jacobian is recognised by a sparse LU instead of an SVD. Both are compared here with the
 dense formulas on random instances that have what models have: block-diagonal ``W`` with
-massless (singular) blocks, constraint rows across blocks, singular Jacobians.
+massless (singular) blocks, constraint rows across blocks, singular Jacobians. The
+groups of connected ports (connected components of the connection graph, by index) are
+compared with a union–find over the coordinates' names.
 """
 
 import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi._consistency import _complement
+from diracvi import problems
+from diracvi._consistency import _complement, _port_groups
 from diracvi._solvers.solvability import check_step_jacobian, null_directions
 
 
@@ -91,3 +94,39 @@ def test_a_nearly_singular_but_regular_jacobian_is_decided_by_the_svd():
     jac = (q * s) @ q.T
     unknowns, equations = _names(n)
     check_step_jacobian(jac, unknown_names=unknowns, equation_names=equations, where="test")
+
+
+def _named_port_groups(system):
+    """Union–find over names: a coordinate ``sub.x`` of a nested interconnection is
+    joined to ``sub.y`` if ``sub`` connects ``x`` and ``y``."""
+
+    def ports(sys, prefix=""):
+        pairs = [(prefix + a, prefix + b) for a, b in getattr(sys, "ports", ())]
+        for sub in getattr(sys, "subsystems", ()):
+            pairs += ports(sub, f"{prefix}{sub.name}.")
+        return pairs
+
+    parent = {c: c for c in system.coords}
+
+    def root(c):
+        while parent[c] != c:
+            c = parent[c]
+        return c
+
+    for a, b in ports(system):
+        parent[root(a)] = root(b)
+    groups = {}
+    for i, c in enumerate(system.coords):
+        groups.setdefault(root(c), []).append(i)
+    return [g for g in groups.values() if len(g) > 1]
+
+
+def test_port_groups_by_index_equal_the_union_find_over_names_also_when_nested():
+    flat = problems.chain_torn(9, 3)
+    s0, s1, s2 = flat.system.subsystems
+    front = dv.interconnect([s0, s1], [dv.connect(f"s0.{s0.coords[-1]}", "s1.qbar")], name="f")
+    nested = dv.interconnect([front, s2], [dv.connect(f"f.s1.{s1.coords[-1]}", "s2.qbar")])
+    for system in (flat.system, nested, problems.get("dc-motor").system):
+        got = [g.tolist() for g in _port_groups(system)]
+        assert got == _named_port_groups(system)
+        assert got  # each of them has connected ports

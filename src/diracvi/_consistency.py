@@ -33,30 +33,40 @@ class InconsistentInitialDataWarning(UserWarning):
     """The initial state violates an interconnection or the primary constraint."""
 
 
-def _ports(system: DiracSystem, prefix: str = "") -> list[tuple[str, str]]:
-    pairs = [(prefix + a, prefix + b) for a, b in getattr(system, "ports", ())]
+def _port_pairs(system, offset: int = 0) -> list[np.ndarray]:
+    """Index pairs ``(a, b)`` of the coordinates joined by :func:`connect`, at every level
+    of nesting: an interconnection's coordinates are its subsystems', in order, so a
+    subsystem's pairs are shifted by the coordinates before it."""
+    own = getattr(system, "_port_index", None)
+    if own is None and getattr(system, "ports", ()):  # named ports of another kind of system
+        index = {c: i for i, c in enumerate(system.coords)}
+        own = [(index[a], index[b]) for a, b in system.ports]
+    pairs = [np.asarray(own, dtype=np.int64).reshape(-1, 2) + offset] if own else []
     for sub in getattr(system, "subsystems", ()):
-        pairs += _ports(sub, f"{prefix}{sub.name}.")
+        pairs += _port_pairs(sub, offset)
+        offset += sub.n
     return pairs
 
 
-def _port_groups(system) -> list[list[int]]:
-    """Coordinates tied together by chains of connections (union–find)."""
-    index = {c: i for i, c in enumerate(system.coords)}
-    parent = list(range(system.n))
+def _port_groups(system) -> list[np.ndarray]:
+    """Coordinates tied together by chains of connections: the connected components (of
+    more than one coordinate) of the graph whose edges are the connections, each sorted,
+    in the order of their first coordinate. (Vectorized: a Python union–find over the
+    coordinates took 1.8 s for a torn chain of 10⁶ masses.)"""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    def root(i):
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for a, b in _ports(system):
-        parent[root(index[a])] = root(index[b])
-    groups: dict[int, list[int]] = {}
-    for i in range(system.n):
-        groups.setdefault(root(i), []).append(i)
-    return [g for g in groups.values() if len(g) > 1]
+    pairs = _port_pairs(system)
+    if not pairs:
+        return []
+    edges = np.concatenate(pairs)
+    n = system.n
+    graph = coo_matrix((np.ones(len(edges)), (edges[:, 0], edges[:, 1])), shape=(n, n))
+    _, labels = connected_components(graph.tocsr(), directed=False)
+    tied = np.nonzero(np.bincount(labels)[labels] > 1)[0]  # ascending
+    order = tied[np.argsort(labels[tied], kind="stable")]
+    groups = np.split(order, np.nonzero(np.diff(labels[order]))[0] + 1)
+    return sorted(groups, key=lambda g: int(g[0]))
 
 
 #: the Legendre data is evaluated at this many (q, t) rows at once, so one compiled program
