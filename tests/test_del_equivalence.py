@@ -5,6 +5,7 @@ The reference is written independently of diracvi: NumPy with hand-derived gradi
 midpoint DEL equations.
 """
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -73,3 +74,28 @@ def test_momenta_helper_is_the_legendre_transform():
     system = dv.LagrangeDiracSystem(("a", "b"), lagrangian)
     v = np.array([0.3, -1.2])
     np.testing.assert_allclose(dv.momenta(system, [0.1, 0.2], v), M @ v, rtol=0, atol=1e-15)
+
+
+def test_momenta_at_many_times_compile_once():
+    """p = m(t) v with m(t) = 1 + t²; the time is an input of the program, not a constant."""
+
+    def driven(q, v, t):
+        return 0.5 * (1.0 + t**2) * v @ v - 0.5 * q @ q
+
+    system = dv.LagrangeDiracSystem(("a", "b"), driven)
+    v = np.array([0.3, -1.2])
+    for t in (0.0, 0.5, 1.5):
+        p = dv.momenta(system, [0.1, 0.2], v, t=t)
+        np.testing.assert_allclose(p, (1 + t**2) * v, rtol=0, atol=1e-15)
+    traced = []
+
+    def listener(event, *_, **__):
+        if "trace" in event:
+            traced.append(event)
+
+    jax.monitoring.register_event_duration_secs_listener(listener)
+    try:
+        dv.momenta(system, [0.1, 0.2], v, t=2.0)
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listener)
+    assert traced == []  # a new time reuses the compiled program

@@ -109,6 +109,23 @@ def test_n_mass_chain_torn_into_m_pieces(masses, pieces):
         assert np.max(np.abs(torn[a] - reduced[b])) <= 1e-12 * scale_of(reduced)
 
 
+def test_chain_torn_shared_names_pair_each_mass_once():
+    """The torn chain's ``shared`` (a mapping computed on lookup) pairs every mass
+    coordinate of the pieces with one reduced coordinate at the same initial position,
+    and nothing else (no port variable, no unknown name)."""
+    problem = problems.chain_torn(17, 5)
+    shared, reduced = problem.shared, problem.reduced
+    ports = {b for _, b in problem.ports}
+    masses = [c for c in problem.system.coords if c not in ports]
+    assert list(shared) == masses and len(shared) == 17
+    assert sorted(shared.values(), key=lambda c: int(c[1:])) == list(reduced.system.coords)
+    q0 = dict(zip(problem.system.coords, problem.q0, strict=True))
+    r0 = dict(zip(reduced.system.coords, reduced.q0, strict=True))
+    assert all(q0[a] == r0[b] for a, b in shared.items())
+    for missing in ("s5.q0", "s1.q4", "s1.qbar", "s01.q0", "q1", 3):
+        assert missing not in shared
+
+
 def test_hierarchical_interconnection_equals_the_flat_one():
     flat = problems.chain_torn(9, 3, steps=300)
     s0, s1, s2 = flat.system.subsystems

@@ -131,7 +131,8 @@ def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0, jacobian=None) -> No
     if unknown_count(system, rule) > DENSE_CHECK_LIMIT:
         return
     if jacobian is None:
-        tk = t0 if scheme == "plus" else t0 - float(h)
+        # tk as an array: a Python float would be static, one program per start time
+        tk = np.float64(t0 if scheme == "plus" else t0 - float(h))
         jacobian = _step_jacobian(system, rule, scheme, q0, p0, h, tk)
     jac = np.asarray(jacobian)
     check_step_jacobian(

@@ -411,7 +411,8 @@ def momenta(system: DiracSystem, q, v, t=0.0):
     ensure_float64()
     q = check_state("q", q, system.n, system.coords)
     v = check_state("v", v, system.n, system.coords)
-    return np.asarray(_momentum(system, q, v, check_float("t", t)))
+    # t as an array: a Python float would be a static argument, one program per time
+    return np.asarray(_momentum(system, q, v, np.float64(check_float("t", t))))
 
 
 @eqx.filter_jit

@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._compile import RUN_ONCE_OPTIONS, chunk_jit
+from ._compile import chunk_jit, run_once_options
 from ._config import ensure_float64
 from ._consistency import Checker, InconsistentInitialDataWarning
 from ._discretize import get_rule
@@ -349,7 +349,7 @@ def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
             return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q, p, x, tk))(x0)
 
         return jax.jit(
-            jax.vmap(one, in_axes=(0, 0, 0, None, None)), compiler_options=RUN_ONCE_OPTIONS
+            jax.vmap(one, in_axes=(0, 0, 0, None, None)), compiler_options=run_once_options()
         )
 
     fn = _cached("jacobian", (static, rule.name, scheme), make)
@@ -382,7 +382,7 @@ def _legendre_batch(static, t0, dynamic, q0):
             w = jax.hessian(system.lagrangian, argnums=1)(q, zero, t0)
             return g, w, system.constraint_forms(q, t0)
 
-        return jax.jit(jax.vmap(one, in_axes=(0, 0, None)), compiler_options=RUN_ONCE_OPTIONS)
+        return jax.jit(jax.vmap(one, in_axes=(0, 0, None)), compiler_options=run_once_options())
 
     fn = _cached("legendre", (static,), make)
     return [np.asarray(a) for a in fn(dynamic, q0, np.float64(t0))]

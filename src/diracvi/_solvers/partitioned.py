@@ -669,10 +669,14 @@ def _concatenate_tiles(pieces, size: int):
     # Large: written piece by piece into one buffer. XLA fuses a concatenation into each
     # of its consumers (the finiteness checks, the slices of the next step) and the
     # fused loops cost 2–5× a step at 10⁵ unknowns (measured: 155 → 66 ms per step, the
-    # same bits); in-place updates are written once.
-    out = jnp.zeros(size, dtype=pieces[0][1].dtype)
-    for start, values in pieces:
-        out = jax.lax.dynamic_update_slice(out, values, (start,))
+    # same bits); in-place updates are written once. The buffer starts as the largest
+    # piece padded (one pass over it), not as zeros that every piece then overwrites.
+    big = max(range(len(pieces)), key=lambda i: pieces[i][1].shape[0])
+    start, values = pieces[big]
+    out = jnp.pad(values, (start, size - start - values.shape[0]))
+    for i, (start, values) in enumerate(pieces):
+        if i != big:
+            out = jax.lax.dynamic_update_slice(out, values, (start,))
     return out
 
 
@@ -713,7 +717,7 @@ class _Step:
         system = eqs.system
         self.h = eqs.h
         self.stacks, self.index, self.q, self.p, self.blocks = [], [], [], [], []
-        self.tiles, self.uniform, self.inverse = [], [], []
+        self.tiles, self.uniform, self.inverse, self.port_cols = [], [], [], []
         general = system.general_forms(eqs.q) if system.interactions else None
         for g, arrays in zip(plan.groups, stacked, strict=True):
             first = system.subsystems[int(g.members[0])]
@@ -731,6 +735,11 @@ class _Step:
             # the same small (rows × n) matrix E for every member when only connections
             # touch the group at the same local places, else one block per member
             self.uniform.append(_uniform_ports(g))
+            # the columns E touches (a connection: one per row): σ and the reaction
+            # read and write only these, not all n·copies unknowns of every member
+            self.port_cols.append(
+                None if self.uniform[-1] is None else np.flatnonzero(self.uniform[-1].any(0))
+            )
             if self.uniform[-1] is not None:
                 self.blocks.append(None)
                 continue
@@ -788,6 +797,19 @@ class _Step:
         u = jnp.einsum("ij,kjn->kni", jnp.asarray(self.c.reaction), self.spread(index, lam))
         return u.reshape(len(g.members), g.n * g.copies)
 
+    def add_reaction(self, index, r, lam):
+        """``r`` with ``G_i λ_i`` added on its coordinate lines (local order); with a
+        uniform ``E`` only at the columns it touches (the same numbers: the rest adds 0)."""
+        g, cols = self.plan.groups[index], self.port_cols[index]
+        if cols is None:
+            return r.at[:, : g.n * g.copies].add(self.reaction(index, lam))
+        count = len(g.members)
+        v = lam.reshape(count, g.copies, g.rows_each)
+        spread = v @ jnp.asarray(self.uniform[index][:, cols])  # (G, copies, cols)
+        u = jnp.einsum("ij,kjc->kci", jnp.asarray(self.c.reaction), spread)
+        at = (cols[:, None] * g.copies + np.arange(g.copies)[None, :]).ravel()
+        return r.at[:, at].add(u.reshape(count, at.size))
+
     def sigma(self, index, y, block=None):
         """``H_i y`` for every member: its share of every copy of its interface rows.
 
@@ -796,10 +818,12 @@ class _Step:
         g = self.plan.groups[index]
         count, extra = len(g.members), y.shape[2:]
         y = y.reshape(count, g.n, g.copies, *extra)
-        z = jnp.einsum("ju,knu...->kjn...", jnp.asarray(self.c.rate), y) / self.h
         if block is None and self.uniform[index] is not None:
-            out = jnp.einsum("rn,kjn...->kjr...", jnp.asarray(self.uniform[index]), z)
+            cols = self.port_cols[index]  # E is zero elsewhere: read only these columns
+            z = jnp.einsum("ju,kcu...->kjc...", jnp.asarray(self.c.rate), y[:, cols]) / self.h
+            out = jnp.einsum("rc,kjc...->kjr...", jnp.asarray(self.uniform[index][:, cols]), z)
         else:
+            z = jnp.einsum("ju,knu...->kjn...", jnp.asarray(self.c.rate), y) / self.h
             block = self.blocks[index] if block is None else block
             out = jnp.einsum("krn,kjn...->kjr...", block, z)
         return out.reshape(count, g.copies * g.rows_each, *extra)
@@ -907,7 +931,7 @@ class _Step:
             arrays, _ = self.stacks[index]
             r = jax.vmap(self._local(index))(arrays, self.q[index], self.p[index], y)
             coords = g.n * g.copies
-            out.append(r.at[:, :coords].add(self.reaction(index, lam[g.rows])))
+            out.append(self.add_reaction(index, r, lam[g.rows]))
             # α is linear in the unknowns and vanishes when every copy is the known q
             moved = y[:, :coords] - jnp.repeat(self.q[index], g.copies, axis=1)
             alpha = alpha.at[g.rows].add(self.sigma(index, moved))
@@ -1016,7 +1040,13 @@ class _Step:
         for index, (g, (_, kinv_g, block), kinv_a) in enumerate(
             zip(plan.groups, local, base, strict=True)
         ):
-            dy = kinv_a - jnp.einsum("ksr,kr->ks", kinv_g, g_all[g.slots])
+            # the few slots' terms written out: one elementwise pass (a batched dot of
+            # (s × slots) by (slots,) per member, or a reduction over the slot axis, is a
+            # separate pass that XLA runs 4–20× slower at 10⁴ members)
+            dy = kinv_a
+            g_here = g_all[g.slots]
+            for j in range(g_here.shape[1]):
+                dy = dy - kinv_g[:, :, j] * g_here[:, j, None]
             dys.append(dy)
             share = self.sigma(index, dy[:, : g.n * g.copies], block)
             sigma = sigma.at[g.slots].set(share)
