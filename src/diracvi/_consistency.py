@@ -146,8 +146,8 @@ def _complement(w, forms) -> np.ndarray:
     instead of the SVD of the whole ``n × (n + m)`` matrix (a torn chain of 1000 masses:
     ≈ 10 s → milliseconds). Small models take the SVD as before."""
     n = w.shape[0]
-    if n + forms.shape[0] == 0 or n == 0:
-        return np.eye(n)
+    if n == 0:
+        return np.eye(0)
     if n < _BLOCKWISE_FROM:
         basis = np.concatenate([w, forms.T], axis=1)
         return np.eye(n) - basis @ np.linalg.pinv(basis, rcond=_COMPLEMENT_RCOND)

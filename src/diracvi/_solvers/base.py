@@ -10,7 +10,7 @@ same arithmetic exactly.
 from __future__ import annotations
 
 import enum
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -72,6 +72,11 @@ class StepSolver(eqx.Module):
     [`SolveStatus`][diracvi.SolveStatus] and never raises inside compiled code — a failed
     step is reported through the status, and ``dv.simulate`` turns it into ``StepFailure``.
     """
+
+    #: whether a chunk stepped by this solver computes its per-step diagnostics inside
+    #: the step loop rather than vectorized over the chunk afterwards (a solver for large
+    #: models: the vectorized form holds every step's state and costs more per step)
+    diagnostics_per_step: ClassVar[bool] = False
 
     def check(self, system, rule, scheme: str) -> None:
         """Raise :class:`~diracvi.ModelError` if this solver cannot step ``system`` under

@@ -114,7 +114,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 from functools import partial
-from typing import NamedTuple
+from typing import ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
@@ -1075,6 +1075,10 @@ class PartitionedSolver(StepSolver):
             inverses for every group (O(s³) and O(s²)). Both give the same steps to
             round-off.
     """
+
+    # vectorized over a chunk, the diagnostics cost a step of the torn chain 1.8× (34
+    # against 19 ms at N = 10⁵, 1.7× at 10⁴; the same bits to 3e-16)
+    diagnostics_per_step: ClassVar[bool] = True
 
     rtol: float = eqx.field(static=True, default=1e-13)
     max_steps: int = eqx.field(static=True, default=40)
