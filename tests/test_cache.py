@@ -12,15 +12,25 @@ from typer.testing import CliRunner
 from diracvi import _cache
 from diracvi.cli import app
 
-# one small torn model, simulated in a fresh process that logs JAX's cache decisions
+# A small model in a fresh process that logs JAX's cache decisions. Its Lagrangian is a
+# callable Module of the user's, which diracvi keeps whole (not lifted to a program), so
+# the program store (diracvi._stored, tested in test_stored.py) cannot key its programs:
+# they are traced in every process, and JAX's cache saves their compilation.
 CHILD = """
 import logging, sys
 logging.basicConfig(level=logging.WARNING, stream=sys.stdout, format="%(message)s")
 logging.getLogger("jax._src.compiler").setLevel(logging.DEBUG)
+import equinox as eqx
+import numpy as np
 import diracvi as dv
-from diracvi import problems
-pr = problems.spring_chain_torn(steps=20)
-dv.simulate(pr.system, pr.q0, pr.p0, dt=pr.dt, steps=pr.steps)
+
+class Springs(eqx.Module):
+    k: float
+    def __call__(self, q, v):
+        return 0.5 * v @ v - 0.5 * self.k * (q @ q + (q[0] - q[1]) ** 2)
+
+system = dv.LagrangeDiracSystem(("x", "y"), Springs(2.0))
+dv.simulate(system, np.array([1.0, 0.0]), np.zeros(2), dt=0.01, steps=20)
 """
 
 
@@ -78,16 +88,20 @@ def test_empty_value_switches_the_cache_off():
 def test_cli_info_and_clear(tmp_path, monkeypatch):
     path = tmp_path / "cache"
     (path / "sub").mkdir(parents=True)
+    (path / _cache.PROGRAMS).mkdir()
     (path / "a").write_bytes(b"x" * 10)
     (path / "sub" / "b").write_bytes(b"y" * 5)
+    (path / _cache.PROGRAMS / "k.exe").write_bytes(b"z" * 5)  # a stored executable
     monkeypatch.setattr(_cache, "active_dir", lambda: path)
     runner = CliRunner()
     info = runner.invoke(app, ["cache", "info"])
     assert info.exit_code == 0, info.output
-    assert str(path) in info.output and "2" in info.output
+    assert str(path) in info.output
+    assert re.search(r"entries\s*│\s*3\b", info.output), info.output
+    assert re.search(r"executables\s*│\s*1\b", info.output), info.output
     cleared = runner.invoke(app, ["cache", "clear"])
     assert cleared.exit_code == 0, cleared.output
-    assert "removed 2 files" in cleared.output
+    assert "removed 3 files" in cleared.output
     assert not path.exists()
     monkeypatch.setattr(_cache, "active_dir", lambda: None)
     off = runner.invoke(app, ["cache", "clear"])

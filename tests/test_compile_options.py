@@ -6,13 +6,15 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _compile, problems
+from diracvi import _compile, _stored, problems
 from diracvi._compile import FAST_COMPILE_ENV, fast_compile, run_once_options
 from diracvi._plan import clear_cache
 
 
-def test_fast_compiled_chunks_give_the_default_trajectory(monkeypatch):
+def test_fast_compiled_chunks_give_the_default_trajectory(monkeypatch, tmp_path):
     problem = problems.get("rlc")
+    # an empty program store: both chunks are compiled here, not loaded from another test's
+    monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
     jit, options = _compile.jax.jit, {}
 
     def spy(fn, **kwargs):  # what the marching chunk (its function is `flat`) is compiled with

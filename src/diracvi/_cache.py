@@ -8,6 +8,10 @@ cache is switched on when diracvi is imported, in the user's cache directory
 cache off. A cache directory the user gave JAX themselves
 (``jax_compilation_cache_dir``) is left alone.
 
+diracvi's own program store (:mod:`diracvi._stored`) keeps whole executables in the
+:data:`PROGRAMS` folder of the same directory, keyed before tracing, so a later process
+skips tracing and lowering as well; ``diracvi cache info|clear`` cover both.
+
 Programs are keyed by JAX on their lowered form, so they are reusable across processes
 only if no value that changes between processes is baked into them: diracvi passes the
 model's parameters, the state, ``dt`` and the clock as arguments (see
@@ -27,6 +31,9 @@ ENV = "DIRACVI_CACHE_DIR"
 _SOURCE = ["off"]  # what chose the location (set by enable)
 #: programs that compile faster than this are not written (reading one costs about as much)
 MIN_COMPILE_SECONDS = 0.05
+#: the folder of the cache directory where diracvi's program store (diracvi._stored)
+#: keeps compiled executables, beside JAX's own entries
+PROGRAMS = "programs"
 
 
 def cache_dir() -> Path | None:
@@ -56,18 +63,21 @@ def enable() -> Path | None:
 
 
 def info() -> dict:
-    """The cache's location, whether it is on, and the number and size of its entries."""
+    """The cache's location, whether it is on, the number and size of its entries, and
+    how many of them are stored executables (:mod:`diracvi._stored`)."""
     path = active_dir()
-    entries, size = 0, 0
+    entries, size, programs = 0, 0, 0
     if path is not None and path.is_dir():
         for item in path.rglob("*"):
             if item.is_file():
                 entries += 1
                 size += item.stat().st_size
+                programs += item.parent.name == PROGRAMS and item.suffix == ".exe"
     return {
         "enabled": path is not None,
         "path": None if path is None else str(path),
         "entries": entries,
+        "programs": programs,
         "bytes": size,
         "source": _SOURCE[0],
     }

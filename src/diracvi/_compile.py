@@ -26,7 +26,6 @@ from __future__ import annotations
 import functools
 import os
 
-import equinox as eqx
 import jax
 
 #: XLA options of a program that runs once (with :data:`_OLDER_FUSION_CODEGEN` where known)
@@ -35,6 +34,8 @@ _LOW_OPTIMIZATION = {
     "xla_llvm_disable_expensive_passes": True,
 }
 _OLDER_FUSION_CODEGEN = {"xla_cpu_use_fusion_emitters": False}
+#: what a run-once program asks for (:func:`run_once_options`: what this jaxlib accepts)
+RUN_ONCE_REQUESTED = {**_LOW_OPTIMIZATION, **_OLDER_FUSION_CODEGEN}
 
 
 @functools.cache
@@ -42,7 +43,7 @@ def run_once_options() -> dict:
     """XLA options of a program that runs once: no LLVM optimization, and XLA's older
     fusion code generator if this jaxlib has the option (probed once per process by
     compiling a one-operation program: an unknown option is an error at compile time)."""
-    options = {**_LOW_OPTIMIZATION, **_OLDER_FUSION_CODEGEN}
+    options = dict(RUN_ONCE_REQUESTED)
     try:
         jax.jit(lambda x: x + 1.0, compiler_options=options).lower(0.0).compile()
     except Exception:  # any refusal (an unknown option): compile without it
@@ -54,21 +55,16 @@ def run_once_options() -> dict:
 FAST_COMPILE_ENV = "DIRACVI_FAST_COMPILE"
 
 
-def run_once_jit(fn, *, filtered: bool = True):
-    """``eqx.filter_jit(fn)`` (``jax.jit(fn)`` if not ``filtered``) compiled with
-    :func:`run_once_options`. The jitted function is made at the first call, so importing
-    diracvi neither probes the options nor starts XLA."""
-    jitted = None
+def run_once_jit(fn):
+    """``eqx.filter_jit(fn)`` compiled with :func:`run_once_options`, its programs kept in
+    the on-disk store (:mod:`diracvi._stored`): a later process loads them untraced.
+    Nothing is traced or compiled before the first call, so importing diracvi neither
+    probes the options nor starts XLA."""
+    from ._stored import StoredJit
 
-    @functools.wraps(fn)
-    def call(*args, **kwargs):
-        nonlocal jitted
-        if jitted is None:
-            jit = eqx.filter_jit if filtered else jax.jit
-            jitted = jit(fn, compiler_options=run_once_options())
-        return jitted(*args, **kwargs)
-
-    return call
+    return StoredJit(
+        fn, f"{fn.__module__}.{fn.__qualname__}", run_once_options, options_key=RUN_ONCE_REQUESTED
+    )
 
 
 def fast_compile() -> bool:

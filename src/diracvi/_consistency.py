@@ -19,7 +19,6 @@ Everything is evaluated at the initial time ``t₀`` (driven models).
 from __future__ import annotations
 
 import warnings
-from functools import partial
 
 import jax
 import jax.numpy as jnp
@@ -77,7 +76,7 @@ _ROWS = 4
 _BATCH_LIMIT = 256
 
 
-@partial(run_once_jit, filtered=False)
+@run_once_jit
 def _legendre_rows(system, qs, ts):
     """Per row ``(q, t)``: ``∂L/∂v(q, 0, t)``, ``W = ∂²L/∂v²(q, 0, t)``, ``A(q, t)`` and the
     slope ``G = ∂/∂q ∂L/∂v(q, 0, t)`` (with W and A constant, ``∂L/∂v(q, 0) = g₀ + G q``)."""
@@ -111,8 +110,8 @@ def _legendre_pieces(system, rows):
     return [np.concatenate(group)[: len(rows)] for group in zip(*parts, strict=True)]
 
 
-@partial(run_once_jit, filtered=False)
-def _holonomic_pieces(system, q, t=0.0):
+@run_once_jit
+def _holonomic_pieces(system, q, t):
     """``g(q, t)`` and its Jacobian (empty when there are no holonomic rows)."""
     return system.position_constraints(q, t), jax.jacfwd(system.position_constraints)(q, t)
 
@@ -120,9 +119,9 @@ def _holonomic_pieces(system, q, t=0.0):
 def _onto_holonomic(system, q, t, iterations: int = 20):
     """The nearest ``q`` with ``g(q, t) = 0``: Gauss–Newton minimal-norm corrections."""
     for _ in range(iterations):
-        g, jac = (
-            np.asarray(a) for a in _holonomic_pieces(system, np.asarray(q, dtype=np.float64), t)
-        )
+        # t as an array: a Python float would be static, one program per time
+        pieces = _holonomic_pieces(system, np.asarray(q, dtype=np.float64), np.float64(t))
+        g, jac = (np.asarray(a) for a in pieces)
         if np.max(np.abs(g), initial=0.0) <= 1e-15 * max(1.0, float(np.max(np.abs(q)))):
             break
         q = q - np.linalg.lstsq(jac, g, rcond=None)[0]

@@ -28,6 +28,7 @@ import numpy as np
 
 from ._config import ensure_float64
 from ._errors import ModelError
+from ._program import Program, lift
 from ._stacked import Packing, pack
 from ._system import DiracSystem, LagrangeDiracSystem, StaticTuple, with_row_order
 from ._validate import check_forms_array, check_name, eval_shape
@@ -49,14 +50,38 @@ class Interaction(eqx.Module):
     _fn: Callable | None = eqx.field(static=True)
     _const: jax.Array | None
     names: tuple[str, ...] | None = eqx.field(static=True)
+    #: the captured arrays of ``_fn`` once it is a lifted :class:`Program` (see
+    #: :meth:`lifted`): leaves, so alike interactions share one program
+    _consts: tuple = ()
 
-    def __init__(self, forms, names=None):
-        if callable(forms):
-            self._fn, self._const = forms, None
+    def __init__(self, forms, names=None, _consts=()):
+        if callable(forms):  # a function, or a lifted Program with its constants
+            self._fn, self._const, self._consts = forms, None, tuple(_consts)
         else:
             const = check_forms_array("Interaction(forms=...)", forms)
             self._fn, self._const = None, jax.device_put(const)
         self.names = None if names is None else tuple(str(n) for n in names)
+
+    def forms(self, q):
+        """``B(q)``: the constant, the lifted program or the function as given."""
+        if self._fn is None:
+            return self._const
+        if isinstance(self._fn, Program):
+            return self._fn(self._consts, q)
+        return self._fn(q)
+
+    def lifted(self, n: int) -> Interaction:
+        """This interaction with ``B`` traced once on ``q`` of length ``n`` and kept as a
+        :class:`Program` with its captured constants as leaves (a program compares by
+        what it computes, so its compiled code can be found again in a later process:
+        :mod:`diracvi._stored`); itself if ``B`` is constant or cannot be lifted."""
+        if self._fn is None or isinstance(self._fn, Program):
+            return self
+        found = lift(self._fn, [(n,)])
+        if found is None:
+            return self
+        program, consts, _ = found
+        return Interaction(program, self.names, consts)
 
 
 class Connection(eqx.Module):
@@ -213,6 +238,7 @@ class InterconnectedSystem(DiracSystem):
                     "dv.connect('a.x', 'b.y') or dv.Interaction(B)."
                 )
             rows = self._rows(inter, j)
+            inter = inter.lifted(len(self._coords))  # once its shape is known to be right
             given = inter.names or [f"λ{len(inames) + b}" for b in range(rows)]
             if len(given) != rows:
                 raise ModelError(
@@ -387,9 +413,7 @@ class InterconnectedSystem(DiracSystem):
         (rows :meth:`_form_row_index` of ``B``); ``None`` if every row is a connection."""
         if not self.interactions:
             return None
-        return jnp.concatenate(
-            [i._const if i._fn is None else i._fn(q) for i in self.interactions], axis=0
-        )
+        return jnp.concatenate([i.forms(q) for i in self.interactions], axis=0)
 
     def interaction_forms(self, q):
         """``B(q)``, shape (l, N), dense."""

@@ -34,11 +34,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._compile import chunk_jit
+from ._compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
 from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split, stage_of
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
+from ._stored import StoredJit
 from ._tiny import max_abs
 
 #: internal status of a step the affine map computed but its verification rejected
@@ -404,10 +405,11 @@ class CompiledChunk:
 
         self._dynamic = dynamic
         size = sum(leaf.size for leaf in jax.tree.leaves(dynamic))
+        baked = None
         if size <= _CONSTANT_LIMIT:
             # small models: the arrays become compile-time constants, so a call passes
             # only the state (dispatch cost does not grow with the number of subsystems)
-            self._dynamic = None
+            self._dynamic, baked = None, dynamic
             packed = partial(_with_constants, packed, dynamic)
         self.layout = OutputLayout(n, m, blocks, save_states, nodal)
         self._batched = batched
@@ -418,20 +420,31 @@ class CompiledChunk:
                 carry = (x[3 : 3 + n], x[3 + n : 3 + 2 * n], x[3 + 2 * n : 3 + 3 * n])
                 return packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
 
-            self._fn = chunk_jit(flat)
+            fn, kind = flat, "one run"
         elif isinstance(method, AffineStepMap):
             # Each affine run is already vectorized over its steps; batching members
             # only multiplies the size of every intermediate (memory-bound), so the
             # members run one after another inside the one compiled call (measured 3.5×
             # faster than vmap at 10³ members of the torn chain).
-            self._fn = chunk_jit(
-                lambda dynamic, h, clock, carry: jax.lax.map(
-                    lambda c: packed(dynamic, h, clock, c), carry
-                )
-            )
+            def fn(dynamic, h, clock, carry):
+                return jax.lax.map(lambda c: packed(dynamic, h, clock, c), carry)
+
+            kind = "members one after another"
         else:
             # Newton's many tiny operations per step amortize well over a batch.
-            self._fn = chunk_jit(jax.vmap(packed, in_axes=(None, None, None, 0)))
+            fn, kind = jax.vmap(packed, in_axes=(None, None, None, 0)), "members vmapped"
+        # kept on disk (diracvi._stored) under everything the program closes over
+        context = (kind, static, scheme, k, save_states, blocks, nodal, baked)
+        fast = fast_compile()  # read once: the plain path and the store agree
+        self._fn = StoredJit(
+            fn,
+            "diracvi._stepping.CompiledChunk",
+            run_once_options if fast else dict,
+            options_key=RUN_ONCE_REQUESTED if fast else {},
+            context=context,
+            plain=lambda: jax.jit(fn, compiler_options=run_once_options() if fast else None),
+        )
+        self._call = None  # the compiled program of an unbatched chunk, at first dispatch
 
     @staticmethod
     def flat_input(h, clock, carry) -> np.ndarray:
@@ -442,7 +455,13 @@ class CompiledChunk:
     def dispatch(self, x):
         """Start an unbatched chunk on the flat input ``x``; returns the (device) packed
         output at once, before the run ends (JAX dispatch is asynchronous)."""
-        return self._fn(self._dynamic, x)
+        if self._call is None:
+            program, leaves = self._fn.program(self._dynamic, x)
+            if program is None:
+                self._call = partial(self._fn.plain, self._dynamic)
+            else:  # the model's arrays, then x: the program's inputs in order
+                self._call = partial(program, *leaves[:-1])
+        return self._call(x)
 
     def run(self, x) -> np.ndarray:
         """The packed output (see :class:`OutputLayout`) of an unbatched chunk."""

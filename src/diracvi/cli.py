@@ -673,6 +673,7 @@ def cache_info() -> None:
     table.add_row("enabled", "yes" if info["enabled"] else "no")
     table.add_row("chosen by", info["source"])
     table.add_row("entries", f"{info['entries']:,}")
+    table.add_row("of which executables", f"{info['programs']:,} (loaded untraced)")
     table.add_row("size", f"{info['bytes'] / 1e6:.1f} MB")
     out = _out()
     out.print(table)

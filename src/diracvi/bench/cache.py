@@ -4,8 +4,9 @@ For the paper's torn double pendulum (``--quick``: the torn RLC circuit) two fre
 processes run one after the other with the same new, empty ``DIRACVI_CACHE_DIR``: the
 first compiles everything and writes the cache, the second reads it. Each times its
 first ``dv.simulate`` call (tracing, compilation or cache reads, every check and the run)
-exactly as :mod:`.compile_latency` does. What the cache cannot save is tracing and
-lowering to XLA's input, which every process repeats.
+exactly as :mod:`.compile_latency` does. The second process loads diracvi's stored
+executables (:mod:`diracvi._stored`) without tracing or lowering them; what is left is
+reading them, the Python side of the plan's analysis and the run itself.
 
 A first call is one sample of a few seconds, which a busy machine stretches at random;
 so the pair (cold, second) is repeated with a new cache each time, the pairs one after
