@@ -77,3 +77,14 @@ def test_different_computations_are_different_programs():
     doubled = lift(lambda q: jnp.sum(2.0 * captured * q), [(3,)])
     assert doubled[0] is program
     assert float(program(doubled[1], jnp.ones(3))) == 12.0
+
+
+def test_functions_calling_jitted_numpy_functions_group():
+    # jnp.clip is itself a jit: its device mesh parameter is data, not hidden code
+    def piece(k):
+        return dv.LagrangeDiracSystem(
+            ("x",), lambda q, v: 0.5 * v @ v - k * jnp.sum(jnp.clip(q, -1.0, 1.0) ** 2)
+        )
+
+    a, b = piece(1.0), piece(2.0)
+    assert a._lagrangian.rest is b._lagrangian.rest and not a._lagrangian.rest.keep

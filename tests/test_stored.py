@@ -88,6 +88,8 @@ def test_the_key_is_what_a_trace_can_see():
     # numbers and strings by value; a NumPy scalar is an array (traced), a float is not
     assert canonical((1.0, "plus")) != canonical((2.0, "plus")) != canonical((1.0, "minus"))
     assert canonical(np.float64(1.0)) == canonical(np.float64(2.0))
+    spec = jax.ShapeDtypeStruct((3,), jnp.float64)
+    assert canonical(spec) != canonical(jax.ShapeDtypeStruct((4,), jnp.float64))
 
 
 @pytest.mark.filterwarnings("ignore:A JAX array is being set as static")

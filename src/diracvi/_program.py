@@ -27,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jax._src import core as jcore
 
+_MESHES = (jax.sharding.Mesh, jax.sharding.AbstractMesh)
 #: equal programs are one object: equality is then mostly identity, hashing is cached
 _INTERNED: weakref.WeakValueDictionary = weakref.WeakValueDictionary()
 
@@ -72,6 +73,10 @@ def _opaque_params(jaxpr, found: list) -> None:
                     _opaque_params(item.jaxpr, found)
                 elif isinstance(item, jcore.Jaxpr):
                     _opaque_params(item, found)
+                elif isinstance(item, _MESHES):
+                    # a nested jit's device mesh (callable as a context manager): data,
+                    # not code; every jnp function implemented with jit carries one
+                    continue
                 elif (callable(item) and not isinstance(item, type)) or hasattr(item, "f"):
                     found.append(item)
 

@@ -14,7 +14,6 @@ import weakref
 from pathlib import Path
 from typing import NamedTuple
 
-import equinox as eqx
 import numpy as np
 
 from . import _checkpoint
@@ -27,6 +26,7 @@ from ._record import March, run_fields, whole_run
 from ._solvers import StepSolver
 from ._solvers.affine import AffineSolver
 from ._stepping import AFFINE_REJECTED
+from ._stored import StoredJit
 from ._system import DiracSystem
 from ._traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from ._trajectory import Trajectory
@@ -415,8 +415,12 @@ def momenta(system: DiracSystem, q, v, t=0.0):
     return np.asarray(_momentum(system, q, v, np.float64(check_float("t", t))))
 
 
-@eqx.filter_jit
-def _momentum(system, q, v, t):
+def _momentum_of(system, q, v, t):
     # the system is an argument, not part of a jitted bound method: its parameters
     # (lifted constants included) are arrays, which a static function cannot hash
     return system.momentum(q, v, t)
+
+
+#: compiled with XLA's defaults, kept in the program store: building a model in a new
+#: process (its initial momenta) traces nothing either
+_momentum = StoredJit(_momentum_of, "diracvi._simulate._momentum", dict)

@@ -145,6 +145,13 @@ class Tables:
             "k": tuple(sum(s.holonomic_mask) for s in first),
         }
 
+    def __stored__(self):
+        """What the program store's key prints for these tables (diracvi._stored): the
+        groups and each group's first member; the rest follows from them and from the
+        skeletons, which are the packed system's ``subsystems`` and printed there (the
+        tables are reachable only through that system's packing)."""
+        return ("Tables", self.members, self.rests, len(self.skeletons))
+
     @cached_property
     def _starts(self) -> dict:
         out = {}

@@ -13,13 +13,14 @@ process loads it without tracing anything:
                  the function's name, its arguments printed canonically)
 
 The arguments are printed by :func:`canonical`: containers and diracvi's own Modules
-field by field, numbers and strings by value, arrays by shape and dtype (passed to the
-program as arguments; by value where they are baked in), a user function as its
-lifted jaxpr (:class:`~diracvi._program.Program`, whose key is the printed program),
-a diracvi function by its qualified name (its code is in the source hash). Whatever it
-cannot print faithfully — a user's Python function kept whole, a class of the user's, a
-program holding opaque callables, a traced value — raises :class:`Unstorable`, and that
-call is traced and compiled as before (JAX's own cache still applies). The key is thus
+field by field (or what their ``__stored__()`` returns), numbers and strings by value,
+arrays by shape and dtype (passed to the program as arguments; by value where they are
+baked in), a user function as its lifted jaxpr (:class:`~diracvi._program.Program`,
+whose key is the printed program), a diracvi function by its qualified name (its code
+is in the source hash). Whatever it cannot print faithfully — a user's Python function
+kept whole, a class of the user's, a program holding opaque callables, a traced value —
+raises :class:`Unstorable`, and that call is traced and compiled as before (JAX's own
+cache still applies). The key is thus
 sound in the sense that matters: two calls with the same key trace to the same program.
 
 Loading runs a pickle from the cache directory: it is trusted as JAX's cache is (it is
@@ -43,6 +44,7 @@ import sys
 import time
 import types
 from collections import OrderedDict
+from functools import partial
 from pathlib import Path
 
 import equinox as eqx
@@ -65,6 +67,10 @@ FORMAT = 1
 _PACKAGE = __name__.rpartition(".")[0]  # "diracvi"
 #: libraries whose functions may appear in a key by name (their versions are in it)
 _LIBRARIES = ("jax", "jaxlib", "numpy", "equinox", "optimistix", "lineax", "builtins", "math")
+
+
+#: types whose repr is their value (a tuple of them is printed in one go)
+_PLAIN = frozenset({str, int, float, bool, type(None)})
 
 
 class Unstorable(Exception):
@@ -111,57 +117,115 @@ def canonical(obj, *, values: bool = False) -> str:
 
 
 def _canon(obj, values: bool, out: list) -> None:
+    # one handler per type, chosen once: a large model has 10⁵ nodes to print
+    kind = type(obj)
+    handler = _HANDLERS.get(kind)
+    if handler is None:
+        handler = _HANDLERS[kind] = _handler(obj)
+    handler(obj, values, out)
+
+
+def _handler(obj):
+    """The printer of objects of ``type(obj)`` (the checks depend only on the type)."""
+    kind = type(obj)
+    if _ours(kind.__module__) and hasattr(kind, "__stored__"):  # prints a stand-in
+        return lambda a, values, out: _canon(a.__stored__(), values, out)
     if eqx.is_array(obj):  # before the scalars: a NumPy scalar is an array here
-        out.append(_array(obj, values) + ";")
-    elif obj is None or isinstance(obj, bool | int | float | complex | str | bytes):
-        out.append(f"{type(obj).__name__}:{obj!r};")
-    elif isinstance(obj, Program):
-        if obj.keep:  # opaque callables print by name only: not a faithful key
-            raise Unstorable(f"{obj!r} holds opaque callables")
-        digest = hashlib.sha256(obj.key.encode()).hexdigest()
-        out.append(f"P{digest}{obj.arg_shapes};")
-    elif isinstance(obj, tuple | list):
-        kind = type(obj)
-        if kind not in (tuple, list):  # a NamedTuple: its class, then its items
-            out.append(_named(kind))
-        out.append("(")
-        for item in obj:
-            _canon(item, values, out)
-        out.append(")")
-    elif isinstance(obj, dict):
-        out.append("{")
-        for key in sorted(obj, key=repr):
-            _canon(key, values, out)
-            _canon(obj[key], values, out)
-        out.append("}")
-    elif isinstance(obj, enum.Enum):
-        out.append(f"{_named(type(obj))}.{obj.name};")
-    elif isinstance(obj, np.dtype):
-        out.append(f"dtype:{obj.str};")
-    elif isinstance(obj, functools.partial):
-        out.append("partial(")
-        _canon(obj.func, values, out)
-        _canon(obj.args, values, out)
-        _canon(obj.keywords, values, out)
-        out.append(")")
-    elif isinstance(obj, types.MethodType):
-        out.append("method(")
-        _canon(obj.__self__, values, out)
-        out.append(_named(obj.__func__) + ")")
-    elif isinstance(obj, type) or (callable(obj) and not dataclasses.is_dataclass(obj)):
-        out.append(_named(obj) + ";")
-    elif dataclasses.is_dataclass(obj) and _ours(type(obj).__module__):
+        return lambda a, values, out: out.append(_array(a, values) + ";")
+    if kind in _PLAIN or isinstance(obj, bool | int | float | complex | str | bytes):
+        return lambda a, values, out: out.append(f"{type(a).__name__}:{a!r};")
+    if isinstance(obj, Program):
+        return _program
+    if isinstance(obj, tuple | list):
+        # a NamedTuple or StaticTuple: its class first
+        prefix = "" if kind in (tuple, list) else _named(kind)
+        return partial(_sequence, prefix + kind.__name__)
+    if isinstance(obj, dict):
+        return _mapping
+    if isinstance(obj, enum.Enum):
+        return lambda a, values, out: out.append(f"{_named(type(a))}.{a.name};")
+    if isinstance(obj, np.dtype):
+        return lambda a, values, out: out.append(f"dtype:{a.str};")
+    if isinstance(obj, jax.ShapeDtypeStruct):
+        return _spec
+    if isinstance(obj, functools.partial):
+        return _partial
+    if isinstance(obj, types.MethodType):
+        return _method
+    if isinstance(obj, type) or (callable(obj) and not dataclasses.is_dataclass(obj)):
+        return lambda a, values, out: out.append(_named(a) + ";")
+    if dataclasses.is_dataclass(obj) and _ours(kind.__module__):
         # diracvi's Modules and dataclasses: their class (its code is in the source
         # hash), then every field in declaration order; a static field is part of the
         # program, so an array in one is printed by value
-        out.append(_named(type(obj)) + "(")
-        for field in dataclasses.fields(obj):
-            out.append(field.name + "=")
-            static = values or bool(field.metadata.get("static", False))
-            _canon(getattr(obj, field.name), static, out)
-        out.append(")")
-    else:
-        raise Unstorable(f"an object of type {type(obj).__qualname__}")
+        fields = tuple(
+            (f.name, bool(f.metadata.get("static", False))) for f in dataclasses.fields(obj)
+        )
+        return partial(_fields, _named(kind), fields)
+    return _refuse
+
+
+def _program(obj, values, out):
+    if obj.keep:  # opaque callables print by name only: not a faithful key
+        raise Unstorable(f"{obj!r} holds opaque callables")
+    digest = hashlib.sha256(obj.key.encode()).hexdigest()
+    out.append(f"P{digest}{obj.arg_shapes};")
+
+
+def _sequence(prefix, obj, values, out):
+    if all(type(item) in _PLAIN for item in obj):  # names, sizes: one repr
+        out.append(f"{prefix}{tuple(obj)!r};")
+        return
+    out.append(prefix + "(")
+    for item in obj:
+        _canon(item, values, out)
+    out.append(")")
+
+
+def _mapping(obj, values, out):
+    out.append("{")
+    for key in sorted(obj, key=repr):
+        _canon(key, values, out)
+        _canon(obj[key], values, out)
+    out.append("}")
+
+
+def _spec(obj, values, out):
+    if obj.sharding is not None:
+        raise Unstorable("a ShapeDtypeStruct with a sharding")
+    out.append(f"S{np.dtype(obj.dtype).str}{obj.shape}{obj.weak_type};")
+
+
+def _partial(obj, values, out):
+    out.append("partial(")
+    _canon(obj.func, values, out)
+    _canon(obj.args, values, out)
+    _canon(obj.keywords, values, out)
+    out.append(")")
+
+
+def _method(obj, values, out):
+    out.append("method(")
+    _canon(obj.__self__, values, out)
+    out.append(_named(obj.__func__) + ")")
+
+
+def _fields(prefix, fields, obj, values, out):
+    out.append(prefix + "(")
+    stored = vars(obj)
+    for name, static in fields:
+        out.append(name + "=")
+        value = stored[name] if name in stored else getattr(obj, name)
+        _canon(value, values or static, out)
+    out.append(")")
+
+
+def _refuse(obj, values, out):
+    raise Unstorable(f"an object of type {type(obj).__qualname__}")
+
+
+#: printers by type (see _handler)
+_HANDLERS: dict = {}
 
 
 def _source_digest() -> str:
