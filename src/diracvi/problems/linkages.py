@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
-import scipy.integrate
 
 from .._interconnect import connect, interconnect
 from .._system import LagrangeDiracSystem
@@ -26,6 +25,8 @@ RTOL = ATOL = 1e-12
 
 def _dop853(rhs, y0, t0, t):
     """Dense DOP853 solution of ``ẏ = rhs(t, y)`` from ``(t0, y0)``, sampled at ``t``."""
+    import scipy.integrate  # only for a reference: its import is half a second
+
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
     end = float(np.max(t)) if np.max(t) > t0 else t0 + 1e-12
     sol = scipy.integrate.solve_ivp(
