@@ -8,9 +8,9 @@ a program is instead keyed by what it is *made of*, and its compiled executable
 (``jax.experimental.serialize_executable``) is kept next to JAX's cache, so a later
 process loads it without tracing anything:
 
-    key = sha256(diracvi's source, jax and jaxlib versions, backend, host CPU, XLA flags,
-                 numeric settings of diracvi's modules, compiler options,
-                 the function's name, its arguments printed canonically)
+    key = sha256(diracvi's source, versions of jax, jaxlib, NumPy and equinox, backend,
+                 host CPU, XLA flags, numeric settings of diracvi's modules,
+                 compiler options, the function's name, its arguments printed canonically)
 
 The arguments are printed by :func:`canonical`: containers and diracvi's own Modules
 field by field (or what their ``__stored__()`` returns), numbers and strings by value,
@@ -36,6 +36,7 @@ import dataclasses
 import enum
 import functools
 import hashlib
+import importlib.metadata
 import logging
 import os
 import pickle
@@ -248,6 +249,13 @@ def _host() -> str:
     return platform.machine() + " " + " ".join(sorted(set(lines)))
 
 
+def _version(distribution: str) -> str:
+    try:
+        return importlib.metadata.version(distribution)
+    except importlib.metadata.PackageNotFoundError:
+        return "absent"
+
+
 @functools.cache
 def _environment() -> str:
     """The parts of the key that cannot change within a process."""
@@ -260,6 +268,8 @@ def _environment() -> str:
             _source_digest(),
             f"python {sys.version_info[:2]}",
             f"jax {jax.__version__} jaxlib {jaxlib.__version__} numpy {np.__version__}",
+            # what traces diracvi's programs besides JAX (equinox's partition, for one)
+            " ".join(f"{name} {_version(name)}" for name in ("equinox", "optimistix", "lineax")),
             f"{device.platform} {device.device_kind} {device.client.platform_version}",
             hashlib.sha256(_host().encode()).hexdigest(),
             os.environ.get("XLA_FLAGS", ""),
