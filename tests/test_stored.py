@@ -189,3 +189,20 @@ def test_interaction_functions_are_lifted_like_lagrangians():
     q = np.array([0.3, 0.4])
     np.testing.assert_allclose(short.interaction_forms(q), [[1.0, -np.cos(0.4)]], rtol=1e-15)
     np.testing.assert_allclose(long_.interaction_forms(q), [[1.0, -2 * np.cos(0.4)]], rtol=1e-15)
+
+
+def _lagrangian_at(system, q):
+    return system.lagrangian(q, q, 0.0)
+
+
+def test_repeated_calls_on_a_model_use_its_own_numbers(tmp_path, monkeypatch):
+    # a call on the same model object skips re-flattening it; a model freed and another
+    # built (often at the same address) must not inherit its arrays
+    monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
+    program = StoredJit(_lagrangian_at, "tests._lagrangian_at", dict)
+    q = np.array([2.0])
+    for k in (1.0, 2.0, 3.0, 4.0):
+        system = _oscillator(k)
+        for _ in range(2):
+            assert float(program(system, q)) == 0.5 * 4.0 - 0.5 * k * 4.0
+        del system

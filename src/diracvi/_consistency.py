@@ -111,6 +111,13 @@ def _legendre_pieces(system, rows):
 
 
 @run_once_jit
+def _holonomic_residual(system, q, t):
+    """``g(q, t)``: compiled, not evaluated operation by operation (which cost a four-bar
+    linkage's warm ``simulate`` call about 2 ms of its 3)."""
+    return system.position_constraints(q, t)
+
+
+@run_once_jit
 def _holonomic_pieces(system, q, t):
     """``g(q, t)`` and its Jacobian (empty when there are no holonomic rows)."""
     return system.position_constraints(q, t), jax.jacfwd(system.position_constraints)(q, t)
@@ -295,7 +302,8 @@ class Checker:
             ports = max(np.ptp(q0[g]) for g in self.groups)
         held = 0.0
         if self.holonomic:
-            g = np.asarray(self.system.position_constraints(jnp.asarray(q0), t0))
+            q = np.asarray(q0, dtype=np.float64)
+            g = np.asarray(_holonomic_residual(self.system, q, np.float64(t0)))
             held = float(np.max(np.abs(g), initial=0.0))
         proj = self._momentum_projection(q0, p0, t0)
         return {

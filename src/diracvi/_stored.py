@@ -44,6 +44,7 @@ import platform
 import sys
 import time
 import types
+import weakref
 from collections import OrderedDict
 from functools import partial
 from pathlib import Path
@@ -428,6 +429,9 @@ class StoredJit:
         self._fn, self._identity, self._options = fn, identity, options
         self._options_key, self._context = options_key, context
         self._programs: OrderedDict = OrderedDict()  # signature → program (or False)
+        # (id of a first argument, shapes of the others) → (its weakref, program, its
+        # array leaves): a repeated call on one model skips flattening it
+        self._by_object: OrderedDict = OrderedDict()
         self._make_plain = plain or (
             lambda: eqx.filter_jit(self._fn, compiler_options=self._options() or None)
         )
@@ -450,6 +454,11 @@ class StoredJit:
         """``(compiled, leaves)``: the compiled program of this signature (taking the
         array leaves, in order) and the arguments' leaves; ``(None, leaves)`` when the
         call must go through ``eqx.filter_jit``."""
+        fast = _object_key(args, kwargs)
+        if fast is not None:  # the same model again, with NumPy arrays of known shapes
+            hit = self._by_object.get(fast)
+            if hit is not None and hit[0]() is args[0] and enabled():
+                return hit[1], [*hit[2], *args[1:]]
         leaves, treedef = jax.tree.flatten((args, kwargs))
         if not enabled() or any(isinstance(leaf, jax.core.Tracer) for leaf in leaves):
             return None, leaves
@@ -465,7 +474,22 @@ class StoredJit:
                 self._programs.popitem(last=False)
         else:
             self._programs.move_to_end(signature)
+        if program and fast is not None:
+            self._remember(fast, args[0], program)
         return (program or None), leaves
+
+    def _remember(self, fast, first, program) -> None:
+        """Keep ``program`` for calls on the object ``first`` (held weakly: a dead
+        object's id may be reused) with array leaves taken now: a frozen Module's leaves
+        are the same arrays at every call, so only its id needs checking later."""
+        try:
+            ref = weakref.ref(first)
+        except TypeError:
+            return
+        arrays = [leaf for leaf in jax.tree.leaves(first) if eqx.is_array(leaf)]
+        self._by_object[fast] = (ref, program, arrays)
+        if len(self._by_object) > MEMORY_LIMIT:
+            self._by_object.popitem(last=False)
 
     def _resolve(self, args, kwargs, leaves, treedef):
         """Load or compile (and store) the program of a new signature; ``False`` if the
@@ -547,6 +571,17 @@ def compile_fresh(lowered):
         finally:
             compilation_cache._cache_used = saved
     return compiled, _JAX_CACHE_HITS[0] == hits
+
+
+def _object_key(args, kwargs):
+    """The key of a call ``f(model, *arrays)`` with NumPy arrays only after the model, or
+    ``None`` for any other call (which is looked up by its full signature)."""
+    if kwargs or not args or eqx.is_array(args[0]):
+        return None
+    rest = args[1:]
+    if not all(isinstance(a, np.ndarray | np.generic) for a in rest):
+        return None
+    return (id(args[0]), *((a.shape, a.dtype.str) for a in rest))
 
 
 def _signature(leaf):
