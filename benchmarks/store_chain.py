@@ -20,7 +20,7 @@ CHILD = """
 import json, sys, time
 import diracvi as dv
 from diracvi import problems
-from diracvi._stored import canonical
+from diracvi._fingerprint import canonical
 n, m, steps = (int(a) for a in sys.argv[1:4])
 problem = problems.chain_torn(n, m)
 start = time.perf_counter()

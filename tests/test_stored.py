@@ -16,9 +16,10 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _stored
+from diracvi import _fingerprint, _stored
+from diracvi._fingerprint import Unstorable, canonical
 from diracvi._program import lift
-from diracvi._stored import StoredJit, Unstorable, canonical
+from diracvi._stored import StoredJit
 
 # A torn model in a fresh process: what the store did (its log) and the run's bits.
 CHILD = """
@@ -134,10 +135,10 @@ def test_what_the_key_cannot_represent_is_refused():
 def test_a_diracvi_setting_is_part_of_the_key(monkeypatch):
     from diracvi._solvers import affine
 
-    before = _stored.key("f", "args", {})
+    before = _fingerprint.key("f", "args", {})
     monkeypatch.setattr(affine, "MAX_BLOCK", affine.MAX_BLOCK + 1)
-    assert _stored.key("f", "args", {}) != before
-    assert _stored.key("f", "args", {"xla_backend_optimization_level": 0}) != before
+    assert _fingerprint.key("f", "args", {}) != before
+    assert _fingerprint.key("f", "args", {"xla_backend_optimization_level": 0}) != before
 
 
 def _double(x, scale):
