@@ -244,3 +244,16 @@ def test_cli_reports_a_bad_netlist_by_line(tmp_path):
     assert res.exit_code != 0
     assert "line 3" in res.output and "M1" in res.output
     assert "Traceback" not in res.output
+
+
+def test_a_one_step_run_is_refused_with_the_fix(tmp_path):
+    # the first node voltage is extrapolated from the steps after t0: one step has none
+    netlist, _, _ = ng.CIRCUITS["rc"]
+    with pytest.raises(ValueError, match=r"at least 2 steps.*has 1 \(dt=0\.005\).*smaller dt"):
+        spice.run(netlist, dt=5e-3)
+    path = tmp_path / "rc.cir"
+    path.write_text(netlist)
+    for extra in (["--out", str(tmp_path / "rc.nc")], ["--plot"]):
+        res = CliRunner().invoke(app, ["run", str(path), "--steps", "1", *extra])
+        assert res.exit_code != 0 and "smaller dt" in res.output, res.output
+        assert "Traceback" not in res.output

@@ -293,7 +293,9 @@ def run(
             from .plotting import plot_waveforms
             from .spice import waveforms
 
-            plot_waveforms(traj.t, waveforms(model, traj), png, title=model.title)
+            with _library_errors():  # (a run too short for the waveforms)
+                shown = waveforms(model, traj)
+            plot_waveforms(traj.t, shown, png, title=model.title)
         else:
             from .plotting import plot_trajectory
 

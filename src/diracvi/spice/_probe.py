@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._errors import ModelError
+
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
 _FROM_NODES = np.array([3.0, -3.0, 1.0])
@@ -46,6 +48,13 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     steps = traj.multipliers.shape[0]
     out: dict[str, np.ndarray] = {}
     midpoint = traj.discretization != "retraction"
+    if midpoint and steps < 2 and assembly.nodes:
+        # the first node voltage is extrapolated from the steps after it: there are none
+        raise ModelError(
+            f"waveforms(...) needs at least 2 steps to place the node voltages at t0 "
+            f"under discretization={traj.discretization!r}, and this run has {steps} "
+            f"(dt={h:g}). Fix: a smaller dt (at most half the horizon)."
+        )
     for node in assembly.nodes:
         lam = traj.multiplier(assembly.kcl_rows[node])
         phi = np.empty(steps + 1)
