@@ -76,7 +76,12 @@ def test_a_grid_compiles_once():
     before = _sweep.TRACE_COUNT
     grid = {"R": np.linspace(0.5, 2.0, 5), "C": np.linspace(1.0, 4.0, 3)}
     ds = dv.sweep(problems.build_rlc, grid, dt=DT, steps=STEPS, batch_size=4)  # 4 batches
-    assert _sweep.TRACE_COUNT - before == 1
+    # one program for the 4 batches: traced once, or loaded untraced from the program
+    # store if another test (or process) of this run compiled it first
+    (chunk,) = [fn for key, fn in _sweep._PROGRAMS.items() if key[0] == "chunk"]
+    traced = _sweep.TRACE_COUNT - before
+    assert traced <= 1 and len(chunk._programs) <= 1
+    assert traced == 1 or len(chunk._programs) == 1  # compiled here, or loaded
     assert (ds.status == 0).all()
 
 
