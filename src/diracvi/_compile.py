@@ -55,15 +55,39 @@ def run_once_options() -> dict:
 FAST_COMPILE_ENV = "DIRACVI_FAST_COMPILE"
 
 
-def run_once_jit(fn):
+def run_once_jit(fn, identity: str | None = None, context=None):
     """``eqx.filter_jit(fn)`` compiled with :func:`run_once_options`, its programs kept in
     the on-disk store (:mod:`diracvi._stored`): a later process loads them untraced.
-    Nothing is traced or compiled before the first call, so importing diracvi neither
-    probes the options nor starts XLA."""
+    ``identity`` names ``fn`` in the key (default: its module and name) and ``context``
+    is what it closes over. Nothing is traced or compiled before the first call, so
+    importing diracvi neither probes the options nor starts XLA."""
     from ._stored import StoredJit
 
     return StoredJit(
-        fn, f"{fn.__module__}.{fn.__qualname__}", run_once_options, options_key=RUN_ONCE_REQUESTED
+        fn,
+        identity or f"{fn.__module__}.{fn.__qualname__}",
+        run_once_options,
+        options_key=RUN_ONCE_REQUESTED,
+        context=context,
+    )
+
+
+def stored_chunk_jit(fn, identity: str, context):
+    """``jax.jit(fn)`` for a program that marches many steps — XLA's default optimization,
+    or :func:`run_once_options` under ``DIRACVI_FAST_COMPILE=1`` (see the module doc) —
+    its programs kept in the store under ``identity`` and ``context`` (what ``fn``
+    closes over). The setting is read once, so the store's key and the plain path agree.
+    Never to be called inside another trace (XLA options of a nested ``jit`` are refused)."""
+    from ._stored import StoredJit
+
+    fast = fast_compile()
+    return StoredJit(
+        fn,
+        identity,
+        run_once_options if fast else dict,
+        options_key=RUN_ONCE_REQUESTED if fast else {},
+        context=context,
+        plain=lambda: jax.jit(fn, compiler_options=run_once_options() if fast else None),
     )
 
 
@@ -78,13 +102,3 @@ def fast_compile() -> bool:
         f"{FAST_COMPILE_ENV}={value!r} is not understood. Fix: set it to 1 (compile the "
         "marching chunks without XLA's backend optimization) or 0 / unset (the default)."
     )
-
-
-def chunk_jit(fn):
-    """``jax.jit(fn)`` for a program that marches many steps: XLA's default optimization,
-    or :func:`run_once_options` under ``DIRACVI_FAST_COMPILE=1`` (see the module doc).
-    Like :func:`run_once_jit`, never to be called inside another trace (XLA options of a
-    nested ``jit`` are refused)."""
-    if fast_compile():
-        return jax.jit(fn, compiler_options=run_once_options())
-    return jax.jit(fn)

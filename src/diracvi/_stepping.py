@@ -34,12 +34,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
+from ._compile import stored_chunk_jit
 from ._equations import StepEquations, first_guess, nodal_momentum, ordered, split, stage_of
 from ._grouped import step_diagnostics
 from ._solvers.affine import AffineStepMap
 from ._solvers.base import SolveStatus
-from ._stored import StoredJit
 from ._tiny import max_abs
 
 #: internal status of a step the affine map computed but its verification rejected
@@ -435,15 +434,7 @@ class CompiledChunk:
             fn, kind = jax.vmap(packed, in_axes=(None, None, None, 0)), "members vmapped"
         # kept on disk (diracvi._stored) under everything the program closes over
         context = (kind, static, scheme, k, save_states, blocks, nodal, baked)
-        fast = fast_compile()  # read once: the plain path and the store agree
-        self._fn = StoredJit(
-            fn,
-            "diracvi._stepping.CompiledChunk",
-            run_once_options if fast else dict,
-            options_key=RUN_ONCE_REQUESTED if fast else {},
-            context=context,
-            plain=lambda: jax.jit(fn, compiler_options=run_once_options() if fast else None),
-        )
+        self._fn = stored_chunk_jit(fn, "diracvi._stepping.CompiledChunk", context)
         self._call = None  # the compiled program of an unbatched chunk, at first dispatch
 
     @staticmethod

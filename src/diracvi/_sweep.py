@@ -47,7 +47,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ._compile import RUN_ONCE_REQUESTED, chunk_jit, fast_compile, run_once_options
+from ._compile import run_once_jit, stored_chunk_jit
 from ._config import ensure_float64
 from ._consistency import Checker, InconsistentInitialDataWarning
 from ._discretize import get_rule
@@ -60,7 +60,6 @@ from ._solvers import NewtonSolver
 from ._solvers.base import SolveStatus
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import chunk_runner
-from ._stored import StoredJit
 from ._system import DiracSystem
 from ._validate import check_float, check_positive_int
 
@@ -311,17 +310,11 @@ def _program(static, rule, scheme, solver, k: int, blocks: int):
         }
 
     batched = jax.vmap(member, in_axes=(0, None, None, 0))
-    fast = fast_compile()  # read once: the plain path and the store agree
     return _cached(
         "chunk",
         (static, rule.name, scheme, repr(solver), k, blocks),
-        lambda: StoredJit(
-            batched,
-            "diracvi._sweep.member",
-            run_once_options if fast else dict,
-            options_key=RUN_ONCE_REQUESTED if fast else {},
-            context=("chunk", static, rule, scheme, solver, k, blocks),
-            plain=lambda: chunk_jit(batched),
+        lambda: stored_chunk_jit(
+            batched, "diracvi._sweep.member", ("chunk", static, rule, scheme, solver, k, blocks)
         ),
     )
 
@@ -348,20 +341,6 @@ def _cached(kind, key, make):
     return fn
 
 
-def _run_once(batched, identity: str, context):
-    """A batched analysis program (run once per batch) through the program store, so a
-    sweep's worker processes load it instead of tracing it (diracvi._stored); its
-    arguments are all arrays, as for the ``jax.jit`` it replaces."""
-    return StoredJit(
-        batched,
-        identity,
-        run_once_options,
-        options_key=RUN_ONCE_REQUESTED,
-        context=context,
-        plain=lambda: jax.jit(batched, compiler_options=run_once_options()),
-    )
-
-
 def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
     """The first step's Jacobian ``∂r/∂(q_other, μ)`` of every member, (B, N, N)."""
 
@@ -372,7 +351,7 @@ def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
             x0 = first_guess(system, rule, q, q, jnp.zeros(system.m))
             return jax.jacfwd(lambda x: residual(system, rule, scheme, h, q, p, x, tk))(x0)
 
-        return _run_once(
+        return run_once_jit(
             jax.vmap(one, in_axes=(0, 0, 0, None, None)),
             "diracvi._sweep.step_jacobians",
             ("jacobian", static, rule, scheme),
@@ -408,7 +387,7 @@ def _legendre_batch(static, t0, dynamic, q0):
             w = jax.hessian(system.lagrangian, argnums=1)(q, zero, t0)
             return g, w, system.constraint_forms(q, t0)
 
-        return _run_once(
+        return run_once_jit(
             jax.vmap(one, in_axes=(0, 0, None)), "diracvi._sweep.legendre", ("legendre", static)
         )
 
