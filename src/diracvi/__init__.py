@@ -6,7 +6,7 @@ system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
 traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
-from . import _cache, _config  # noqa: F401  (switches JAX float64 on)
+from . import _cache, _config, _dispatch  # noqa: F401  (float64 on; CPU dispatch on the caller)
 from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
 from ._consistency import InconsistentInitialDataWarning
 from ._consistency import project as project_initial_state

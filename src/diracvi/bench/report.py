@@ -121,7 +121,8 @@ def machine_lines(report: Report) -> list[str]:
     load = m.get("load_average")
     lines = [
         f"machine: {m['cpu']}, {m['cores']} cores, {m['platform']}",
-        f"versions: python {m['python']}, jax {m['jax']} ({m['jax_backend']}), "
+        f"versions: python {m['python']}, jax {m['jax']} ({m['jax_backend']}, "
+        f"{m.get('cpu_dispatch', 'unknown')} CPU dispatch), "
         f"numpy {m['numpy']}, scipy {m['scipy']}, diracvi {m['diracvi']}"
         + (f" (commit {m['commit']})" if m.get("commit") else ""),
         f"date: {m['date']}; load average at start: {load}; at end: {m.get('load_average_end')}",
