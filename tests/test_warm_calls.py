@@ -121,3 +121,29 @@ def test_a_warm_call_takes_the_configurations_path_and_returns_the_same_run(chai
     later = dv.simulate(chain.system, chain.q0, chain.p0, t0=2.5, **kwargs)
     np.testing.assert_array_equal(later.t, first.t + 2.5)
     np.testing.assert_array_equal(later.q, first.q)
+
+
+def test_the_programs_input_verdict_agrees_with_the_initial_data_check(chain):
+    """A warm call trusts the verdict computed inside the compiled chunk: it must accept
+    exactly the data the checker's linear test accepts, and refuse non-finite data."""
+    system = chain.system
+    run = _simulate.check_run(system, "plus", "retraction", 0.01, 20, 1, None)
+    plan = _simulate.prepared_plan(system, run, None, chain.q0, chain.p0)
+    chunk = plan.chunk(plan.step_map is not None, 1, True, 20)
+    assert chunk.layout.verdict is not None
+    rng = np.random.default_rng(7)
+    verdicts, accepted = [], []
+    for scale in (0.0, 1e-15, 1e-13, 3e-13, 1e-12, 1e-11, 1e-9, 1e-3):
+        for _ in range(3):
+            q0 = chain.q0 + scale * rng.standard_normal(4)
+            p0 = chain.p0 + scale * rng.standard_normal(4)
+            x = chunk.flat_input(plan.h_array, (0.0, 0.0), (q0, p0, q0, np.zeros(system.m)))
+            verdicts.append(chunk.run(x)[chunk.layout.verdict])
+            accepted.append(plan.checker.accepts(q0, p0))
+    verdicts = np.array(verdicts)
+    np.testing.assert_array_equal(verdicts <= 1.0, accepted)
+    assert any(accepted) and not all(accepted)  # both sides of the test were reached
+    bad = chain.q0.copy()
+    bad[0] = np.nan
+    x = chunk.flat_input(plan.h_array, (0.0, 0.0), (bad, chain.p0, bad, np.zeros(system.m)))
+    assert chunk.run(x)[chunk.layout.verdict] == np.inf

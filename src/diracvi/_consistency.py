@@ -274,16 +274,10 @@ class Checker:
             r -= offset
         return bool(r @ r <= 1.0)
 
-    def input_check(self, start: int, width: int):
-        """``(M, c)`` of :meth:`accepts` for a vector of length ``width`` holding
-        ``(q0, p0)`` at ``[start, start + 2n)`` (a compiled chunk's flat input): finite
-        data with ``‖M x − c‖₂ ≤ 1`` pass :meth:`check`. ``None`` if there is no such test."""
-        if self._quick is None:
-            return None
-        matrix, offset = self._quick
-        wide = np.zeros((matrix.shape[0], width))
-        wide[:, start : start + matrix.shape[1]] = matrix
-        return wide, offset
+    def quick_test(self):
+        """``(M, c)``: data ``z = (q0, p0)``, finite, with ``‖M z − c‖₂ ≤ 1`` pass
+        :meth:`check` (``c`` may be ``None``: zero). ``None`` if there is no such test."""
+        return self._quick
 
     def _momentum_projection(self, q, p, t=0.0):
         if self.system.n > MOMENTUM_CHECK_LIMIT:

@@ -213,8 +213,11 @@ class Plan:
         if key not in self._chunks:
             method = self.step_map if affine else self.fallback
             system = self.system if affine else self.stepped_system
+            # an unbatched chunk also judges its input by the initial-data check's linear
+            # test, for the warm path of simulate (see _stepping.input_verdict)
+            guard = None if batched else self.checker.quick_test()
             self._chunks[key] = CompiledChunk(
-                system, self.rule, self.scheme, method, k, save_states, blocks, batched
+                system, self.rule, self.scheme, method, k, save_states, blocks, batched, guard
             )
         return self._chunks[key]
 

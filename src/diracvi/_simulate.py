@@ -177,38 +177,36 @@ class _WarmRun:
     steps and saving were accepted, the plan was analysed, the compiled chunk exists, the
     Trajectory's names and labels are known — was settled by that first call; left per
     call are the checks of the values passed now: ``q0``, ``p0`` float64 vectors of the
-    right length, finite and consistent (one precomputed product, see
-    :meth:`~diracvi._consistency.Checker.input_check`), ``t0`` a finite float, float64
-    on and no transformation active. Anything else (another type, a non-finite or
-    inconsistent state, a step that failed or left the affine map) returns ``None``,
-    and ``simulate`` takes its full path, which raises and warns as always.
+    right length, ``t0`` a finite float, float64 on and no transformation active (here),
+    and the data finite and consistent (inside the chunk's program: its
+    :func:`~diracvi._stepping.input_verdict`, one number read back). Anything else
+    (another type, a non-finite or inconsistent state, a step that failed or left the
+    affine map) returns ``None``, and ``simulate`` takes its full path, which raises and
+    warns as always.
 
     The plan is held weakly: once it leaves the plan cache this path is dead too.
     """
 
     __slots__ = (
-        "_check",
-        "_code",
         "_dispatch",
         "_fields",
         "_head",
         "_layout",
-        "_offset",
         "_plan",
         "_run",
         "_shape",
         "_system",
+        "_verdict",
         "_zeros",
     )
 
-    def __init__(self, system, plan, run, chunk, fields, check):
+    def __init__(self, system, plan, run, chunk, fields):
         self._system, self._plan = weakref.ref(system), weakref.ref(plan)
         self._dispatch, self._layout = chunk.dispatch, chunk.layout
         self._head = np.array([run.h, 0.0, 0.0])  # (h, t0, index of the first step)
         self._zeros = np.zeros(run.shape.m)  # μ of the step before the first
         self._shape = (run.shape.n,)
-        self._check, self._offset = check
-        self._code = chunk.layout.code
+        self._verdict = chunk.layout.verdict
         self._fields, self._run = fields, run
 
     def __call__(self, system, q0, p0, t0):
@@ -229,19 +227,10 @@ class _WarmRun:
             return None
         x = np.concatenate((self._head, q0, p0, q0, self._zeros))
         x[1] = t0
-        # The run is dispatched first and checked while it runs (dispatch is
-        # asynchronous); its result is used only if the data pass. A NaN or an infinity
-        # makes x·x non-finite (without a floating-point warning).
-        out = self._dispatch(x)
-        if not math.isfinite(x @ x):
-            return None
-        r = self._check @ x
-        if self._offset is not None:
-            r -= self._offset
-        if not r @ r <= 1.0:  # the full check decides (and warns)
-            return None
-        flat = np.asarray(out)
-        if flat[self._code] != 0:
+        flat = np.asarray(self._dispatch(x))
+        # data not finite or inconsistent, or a step that failed: the full path decides
+        # (and warns or raises); a NaN verdict fails this test too
+        if not flat[self._verdict] <= 1.0:
             return None
         return whole_run(self._fields, self._run, t0, self._layout, flat, x)
 
@@ -253,14 +242,14 @@ _WARM_LIMIT = 64
 
 def _remember(key, system, plan, run, chunk, fields) -> None:
     """Keep the warm path of a whole run that took every step under ``key`` (the call's
-    arguments as given). Linear models only: their consistency check is one product;
+    arguments as given). Only for a chunk that judges its own input (a model whose
+    initial-data check is one linear test, see :func:`~diracvi._stepping.input_verdict`);
     others keep the full check every call."""
-    check = plan.checker.input_check(3, 3 + 3 * run.shape.n + run.shape.m)
-    if check is None or run.shape.traced:
+    if chunk.layout.verdict is None or run.shape.traced:
         return
     if len(_WARM) >= _WARM_LIMIT:
         _WARM.clear()
-    _WARM[key] = _WarmRun(system, plan, run, chunk, fields, check)
+    _WARM[key] = _WarmRun(system, plan, run, chunk, fields)
 
 
 def _march(

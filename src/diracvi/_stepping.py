@@ -374,7 +374,9 @@ class CompiledChunk:
     transfer per array is what a short run's call time is made of.
     """
 
-    def __init__(self, system, rule, scheme, method, k, save_states, blocks, batched=False):
+    def __init__(
+        self, system, rule, scheme, method, k, save_states, blocks, batched=False, guard=None
+    ):
         dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
         n, m = system.n, system.m
         nodal = keeps_nodal(system, rule, save_states)
@@ -410,14 +412,19 @@ class CompiledChunk:
             # only the state (dispatch cost does not grow with the number of subsystems)
             self._dynamic, baked = None, dynamic
             packed = partial(_with_constants, packed, dynamic)
-        self.layout = OutputLayout(n, m, blocks, save_states, nodal)
+        guarded = guard is not None and not batched
+        self.layout = OutputLayout(n, m, blocks, save_states, nodal, guarded)
+        code_at = self.layout.code
         self._batched = batched
         if not batched:
             # one flat input (h, t0, first index, q, p, q_prev, μ): a jitted call costs
             # about a microsecond per argument array, more than the arithmetic of a step
             def flat(dynamic, x):
                 carry = (x[3 : 3 + n], x[3 + n : 3 + 2 * n], x[3 + 2 * n : 3 + 3 * n])
-                return packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
+                out = packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
+                if not guarded:
+                    return out
+                return jnp.append(out, input_verdict(guard, x, out[code_at]))
 
             fn, kind = flat, "one run"
         elif isinstance(method, AffineStepMap):
@@ -434,6 +441,8 @@ class CompiledChunk:
             fn, kind = jax.vmap(packed, in_axes=(None, None, None, 0)), "members vmapped"
         # kept on disk (diracvi._stored) under everything the program closes over
         context = (kind, static, scheme, k, save_states, blocks, nodal, baked)
+        if guarded:
+            context += ("guard", *guard)
         self._fn = stored_chunk_jit(fn, "diracvi._stepping.CompiledChunk", context)
         self._call = None  # the compiled program of an unbatched chunk, at first dispatch
 
@@ -468,13 +477,32 @@ class CompiledChunk:
         return self.layout.unpack(flat)
 
 
+def input_verdict(guard, x, code):
+    """``‖M z − c‖₂²`` for the run's initial state ``z = (q0, p0)`` in the flat input
+    ``x``, or ``inf`` if ``x`` is not finite or the run did not take every step
+    (``code ≠ 0``): a verdict ``≤ 1`` means the data pass the initial-data check
+    (:meth:`~diracvi._consistency.Checker.quick_test`) and the run's output is whole.
+
+    Computed inside the program, so a warm call reads one number instead of checking
+    the data with NumPy operations of its own (each costs a few µs right after a
+    program has run, its caches cold)."""
+    matrix, offset = guard
+    n2 = matrix.shape[1]
+    r = matrix @ x[3 : 3 + n2]
+    if offset is not None:
+        r = r - offset
+    ok = jnp.all(jnp.isfinite(x)) & (code == 0)
+    return jnp.where(ok, r @ r, jnp.inf)
+
+
 class OutputLayout:
     """Where each output of a chunk lies in its packed float64 buffer (leading batch
     axes allowed): ``blocks`` rows of :attr:`columns`, then the per-row
     ``(n_good, iterations)``, the final carry ``(q, p, q_prev, μ)``, the first failure's
-    residual and state, and its ``(code, iterations)``."""
+    residual and state, its ``(code, iterations)``, and, in a guarded chunk, the
+    :func:`input_verdict` at :attr:`verdict` (else ``None``)."""
 
-    def __init__(self, n: int, m: int, blocks: int, save_states: bool, nodal: bool):
+    def __init__(self, n: int, m: int, blocks: int, save_states: bool, nodal: bool, guarded=False):
         names = [("energy", None), ("violation", None)]
         if save_states:
             names += [("q", n), ("p", n), ("mu", m), ("con", m)]
@@ -490,6 +518,7 @@ class OutputLayout:
         self.counts_end = self.rows_end + 2 * blocks  # then (n_good, iterations) per row
         self.final = self.counts_end  # then q, p, q_prev, μ, residual, q_bad
         self.code = self.final + 4 * n + m + 1  # then the failure code and its iterations
+        self.verdict = self.code + 2 if guarded else None
 
     def unpack(self, flat):
         """``(carry, fail, saved)``: views into ``flat`` (the counts as int64 copies)."""
@@ -498,7 +527,8 @@ class OutputLayout:
         rows = flat[..., : self.rows_end].reshape(*lead, blocks, width)
         counts = flat[..., self.rows_end : self.counts_end].reshape(*lead, blocks, 2)
         counts = counts.astype(np.int64)
-        final, codes = flat[..., self.final : self.code], flat[..., self.code :].astype(np.int64)
+        final = flat[..., self.final : self.code]
+        codes = flat[..., self.code : self.code + 2].astype(np.int64)
         carry = tuple(final[..., i * n : (i + 1) * n] for i in range(3))
         carry += (final[..., 3 * n : 3 * n + m],)
         fail = (codes[..., 0], codes[..., 1], final[..., 3 * n + m], final[..., 3 * n + m + 1 :])
