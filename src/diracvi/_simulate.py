@@ -109,8 +109,20 @@ def simulate(
     key = None
     if checkpoint is None and solver is None:
         # a warm call of a configuration that ran whole before (see _WarmRun)
-        key = (id(system), type(dt), dt, type(steps), steps, scheme, discretization)
-        key += (type(save_every), save_every, type(save_states), save_states, adjoint)
+        key = (
+            id(system),
+            type(dt),
+            dt,
+            type(steps),
+            steps,
+            scheme,
+            discretization,
+            type(save_every),
+            save_every,
+            type(save_states),
+            save_states,
+            adjoint,
+        )
         try:
             warm = _WARM.get(key)
         except TypeError:  # an unhashable argument: the full path says what is wrong
@@ -215,12 +227,13 @@ class _WarmRun:
         ensure_float64()
         if type(t0) is not float or not math.isfinite(t0) or is_traced():
             return None
-        shape, f64 = self._shape, np.float64
+        shape = self._shape
+        # native float64 only (its dtype is a singleton; anything else: the full path)
         if not (
             type(q0) is np.ndarray
             and type(p0) is np.ndarray
-            and q0.dtype == f64
-            and p0.dtype == f64
+            and q0.dtype is _FLOAT64
+            and p0.dtype is _FLOAT64
             and q0.shape == shape
             and p0.shape == shape
         ):
@@ -234,6 +247,8 @@ class _WarmRun:
             return None
         return whole_run(self._fields, self._run, t0, self._layout, flat, x)
 
+
+_FLOAT64 = np.dtype(np.float64)
 
 #: warm-call paths by (system id, the call's configuration); see _WarmRun
 _WARM: dict = {}
