@@ -6,10 +6,11 @@ reads every result right away (``simulate`` returns NumPy arrays), so nothing ov
 each call pays the hand-off to the worker thread and the wake-up of the waiting one. On
 a virtual machine, where waking an idle virtual CPU goes through the hypervisor, that
 hand-off costs more than the program itself: the paper's 1000-step spring chain program
-took 163–230 µs per call with asynchronous dispatch and 83–106 µs on the calling thread,
-measured interleaved on this project's 2-core CI machine (``benchmarks/README.md``,
-round 6). Pinning the process to one CPU (``taskset -c 0``) gave the same 105–114 µs,
-which located the cost in the hand-off and not in the program.
+took 156–230 µs per call with asynchronous dispatch and 83–106 µs on the calling thread
+on this project's 2-core CI machine (``benchmarks/chunk_program.py``; round 6 of
+``benchmarks/README.md``). Asynchronous, but with the process pinned to one CPU
+(``taskset -c 0``), it took 105–114 µs: the cost is the hand-off between CPUs, not the
+program.
 
 So importing diracvi switches JAX's ``jax_cpu_enable_async_dispatch`` off, as it switches
 float64 on. It is a process-wide setting that JAX reads once, when it creates its CPU

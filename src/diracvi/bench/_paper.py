@@ -9,7 +9,10 @@ For a torn problem and an independent NumPy implementation of its step equations
    interleaved; the ratio is NumPy ÷ diracvi (target ≥ 100). A 1-step diracvi call timed
    in the same rounds splits a call into its fixed cost (the 1-step call less one step;
    target ≤ 40 µs) and its cost per step; beside it, a trivial jitted call on one array
-   (the machine's dispatch floor, which no call can go below);
+   (the machine's dispatch floor, which no call can go below). Right after a NumPy
+   run the caches are cold, which adds to every call (the floor too), so the 1-step
+   call is also timed in step 3's rounds, among diracvi calls only, and the fixed cost
+   is reported from both;
 3. **interconnected / monolithic** — warm ``dv.simulate`` of the torn system, of
    ``system.monolithic()`` (same coordinates, one Lagrangian) and of the hand-built
    reduced model (no port variables: the model the paper calls "monolithic"), the three
@@ -112,8 +115,10 @@ def run_example(
         {"diracvi": torn_run, "numpy": baseline, "diracvi_short": short_run, "floor": floor},
         settings.numpy_repeats,
     )
+    # the paper's protocol; the 1-step call rides along, so the fixed cost is also
+    # measured among diracvi calls alone (warm caches), not only after a NumPy run
     overhead = interleaved(
-        {"torn": torn_run, "monolithic": mono_run, "reduced": reduced_run},
+        {"torn": torn_run, "monolithic": mono_run, "reduced": reduced_run, "short": short_run},
         settings.paper_repeats,
     )
     t = {name: float(times.min()) for name, times in {**vs_numpy, **overhead}.items()}
@@ -121,6 +126,10 @@ def run_example(
     # a diracvi call = a fixed cost + a cost per step; the short run separates them
     per_step = (t["diracvi"] - t["diracvi_short"]) / (problem.steps - SHORT_STEPS)
     fixed = t["diracvi_short"] - SHORT_STEPS * per_step
+    # the same split from the paper's protocol (torn full run and 1-step run, min of
+    # paper_repeats, among diracvi calls only)
+    per_step_warm = (t["torn"] - t["short"]) / (problem.steps - SHORT_STEPS)
+    fixed_warm = t["short"] - SHORT_STEPS * per_step_warm
     steps = f"{problem.steps} steps"
     rows = [
         Row(
@@ -136,15 +145,27 @@ def run_example(
         ),
         Row(
             benchmark,
-            f"{title}: fixed cost of a warm call, µs (a 1-step call less one step; "
-            "baseline: a trivial jitted call, the dispatch floor)",
+            f"{title}: fixed cost of a warm call, µs (a 1-step call less one step), "
+            "among diracvi calls (the paper's protocol)",
+            fixed_warm,
+            None,
+            fixed_warm * 1e6,
+            FIXED_TARGET,
+            solver=solver["torn"],
+            notes=f"min of {settings.paper_repeats}, interleaved with the torn, "
+            f"monolithic and reduced runs; {fmt_seconds(per_step_warm)}/step",
+        ),
+        Row(
+            benchmark,
+            f"{title}: fixed cost of a warm call, µs (a 1-step call less one step), "
+            "right after a NumPy run (baseline: a trivial jitted call, the dispatch floor)",
             fixed,
             t["floor"],
             fixed * 1e6,
             FIXED_TARGET,
             solver=solver["torn"],
-            notes=f"min of {settings.numpy_repeats}, interleaved with the NumPy run; "
-            f"{fmt_seconds(fixed - t['floor'])} above the floor",
+            notes=f"min of {settings.numpy_repeats}, interleaved with the NumPy run (its "
+            f"loop leaves the caches cold); {fmt_seconds(fixed - t['floor'])} above the floor",
         ),
         Row(
             benchmark,
@@ -174,6 +195,8 @@ def run_example(
         "diracvi_call": {
             "fixed_s": fixed,
             "per_step_s": per_step,
+            "fixed_among_diracvi_s": fixed_warm,
+            "per_step_among_diracvi_s": per_step_warm,
             "short_steps": SHORT_STEPS,
             "dispatch_floor_s": t["floor"],
         },
