@@ -24,9 +24,10 @@ two kinds never mix).
 from __future__ import annotations
 
 import functools
-import os
 
 import jax
+
+from ._switches import env_switch
 
 #: XLA options of a program that runs once (with :data:`_OLDER_FUSION_CODEGEN` where known)
 _LOW_OPTIMIZATION = {
@@ -93,12 +94,8 @@ def stored_chunk_jit(fn, identity: str, context):
 
 def fast_compile() -> bool:
     """Whether ``DIRACVI_FAST_COMPILE`` asks for chunks compiled without optimization."""
-    value = os.environ.get(FAST_COMPILE_ENV, "").strip()
-    if value in ("", "0"):
-        return False
-    if value == "1":
-        return True
-    raise ValueError(
-        f"{FAST_COMPILE_ENV}={value!r} is not understood. Fix: set it to 1 (compile the "
-        "marching chunks without XLA's backend optimization) or 0 / unset (the default)."
+    return env_switch(
+        FAST_COMPILE_ENV,
+        on="compile the marching chunks without XLA's backend optimization",
+        off="the default",
     )

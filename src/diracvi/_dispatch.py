@@ -23,9 +23,9 @@ are not affected.
 
 from __future__ import annotations
 
-import os
-
 import jax
+
+from ._switches import env_switch
 
 #: ``1`` keeps JAX's asynchronous CPU dispatch; unset or ``0``: programs run on the caller
 ASYNC_ENV = "DIRACVI_CPU_ASYNC_DISPATCH"
@@ -34,15 +34,10 @@ _OPTION = "jax_cpu_enable_async_dispatch"
 
 def keep_async() -> bool:
     """Whether :data:`ASYNC_ENV` asks for JAX's asynchronous CPU dispatch."""
-    value = os.environ.get(ASYNC_ENV, "").strip()
-    if value in ("", "0"):
-        return False
-    if value == "1":
-        return True
-    raise ValueError(
-        f"{ASYNC_ENV}={value!r} is not understood. Fix: set it to 1 (keep JAX's "
-        "asynchronous CPU dispatch) or 0 / unset (run diracvi's CPU programs on the "
-        "calling thread, the default)."
+    return env_switch(
+        ASYNC_ENV,
+        on="keep JAX's asynchronous CPU dispatch",
+        off="run diracvi's CPU programs on the calling thread, the default",
     )
 
 
