@@ -453,8 +453,9 @@ class CompiledChunk:
         return np.concatenate(((h, clock[0], clock[1]), *carry))
 
     def dispatch(self, x):
-        """Start an unbatched chunk on the flat input ``x``; returns the (device) packed
-        output at once, before the run ends (JAX dispatch is asynchronous)."""
+        """Run an unbatched chunk on the flat input ``x``; returns the (device) packed
+        output (at once, before the run ends, where JAX's CPU dispatch is asynchronous:
+        see :mod:`diracvi._dispatch`)."""
         if self._call is None:
             program, leaves = self._fn.program(self._dynamic, x)
             if program is None:
