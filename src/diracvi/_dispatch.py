@@ -62,7 +62,8 @@ def configure() -> None:
     flag = _option()
     if flag is None:
         return
-    if xla_bridge.backends_are_initialized():
+    initialized = getattr(xla_bridge, "backends_are_initialized", None)
+    if initialized is not None and initialized():
         _ASYNC_AT_IMPORT = bool(flag.value)
     if not keep_async():
         jax.config.update(_OPTION, False)
