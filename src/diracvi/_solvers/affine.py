@@ -34,7 +34,6 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import scipy.linalg as sla
 
 from .._compile import run_once_jit
 from .._equations import StepEquations, new_momentum, residual, unknown_count
@@ -231,6 +230,8 @@ def _refined_solve(a, factors, b):
     (Host LAPACK through SciPy: the map is built once, and device solves would each
     compile a program for this shape.)
     """
+    import scipy.linalg as sla  # (lazily, as in build)
+
     x = sla.lu_solve(factors, b, check_finite=False)
     if a.shape[0] > _REFINE_LIMIT or not np.all(np.isfinite(x)):
         return x  # a singular J_x is reported by the caller
@@ -313,6 +314,8 @@ def build(
     j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
     p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
     rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
+    import scipy.linalg as sla  # 0.2 s: imported on the first affine build, not with diracvi
+
     with warnings.catch_warnings():  # a singular J_x is reported below, by name
         warnings.simplefilter("ignore", sla.LinAlgWarning)
         factors = sla.lu_factor(j_x, check_finite=False)

@@ -6,7 +6,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.linalg
 
 from .._system import DiracSystem
 
@@ -61,6 +60,8 @@ def linear_flow(generator: np.ndarray, state0: np.ndarray, t: np.ndarray) -> np.
     """``x(t) = exp(t G) x0`` for each t (the exact solution of ``ẋ = G x``), shape (T, d)."""
     t = np.atleast_1d(np.asarray(t, dtype=np.float64))
     # one batched expm (SciPy takes stacks of matrices) instead of a call per instant
+    import scipy.linalg  # only for an exact solution: not imported with diracvi.problems
+
     return scipy.linalg.expm(t[:, None, None] * generator[None]) @ state0
 
 
