@@ -213,9 +213,9 @@ class Plan:
         if key not in self._chunks:
             method = self.step_map if affine else self.fallback
             system = self.system if affine else self.stepped_system
-            # an unbatched chunk also judges its input by the initial-data check's linear
-            # test, for the warm path of simulate (see _stepping.input_verdict)
-            guard = None if batched else self.checker.quick_test()
+            # the initial-data check's linear test: an unbatched chunk judges its input by
+            # it, for the warm path of simulate (see _stepping.input_verdict)
+            guard = self.checker.quick_test()
             self._chunks[key] = CompiledChunk(
                 system, self.rule, self.scheme, method, k, save_states, blocks, batched, guard
             )

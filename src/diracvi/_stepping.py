@@ -372,6 +372,9 @@ class CompiledChunk:
 
     The outputs are packed into one float64 buffer and unpacked on the host as views: a
     transfer per array is what a short run's call time is made of.
+
+    ``guard``: the initial-data check's linear test ``(M, c)`` (or ``None``); an
+    unbatched chunk given one appends its :func:`input_verdict` to the output.
     """
 
     def __init__(
