@@ -37,6 +37,8 @@ def test_every_figure_is_a_non_empty_png(run):
 def test_summary_has_the_expected_keys(run):
     _, summary, _ = run
     assert summary["quick"] is True
+    # timings are reported with the dispatch mode they were taken in (diracvi._dispatch)
+    assert summary["machine"]["cpu_dispatch"] == "synchronous"
     assert set(summary["examples"]) == {"spring_chain", "rlc"}
     for s in summary["examples"].values():
         for key in (

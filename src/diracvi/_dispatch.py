@@ -81,4 +81,10 @@ def synchronous() -> bool | None:
     return not flag.value
 
 
+def mode() -> str:
+    """``"synchronous"``, ``"asynchronous"`` or ``"unknown"``: :func:`synchronous` as the
+    benchmark and reproduction reports print it beside their timings."""
+    return {True: "synchronous", False: "asynchronous", None: "unknown"}[synchronous()]
+
+
 configure()

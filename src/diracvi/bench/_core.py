@@ -248,9 +248,8 @@ def machine_info() -> dict:
     import jax
     import scipy
 
-    from .._dispatch import synchronous
+    from .._dispatch import mode
 
-    sync = synchronous()
     return {
         "commit": source_commit(),
         "cpu": _cpu_model(),
@@ -259,7 +258,7 @@ def machine_info() -> dict:
         "python": platform.python_version(),
         "jax": jax.__version__,
         "jax_backend": jax.default_backend(),
-        "cpu_dispatch": {True: "synchronous", False: "asynchronous", None: "unknown"}[sync],
+        "cpu_dispatch": mode(),
         "numpy": np.__version__,
         "scipy": scipy.__version__,
         "date": datetime.now(UTC).isoformat(timespec="seconds"),

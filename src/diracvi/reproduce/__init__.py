@@ -20,6 +20,7 @@ from pathlib import Path
 
 import jax
 
+from .._dispatch import mode as dispatch_mode
 from . import convergence
 from .experiments import EXAMPLES, Settings, run_example
 from .figures import FIGURES, render_all
@@ -91,6 +92,7 @@ def reproduce(
             "platform": platform.platform(),
             "python": platform.python_version(),
             "jax": jax.__version__,
+            "cpu_dispatch": dispatch_mode(),
             "cpus": os.cpu_count(),
             # other work on the machine inflates timings; record it beside them
             "load_average_before": load_before,

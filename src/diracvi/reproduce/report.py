@@ -253,7 +253,8 @@ def deviations(summary: dict) -> list[str]:
         "multiplier's sign is a convention and changes no trajectory.",
         "**Timings are not comparable in absolute terms.** The paper timed Matlab on its "
         "machine; diracvi times a JIT-compiled JAX/XLA `lax.scan` here "
-        f"({summary['machine']['cpus']} CPUs, {summary['machine']['platform']}). One "
+        f"({summary['machine']['cpus']} CPUs, {summary['machine']['platform']}, "
+        f"{summary['machine'].get('cpu_dispatch', 'unknown')} CPU dispatch). One "
         "diracvi run also includes argument checks and the first-step solvability check "
         "(see the protocol below). What carries over is the ratio interconnected / "
         "monolithic, which the table reports for both.",
