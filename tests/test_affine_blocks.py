@@ -2,11 +2,13 @@
 block's start) is the single-step recursion ``z_{k+1} = z_k + Δ z_k + b``, whatever the
 block length and however the run's length falls on the blocks."""
 
+import jax
 import numpy as np
 import pytest
 
 import diracvi as dv
 from diracvi import problems
+from diracvi._discretize import get_rule
 from diracvi._simulate import check_run, prepared_plan
 from diracvi._solvers import affine
 
@@ -29,6 +31,7 @@ def test_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
     run = check_run(prob.system, "plus", "retraction", prob.dt, steps, 1, dv.AffineSolver())
     step_map = prepared_plan(prob.system, run, dv.AffineSolver(), q0, p0).step_map
     assert step_map.powers.shape[0] == block
+    assert traj.solver == "affine step map"  # every step verified: no fallback to Newton
 
     delta, offset = np.asarray(step_map.delta), np.asarray(step_map.offset)
     mu_map, mu_offset = np.asarray(step_map.mu_map), np.asarray(step_map.mu_offset)
@@ -41,4 +44,39 @@ def test_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
     np.testing.assert_allclose(traj.q, z[:, :n], rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(traj.p, z[:, n:], rtol=0, atol=1e-13 * scale)
     mu = z[:-1] @ mu_map.T + mu_offset
+    np.testing.assert_allclose(traj.multipliers, mu, rtol=0, atol=1e-13 * np.max(np.abs(mu)))
+
+
+@pytest.mark.parametrize(
+    ("block", "steps"),
+    [(1, 1), (1, 4), (5, 1), (5, 13), (64, 130)],
+)
+def test_driven_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
+    """A driven model's blocks carry their own offsets b_j = Σ_{i<j} (I+Δ)^{j−1−i} b(t_i)
+    (:meth:`AffineStepMap.block_offsets`): still ``z_{k+1} = z_k + Δ z_k + b(t_k)``."""
+    monkeypatch.setattr(affine, "MAX_BLOCK", block)
+    prob = problems.rlc_sine(dt=0.01, steps=steps)
+    q0, p0, h, t0 = np.asarray(prob.q0, float), np.asarray(prob.p0, float), prob.dt, 0.3
+    args = dict(dt=h, steps=steps, t0=t0, discretization="midpoint")
+    traj = dv.simulate(prob.system, q0, p0, solver=dv.AffineSolver(), **args)
+    run = check_run(prob.system, "plus", "midpoint", h, steps, 1, dv.AffineSolver())
+    step_map = prepared_plan(prob.system, run, dv.AffineSolver(), q0, p0, t0).step_map
+    assert step_map.driven and step_map.powers.shape[0] == block
+    assert traj.solver == "affine step map"  # every step verified: no fallback to Newton
+
+    times = t0 + h * np.arange(steps)  # each step's start; the map evaluates its node
+    offsets = jax.jit(
+        lambda t: step_map.offsets_at(prob.system, get_rule("midpoint"), "plus", h, t)
+    )
+    b, mu_b = (np.asarray(a) for a in offsets(times))
+    delta = np.asarray(step_map.delta)
+    z = [np.concatenate([q0, p0])]
+    for k in range(steps):
+        z.append(z[-1] + (delta @ z[-1] + b[k]))
+    z = np.array(z)
+    n = prob.system.n
+    scale = np.max(np.abs(z))
+    np.testing.assert_allclose(traj.q, z[:, :n], rtol=0, atol=1e-13 * scale)
+    np.testing.assert_allclose(traj.p, z[:, n:], rtol=0, atol=1e-13 * scale)
+    mu = z[:-1] @ np.asarray(step_map.mu_map).T + mu_b
     np.testing.assert_allclose(traj.multipliers, mu, rtol=0, atol=1e-13 * np.max(np.abs(mu)))

@@ -99,67 +99,43 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     n = q.shape[0]
     z0 = jnp.concatenate([q, p])
     width = step_map.powers.shape[0]
+    # blocks of equal width ≤ B: only the blocks' starts form a sequential recursion;
+    # every state then follows from its block's start at once
+    blocks = -(-k // width)
+    width = -(-k // blocks)
+    offsets = None  # an autonomous map's own b_j
     if step_map.driven:
-        # a driven linear model: z_{k+1} = z_k + Δ z_k + b(t_k), one offset per step
-        offsets, mu_offsets = step_map.offsets_at(system, rule, scheme, h, times)
-        if k >= 2 * width:
-            # Blocks of B steps as for an autonomous map, z_{k+j} = z_k + Δ_j z_k + c_j,
-            # where c_j = Σ_{i<j} (I + Δ)^{j−1−i} b_i does not depend on the state: every
-            # block's c is formed at once (a vmapped scan of length B), leaving k/B
-            # sequential steps instead of k.
-            blocks = -(-k // width)
-            padded = jnp.concatenate([offsets, jnp.zeros((blocks * width - k, 2 * n))])
+        # a driven linear model: z_{k+1} = z_k + Δ z_k + b(t_k), one offset per step;
+        # z_{k+j} = z_k + Δ_j z_k + b_j in blocks as for an autonomous map, where
+        # b_j = Σ_{i<j} (I + Δ)^{j−1−i} b(t_{k+i}) does not depend on the state
+        step_offsets, mu_offsets = step_map.offsets_at(system, rule, scheme, h, times)
+        padded = jnp.concatenate([step_offsets, jnp.zeros((blocks * width - k, 2 * n))])
+        offsets = step_map.block_offsets(padded.reshape(blocks, width, 2 * n))
+    if k == 1:  # one step: elementwise, no library call
+        zs = step_map.next_start(z0, 1, None if offsets is None else offsets[0, 0])[None]
+    elif width == 1:  # single steps (a map too large for blocks): the recursion is the run
 
-            def accumulate(c, b):
-                c1 = c + (step_map.delta @ c + b)
-                return c1, c1
+        def single(z, b):
+            z1 = step_map.next_start(z, 1, b)
+            return z1, z1
 
-            def block_offsets(b):
-                return jax.lax.scan(accumulate, jnp.zeros(2 * n, b.dtype), b)[1]
-
-            cs = jax.vmap(block_offsets)(padded.reshape(blocks, width, 2 * n))
-
-            def driven_block(z, c):
-                zs = z + (step_map.powers @ z + c)
-                return zs[-1], zs
-
-            _, zs = jax.lax.scan(driven_block, z0, cs)
-            zs = zs.reshape(-1, 2 * n)[:k]
-        else:
-
-            def driven(z, b):
-                z1 = z + (step_map.delta @ z + b)
-                return z1, z1
-
-            _, zs = jax.lax.scan(driven, z0, offsets, length=k, unroll=2)
+        steps_b = None if offsets is None else offsets[:, 0]
+        _, zs = jax.lax.scan(single, z0, steps_b, length=k, unroll=2)
+    elif blocks == 1:
+        zs = step_map.advance_blocks(z0[None], width, offsets)[0]
     else:
-        # blocks of equal width ≤ B: only the blocks' starts form a sequential
-        # recursion; every state then follows from its block's start at once
-        blocks = -(-k // width)
-        width = -(-k // blocks)
-        if k == 1:  # one step: elementwise, no library call
-            zs = step_map.next_start(z0, 1)[None]
-        elif width == 1:  # single steps (a map too large for blocks): the recursion is the run
 
-            def single(z, _):
-                z1 = step_map.next_start(z, 1)
-                return z1, z1
+        def start(z, b):
+            z1 = step_map.next_start(z, width, b)
+            return z1, z1
 
-            _, zs = jax.lax.scan(single, z0, None, length=k, unroll=2)
-        elif blocks == 1:
-            zs = step_map.advance_blocks(z0[None], width)[0]
-        else:
-
-            def start(z, _):
-                z1 = step_map.next_start(z, width)
-                return z1, z1
-
-            # a few blocks are unrolled (no loop), many looped
-            unroll = blocks if blocks <= _UNROLL_BLOCKS else 1
-            _, ends = jax.lax.scan(start, z0, None, length=blocks, unroll=unroll)
-            zs = step_map.advance_blocks(jnp.concatenate([z0[None], ends[:-1]]), width)
-            # each block ends where the next starts, bitwise (the recursion's own result)
-            zs = zs.at[:, -1].set(ends).reshape(-1, z0.shape[0])[:k]
+        # a few blocks are unrolled (no loop), many looped
+        unroll = blocks if blocks <= _UNROLL_BLOCKS else 1
+        ends_b = None if offsets is None else offsets[:, -1]
+        _, ends = jax.lax.scan(start, z0, ends_b, length=blocks, unroll=unroll)
+        zs = step_map.advance_blocks(jnp.concatenate([z0[None], ends[:-1]]), width, offsets)
+        # each block ends where the next starts, bitwise (the recursion's own result)
+        zs = zs.at[:, -1].set(ends).reshape(-1, z0.shape[0])[:k]
     z_end = zs[-1]
     z_from = jnp.concatenate([z0[None], zs[:-1]])
     mus = step_map.multipliers(z_from)
