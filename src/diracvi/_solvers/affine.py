@@ -153,17 +153,26 @@ class AffineStepMap(eqx.Module):
         return matvec(self.mu_map, z_from) + self.mu_offset
 
     def offsets_at(self, system, rule, scheme, h, times):
-        """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets."""
+        """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets,
+        ``b_x = −J_x⁻¹ r(t_k)`` and ``b = (b_x[:n], p(t_k) + P_x b_x)``, ``μ offset =
+        b_x[n:]``, where ``r`` and ``p`` are the residual and the new momentum at the zero
+        state.
+
+        ``r`` and ``p`` of all steps are formed first, and held (an optimization barrier)
+        before the two products. Otherwise XLA distributes a product over the parts of
+        ``r``, and a part that is the same at every step (terms in ``h``, an input of the
+        program) becomes a product of its own over all the steps: measured on the driven
+        RLC, 1000 steps, the program took 182 µs that way and 170–173 µs this way."""
         n = system.n
         zero_q, zero_x = jnp.zeros(n), jnp.zeros(unknown_count(system, rule))
 
-        def one(tk):
+        def at_zero(tk):
             r0 = residual(system, rule, scheme, h, zero_q, zero_q, zero_x, tk)
-            p0 = new_momentum(system, rule, scheme, h, zero_q, zero_x, tk)
-            b_x = -self.inverse @ r0
-            return jnp.concatenate([b_x[:n], p0 + self.momentum_x @ b_x]), b_x[n:]
+            return r0, new_momentum(system, rule, scheme, h, zero_q, zero_x, tk)
 
-        return jax.vmap(one)(times)
+        r0, p0 = jax.lax.optimization_barrier(jax.vmap(at_zero)(times))
+        b_x = r0 @ -self.inverse.T
+        return jnp.concatenate([b_x[:, :n], p0 + b_x @ self.momentum_x.T], axis=1), b_x[:, n:]
 
     def correction(self, eqs: StepEquations, x):
         """One Newton correction ``−J_x⁻¹ r(x)`` of a computed step."""
