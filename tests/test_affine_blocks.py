@@ -33,17 +33,23 @@ def test_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
     assert step_map.powers.shape[0] == block
     assert traj.solver == "affine step map"  # every step verified: no fallback to Newton
 
-    delta, offset = np.asarray(step_map.delta), np.asarray(step_map.offset)
-    mu_map, mu_offset = np.asarray(step_map.mu_map), np.asarray(step_map.mu_offset)
-    z = [np.concatenate([q0, p0])]
-    for _ in range(steps):
-        z.append(z[-1] + (delta @ z[-1] + offset))
+    offsets = np.broadcast_to(np.asarray(step_map.offset), (steps, 2 * prob.system.n))
+    assert_single_steps(traj, step_map, np.concatenate([q0, p0]), offsets, step_map.mu_offset)
+
+
+def assert_single_steps(traj, step_map, z0, offsets, mu_offsets):
+    """``traj`` is ``z_{k+1} = z_k + Δ z_k + offsets[k]`` from ``z0``, with multipliers
+    ``μ_k = C z_k + mu_offsets[k]``, to round-off (1e-13 of the largest value)."""
+    delta = np.asarray(step_map.delta)
+    z = [z0]
+    for b in offsets:
+        z.append(z[-1] + (delta @ z[-1] + b))
     z = np.array(z)
-    n = prob.system.n
+    n = z0.shape[0] // 2
     scale = np.max(np.abs(z))
     np.testing.assert_allclose(traj.q, z[:, :n], rtol=0, atol=1e-13 * scale)
     np.testing.assert_allclose(traj.p, z[:, n:], rtol=0, atol=1e-13 * scale)
-    mu = z[:-1] @ mu_map.T + mu_offset
+    mu = z[:-1] @ np.asarray(step_map.mu_map).T + np.asarray(mu_offsets)
     np.testing.assert_allclose(traj.multipliers, mu, rtol=0, atol=1e-13 * np.max(np.abs(mu)))
 
 
@@ -69,14 +75,4 @@ def test_driven_blocks_are_the_single_step_recursion(monkeypatch, block, steps):
         lambda t: step_map.offsets_at(prob.system, get_rule("midpoint"), "plus", h, t)
     )
     b, mu_b = (np.asarray(a) for a in offsets(times))
-    delta = np.asarray(step_map.delta)
-    z = [np.concatenate([q0, p0])]
-    for k in range(steps):
-        z.append(z[-1] + (delta @ z[-1] + b[k]))
-    z = np.array(z)
-    n = prob.system.n
-    scale = np.max(np.abs(z))
-    np.testing.assert_allclose(traj.q, z[:, :n], rtol=0, atol=1e-13 * scale)
-    np.testing.assert_allclose(traj.p, z[:, n:], rtol=0, atol=1e-13 * scale)
-    mu = z[:-1] @ np.asarray(step_map.mu_map).T + mu_b
-    np.testing.assert_allclose(traj.multipliers, mu, rtol=0, atol=1e-13 * np.max(np.abs(mu)))
+    assert_single_steps(traj, step_map, np.concatenate([q0, p0]), b, mu_b)

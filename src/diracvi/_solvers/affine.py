@@ -141,7 +141,7 @@ class AffineStepMap(eqx.Module):
         """
 
         def step(total, b):
-            after = total + (matvec(self.delta, total) + b)
+            after = self.next_start(total, 1, b)  # one step of the map, offset b(t_j)
             return after, after
 
         zero = jnp.zeros(offsets.shape[:1] + offsets.shape[2:], offsets.dtype)
