@@ -8,7 +8,9 @@ over the branch charges of all parts (paper §5.2: ``v^R − v^L − v^C = 0`` f
 circuit). Stacked, one row per node except ground, they form one
 :class:`~diracvi.Interaction`; their multipliers are the node potentials (the discrete
 λ is the impulse ``−h φ_n``). Mechanical flanges sharing a node are joined by
-:func:`~diracvi.connect`.
+:func:`~diracvi.connect`. A current-controlled source (``part.senses``) adds one more
+row, ``dc − dq_element = 0``, tying its pin-less coordinate to the controlling branch
+(:mod:`~diracvi.components.controlled`).
 """
 
 from __future__ import annotations
