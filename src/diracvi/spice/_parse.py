@@ -1,4 +1,4 @@
-r"""A small, strict SPICE netlist reader: R, L, C, K, V, I, D, ``.tran``, ``.ic``,
+r"""A small, strict SPICE netlist reader: R, L, C, K, V, I, D, linear E F G H, ``.tran``, ``.ic``,
 ``.param``, ``.model`` (diodes), ``.options`` (ignored), ``.end``.
 
 The first line is the title (SPICE's rule). ``*`` starts a comment line, ``;`` and
@@ -61,9 +61,15 @@ class Netlist:
         """Initial momenta (``assembly.p0``)."""
         return self.assembly.p0
 
-    #: the rules ``diracvi run`` offers, default first: the left-point rule cannot step a
-    #: capacitor in a loop with voltage sources or capacitors (a singular step)
-    discretizations = ("midpoint", "retraction")
+    @property
+    def discretizations(self) -> tuple[str, ...]:
+        """The rules ``diracvi run`` offers, default first. The left-point rule cannot step
+        a capacitor in a loop with voltage sources or capacitors, nor a current-output
+        controlled source (F, G: its output flux never enters the left-point equations);
+        both make its step singular."""
+        if any(p.role == "current" and hasattr(p, "senses") for p in self.circuit.parts):
+            return ("midpoint",)
+        return ("midpoint", "retraction")
 
     @property
     def name(self) -> str:
@@ -72,7 +78,7 @@ class Netlist:
 
 
 _TOKEN = re.compile(r"\{[^}]*\}|'[^']*'|=|[^\s,()={}']+")
-_SUPPORTED = "R, C, L, K, V, I, D"
+_SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H"
 
 
 @dataclass
@@ -255,10 +261,10 @@ class _Reader:
             raise line.fail("no element name (an element line starts with its name, e.g. R1)")
         name = pos[0]
         kind = name[0].upper()
-        if kind not in "RCLKVID":
+        if kind not in "RCLKVIDEFGH":
             raise line.fail(
                 f"element {name!r}: type {kind!r} is not supported (supported: {_SUPPORTED}; "
-                "no subcircuits, controlled sources or transistors)"
+                "no subcircuits, switches or transistors)"
             )
         if name.upper() in self.elements:
             first = self.elements[name.upper()].number
@@ -320,6 +326,53 @@ class _Reader:
                 f"diode model {pos[3]!r} is not defined (add '.model {pos[3]} D(IS=… N=…)')"
             )
         return cp.Diode(model["is"], model["n"], name=name), {"p": pos[1], "n": pos[2]}
+
+    # ------------------------------------------- linear controlled sources (E F G H)
+    def _linear_form(self, name, pos, kw, line, form, count):
+        """The fields of a linear controlled-source line; ``VALUE=``/``POLY`` refused."""
+        fields = [t.lower() for t in pos[1:]]
+        if "value" in kw or "poly" in fields or "value" in fields:
+            raise line.fail(
+                f"element {name!r}: the VALUE= and POLY(…) forms of {name[0].upper()} sources "
+                f"are not supported; write the linear form '{form}'"
+            )
+        if kw or len(pos) != count:
+            extra = f" and {sorted(kw)}" if kw else ""
+            raise line.fail(f"expected '{form}', got {len(pos)} fields{extra}")
+        return pos
+
+    def _e(self, name, pos, kw, line):
+        form = "Ename n+ n- nc+ nc- gain"
+        _, a, b, c, d, k = self._linear_form(name, pos, kw, line, form, 6)
+        gain = self.value(k, line, f"{name} gain")
+        return cp.VCVS(gain, name=name), {"p": a, "n": b, "cp": c, "cn": d}
+
+    def _g(self, name, pos, kw, line):
+        form = "Gname n+ n- nc+ nc- transconductance"
+        _, a, b, c, d, k = self._linear_form(name, pos, kw, line, form, 6)
+        gm = self.value(k, line, f"{name} transconductance")
+        return cp.VCCS(gm, name=name), {"p": a, "n": b, "cp": c, "cn": d}
+
+    def _f(self, name, pos, kw, line):
+        _, a, b, vctrl, k = self._linear_form(name, pos, kw, line, "Fname n+ n- Vname gain", 5)
+        gain = self.value(k, line, f"{name} gain")
+        return cp.CCCS(gain, control=self._ammeter(vctrl, line), name=name), {"p": a, "n": b}
+
+    def _h(self, name, pos, kw, line):
+        form = "Hname n+ n- Vname transresistance"
+        _, a, b, vctrl, k = self._linear_form(name, pos, kw, line, form, 5)
+        r = self.value(k, line, f"{name} transresistance")
+        return cp.CCVS(r, control=self._ammeter(vctrl, line), name=name), {"p": a, "n": b}
+
+    def _ammeter(self, vctrl, line):
+        # SPICE: the controlling current is the one through a voltage source, from its +
+        # node through it to its − node (the circuit checks that the source exists)
+        if vctrl[0].upper() != "V":
+            raise line.fail(
+                f"the controlling element {vctrl!r} must be a voltage source (SPICE's rule); "
+                "put a 0 V source in series with the branch to measure its current"
+            )
+        return vctrl
 
     def _v(self, name, pos, kw, line):
         return cp.VoltageSource(self.source(pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
