@@ -9,6 +9,7 @@ built = c.build()   # built.system, built.q0, built.p0
 """
 
 from ._part import Part
+from .bjt import BJT
 from .controlled import CCCS, CCVS, VCCS, VCVS
 from .diode import Diode
 from .electrical import (
@@ -35,14 +36,17 @@ from .mechanical import (
     TorqueSource,
     TorsionSpring,
 )
+from .mosfet import MOSFET
 from .network import Assembly, Circuit
 from .waveforms import DC, PWL, Pulse, Sine, Waveform
 
 __all__ = [
+    "BJT",
     "CCCS",
     "CCVS",
     "DC",
     "EMF",
+    "MOSFET",
     "PWL",
     "VCCS",
     "VCVS",

@@ -171,8 +171,11 @@ class Circuit:
                 node = nodes[pin]
                 incidence.setdefault(node, []).append((index[f"{part.name}.{coord}"], sign))
                 ends.setdefault(coord, {})[sign] = node
+            # a branch end inside the part (a transistor's internal node b′, joined by the
+            # part's own KCL constraint) counts as one part-internal node for the checks
+            inner = f"{part.name}\0internal"
             for coord, e in ends.items():
-                branches.append((part.name, _kind(part, coord), e.get(1), e.get(-1)))
+                branches.append((part.name, _kind(part, coord), e.get(1, inner), e.get(-1, inner)))
         mech_nodes = {n for part, nodes in parts for f in part.flange_names for n in [nodes[f]]}
         clash = mech_nodes & set(incidence)
         if clash:

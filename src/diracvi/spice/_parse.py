@@ -1,5 +1,5 @@
-r"""A small, strict SPICE netlist reader: R, L, C, K, V, I, D, linear E F G H, ``.tran``, ``.ic``,
-``.param``, ``.model`` (diodes), ``.options`` (ignored), ``.end``.
+r"""A small, strict SPICE netlist reader: R, L, C, K, V, I, D, linear E F G H, Q, M, ``.tran``,
+``.ic``, ``.param``, ``.model`` (diodes; level-1 transistors), ``.options`` (ignored), ``.end``.
 
 The first line is the title (SPICE's rule). ``*`` starts a comment line, ``;`` and
 `` $ `` an inline comment, ``+`` continues the previous line. Anything else is refused
@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .. import components as cp
 from .._errors import ModelError
+from . import _devices
 from ._values import ExpressionError, evaluate, number
 
 
@@ -78,7 +79,7 @@ class Netlist:
 
 
 _TOKEN = re.compile(r"\{[^}]*\}|'[^']*'|=|[^\s,()={}']+")
-_SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H"
+_SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, Q, M"
 
 
 @dataclass
@@ -139,6 +140,7 @@ class _Reader:
         self.circuit = cp.Circuit(name)
         self.params: dict[str, float] = {}
         self.models: dict[str, dict[str, float]] = {}
+        self.devices: dict[str, _devices.DeviceModel] = {}  # transistor .model cards
         self.ic: dict[str, float] = {}
         self.tran: tuple[float, float] | None = None
         self.uic = False
@@ -234,7 +236,7 @@ class _Reader:
             return None
         raise line.fail(
             f"directive {card!r} is not supported (supported: .tran, .ic, .param, .model for "
-            "diodes, .options, .end)"
+            "diodes and level-1 transistors, .options, .end)"
         )
 
     def model(self, line: _Line) -> None:
@@ -242,8 +244,11 @@ class _Reader:
         if m is None:
             raise line.fail("'.model' expects NAME TYPE(param=value …)")
         name, kind, body = m.group(1).lower(), m.group(2).upper(), m.group(3)
+        if kind in _devices.KINDS:
+            self.transistor_model(name, kind, body, line)
+            return
         if kind != "D":
-            raise line.fail(f"model type {kind!r} is not supported (only diodes, type D)")
+            raise line.fail(f"model type {kind!r} is not supported (D, NPN, PNP, NMOS, PMOS are)")
         _, kw = _split(_Line(line.number, body))
         allowed = {"is": 1e-14, "n": 1.0}
         unknown = sorted(set(kw) - set(allowed))
@@ -261,10 +266,10 @@ class _Reader:
             raise line.fail("no element name (an element line starts with its name, e.g. R1)")
         name = pos[0]
         kind = name[0].upper()
-        if kind not in "RCLKVIDEFGH":
+        if kind not in "RCLKVIDEFGHQM":
             raise line.fail(
                 f"element {name!r}: type {kind!r} is not supported (supported: {_SUPPORTED}; "
-                "no subcircuits, switches or transistors)"
+                "no subcircuits or switches)"
             )
         if name.upper() in self.elements:
             first = self.elements[name.upper()].number
@@ -326,6 +331,44 @@ class _Reader:
                 f"diode model {pos[3]!r} is not defined (add '.model {pos[3]} D(IS=… N=…)')"
             )
         return cp.Diode(model["is"], model["n"], name=name), {"p": pos[1], "n": pos[2]}
+
+    # ------------------------------------------------ transistors (Q, M; level 1)
+    def transistor_model(self, name, kind, body, line):
+        _, kw = _split(_Line(line.number, body))
+        model = _devices.read_model(
+            kind, kw, lambda t, what: self.value(t, line, what), line.fail, line.number
+        )
+        self.notes += model.notes
+        self.devices[name] = model
+
+    def _device(self, name, token, line, card):
+        model = self.devices.get(token.lower())
+        if model is None:
+            raise line.fail(f"element {name!r}: model {token!r} is not defined (add '{card}')")
+        return model
+
+    def _m(self, name, pos, kw, line):
+        if len(pos) < 6:
+            raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
+        model = self._device(name, pos[5], line, f".model {pos[5]} NMOS(LEVEL=1 VTO=… KP=…)")
+        return _devices.mosfet(
+            name, pos, kw, model, lambda t, w: self.value(t, line, w), line.fail, self.ic,
+            self.notes, line.number,
+        )  # fmt: skip
+
+    def _q(self, name, pos, kw, line):
+        known = [t for t in pos[4:6] if t.lower() in self.devices]
+        if not known:
+            token = pos[4] if len(pos) > 4 else "?"
+            raise line.fail(
+                f"element {name!r}: no defined model among {pos[4:6]} (add '.model {token} "
+                "NPN(IS=… BF=…)'); form 'Qname c b e [s] model [area]'"
+            )
+        model = self._device(name, known[0], line, "")
+        return _devices.bjt(
+            name, pos, kw, model, lambda t, w: self.value(t, line, w), line.fail, self.ic,
+            self.notes, line.number, self.devices,
+        )  # fmt: skip
 
     # ------------------------------------------- linear controlled sources (E F G H)
     def _linear_form(self, name, pos, kw, line, form, count):

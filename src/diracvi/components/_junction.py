@@ -1,0 +1,71 @@
+r"""pn-junction currents as ngspice's level-1 devices compute them, overflow-safe.
+
+``I(V) = I_S (e^{V/(N V_T)} − 1)`` for ``V ≥ −3 N V_T``; below, ngspice's BJT continues
+with ``−I_S (1 + (3 N V_T / (e V))³)`` (C¹, tends to ``−I_S``) and its MOSFET bulk
+junctions with the constant ``−I_S``. Above ``V = 40 N V_T`` the exponential is continued
+by its tangent (C¹) so that a Newton iterate cannot overflow; currents there exceed
+``I_S e^{40}`` (2·10¹⁷ ``I_S``), far outside any solution the models are used for.
+
+Shared by the transistor models (:mod:`~diracvi.components.bjt`,
+:mod:`~diracvi.components.mosfet`); ``components/diode.py`` has its own
+``shockley_current`` (the same forward branch), which the two can be unified onto.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from .diode import THERMAL_VOLTAGE
+
+_LIMIT = 40.0
+_E = 2.718281828459045
+
+
+def exp_capped(x):
+    """``e^x``, continued by its tangent above ``x = 40``."""
+    capped = jnp.minimum(x, _LIMIT)
+    return jnp.exp(capped) * (1.0 + (x - capped))
+
+
+def pn_current(v, saturation_current, emission=1.0, reverse="cubic"):
+    r"""``I_S (e^{V/(N V_T)} − 1)`` with ngspice's reverse branch below ``−3 N V_T``:
+    ``reverse="cubic"`` (BJT: ``−I_S (1 + (3 N V_T/(e V))³)``) or ``"constant"``
+    (MOSFET bulk junctions: ``−I_S``)."""
+    nvt = emission * THERMAL_VOLTAGE
+    forward = saturation_current * (exp_capped(v / nvt) - 1.0)
+    low = v < -3.0 * nvt
+    if reverse == "constant":
+        back = -saturation_current + 0.0 * v
+    else:
+        safe = jnp.where(low, v, -3.0 * nvt)  # no division by 0 on the unused branch
+        arg = 3.0 * nvt / (safe * _E)
+        back = -saturation_current * (1.0 + arg * arg * arg)
+    return jnp.where(low, back, forward)
+
+
+def depletion_charge(v, cj, vj, m, fc):
+    r"""ngspice's depletion charge ``Q(V)`` of a junction (``dQ/dV = C_J (1 − V/V_J)^{−M}``
+    below ``FC·V_J``, continued linearly in ``C`` above), ``Q(0) = 0``."""
+    a = fc * vj
+    below = jnp.minimum(v, a)
+    q_low = cj * vj * (1.0 - (1.0 - below / vj) ** (1.0 - m)) / (1.0 - m)
+    f2 = (1.0 - fc) ** (1.0 + m)
+    f3 = 1.0 - fc * (1.0 + m)
+    d = jnp.maximum(v - a, 0.0)
+    return q_low + cj / f2 * (f3 * d + m / (2.0 * vj) * d * (d + 2.0 * a))
+
+
+def depletion_coenergy(v, cj, vj, m, fc):
+    r"""``C*(V) = ∫₀^V Q(u) du`` of :func:`depletion_charge`: the term of the flux-form
+    Lagrangian ``L = w q̇ + C*(ẇ)`` whose momentum ``∂L/∂ẇ = Q(ẇ)`` is the junction
+    charge, so that the ``w``-line reads ``q̇ = i_dc + dQ/dt``."""
+    a = fc * vj
+    below = jnp.minimum(v, a)
+    e_low = cj * vj / (1.0 - m) * (below + vj / (2.0 - m) * ((1.0 - below / vj) ** (2.0 - m) - 1.0))
+    q_a = cj * vj * (1.0 - (1.0 - fc) ** (1.0 - m)) / (1.0 - m)
+    f2 = (1.0 - fc) ** (1.0 + m)
+    f3 = 1.0 - fc * (1.0 + m)
+    d = jnp.maximum(v - a, 0.0)
+    # ∫₀^d [f3 x + m/(2 vj) x (x + 2a)] dx
+    upper = q_a * d + cj / f2 * (0.5 * f3 * d * d + m / (2.0 * vj) * (d**3 / 3.0 + a * d * d))
+    return e_low + upper

@@ -1,0 +1,179 @@
+"""``.model`` cards for transistors (NPN, PNP, NMOS, PMOS) and the ``Q`` and ``M`` lines.
+
+Parameter names, aliases and defaults are ngspice's (BJT: Gummel–Poon level 1; MOSFET:
+level 1, Shichman–Hodges). A parameter is either used, or accepted with a note because
+at its value it cannot change the answer (noise coefficients, the grading of a
+capacitance that is zero, temperature coefficients at the nominal 27 °C), or refused
+with the reason. Other levels are refused at the element line, naming the model's line.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from .. import components as cp
+
+KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
+
+_MOS = {
+    "vto": 0.0, "kp": 2e-5, "gamma": 0.0, "phi": 0.6, "lambda": 0.0, "is": 1e-14, "ld": 0.0,
+    "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
+}  # fmt: skip
+_MOS_ALIAS = {"vt0": "vto", "uo": "u0"}
+# parameters that must keep ngspice's default: any other value changes the answer
+_MOS_FIXED = {
+    "rd": (0.0, "drain resistance"), "rs": (0.0, "source resistance"),
+    "rsh": (0.0, "sheet resistance"), "cbd": (0.0, "bulk-drain capacitance"),
+    "cbs": (0.0, "bulk-source capacitance"), "cj": (0.0, "bulk junction capacitance"),
+    "cjsw": (0.0, "sidewall junction capacitance"), "js": (0.0, "junction current density"),
+    "tnom": (27.0, "nominal temperature"),
+}  # fmt: skip
+_MOS_INERT = ("pb", "mj", "mjsw", "fc", "kf", "af")  # shape zero capacitances / noise only
+_MOS_PROCESS = ("tox", "u0", "nsub", "nss", "tpg")
+
+_BJT = {
+    "is": 1e-16, "bf": 100.0, "nf": 1.0, "vaf": 0.0, "ikf": 0.0, "ise": 0.0, "ne": 1.5,
+    "br": 1.0, "nr": 1.0, "var": 0.0, "ikr": 0.0, "isc": 0.0, "nc": 2.0, "rb": 0.0,
+    "re": 0.0, "rc": 0.0, "cje": 0.0, "vje": 0.75, "mje": 0.33, "tf": 0.0, "cjc": 0.0,
+    "vjc": 0.75, "mjc": 0.33, "tr": 0.0, "fc": 0.5,
+}  # fmt: skip
+_BJT_ALIAS = {
+    "va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
+    "pc": "vjc", "mc": "mjc", "tref": "tnom", "csub": "cjs", "ccs": "cjs", "ps": "vjs",
+    "ms": "mjs",
+}  # fmt: skip
+_BJT_FIXED = {
+    "irb": (0.0, "base-resistance roll-off current (a bias-dependent RB)"),
+    "xtf": (0.0, "transit-time bias coefficient"), "ptf": (0.0, "excess phase"),
+    "xcjc": (1.0, "fraction of the B-C capacitance at the internal base"),
+    "cjs": (0.0, "substrate capacitance"), "iss": (0.0, "substrate saturation current"),
+    "tnom": (27.0, "nominal temperature"),
+}  # fmt: skip
+# only act with XTF, CJS or ISS ≠ 0, away from 27 °C, or on noise
+_BJT_INERT = ("vtf", "itf", "vjs", "mjs", "ns", "xtb", "eg", "xti", "kf", "af", "subs")
+_TEMPCO = re.compile(r"^(t[a-z]+[12]|ctc|cte|cts|tvj[ces]|tlevc?)$")
+
+
+@dataclass
+class DeviceModel:
+    """A transistor ``.model`` card: its type, level, values (ngspice names) and notes."""
+
+    kind: str  # npn | pnp | nmos | pmos
+    level: float
+    values: dict
+    line: int
+    notes: list = field(default_factory=list)
+
+
+def read_model(kind: str, kw: dict, value, fail, number: int) -> DeviceModel:
+    """Check a transistor ``.model`` card's parameters; ``value(token, what)`` evaluates,
+    ``fail(why)`` builds the line's error."""
+    mos = kind in ("NMOS", "PMOS")
+    table, alias = (_MOS, _MOS_ALIAS) if mos else (_BJT, _BJT_ALIAS)
+    fixed, inert = (_MOS_FIXED, _MOS_INERT) if mos else (_BJT_FIXED, _BJT_INERT)
+    values, notes, level = dict(table), [], 1.0
+    for key, token in kw.items():
+        key = alias.get(key, key)
+        x = value(token, f"{kind} {key.upper()}")
+        if key == "level":
+            level = x
+        elif key in table:
+            values[key] = x
+        elif key in fixed:
+            default, what = fixed[key]
+            if x != default:
+                raise fail(
+                    f"{kind} parameter {key.upper()}={token} ({what}) is not supported; only "
+                    f"its default {default:g} (drop it)"
+                )
+        elif key in inert or _TEMPCO.match(key):
+            notes.append(f"line {number}: {kind} {key.upper()} ignored (no effect here)")
+        elif mos and key in _MOS_PROCESS:
+            raise fail(
+                f"NMOS/PMOS parameter {key.upper()} is not supported: process parameters "
+                "(TOX, U0, NSUB, NSS, TPG) derive KP, GAMMA, PHI and Meyer's gate "
+                "capacitances, which are not modelled; give KP, GAMMA, PHI and drop them"
+            )
+        elif key == "rbm" and not mos:
+            values["rbm"] = x
+        else:
+            raise fail(f"{kind} parameter {key.upper()!r} is not known or not supported")
+    if not mos and values.get("rbm", values["rb"]) != values["rb"]:
+        raise fail("BJT RBM ≠ RB (a bias-dependent base resistance) is not supported")
+    values.pop("rbm", None)
+    return DeviceModel(KINDS[kind], level, values, number, notes)
+
+
+def _level(name, model: DeviceModel, fail):
+    if model.level != 1:
+        raise fail(
+            f"element {name!r}: model of line {model.line} is LEVEL={model.level:g}; only "
+            "level 1 is supported (Shichman–Hodges MOSFET, Gummel–Poon BJT)"
+        )
+
+
+def mosfet(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number):
+    """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)."""
+    _level(name, model, fail)
+    if model.kind not in ("nmos", "pmos"):
+        raise fail(f"element {name!r}: model is {model.kind.upper()}, an M line needs NMOS/PMOS")
+    extra = [t for t in pos[6:] if t.lower() != "off"]
+    if len(pos) < 6 or extra:
+        raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
+    geometry = {"l": 100e-6, "w": 100e-6, "m": 1.0}
+    for key, token in kw.items():
+        x = value(token, f"{name} {key.upper()}")
+        if key in geometry:
+            geometry[key] = x
+        elif key in ("ad", "as", "pd", "ps", "nrd", "nrs"):
+            # they scale CJ, CJSW, JS and RSH, all refused unless zero
+            notes.append(f"line {number}: {name} {key.upper()} ignored (CJ, JS, RSH are 0)")
+        else:
+            raise fail(f"element {name!r}: parameter {key.upper()} is not supported on M lines")
+    if any(t.lower() == "off" for t in pos[6:]):
+        notes.append(f"line {number}: {name} OFF ignored (it only seeds ngspice's DC solve)")
+    v = model.values
+    d, g, s, b = pos[1:5]
+    caps = (v["cgso"], v["cgdo"], v["cgbo"])
+    if any(c != 0.0 for c in caps) and any(
+        ic.get(a, 0.0) != ic.get(c, 0.0) for a, c in ((g, s), (g, d), (g, b))
+    ):
+        raise fail(
+            f"element {name!r}: overlap capacitances with a nonzero initial voltage "
+            "(.ic) across them are not supported"
+        )
+    part = cp.MOSFET(
+        model.kind, v["vto"], v["kp"], v["lambda"], geometry["w"], geometry["l"], v["gamma"],
+        v["phi"], ld=v["ld"], is_=v["is"], m=geometry["m"], cgso=caps[0], cgdo=caps[1],
+        cgbo=caps[2], name=name,
+    )  # fmt: skip
+    return part, {"d": d, "g": g, "s": s, "b": b}
+
+
+def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, models):
+    """``Qname c b e [s] model [area] [OFF]`` → (part, nodes)."""
+    _level(name, model, fail)
+    if model.kind not in ("npn", "pnp"):
+        raise fail(f"element {name!r}: model is {model.kind.upper()}, a Q line needs NPN/PNP")
+    fields = [t for t in pos[1:] if t.lower() != "off"]
+    at = next((k for k, t in enumerate(fields) if t.lower() in models), None)
+    if at not in (3, 4) or len(fields) > at + 2:
+        raise fail("expected 'Qname c b e [s] model [area] [OFF]'")
+    nodes = {"c": fields[0], "b": fields[1], "e": fields[2], "s": fields[3] if at == 4 else "0"}
+    area = value(fields[at + 1], f"{name} area") if len(fields) > at + 1 else 1.0
+    for key, token in kw.items():
+        if key == "area":
+            area = value(token, f"{name} AREA")
+        else:
+            raise fail(f"element {name!r}: parameter {key.upper()} is not supported on Q lines")
+    v = model.values
+    vb, vc, ve = (ic.get(nodes[k], 0.0) for k in "bce")
+    part = cp.BJT(
+        model.kind, is_=v["is"], bf=v["bf"], br=v["br"], nf=v["nf"], nr=v["nr"],
+        vaf=v["vaf"], var=v["var"], ikf=v["ikf"], ikr=v["ikr"], ise=v["ise"], ne=v["ne"],
+        isc=v["isc"], nc=v["nc"], rb=v["rb"], rc=v["rc"], re=v["re"], cje=v["cje"],
+        vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
+        tr=v["tr"], fc=v["fc"], area=area, v0=(vb - ve, vb - vc), name=name,
+    )  # fmt: skip
+    return part, nodes
