@@ -1,0 +1,377 @@
+"""Transistors: the level-1 MOSFET (Shichman–Hodges) and the Gummel–Poon BJT — their
+currents against the closed forms in every region (independent NumPy formulas written
+here from ngspice's manual), four circuits against live ngspice runs, gradients, and
+the netlist lines with their errors (docs/circuits.md, "Transistors")."""
+
+from __future__ import annotations
+
+import re
+
+import jax
+import numpy as np
+import pytest
+
+import _ngspice as ng
+import diracvi as dv
+from diracvi import components as cp
+from diracvi import spice
+from diracvi.spice import waveforms
+
+VT = 1.38064852e-23 * 300.15 / 1.6021766208e-19  # kT/q at 27 °C (ngspice's constants)
+GMIN = 1e-12
+# the transistors' exponentials need a fresh Jacobian every Newton iteration: the first
+# step starts every junction voltage at 0 V and must climb to ~0.65 V without SPICE's
+# junction limiting (the reused Jacobian stalls there)
+SOLVER = dv.NewtonSolver(reuse_jacobian=False)
+
+
+def _dc(circuit, steps=3, dt=1e-6):
+    built = circuit.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=dt, steps=steps, discretization="midpoint",
+        solver=SOLVER,
+    )  # fmt: skip
+    return built, traj, waveforms(built, traj)
+
+
+# ------------------------------------------------------------------ MOSFET closed forms
+def _shichman_hodges(vgs, vds, vbs, *, sign, vto, kp, w, l, gamma, phi, lam):  # noqa: E741
+    """The drain current into the drain (ngspice level 1, written out independently):
+    NMOS-oriented voltages ``type·V``, source/drain swapped for V_DS < 0."""
+    gs, ds, bs = sign * vgs, sign * vds, sign * vbs
+    mode = 1.0
+    if ds < 0:
+        gs, bs, ds, mode = gs - ds, bs - ds, -ds, -1.0
+    if bs <= 0:
+        s = np.sqrt(phi - bs)
+    else:
+        s = max(0.0, np.sqrt(phi) - bs / (2 * np.sqrt(phi)))
+    vth = sign * vto + gamma * (s - np.sqrt(phi))
+    vov = gs - vth
+    beta = kp * w / l * (1 + lam * ds)
+    if vov <= 0:
+        i = 0.0
+    elif vov <= ds:
+        i = beta * vov**2 / 2
+    else:
+        i = beta * ds * (vov - ds / 2)
+    return sign * mode * i
+
+
+def _junction(v, i_s):  # ngspice's MOSFET bulk junction, with GMIN
+    return (-i_s if v <= -3 * VT else i_s * np.expm1(v / VT)) + GMIN * v
+
+
+MOS = dict(vto=0.8, kp=60e-6, w=12e-6, l=2e-6, gamma=0.45, phi=0.7, lam=0.03)
+
+
+@pytest.mark.parametrize("kind", ["nmos", "pmos"])
+@pytest.mark.parametrize(
+    ("vgs", "vds", "vbs", "region"),
+    [
+        (0.5, 2.0, 0.0, "cutoff"),
+        (2.5, 0.4, 0.0, "linear"),
+        (2.5, 3.0, 0.0, "saturation"),
+        (2.5, 3.0, -1.5, "saturation, body effect"),
+        (2.5, 0.4, 0.2, "linear, forward body bias"),
+        (2.5, -0.6, 0.0, "reverse (source/drain swapped)"),
+    ],
+)
+def test_mosfet_drain_current_is_shichman_hodges_in_every_region(kind, vgs, vds, vbs, region):
+    """Voltage sources on gate, drain and bulk (source grounded): ``i(VD)`` is minus the
+    drain-terminal current — the channel's Shichman–Hodges current minus the bulk–drain
+    junction's — to round-off (the circuit is resistive: the midpoint step is exact)."""
+    sign = 1.0 if kind == "nmos" else -1.0
+    vgs, vds, vbs = sign * vgs, sign * vds, sign * vbs
+    p = MOS | {"vto": sign * MOS["vto"]}
+    c = cp.Circuit("mos")
+    c.add(cp.VoltageSource(vgs, name="VG"), p="g", n="0")
+    c.add(cp.VoltageSource(vds, name="VD"), p="d", n="0")
+    c.add(cp.VoltageSource(vbs, name="VB"), p="b", n="0")
+    c.add(
+        cp.MOSFET(kind, p["vto"], p["kp"], p["lam"], p["w"], p["l"], p["gamma"], p["phi"],
+                  name="M1"),
+        d="d", g="g", s="0", b="b",
+    )  # fmt: skip
+    _, _, wv = _dc(c)
+    channel = _shichman_hodges(vgs, vds, vbs, sign=sign, **p)
+    bulk_drain = sign * _junction(sign * (vbs - vds), 1e-14)
+    expected = channel - bulk_drain  # into the drain terminal
+    got = -wv["i(VD)"][1:-1]
+    assert np.max(np.abs(got - expected)) <= 1e-12 * max(abs(expected), 1e-6), region
+    if region != "cutoff":
+        assert abs(channel) > 1e-6  # it conducts (a cutoff by mistake fails)
+    # the gate draws no current; the bulk only its two junctions' (IS and GMIN)
+    assert np.max(np.abs(wv["i(VG)"][1:-1])) <= 1e-18
+    bulk = bulk_drain + sign * _junction(sign * vbs, 1e-14)
+    assert np.max(np.abs(-wv["i(VB)"][1:-1] - bulk)) <= 1e-12 * max(abs(bulk), 1e-6)
+
+
+# ------------------------------------------------------------------ BJT closed forms
+BJT = dict(is_=2e-15, bf=80.0, br=3.0, nf=1.05, nr=1.1, vaf=60.0, var=20.0, ikf=0.02,
+           ikr=0.01, ise=5e-14, ne=1.6, isc=1e-14, nc=1.9)  # fmt: skip
+
+
+def _gummel_poon(vbe, vbc, sign):
+    """(I_C, I_B) into collector and base (ngspice's Gummel–Poon, written out here)."""
+    p = BJT
+    be, bc = sign * vbe, sign * vbc
+
+    def pn(v, i_s, n):  # below −3 n V_T ngspice continues with −I_S (1 + (3 n V_T/(e V))³)
+        nvt = n * VT
+        return (
+            i_s * np.expm1(v / nvt) if v >= -3 * nvt else -i_s * (1 + (3 * nvt / (np.e * v)) ** 3)
+        )
+
+    ibe = pn(be, p["is_"], p["nf"])
+    ibc = pn(bc, p["is_"], p["nr"])
+    iben = pn(be, p["ise"], p["ne"]) + GMIN * be
+    ibcn = pn(bc, p["isc"], p["nc"]) + GMIN * bc
+    q1 = 1 / (1 - bc / p["vaf"] - be / p["var"])
+    qb = q1 * (1 + np.sqrt(1 + 4 * (ibe / p["ikf"] + ibc / p["ikr"]))) / 2
+    ic = (ibe - ibc) / qb - ibc / p["br"] - ibcn
+    ib = ibe / p["bf"] + iben + ibc / p["br"] + ibcn
+    return sign * ic, sign * ib
+
+
+@pytest.mark.parametrize("kind", ["npn", "pnp"])
+@pytest.mark.parametrize(
+    ("vbe", "vce"),
+    [(0.68, 3.0), (0.75, 5.0), (0.8, 0.1), (-0.3, 2.0)],  # active ×2, saturation, cutoff
+)
+def test_bjt_currents_are_gummel_poon(kind, vbe, vce):
+    """``V_BE`` and ``V_CE`` from sources: the collector and base currents equal the
+    Gummel–Poon formulas (Early effect, high injection, leakage terms, GMIN)."""
+    sign = 1.0 if kind == "npn" else -1.0
+    vbe, vce = sign * vbe, sign * vce
+    c = cp.Circuit("bjt")
+    c.add(cp.VoltageSource(vbe, name="VB"), p="b", n="0")
+    c.add(cp.VoltageSource(vce, name="VC"), p="c", n="0")
+    c.add(cp.BJT(kind, **BJT, name="Q1"), c="c", b="b", e="0", s="0")
+    _, _, wv = _dc(c)
+    ic, ib = _gummel_poon(vbe, vbe - vce, sign)
+    # the substrate's GMIN leak (substrate grounded; to the collector for an NPN's
+    # vertical layout, to the base for a PNP's lateral one) is part of the terminal current
+    ic_term = ic + (GMIN * vce if kind == "npn" else 0.0)
+    ib_term = ib + (GMIN * vbe if kind == "pnp" else 0.0)
+    got_c, got_b = -wv["i(VC)"][1:-1], -wv["i(VB)"][1:-1]
+    assert np.max(np.abs(got_c - ic_term)) <= 1e-11 * abs(ic_term) + 1e-20
+    assert np.max(np.abs(got_b - ib_term)) <= 1e-11 * abs(ib_term) + 1e-20
+    if vbe * sign > 0.7 and vce * sign > 1:
+        assert 20 < ic / ib < 80  # forward active, beta rolled off by ISE and IKF
+
+
+def test_bjt_series_resistances_drop_their_currents():
+    """RB, RC, RE as internal nodes: the terminal currents solve the Gummel–Poon law at
+    the internal junction voltages ``V_B'E' = V_BE − R_B I_B − R_E I_E`` (checked by
+    evaluating the formulas there)."""
+    rb, rc, re_ = 200.0, 20.0, 5.0
+    c = cp.Circuit("bjt")
+    c.add(cp.VoltageSource(0.75, name="VB"), p="b", n="0")
+    c.add(cp.VoltageSource(3.0, name="VC"), p="c", n="0")
+    c.add(cp.BJT("npn", **BJT, rb=rb, rc=rc, re=re_, name="Q1"), c="c", b="b", e="0", s="0")
+    _, _, wv = _dc(c)
+    ic, ib = -wv["i(VC)"][1], -wv["i(VB)"][1]
+    ie = ic + ib
+    vbe = 0.75 - rb * ib - re_ * ie
+    vbc = 0.75 - rb * ib - (3.0 - rc * ic)
+    want_c, want_b = _gummel_poon(vbe, vbc, 1.0)
+    assert abs(ic - want_c - GMIN * (3.0 - rc * ic)) <= 1e-9 * abs(ic)
+    assert abs(ib - want_b) <= 1e-9 * abs(ib)
+    assert rb * ib + re_ * ie > 1e-3  # the resistances matter here
+
+
+# ------------------------------------------------------------------ ngspice
+def _with_operating_point(netlist: str, nodes) -> str:
+    """The netlist with ``.ic`` at ngspice's own DC operating point (a zero-length
+    transient's t = 0), so that both simulators integrate the same initial value problem:
+    ngspice starts from its operating point, diracvi's capacitors from these voltages."""
+    short = re.sub(r"^\.tran\s+(\S+)\s+\S+.*$", r".tran \1 \1", netlist, flags=re.M | re.I)
+    _, v = ng.ngspice(short, tuple(f"v({n})" for n in nodes), tmax=1e-13)
+    ic = " ".join(f"v({n})={v[f'v({n})'][0]:.15g}" for n in nodes)
+    return netlist.replace(".tran", f".ic {ic}\n.tran", 1)
+
+
+CIRCUITS = {
+    "cmos-inverter": (
+        """CMOS inverter driven by a pulse
+vdd vdd 0 5
+vin in 0 PULSE(0 5 10n 2n 2n 20n 50n)
+mp out in vdd vdd pch L=1u W=20u
+mn out in 0 0 nch L=1u W=10u
+cl out 0 100f
+.model nch NMOS (LEVEL=1 VTO=0.7 KP=110u GAMMA=0.4 LAMBDA=0.04 PHI=0.7)
+.model pch PMOS (LEVEL=1 VTO=-0.7 KP=50u GAMMA=0.57 LAMBDA=0.05 PHI=0.8)
+.tran 0.1n 60n
+.end
+""",
+        ("out",),
+        ("v(out)",),
+        (),
+    ),
+    "nmos-common-source": (
+        """NMOS common-source amplifier with a resistor load
+vdd vdd 0 10
+vin g 0 SIN(2 0.2 20k)
+rd vdd d 20k
+cl d 0 200p
+m1 d g 0 0 nch L=2u W=20u
+.model nch NMOS (LEVEL=1 VTO=1 KP=50u LAMBDA=0.02 GAMMA=0.5 PHI=0.65)
+.tran 0.5u 100u
+.end
+""",
+        ("d",),
+        ("v(d)",),
+        (),
+    ),
+    "bjt-common-emitter": (
+        """BJT common-emitter amplifier with emitter degeneration
+vcc vcc 0 12
+vin in 0 SIN(0 50m 10k)
+cin in b 10u
+r1 vcc b 47k
+r2 b 0 10k
+rc vcc c 4.7k
+re e 0 1k
+cout c out 1u
+rl out 0 100k
+q1 c b e qn
+.model qn NPN (IS=1e-14 BF=120 VAF=80 IKF=0.05 ISE=1e-15 NE=1.6 BR=2 RB=50 RC=5 RE=0.5)
+.tran 2u 300u
+.end
+""",
+        ("b", "c", "e", "out"),
+        ("v(c)", "v(b)", "v(e)", "v(out)"),
+        (),
+    ),
+    "bjt-rtl-inverter": (
+        """RTL inverter driven by a pulse
+vcc vcc 0 5
+vin in 0 PULSE(0 5 0.5u 50n 50n 1u 2u)
+rb in b 10k
+q1 c b 0 qn
+rc vcc c 1k
+cl c 0 100p
+.model qn NPN (IS=1e-15 BF=100 BR=1 VAF=100)
+.tran 5n 4u
+.end
+""",
+        ("c", "b"),
+        ("v(c)", "v(b)"),
+        # v(b) follows the source's corners at once (the transistor is off): midpoint's
+        # node voltage is the mean over the two half steps around t_k, off by
+        # h·|Δslope|/4 within a step of a kink; those instants are left out for it
+        (0.5e-6, 0.55e-6, 1.55e-6, 1.6e-6, 2.5e-6, 2.55e-6, 3.55e-6, 3.6e-6),
+    ),
+}
+
+
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+@pytest.mark.parametrize("name", sorted(CIRCUITS))
+def test_transistor_circuits_agree_with_ngspice(name):
+    """Each circuit against a fine ngspice run (max step TSTOP/40000, from its DC
+    operating point), diracvi midpoint at TSTEP/20: ≤ 1e-3 of each probe's peak."""
+    netlist, nodes, probes, corners = CIRCUITS[name]
+    netlist = _with_operating_point(netlist, nodes)
+    read = spice.read(netlist)
+    t, ref = ng.ngspice(netlist, probes, tmax=read.stop / 40000)
+    h = read.dt / 20
+    result = spice.run(read, dt=h, solver=SOLVER)
+    for probe in probes:
+        mine = np.interp(t, result.time, result[probe])
+        keep = t > 0
+        if probe == "v(b)":
+            for corner in corners:
+                keep &= np.abs(t - corner) > 2 * h
+        peak = np.max(np.abs(ref[probe]))
+        err = np.max(np.abs(mine - ref[probe])[keep]) / peak
+        assert err <= 1e-3, (name, probe, err)
+        assert np.ptp(ref[probe]) > 0.02 * peak  # the probe moves
+
+
+# ------------------------------------------------------------------ gradients
+def _cs_stage(kp, steps=40, h=1e-6):
+    c = cp.Circuit("cs")
+    c.add(cp.VoltageSource(10.0, name="VDD"), p="vdd", n="0")
+    c.add(cp.VoltageSource(cp.Sine(2.0, 0.2, 20e3), name="VIN"), p="g", n="0")
+    c.add(cp.Resistor(20e3, name="RD"), p="vdd", n="d")
+    c.add(cp.Capacitor(200e-12, name="CL", v0=4.5), p="d", n="0")
+    c.add(cp.MOSFET("nmos", 1.0, kp, 0.02, 20e-6, 2e-6, name="M1"), d="d", g="g", s="0", b="0")
+    built = c.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=h, steps=steps, discretization="midpoint",
+        solver=SOLVER,
+    )  # fmt: skip
+    return traj.q[-1, built.system.coords.index("CL.q")]
+
+
+def _ce_stage(bf, steps=40, h=1e-6):
+    c = cp.Circuit("ce")
+    c.add(cp.VoltageSource(12.0, name="VCC"), p="vcc", n="0")
+    c.add(cp.VoltageSource(cp.Sine(1.0, 0.05, 10e3), name="VB"), p="b", n="0")
+    c.add(cp.Resistor(4.7e3, name="RC"), p="vcc", n="c")
+    c.add(cp.Capacitor(1e-9, name="C1", v0=6.0), p="c", n="0")
+    c.add(cp.Resistor(1e3, name="RE"), p="e", n="0")
+    c.add(cp.BJT("npn", is_=1e-14, bf=bf, vaf=80.0, rb=100.0, name="Q1"), c="c", b="b", e="e",
+          s="0")  # fmt: skip
+    built = c.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=h, steps=steps, discretization="midpoint",
+        solver=SOLVER,
+    )  # fmt: skip
+    return traj.q[-1, built.system.coords.index("C1.q")]
+
+
+@pytest.mark.parametrize(
+    ("loss", "x", "eps"), [(_cs_stage, 50e-6, 1e-9), (_ce_stage, 120.0, 1e-3)], ids=["KP", "BF"]
+)
+def test_gradient_to_kp_and_bf_matches_central_differences(loss, x, eps):
+    """``jax.grad`` of a load capacitor's final charge with respect to KP (MOSFET stage)
+    and BF (BJT stage, where RB makes the base current matter) equals central
+    differences."""
+    grad = float(jax.grad(loss)(x))
+    fd = (float(loss(x + eps)) - float(loss(x - eps))) / (2 * eps)
+    assert abs(grad - fd) <= 1e-5 * abs(fd), (grad, fd)
+    assert abs(fd) > 0
+
+
+# ------------------------------------------------------------------ netlists
+BASE = "title\nvdd 1 0 5\nvg 2 0 2\nr1 1 3 1k\n"
+
+
+def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
+    netlist = spice.read(
+        BASE
+        + "m1 3 2 0 0 nch L=2u W=10u AD=1p\n"
+        + "q1 1 2 4 qp 2\nr2 4 0 1k\n"
+        + ".model nch NMOS (LEVEL=1 VT0=0.9 KP=40u KF=1e-25)\n"
+        + ".model qp PNP (BF=50 VA=30)\n.tran 1u 10u\n.end\n"
+    )
+    parts = {p.name: p for p in netlist.circuit.parts}
+    assert dict(parts["m1"].parameters) == pytest.approx(
+        {"kp": 40e-6, "vto": 0.9, "lambda": 0.0, "gamma": 0.0, "phi": 0.6}
+    )
+    assert dict(parts["q1"].parameters) == pytest.approx({"is": 2e-16, "bf": 50.0, "br": 1.0})
+    assert any("KF ignored" in n for n in netlist.notes)
+    assert any("AD ignored" in n for n in netlist.notes)
+
+
+@pytest.mark.parametrize(
+    ("lines", "match"),
+    [
+        ("m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=2 VTO=1)", r"line 5: .*LEVEL=2.*only level 1"),
+        ("m1 3 2 0 0 nch\n.model nch NMOS (TOX=1e-8)", r"line 6: .*TOX.*Meyer"),
+        ("m1 3 2 0 0 nch\n.model nch NMOS (RD=10)", r"line 6: .*RD=10.*drain resistance"),
+        ("m1 3 2 0 0 nch\n.model nch NMOS (FOO=1)", r"line 6: NMOS parameter 'FOO'"),
+        ("m1 3 2 0 0 nch", r"line 5: element 'm1': model 'nch' is not defined"),
+        ("m1 3 2 0 0 qn\n.model qn NPN", r"line 5: .*an M line needs NMOS/PMOS"),
+        ("q1 3 2 0 qn\n.model qn NPN (IRB=1m)", r"line 6: .*IRB"),
+        ("q1 3 2 0 qn\n.model qn NPN (RBM=5 RB=10)", r"line 6: .*RBM"),
+        ("q1 3 2 0 qn\n.model qn NPN (TF=1n VAF=50)", r"line 5: .*tf/tr need"),
+        ("q1 3 2 0 zz\n.model qn NPN", r"line 5: element 'q1': no defined model"),
+        ("m1 3 2 0 0 nch W=1u FOO=2\n.model nch NMOS", r"line 5: .*FOO is not supported"),
+    ],
+)
+def test_netlist_errors_name_the_line_and_the_reason(lines, match):
+    with pytest.raises(spice.NetlistError, match=match):
+        spice.read(BASE + lines + "\n.tran 1u 10u\n.end\n")
