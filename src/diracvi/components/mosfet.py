@@ -29,6 +29,7 @@ gate–bulk branches; Meyer's bias-dependent gate capacitances are not modelled.
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
 from .._errors import ModelError
 from ._junction import pn_current
@@ -86,6 +87,7 @@ def MOSFET(
     cgdo=0.0,
     cgbo=0.0,
     gmin=1e-12,
+    v0=(0.0, 0.0, 0.0),
     name: str,
 ) -> ControlledPart:
     r"""A level-1 MOSFET with pins ``d g s b`` (SPICE ``M``; defaults as ngspice's manual:
@@ -95,7 +97,8 @@ def MOSFET(
     ``kind`` is ``"nmos"`` or ``"pmos"``; ``m`` is the parallel multiplier. ``vto``, ``kp``,
     ``lambda_`` and ``gamma`` may be traced JAX values (``jax.grad`` reaches them).
     Coordinates ``(q, w, sg, wg, qbs, wbs, qbd, wbd)`` (+ ``sgd, wgd``, ``sgb, wgb`` with
-    overlap capacitances); see the module docstring.
+    overlap capacitances); see the module docstring. ``v0 = (V_GS, V_GD, V_GB)``: initial
+    voltages across the overlap capacitances (their initial charges).
     """
     where = f"MOSFET {name!r}"
     if kind not in KINDS:
@@ -154,6 +157,13 @@ def MOSFET(
             -(sign * pn_current(sign * vbd, i_s, reverse="constant") + g * vbd)
         )
 
+    v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
+    if v0.shape != (3,) or not np.all(np.isfinite(v0)):
+        raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
+    initial_v = np.zeros(len(coords))
+    initial_v[idx["wg"]] = v0[0]
+    for k in extra:
+        initial_v[idx[f"w{k}"]] = v0[1] if k == "gd" else v0[2]
     params = {"kp": kp, "vto": vto, "lambda": lambda_, "gamma": gamma, "phi": phi}
     return ControlledPart(
         tuple(coords),
@@ -162,6 +172,7 @@ def MOSFET(
         name=name,
         pins=tuple(pins),
         currents=(),
+        initial_v=initial_v,
         role="transistor",
         branch_roles=tuple(roles),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},

@@ -136,17 +136,12 @@ def mosfet(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number):
     v = model.values
     d, g, s, b = pos[1:5]
     caps = (v["cgso"], v["cgdo"], v["cgbo"])
-    if any(c != 0.0 for c in caps) and any(
-        ic.get(a, 0.0) != ic.get(c, 0.0) for a, c in ((g, s), (g, d), (g, b))
-    ):
-        raise fail(
-            f"element {name!r}: overlap capacitances with a nonzero initial voltage "
-            "(.ic) across them are not supported"
-        )
+    vg = ic.get(g, 0.0)
+    v0 = (vg - ic.get(s, 0.0), vg - ic.get(d, 0.0), vg - ic.get(b, 0.0))  # ngspice's getic
     part = cp.MOSFET(
         model.kind, v["vto"], v["kp"], v["lambda"], geometry["w"], geometry["l"], v["gamma"],
         v["phi"], ld=v["ld"], is_=v["is"], m=geometry["m"], cgso=caps[0], cgdo=caps[1],
-        cgbo=caps[2], name=name,
+        cgbo=caps[2], v0=v0, name=name,
     )  # fmt: skip
     return part, {"d": d, "g": g, "s": s, "b": b}
 
