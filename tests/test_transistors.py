@@ -418,3 +418,33 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
 def test_netlist_errors_name_the_line_and_the_reason(lines, match):
     with pytest.raises(spice.NetlistError, match=match):
         spice.read(BASE + lines + "\n.tran 1u 10u\n.end\n")
+
+
+# ------------------------------------------------------------------ junction charges
+def test_junction_coenergies_differentiate_to_ngspices_charges():
+    """``d C*/dV = Q(V)`` (the momentum of the flux-form Lagrangian is the junction
+    charge), ``dQ/dV = C_J (1 − V/V_J)^{−M}`` below ``FC·V_J`` and ngspice's linear
+    continuation ``C_J/F2 (F3 + M V/V_J)`` above; the diffusion co-energy gives ``τ I``."""
+    from diracvi.components._junction import (
+        depletion_charge,
+        depletion_coenergy,
+        diffusion_coenergy,
+        pn_current,
+    )
+
+    cj, vj, m, fc = 2e-12, 0.7, 0.35, 0.5
+    f2, f3 = (1 - fc) ** (1 + m), 1 - fc * (1 + m)
+    for v in (-3.0, -0.4, 0.0, 0.2, 0.34, 0.36, 0.6, 1.2):
+        q = float(depletion_charge(v, cj, vj, m, fc))
+        assert float(jax.grad(depletion_coenergy)(v, cj, vj, m, fc)) == pytest.approx(
+            q, rel=1e-12, abs=1e-27
+        )
+        cap = float(jax.grad(depletion_charge)(v, cj, vj, m, fc))
+        want = cj * (1 - v / vj) ** -m if v < fc * vj else cj / f2 * (f3 + m * v / vj)
+        assert cap == pytest.approx(want, rel=1e-12)
+        if v < fc * vj:  # ngspice's closed form of the charge itself
+            assert q == pytest.approx(cj * vj * (1 - (1 - v / vj) ** (1 - m)) / (1 - m), rel=1e-12)
+    for v in (-0.05, 0.3, 0.7, 1.5):
+        tau_i = 3e-10 * float(pn_current(v, 1e-15, 1.0))
+        got = float(jax.grad(diffusion_coenergy)(v, 3e-10, 1e-15, 1.0))
+        assert got == pytest.approx(tau_i, rel=1e-10, abs=1e-30)

@@ -69,3 +69,15 @@ def depletion_coenergy(v, cj, vj, m, fc):
     # ∫₀^d [f3 x + m/(2 vj) x (x + 2a)] dx
     upper = q_a * d + cj / f2 * (0.5 * f3 * d * d + m / (2.0 * vj) * (d**3 / 3.0 + a * d * d))
     return e_low + upper
+
+
+def diffusion_coenergy(v, transit_time, saturation_current, emission=1.0):
+    r"""``C*(V) = ∫₀^V τ I_S (e^{u/(N V_T)} − 1) du`` (the exponential continued by its
+    tangent above 40, as :func:`exp_capped`): the co-energy of the diffusion charge
+    ``τ I(V)``. (ngspice's reverse branch below ``−3 N V_T`` is not reproduced here: the
+    charge differs there by less than ``τ I_S``.)"""
+    nvt = emission * THERMAL_VOLTAGE
+    x = jnp.minimum(v / nvt, _LIMIT)
+    over = v / nvt - x
+    integral = nvt * (jnp.exp(x) * (1.0 + over + 0.5 * over * over) - 1.0)
+    return transit_time * saturation_current * (integral - v)

@@ -37,7 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .._errors import ModelError
-from ._junction import depletion_coenergy, pn_current
+from ._junction import depletion_coenergy, diffusion_coenergy, pn_current
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
 
@@ -46,18 +46,12 @@ KINDS = {"npn": 1.0, "pnp": -1.0}
 
 def _inverse(where, arg, value):
     """``1/value`` with 0, ``None`` and ``inf`` meaning an infinite value (ngspice)."""
-    if value is None:
+    if value is None or (isinstance(value, float) and math.isinf(value)):
         return 0.0
-    x = (
-        coefficient(where, arg, value)
-        if not (isinstance(value, float) and math.isinf(value))
-        else 0.0
-    )
-    if isinstance(x, float):
-        if x < 0.0:
-            raise ModelError(f"{where}: {arg}={value!r} must be ≥ 0 (0 or None: infinite).")
-        return 0.0 if x == 0.0 else 1.0 / x
-    return 1.0 / x
+    x = coefficient(where, arg, value)
+    if isinstance(x, float) and x < 0.0:
+        raise ModelError(f"{where}: {arg}={value!r} must be ≥ 0 (0 or None: infinite).")
+    return 0.0 if isinstance(x, float) and x == 0.0 else 1.0 / x
 
 
 def gummel_poon(vbe, vbc, p):
@@ -212,14 +206,8 @@ def BJT(
     def stored(vn, k):  # co-energy C*(V) of junction k (type-normalised V)
         (cj, vj, m), t, i_s, n = charges[k]
         out = depletion_coenergy(vn, cj, vj, m, fc) if cj > 0.0 else 0.0 * vn
-        if t != 0.0:  # ∫ t I_S (e^{V/nV_T} − 1) dV (the exponential continued linearly)
-            from .diode import THERMAL_VOLTAGE
-
-            nvt = n * THERMAL_VOLTAGE
-            x = jnp.minimum(vn / nvt, 40.0)
-            over = vn / nvt - x
-            integral = nvt * (jnp.exp(x) * (1.0 + over + 0.5 * over * over) - 1.0)
-            out = out + t * i_s * (integral - vn)
+        if t != 0.0:
+            out = out + diffusion_coenergy(vn, t, i_s, n)
         return out
 
     def lagrangian(q, v):
