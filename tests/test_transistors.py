@@ -396,6 +396,9 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
     )
     assert dict(parts["q1"].parameters) == pytest.approx({"is": 2e-16, "bf": 50.0, "br": 1.0})
     assert any("KF ignored" in n for n in netlist.notes)
+    assert netlist.discretizations == ("midpoint",)  # the left-point step is singular
+    with pytest.raises(dv.UnsolvableStepError, match=r"q1\.w"):
+        spice.run(netlist, discretization="retraction", steps=3, solver=SOLVER)
     assert any("AD ignored" in n for n in netlist.notes)
 
 

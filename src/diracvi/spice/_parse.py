@@ -67,8 +67,12 @@ class Netlist:
         """The rules ``diracvi run`` offers, default first. The left-point rule cannot step
         a capacitor in a loop with voltage sources or capacitors, nor a current-output
         controlled source (F, G: its output flux never enters the left-point equations);
-        both make its step singular."""
-        if any(p.role == "current" and hasattr(p, "senses") for p in self.circuit.parts):
+        both make its step singular; so do transistors (the BJT's transport flux, the
+        MOSFET's sense fluxes appear in no left-point equation)."""
+        if any(
+            (p.role == "current" and hasattr(p, "senses")) or p.role == "transistor"
+            for p in self.circuit.parts
+        ):  # transistors: a branch flux enters only through other branches' forces
             return ("midpoint",)
         return ("midpoint", "retraction")
 
