@@ -288,6 +288,26 @@ cl c 0 20p
         ("v(c)", "v(b)"),
         (0.5e-6, 0.55e-6, 1.55e-6, 1.6e-6, 2.5e-6, 2.55e-6),
     ),
+    "pnp-common-emitter": (
+        """PNP common-emitter amplifier from a negative supply
+vee vee 0 -12
+vin in 0 SIN(0 50m 10k)
+cin in b 10u
+r1 vee b 47k
+r2 b 0 10k
+rc vee c 4.7k
+re e 0 1k
+cout c out 1u
+rl out 0 100k
+q1 c b e qp
+.model qp PNP (IS=5e-15 BF=80 VAF=60 IKF=0.03 ISE=1e-15 NE=1.5 BR=3 CJC=2p)
+.tran 2u 300u
+.end
+""",
+        ("b", "c", "e", "out"),
+        ("v(c)", "v(b)", "v(e)", "v(out)"),
+        (),
+    ),
     "cmos-inverter-overlap": (
         """CMOS inverter with overlap capacitances
 vdd vdd 0 5
