@@ -471,3 +471,53 @@ def test_junction_coenergies_differentiate_to_ngspices_charges():
         tau_i = 3e-10 * float(pn_current(v, 1e-15, 1.0))
         got = float(jax.grad(diffusion_coenergy)(v, 3e-10, 1e-15, 1.0))
         assert got == pytest.approx(tau_i, rel=1e-10, abs=1e-30)
+
+
+# ------------------------------------------------------------------ power balance
+def test_discrete_power_balance_of_a_mosfet_stage_accounts_for_every_watt():
+    r"""Midpoint, at each interior node ``t_k`` (node voltages ``−λ_k/h``, node currents
+    ``ī = (Δq_{k−1} + Δq_k)/2h``): the supply's work = Δ(capacitor energy) + the
+    resistor's ``R ī² h`` + the transistor's ``Σ_b V_b ī_b h``, where the transistor's
+    branch currents come from the Shichman–Hodges and junction formulas at the step
+    voltages ``Δw/h`` (``ī_b = (i(V_{k−½}) + i(V_{k+½}))/2`` exactly, from its flux lines)."""
+    net = CIRCUITS["nmos-common-source"][0].replace(".tran", ".ic v(d)=4.5\n.tran", 1)
+    result = spice.run(net, dt=0.25e-6, steps=400, solver=SOLVER)
+    traj = result.trajectory
+    h, k = float(traj.dt), slice(1, -1)
+
+    def coord(name):
+        return traj.q[:, traj.coords.index(name)]
+
+    def node_current(name):
+        dq = np.diff(coord(name))
+        return (dq[:-1] + dq[1:]) / (2 * h)
+
+    def step_volts(name):
+        return np.diff(coord(name)) / h
+
+    vd, vg = result["v(d)"][k], result["v(g)"][k]
+    p = dict(sign=1.0, vto=1.0, kp=50e-6, w=20e-6, l=2e-6, gamma=0.5, phi=0.65, lam=0.02)
+    vds, vgs, vbs = step_volts("m1.w"), step_volts("m1.wg"), step_volts("m1.wbs")
+    vbd = step_volts("m1.wbd")
+    i_ch = np.array([_shichman_hodges(a, b, c, **p) for a, b, c in zip(vgs, vds, vbs, strict=True)])
+    i_bd = np.array([_junction(v, 1e-14) for v in vbd])
+    i_bs = np.array([_junction(v, 1e-14) for v in vbs])
+
+    def at_nodes(i):
+        return (i[:-1] + i[1:]) / 2
+
+    supply = -10.0 * node_current("vdd.q") * h
+    q = coord("cl.q")
+    qbar = (q[:-1] + q[1:]) / 2
+    stored = np.diff(qbar**2 / (2 * 200e-12))
+    dissipated = 20e3 * node_current("rd.q") ** 2 * h
+    transistor = (vd * at_nodes(i_ch) - vd * at_nodes(i_bd) + 0.0 * at_nodes(i_bs)) * h
+    assert np.max(np.abs(node_current("vin.q"))) == 0.0  # the gate draws nothing
+    assert np.max(np.abs(node_current("m1.q") - at_nodes(i_ch))) <= 1e-12 * np.max(np.abs(i_ch))
+    terms = (supply, stored, dissipated, transistor)
+    scale = max(np.max(np.abs(x)) for x in terms)
+    residual = supply - stored - dissipated - transistor
+    assert np.max(np.abs(residual)) <= 1e-10 * scale, np.max(np.abs(residual)) / scale
+    for x in terms:
+        assert np.max(np.abs(x)) > 1e-2 * scale  # every term is a sizeable share
+    assert np.all(vg > 1.7)
