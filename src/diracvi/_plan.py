@@ -135,11 +135,19 @@ def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0, jacobian=None) -> No
         tk = np.float64(t0 if scheme == "plus" else t0 - float(h))
         jacobian = _step_jacobian(system, rule, scheme, q0, p0, h, tk)
     jac = np.asarray(jacobian)
+    tk = np.float64(t0 if scheme == "plus" else t0 - float(h))
+    x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
+
+    def jacobian_at(x):  # a near-singularity may be state-dependent (junctions all off)
+        return jax.jacfwd(lambda y: residual(system, rule, scheme, h, q0, p0, y, tk))(x)
+
     check_step_jacobian(
         jac,
         unknown_names=unknown_names(system, scheme, rule),
         equation_names=equation_names(system, rule),
         where=f"the first ({scheme}) step of {getattr(system, 'name', 'the system')!r}",
+        jacobian_at=jacobian_at,
+        x0=x0,
     )
 
 

@@ -13,6 +13,17 @@ a linear problem factorizes once per chunk. The contraction test is also the
 convergence safeguard: an update that grows with stale factors is discarded, and
 round-off stagnation is only accepted with fresh factors.
 
+Two safeguards make nonlinear steps (exponential junctions) robust. **A residual at
+round-off is success**: when ``‖r‖∞ ≤ residual_rtol · ‖J‖∞ · max(‖x‖∞, scale)`` — the
+size of the linearized terms of the equations, so a residual that round-off alone
+explains — the iterate is accepted whatever the update does (its update is still
+applied). **Junction limiting**: a system whose parts declare junction coordinates
+(:mod:`diracvi._solvers.limiting`) has each Newton iterate's junction voltages limited as
+SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
+iterate (without it Newton cycles between two iterates on a diode turning on). And
+before giving up, the last quarter of the iteration budget recomputes the Jacobian
+every iteration (full Newton), so stale factors never cause a failure.
+
 The outcome is a :class:`SolveStatus` code, never an exception, so it can travel through
 ``lax.scan`` and the driver can stop cleanly at the failing step.
 """
@@ -25,6 +36,7 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
 from .base import SolveStatus, StepResult, StepSolver, check_newton_options
+from .limiting import junction_limiter
 
 
 def _norm(tree):
@@ -36,7 +48,19 @@ def _finite(tree):
     return jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in jax.tree.leaves(tree)]))
 
 
-def chord_newton(options, residual, factorize, correction, x0, factors, valid, scale):
+def chord_newton(
+    options,
+    residual,
+    factorize,
+    correction,
+    x0,
+    factors,
+    valid,
+    scale,
+    *,
+    limit=None,
+    jacobian_norm=None,
+):
     """The (simplified) Newton iteration shared by the step solvers.
 
     ``residual(x)`` is the step residual, ``factorize(x)`` the factors of its Jacobian
@@ -44,12 +68,17 @@ def chord_newton(options, residual, factorize, correction, x0, factors, valid, s
     arrays. ``options`` carries ``rtol``, ``max_steps``, ``floor``, ``reuse_jacobian`` and
     ``contraction`` (see :class:`NewtonSolver`). Returns ``(x, status, iterations,
     ‖r‖∞, factors)`` with the residual of the last iterate evaluated.
+
+    ``limit(x, x_new)`` (optional) limits an iterate (junction voltages, see
+    :mod:`~diracvi._solvers.limiting`); ``jacobian_norm(factors)`` (optional) gives
+    ``‖J‖∞`` of the factorized Jacobian, which enables the round-off residual test.
     """
+    full_from = (3 * options.max_steps) // 4  # from here on, a fresh Jacobian every time
 
     def body(carry):
         x, _, it, last_dx, _, factors, valid = carry
         r = residual(x)
-        refactor = ~valid
+        refactor = ~valid | (it >= full_from)
         if not options.reuse_jacobian:
             refactor = jnp.asarray(True)
         factors = jax.lax.cond(refactor, factorize, lambda _: factors, x)
@@ -58,26 +87,35 @@ def chord_newton(options, residual, factorize, correction, x0, factors, valid, s
         size = jnp.maximum(_norm(jax.tree.map(jnp.add, x, dx)), scale)
         finite_r = _finite(r)
         finite_dx = _finite(dx)
+        r_norm = _norm(r)
+        roundoff = jnp.asarray(False)
+        if jacobian_norm is not None:
+            size_x = jnp.maximum(_norm(x), scale)
+            roundoff = finite_r & (
+                r_norm <= options.residual_rtol * jacobian_norm(factors) * size_x
+            )
         # Stale factors that fail to contract are replaced; a growing update is dropped.
         slow = ~refactor & (dx_norm > options.contraction * last_dx)
         diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
         small = dx_norm <= options.rtol * size
         stalled = refactor & (dx_norm <= options.floor * size) & (dx_norm >= 0.5 * last_dx)
-        done = (small & ~diverging) | stalled
+        done = (small & ~diverging) | stalled | roundoff
         status = jnp.where(
             ~finite_r,
             SolveStatus.NONFINITE,
             jnp.where(
                 ~finite_dx & refactor,
                 SolveStatus.SINGULAR,
-                jnp.where(done & finite_dx, SolveStatus.SUCCESS, -1),
+                jnp.where(done & (finite_dx | roundoff), SolveStatus.SUCCESS, -1),
             ),
         )
         keep = finite_dx & finite_r & ~diverging
         x_new = jax.tree.map(lambda a, b: jnp.where(keep, a + b, a), x, dx)
+        if limit is not None:
+            x_new = limit(x, x_new)
         last = jnp.where(keep, dx_norm, last_dx)
         valid = ~(slow | diverging)
-        return x_new, status, it + 1, last, _norm(r), factors, valid
+        return x_new, status, it + 1, last, r_norm, factors, valid
 
     def cond(carry):
         _, status, it = carry[:3]
@@ -105,6 +143,10 @@ class NewtonSolver(StepSolver):
             while it still contracts (default True); False recomputes it every iteration.
         contraction: with reused factors, an update must shrink at least this much
             (``‖dx_j‖ ≤ contraction · ‖dx_{j−1}‖``) or the Jacobian is recomputed.
+        residual_rtol: a residual ``‖r‖∞ ≤ residual_rtol · ‖J‖∞ · max(‖x‖∞, ‖q‖∞)``
+            is at round-off: the step has converged (default 1e-13).
+        limit_junctions: limit junction voltages between iterates as SPICE's
+            ``pnjlim`` (default True; see :mod:`diracvi._solvers.limiting`).
     """
 
     rtol: float = eqx.field(static=True, default=1e-13)
@@ -112,6 +154,8 @@ class NewtonSolver(StepSolver):
     floor: float = eqx.field(static=True, default=1e-9)
     reuse_jacobian: bool = eqx.field(static=True, default=True)
     contraction: float = eqx.field(static=True, default=0.25)
+    residual_rtol: float = eqx.field(static=True, default=1e-13)
+    limit_junctions: bool = eqx.field(static=True, default=True)
 
     def __check_init__(self):
         check_newton_options(self)
@@ -121,6 +165,7 @@ class NewtonSolver(StepSolver):
         return (
             jnp.zeros((size, size), dtype=eqs.q.dtype),
             jnp.zeros(size, dtype=jnp.int32),
+            jnp.zeros((), dtype=eqs.q.dtype),  # ‖J‖∞ of the factorized Jacobian
             jnp.asarray(False),
         )
 
@@ -129,17 +174,20 @@ class NewtonSolver(StepSolver):
         fn = eqs.residual
 
         def factorize(x):
-            return jsl.lu_factor(jax.jacfwd(fn)(x))
+            jac = jax.jacfwd(fn)(x)
+            return (*jsl.lu_factor(jac), jnp.max(jnp.sum(jnp.abs(jac), axis=1), initial=0.0))
 
-        lu, piv, valid = state
-        x, status, iterations, res_norm, (lu, piv) = chord_newton(
+        lu, piv, jnorm, valid = state
+        x, status, iterations, res_norm, (lu, piv, jnorm) = chord_newton(
             self,
             fn,
             factorize,
-            lambda factors, r: jsl.lu_solve(factors, -r),
+            lambda factors, r: jsl.lu_solve(factors[:2], -r),
             guess,
-            (lu, piv),
+            (lu, piv, jnorm),
             valid,
             eqs.scale(),
+            limit=junction_limiter(eqs) if self.limit_junctions else None,
+            jacobian_norm=lambda factors: factors[2],
         )
-        return StepResult(x, status, iterations, res_norm, (lu, piv, status == 0))
+        return StepResult(x, status, iterations, res_norm, (lu, piv, jnorm, status == 0))

@@ -65,14 +65,50 @@ def _clearly_regular(scaled: np.ndarray) -> bool:
     return bool(np.min(np.abs(lu.U.diagonal()), initial=np.inf) >= _CLEAR_PIVOT)
 
 
+#: how far (in the unknowns' own units) :func:`regular_nearby` moves along a null direction
+_PROBE_SIZES = (1e-8, 1e-6, 1e-4, 1e-2, 1.0)
+
+
+def regular_nearby(jacobian_at, x0: np.ndarray, jac: np.ndarray) -> bool:
+    """Whether the Jacobian turns regular when the unknowns move along its null direction.
+
+    A structural defect (an unconnected port, a capacitor loop under the left-point rule)
+    leaves the Jacobian singular at every point. A *state-dependent* near-singularity does
+    not: a floating sub-circuit tied to the rest only by reverse-biased junctions is held
+    by their ``G_min`` alone where every diode is off (a conductance ~1e-12 beside ~1e-3:
+    rank-deficient to the check's tolerance), and moving its common-mode potential turns
+    some junction on. The step solver handles such a point (the LU solve is accurate to
+    the conductance ratio), so it is not refused. ``jacobian_at(x)`` is the step Jacobian
+    at the unknowns ``x``; ``x0`` the point where ``jac`` was formed."""
+    rows = np.max(np.abs(jac), axis=1, keepdims=True)
+    scaled = jac / np.where(rows > 0, rows, 1.0)
+    cols = np.max(np.abs(scaled), axis=0)
+    cols = np.where(cols > 0, cols, 1.0)
+    right, _ = null_directions(jac)
+    if right.shape[1] == 0:
+        return True
+    direction = np.sum(right / cols[:, None], axis=1)  # back to the unknowns' units
+    direction = direction / max(np.max(np.abs(direction)), 1e-300)
+    for size in _PROBE_SIZES:
+        for sign in (1.0, -1.0):
+            probe = np.asarray(jacobian_at(x0 + sign * size * direction), dtype=np.float64)
+            if np.all(np.isfinite(probe)) and null_directions(probe)[0].shape[1] == 0:
+                return True
+    return False
+
+
 def check_step_jacobian(
     jac: np.ndarray,
     *,
     unknown_names: Sequence[str],
     equation_names: Sequence[str],
     where: str,
+    jacobian_at=None,
+    x0=None,
 ) -> None:
-    """Raise :class:`UnsolvableStepError` if the step Jacobian is rank-deficient."""
+    """Raise :class:`UnsolvableStepError` if the step Jacobian is rank-deficient (and,
+    given ``jacobian_at(x)`` and the point ``x0`` of ``jac``, stays so when the unknowns
+    move along the null direction: see :func:`regular_nearby`)."""
     if not np.all(np.isfinite(jac)):
         bad = [equation_names[i] for i in np.nonzero(~np.all(np.isfinite(jac), axis=1))[0]]
         raise UnsolvableStepError(
@@ -85,6 +121,8 @@ def check_step_jacobian(
             return
     right, left = null_directions(jac)
     if right.shape[1] == 0:
+        return
+    if jacobian_at is not None and regular_nearby(jacobian_at, np.asarray(x0), jac):
         return
     undetermined = _involved(right, unknown_names)
     clashing = _involved(left, equation_names)

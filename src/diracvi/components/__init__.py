@@ -9,7 +9,7 @@ built = c.build()   # built.system, built.q0, built.p0
 """
 
 from ._part import Part
-from .diode import Diode
+from .diode import SPICE_PARAMETERS, Diode, spice_diode
 from .electrical import (
     Capacitor,
     CoupledInductors,
@@ -60,6 +60,7 @@ __all__ = [
     "Pendulum",
     "Pulse",
     "Resistor",
+    "SPICE_PARAMETERS",
     "RotationalDamper",
     "Sine",
     "Spring",
@@ -68,4 +69,5 @@ __all__ = [
     "VoiceCoil",
     "VoltageSource",
     "Waveform",
+    "spice_diode",
 ]

@@ -15,6 +15,7 @@ from pathlib import Path
 
 from .. import components as cp
 from .._errors import ModelError
+from ..components.diode import SPICE_ALIASES, SPICE_PARAMETERS
 from ._values import ExpressionError, evaluate, number
 
 
@@ -138,6 +139,7 @@ class _Reader:
         self.uic = False
         self.notes: list[str] = []
         self.elements: dict[str, _Line] = {}
+        self.off: set[str] = set()
 
     # --------------------------------------------------------------- values
     def value(self, token: str, line: _Line, what: str) -> float:
@@ -239,14 +241,14 @@ class _Reader:
         if kind != "D":
             raise line.fail(f"model type {kind!r} is not supported (only diodes, type D)")
         _, kw = _split(_Line(line.number, body))
-        allowed = {"is": 1e-14, "n": 1.0}
-        unknown = sorted(set(kw) - set(allowed))
+        known = {**{k: k for k in SPICE_PARAMETERS}, **SPICE_ALIASES}
+        unknown = sorted(set(kw) - set(known))
         if unknown:
             raise line.fail(
-                f"diode parameters {unknown} are not supported (only IS and N: a Shockley "
-                "junction without series resistance or capacitance)"
+                f"diode parameters {unknown} are not supported (supported: "
+                f"{', '.join(k.upper() for k in SPICE_PARAMETERS)})"
             )
-        self.models[name] = {k: self.value(kw.get(k, str(v)), line, k) for k, v in allowed.items()}
+        self.models[name] = {known[k]: self.value(v, line, k) for k, v in kw.items()}
 
     # -------------------------------------------------------------- elements
     def element(self, line: _Line) -> None:
@@ -312,14 +314,23 @@ class _Reader:
         return _Skip(), {}
 
     def _d(self, name, pos, kw, line):
-        if len(pos) != 4 or kw:
-            raise line.fail("expected 'Dname anode cathode model' (no area or options)")
+        form = "Dname anode cathode model [area] [OFF] [IC=v]"
+        flags = [t for t in pos[4:] if t.lower() == "off"]
+        rest = [t for t in pos[4:] if t.lower() != "off"]
+        if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area"}:
+            raise line.fail(f"expected '{form}'")
         model = self.models.get(pos[3].lower())
         if model is None:
             raise line.fail(
                 f"diode model {pos[3]!r} is not defined (add '.model {pos[3]} D(IS=… N=…)')"
             )
-        return cp.Diode(model["is"], model["n"], name=name), {"p": pos[1], "n": pos[2]}
+        area = self.value(rest[0] if rest else kw.get("area", "1"), line, "diode area")
+        ic = self.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
+        if flags:
+            self.notes.append(f"line {line.number}: {name} OFF only seeds the operating point")
+            self.off.add(name)
+        part = cp.spice_diode(model, name=name, area=area, ic=ic)
+        return part, {"p": pos[1], "n": pos[2]}
 
     def _v(self, name, pos, kw, line):
         return cp.VoltageSource(self.source(pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
