@@ -14,10 +14,12 @@ convergence safeguard: an update that grows with stale factors is discarded, and
 round-off stagnation is only accepted with fresh factors.
 
 Two safeguards make nonlinear steps (exponential junctions) robust. **A residual at
-round-off is success**: when ``‖r‖∞ ≤ residual_rtol · ‖J‖∞ · max(‖x‖∞, scale)`` — the
-size of the linearized terms of the equations, so a residual that round-off alone
-explains — the iterate is accepted whatever the update does (its update is still
-applied). **Junction limiting**: a system whose parts declare junction coordinates
+round-off is success**: when every equation's residual is within ``residual_rtol`` of the
+size of its terms, ``|r_i| ≤ residual_rtol · (|p_i| + Σ_j |J_ij| |x_j − x_ref,j|)``
+(``p`` the known momentum, ``x_ref`` the known state: the terms' size, linearized over
+the step), with a Jacobian freshly formed at the iterate, the iterate is accepted
+whatever the update does — an ill-conditioned Jacobian (a floating node held by
+``G_min``) makes updates noisy long after the residual has reached round-off. **Junction limiting**: a system whose parts declare junction coordinates
 (:mod:`diracvi._solvers.limiting`) has each Newton iterate's junction voltages limited as
 SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
 iterate (without it Newton cycles between two iterates on a diode turning on). And
@@ -35,6 +37,7 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
+from .._equations import first_guess
 from .base import SolveStatus, StepResult, StepSolver, check_newton_options
 from .limiting import junction_limiter
 
@@ -59,7 +62,7 @@ def chord_newton(
     scale,
     *,
     limit=None,
-    jacobian_norm=None,
+    row_scale=None,
 ):
     """The (simplified) Newton iteration shared by the step solvers.
 
@@ -70,8 +73,8 @@ def chord_newton(
     ‖r‖∞, factors)`` with the residual of the last iterate evaluated.
 
     ``limit(x, x_new)`` (optional) limits an iterate (junction voltages, see
-    :mod:`~diracvi._solvers.limiting`); ``jacobian_norm(factors)`` (optional) gives
-    ``‖J‖∞`` of the factorized Jacobian, which enables the round-off residual test.
+    :mod:`~diracvi._solvers.limiting`); ``row_scale(factors, x)`` (optional) gives each
+    equation's size at ``x``, which enables the round-off residual test.
     """
     full_from = (3 * options.max_steps) // 4  # from here on, a fresh Jacobian every time
 
@@ -89,11 +92,9 @@ def chord_newton(
         finite_dx = _finite(dx)
         r_norm = _norm(r)
         roundoff = jnp.asarray(False)
-        if jacobian_norm is not None:
-            size_x = jnp.maximum(_norm(x), scale)
-            roundoff = finite_r & (
-                r_norm <= options.residual_rtol * jacobian_norm(factors) * size_x
-            )
+        if row_scale is not None:
+            within = jnp.abs(r) <= options.residual_rtol * row_scale(factors, x)
+            roundoff = refactor & finite_r & jnp.all(within)
         # Stale factors that fail to contract are replaced; a growing update is dropped.
         slow = ~refactor & (dx_norm > options.contraction * last_dx)
         diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
@@ -143,8 +144,8 @@ class NewtonSolver(StepSolver):
             while it still contracts (default True); False recomputes it every iteration.
         contraction: with reused factors, an update must shrink at least this much
             (``‖dx_j‖ ≤ contraction · ‖dx_{j−1}‖``) or the Jacobian is recomputed.
-        residual_rtol: a residual ``‖r‖∞ ≤ residual_rtol · ‖J‖∞ · max(‖x‖∞, ‖q‖∞)``
-            is at round-off: the step has converged (default 1e-13).
+        residual_rtol: a residual within this fraction of each equation's terms (see
+            above) is at round-off: the step has converged (default 1e-13).
         limit_junctions: limit junction voltages between iterates as SPICE's
             ``pnjlim`` (default True; see :mod:`diracvi._solvers.limiting`).
     """
@@ -165,7 +166,7 @@ class NewtonSolver(StepSolver):
         return (
             jnp.zeros((size, size), dtype=eqs.q.dtype),
             jnp.zeros(size, dtype=jnp.int32),
-            jnp.zeros((), dtype=eqs.q.dtype),  # ‖J‖∞ of the factorized Jacobian
+            jnp.zeros((size, size), dtype=eqs.q.dtype),  # |J| of the factorized Jacobian
             jnp.asarray(False),
         )
 
@@ -175,7 +176,14 @@ class NewtonSolver(StepSolver):
 
         def factorize(x):
             jac = jax.jacfwd(fn)(x)
-            return (*jsl.lu_factor(jac), jnp.max(jnp.sum(jnp.abs(jac), axis=1), initial=0.0))
+            return (*jsl.lu_factor(jac), jnp.abs(jac))
+
+        # each equation's size: the known momentum and the linearized change over the step
+        x_ref = first_guess(eqs.system, eqs.rule, eqs.q, eqs.q, jnp.zeros(eqs.system.m))
+        known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
+
+        def row_scale(factors, x):
+            return known + factors[2] @ jnp.abs(x - x_ref)
 
         lu, piv, jnorm, valid = state
         x, status, iterations, res_norm, (lu, piv, jnorm) = chord_newton(
@@ -188,6 +196,6 @@ class NewtonSolver(StepSolver):
             valid,
             eqs.scale(),
             limit=junction_limiter(eqs) if self.limit_junctions else None,
-            jacobian_norm=lambda factors: factors[2],
+            row_scale=row_scale,
         )
         return StepResult(x, status, iterations, res_norm, (lu, piv, jnorm, status == 0))
