@@ -89,7 +89,7 @@ def test_reader_understands_the_supported_syntax():
         ("R1 a 0 -5", r"line 2: Resistor 'R1': resistance=-5.0"),
         ("D1 a 0 nomodel", r"line 2: diode model 'nomodel' is not defined"),
         (".model q1 NPN(BF=100)", r"line 2: model type 'NPN' is not supported"),
-        (".model d1 D(IS=1e-14 RS=10)", r"line 2: diode parameters \['rs'\]"),
+        (".model d1 D(IS=1e-14 IKF=10)", r"line 2: diode parameters \['ikf'\]"),
         ("V1 a 0 SIN(0 1 50", r"line 2: unbalanced"),
         ("V1 a 0 AM(1 2 3)", r"line 2: .*'AM'"),
         (".tran 1u", r"line 2: '.tran' expects"),

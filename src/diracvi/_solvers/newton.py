@@ -13,18 +13,24 @@ a linear problem factorizes once per chunk. The contraction test is also the
 convergence safeguard: an update that grows with stale factors is discarded, and
 round-off stagnation is only accepted with fresh factors.
 
-Two safeguards make nonlinear steps (exponential junctions) robust. **A residual at
-round-off is success**: when every equation's residual is within ``residual_rtol`` of the
-size of its terms, ``|r_i| ≤ residual_rtol · (|p_i| + Σ_j |J_ij| |x_j − x_ref,j|)``
-(``p`` the known momentum, ``x_ref`` the known state: the terms' size, linearized over
-the step), with a Jacobian freshly formed at the iterate, the iterate is accepted
-whatever the update does — an ill-conditioned Jacobian (a floating node held by
-``G_min``) makes updates noisy long after the residual has reached round-off. **Junction limiting**: a system whose parts declare junction coordinates
-(:mod:`diracvi._solvers.limiting`) has each Newton iterate's junction voltages limited as
-SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
-iterate (without it Newton cycles between two iterates on a diode turning on). And
-before giving up, the last quarter of the iteration budget recomputes the Jacobian
-every iteration (full Newton), so stale factors never cause a failure.
+Three safeguards make nonlinear steps (exponential junctions) robust.
+
+**A residual at round-off is success**: when every equation's residual is within
+``residual_rtol`` of the size of its terms,
+``|r_i| ≤ residual_rtol · (|p_i| + Σ_j |J_ij| |x_j − x_ref,j|)`` (``p`` the known
+momentum, ``x_ref`` the known state: the terms' size, linearized over the step), with a
+Jacobian freshly formed at the iterate, the iterate is accepted whatever the update does
+— an ill-conditioned Jacobian (a floating node held by ``G_min``) makes updates noisy
+long after the residual has reached round-off.
+
+**Junction limiting**: a system whose parts declare junction coordinates
+(:mod:`diracvi._solvers.limiting`) has each Newton iterate's junction voltages limited
+as SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
+iterate (without it Newton cycles between two iterates on a diode turning on).
+
+**A fresh Jacobian before giving up**: the last quarter of the iteration budget
+recomputes the Jacobian every iteration (full Newton), so stale factors never cause a
+failure. ``NewtonSolver(reuse_jacobian=False)`` is full Newton throughout.
 
 The outcome is a :class:`SolveStatus` code, never an exception, so it can travel through
 ``lax.scan`` and the driver can stop cleanly at the failing step.

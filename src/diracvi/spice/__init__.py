@@ -7,6 +7,15 @@ result["v(out)"], result["i(R1)"], result.time
 
 from ._parse import Netlist, NetlistError, read
 from ._probe import to_dataset, waveforms
-from ._run import Result, run
+from ._run import Result, operating_point, run
 
-__all__ = ["Netlist", "NetlistError", "Result", "read", "run", "to_dataset", "waveforms"]
+__all__ = [
+    "Netlist",
+    "NetlistError",
+    "Result",
+    "operating_point",
+    "read",
+    "run",
+    "to_dataset",
+    "waveforms",
+]

@@ -32,7 +32,11 @@ class Netlist:
         circuit: the :class:`~diracvi.components.Circuit` of the elements.
         assembly: ``circuit.build()`` (the system, ``q0``, ``p0`` and name maps).
         dt, steps, stop: from ``.tran TSTEP TSTOP`` (``None`` without ``.tran``).
-        uic: whether ``.tran … uic`` was given.
+        uic: whether ``.tran … uic`` was given (without it a transient starts from the
+            DC operating point, :func:`diracvi.spice.operating_point`).
+        ic: the ``.ic`` node voltages (with UIC they set capacitor voltages; without,
+            they hold their nodes during the operating point, as SPICE does).
+        op: whether the netlist asks for ``.op``.
         params: the evaluated ``.param`` values (lower-case names).
         notes: things the reader accepted but does not act on (``.options``, …).
     """
@@ -46,6 +50,8 @@ class Netlist:
     uic: bool
     params: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    ic: dict = field(default_factory=dict)
+    op: bool = False
 
     @property
     def system(self):
@@ -140,6 +146,7 @@ class _Reader:
         self.notes: list[str] = []
         self.elements: dict[str, _Line] = {}
         self.off: set[str] = set()
+        self.op = False
 
     # --------------------------------------------------------------- values
     def value(self, token: str, line: _Line, what: str) -> float:
@@ -184,7 +191,17 @@ class _Reader:
             dt, stop = self.tran
             steps = max(1, math.ceil(stop / dt - 1e-9))
         return Netlist(
-            self.title, self.circuit, assembly, dt, steps, stop, self.uic, self.params, self.notes
+            self.title,
+            self.circuit,
+            assembly,
+            dt,
+            steps,
+            stop,
+            self.uic,
+            self.params,
+            self.notes,
+            dict(self.ic),
+            self.op,
         )
 
     def directive(self, line: _Line) -> str | None:
@@ -222,6 +239,9 @@ class _Reader:
             return None
         if card == ".model":
             self.model(line)
+            return None
+        if card == ".op":
+            self.op = True
             return None
         if card in (".options", ".option", ".opt", ".save", ".print", ".probe", ".plot"):
             self.notes.append(

@@ -9,6 +9,8 @@ import numpy as np
 
 from .._errors import ModelError
 from .._simulate import simulate
+from ..components.operating_point import OperatingPoint
+from ..components.operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
 from ._probe import to_dataset, waveforms
 
@@ -50,10 +52,17 @@ def run(
 
     ``dt`` overrides ``.tran``'s TSTEP (the run still ends at TSTOP unless ``steps`` is
     given); further keywords go to :func:`diracvi.simulate`.
+    Without ``UIC`` on ``.tran`` the run starts from the DC operating point (SPICE's
+    rule; ``.ic`` values hold their nodes while it is solved), with ``UIC`` from the
+    state the netlist gives (``.ic`` and ``IC=``, zero otherwise).
     Midpoint is the default rule: the left-point rule cannot step a capacitor joined in a
     loop with voltage sources or other capacitors (its step is singular).
     """
     netlist = source if isinstance(source, Netlist) else read(source)
+    q0, p0 = netlist.q0, netlist.p0
+    if not netlist.uic:  # SPICE: the transient starts from the DC operating point
+        op = operating_point(netlist)
+        q0, p0 = op.q0, op.p0
     h = dt if dt is not None else netlist.dt
     n = steps
     if n is None and netlist.stop is not None and h is not None:
@@ -64,11 +73,22 @@ def run(
         )
     traj = simulate(
         netlist.system,
-        netlist.q0,
-        netlist.p0,
+        q0,
+        p0,
         dt=h,
         steps=n,
         discretization=discretization,
         **simulate_kwargs,
     )
     return Result(netlist, traj, waveforms(netlist, traj))
+
+
+def operating_point(source) -> OperatingPoint:
+    """The DC operating point of a netlist (path, text or :class:`Netlist`): sources at
+    t = 0, capacitors open, inductors shorted; ``.ic`` values hold their nodes (as SPICE
+    does for a transient without UIC). ``op["v(out)"]``, ``op.q0``, ``op.p0``."""
+    netlist = source if isinstance(source, Netlist) else read(source)
+    try:
+        return _operating_point(netlist, hold=netlist.ic)
+    except ModelError as exc:
+        raise ModelError(f"netlist {netlist.title!r}: {exc}") from None
