@@ -196,6 +196,24 @@ def _resolve_model(target: str):
     return problems.get(target)
 
 
+#: ``run --solver`` choices (the solvers are imported when a run needs one)
+_SOLVERS = ("newton", "newton-full", "affine", "partitioned")
+
+
+def _make_solver(name: str | None):
+    """The solver ``--solver NAME`` asks for (None: automatic)."""
+    if name is None:
+        return None
+    from . import AffineSolver, NewtonSolver, PartitionedSolver
+
+    return {
+        "newton": NewtonSolver,
+        "newton-full": lambda: NewtonSolver(reuse_jacobian=False),
+        "affine": AffineSolver,
+        "partitioned": PartitionedSolver,
+    }[name]()
+
+
 @app.command()
 def run(
     problem: Annotated[
@@ -242,6 +260,16 @@ def run(
     plot: Annotated[
         bool, typer.Option("--plot", help="Also write a PNG plot next to --out (or ./NAME.png).")
     ] = False,
+    solver: Annotated[
+        str | None,
+        typer.Option(
+            callback=_choice(_SOLVERS),
+            metavar="|".join(_SOLVERS),
+            help="Step solver (default: automatic — the affine map for linear models, else "
+            "Newton reusing its Jacobian). newton-full recomputes the Jacobian every "
+            "iteration; partitioned suits large interconnections.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate a built-in problem or a model file and print a short summary."""
     if out is not None and not out.parent.exists():
@@ -273,6 +301,7 @@ def run(
             scheme=scheme,
             discretization=rule,
             t0=getattr(model, "t0", 0.0),
+            solver=_make_solver(solver),
         )
     _print_summary(model.name, traj)
     netlist = hasattr(model, "assembly")

@@ -52,6 +52,7 @@ class Netlist:
     notes: list = field(default_factory=list)
     ic: dict = field(default_factory=dict)
     op: bool = False
+    _start: tuple | None = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -60,13 +61,29 @@ class Netlist:
 
     @property
     def q0(self):
-        """Initial coordinates (``assembly.q0``)."""
-        return self.assembly.q0
+        """The transient's initial coordinates, as SPICE starts it: with ``UIC`` the
+        netlist's state (``assembly.q0``), otherwise the DC operating point's."""
+        return self.initial_state()[0]
 
     @property
     def p0(self):
-        """Initial momenta (``assembly.p0``)."""
-        return self.assembly.p0
+        """The transient's initial momenta (see :attr:`q0`)."""
+        return self.initial_state()[1]
+
+    def initial_state(self):
+        """``(q0, p0)``: the netlist's state with ``UIC``, the DC operating point without
+        (computed once; ``.ic`` values hold their nodes while it is solved)."""
+        if self.uic:
+            return self.assembly.q0, self.assembly.p0
+        if self._start is None:
+            from ..components.operating_point import operating_point
+
+            try:
+                op = operating_point(self.assembly, hold=self.ic)
+            except ModelError as exc:
+                raise NetlistError(f"netlist {self.title!r}: {exc}") from None
+            self._start = (op.q0, op.p0)
+        return self._start
 
     #: the rules ``diracvi run`` offers, default first: the left-point rule cannot step a
     #: capacitor in a loop with voltage sources or capacitors (a singular step)

@@ -59,10 +59,7 @@ def run(
     loop with voltage sources or other capacitors (its step is singular).
     """
     netlist = source if isinstance(source, Netlist) else read(source)
-    q0, p0 = netlist.q0, netlist.p0
-    if not netlist.uic:  # SPICE: the transient starts from the DC operating point
-        op = operating_point(netlist)
-        q0, p0 = op.q0, op.p0
+    q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC
     h = dt if dt is not None else netlist.dt
     n = steps
     if n is None and netlist.stop is not None and h is not None:
