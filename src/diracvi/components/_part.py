@@ -12,12 +12,20 @@ position (or an angle), and flanges at one mechanical node are joined by
 
 from __future__ import annotations
 
+import warnings
+
 import equinox as eqx
 import jax
 import numpy as np
 
 from .._errors import ModelError
 from .._system import LagrangeDiracSystem
+
+# A part built inside jax.grad may keep a traced number in a static field (a capacitor's
+# initial charge C·v0, a waveform's amplitude): it is read while the model is built or
+# inside the same trace, never baked into a compiled program, so equinox's warning for
+# it is silenced — only where diracvi's own modules build parts (user code still warns).
+warnings.filterwarnings("ignore", message="A JAX array is being set as static", module=r"diracvi\.")
 
 TRANSLATIONAL = "translational"
 ROTATIONAL = "rotational"

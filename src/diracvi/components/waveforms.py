@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -17,6 +18,8 @@ from .._errors import ModelError
 
 
 def _num(where: str, arg: str, value, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(value, jax.core.Tracer):  # a differentiated amplitude: used unchecked
+        return value
     try:
         x = float(value)
     except (TypeError, ValueError):

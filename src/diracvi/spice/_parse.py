@@ -152,10 +152,11 @@ def _split(line: _Line) -> tuple[list[str], dict[str, str]]:
 
 
 class _Reader:
-    def __init__(self, text: str, name: str):
+    def __init__(self, text: str, name: str, overrides=None):
         self.title, self.lines = _logical_lines(text)
         self.circuit = cp.Circuit(name)
-        self.params: dict[str, float] = {}
+        self.overrides = {str(k).lower(): v for k, v in (overrides or {}).items()}
+        self.params: dict[str, float] = dict(self.overrides)
         self.models: dict[str, dict[str, float]] = {}
         self.ic: dict[str, float] = {}
         self.tran: tuple[float, float] | None = None
@@ -230,7 +231,8 @@ class _Reader:
             if pos[1:]:
                 raise line.fail(f"'.param' expects name=value pairs, got {pos[1:]}")
             for key, token in kw.items():
-                self.params[key] = self.value(token, line, f".param {key}")
+                if key not in self.overrides:  # read(..., params=) wins over the netlist
+                    self.params[key] = self.value(token, line, f".param {key}")
             return None
         if card == ".tran":
             args = [t for t in pos[1:] if t.lower() != "uic"]
@@ -435,13 +437,16 @@ class _Skip:
     """Placeholder returned for K lines (the coupling is registered directly)."""
 
 
-def read(source, name: str | None = None) -> Netlist:
+def read(source, name: str | None = None, params=None) -> Netlist:
     """Read a SPICE netlist from a path or from its text.
 
     Args:
         source: a :class:`~pathlib.Path`, a path string, or the netlist text (a string
             with a newline). The first line is the title.
         name: the circuit's name (default: the file's stem, or ``"netlist"``).
+        params: ``{name: value}`` overriding the netlist's ``.param`` values (names
+            case-insensitive). Values may be JAX tracers, so ``jax.grad`` flows from a
+            run to any parameter: ``R1 a b {rval}`` with ``params={"rval": r}``.
 
     Returns:
         A :class:`Netlist`; ``netlist.system``, ``q0``, ``p0``, ``dt``, ``steps``.
@@ -468,4 +473,4 @@ def read(source, name: str | None = None) -> Netlist:
         text = source
     else:
         raise NetlistError(f"read({source!r}): pass a path or the netlist text (str).")
-    return _Reader(text, name or "netlist").read()
+    return _Reader(text, name or "netlist", params).read()

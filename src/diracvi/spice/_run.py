@@ -46,19 +46,26 @@ class Result:
 
 
 def run(
-    source, *, discretization: str = "midpoint", dt=None, steps=None, **simulate_kwargs
+    source,
+    *,
+    discretization: str = "midpoint",
+    dt=None,
+    steps=None,
+    params=None,
+    **simulate_kwargs,
 ) -> Result:
     """Read a netlist (path, text or :class:`Netlist`) and simulate its ``.tran``.
 
     ``dt`` overrides ``.tran``'s TSTEP (the run still ends at TSTOP unless ``steps`` is
-    given); further keywords go to :func:`diracvi.simulate`.
+    given); ``params`` overrides ``.param`` values (see :func:`read`; traced values
+    make the run differentiable); further keywords go to :func:`diracvi.simulate`.
     Without ``UIC`` on ``.tran`` the run starts from the DC operating point (SPICE's
     rule; ``.ic`` values hold their nodes while it is solved), with ``UIC`` from the
     state the netlist gives (``.ic`` and ``IC=``, zero otherwise).
     Midpoint is the default rule: the left-point rule cannot step a capacitor joined in a
     loop with voltage sources or other capacitors (its step is singular).
     """
-    netlist = source if isinstance(source, Netlist) else read(source)
+    netlist = source if isinstance(source, Netlist) else read(source, params=params)
     q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC
     h = dt if dt is not None else netlist.dt
     n = steps
