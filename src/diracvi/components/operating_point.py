@@ -182,7 +182,12 @@ def _newton(eqs, residual, jacobian, x, max_iterations=100):
     return x, False, max_iterations
 
 
-def operating_point(assembly, *, t0: float = 0.0, hold=None, off=False) -> OperatingPoint:
+METHODS = ("newton", "gmin stepping", "source stepping")
+
+
+def operating_point(
+    assembly, *, t0: float = 0.0, hold=None, off=False, methods=METHODS
+) -> OperatingPoint:
     """The DC operating point of a circuit (see the module docstring).
 
     Args:
@@ -191,6 +196,8 @@ def operating_point(assembly, *, t0: float = 0.0, hold=None, off=False) -> Opera
         t0: the time at which the sources are evaluated.
         hold: ``{node: voltage}`` held during the solve (SPICE's ``.ic`` without UIC).
         off: start every junction off (0 V) instead of at ``V_crit`` (SPICE's ``OFF``).
+        methods: the methods tried, in order (default SPICE's: Newton, gmin stepping,
+            source stepping); a subset forces one (each reaches the same point).
 
     Raises:
         ModelError: when no method converges, or the static equations are singular (a
@@ -223,16 +230,21 @@ def operating_point(assembly, *, t0: float = 0.0, hold=None, off=False) -> Opera
         total += it
         return x, ok
 
-    x, ok = solve(x0, 1.0, 0.0)
-    method = "newton"
-    if not ok:  # gmin stepping
+    unknown = sorted(set(methods) - set(METHODS))
+    if unknown or not methods:
+        raise ModelError(f"operating point: methods={methods!r}; choose from {METHODS}.")
+    ok, method = False, None
+    if "newton" in methods:
+        x, ok = solve(x0, 1.0, 0.0)
+        method = "newton"
+    if not ok and "gmin stepping" in methods:
         method = "gmin stepping"
         x = x0
         for gmin in [*(10.0**-k for k in range(2, 13)), 0.0]:
             x, ok = solve(x, 1.0, gmin)
             if not ok:
                 break
-    if not ok:  # source stepping, halving the increment on failure
+    if not ok and "source stepping" in methods:  # the increment shrinks on failure
         method = "source stepping"
         x, s, step = jnp.zeros(eqs.size), 0.0, 0.1
         ok = True
