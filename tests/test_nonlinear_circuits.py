@@ -13,10 +13,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from _ngspice import available, fine_transient
-from _ngspice import operating_point as ngspice_op
 
 import diracvi as dv
+from _ngspice import available, fine_transient
+from _ngspice import operating_point as ngspice_op
 from diracvi import spice
 from diracvi._solvers.limiting import pnjlim
 from diracvi.components.diode import THERMAL_VOLTAGE, Diode, _Junction, breakdown_knee
