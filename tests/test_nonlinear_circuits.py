@@ -399,3 +399,18 @@ def test_cli_solver_option(tmp_path):
     assert "success" in full.output
     bad = runner.invoke(app, ["run", str(path), "--solver", "bogus"])
     assert bad.exit_code != 0 and "newton-full" in bad.output
+
+
+@pytest.mark.slow  # ~20 s of CPU: Levenberg–Marquardt through spice.run under jax.jit
+def test_fit_netlist_example_recovers_its_parameters():
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parent.parent / "examples" / "fit_netlist.py"
+    spec = importlib.util.spec_from_file_location("fit_netlist", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    estimate, errors, data, fitted = example.fit(seed=1)
+    assert np.all(np.abs(estimate - example.TRUE) <= 3 * errors), (estimate, errors)
+    assert np.all(errors < 0.05 * example.TRUE)
+    assert abs(np.std(data - fitted) / example.SIGMA - 1) < 0.2

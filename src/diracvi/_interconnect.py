@@ -59,7 +59,10 @@ class Interaction(eqx.Module):
             self._fn, self._const, self._consts = forms, None, tuple(_consts)
         else:
             const = check_forms_array("Interaction(forms=...)", forms)
-            self._fn, self._const = None, jax.device_put(const)
+            placed = jax.device_put(const)
+            # built inside jax.jit (a netlist read under a traced fit), device_put gives a
+            # tracer; the constant is kept as the NumPy array it is, readable host-side
+            self._fn, self._const = None, const if isinstance(placed, jax.core.Tracer) else placed
         self.names = None if names is None else tuple(str(n) for n in names)
 
     def forms(self, q):

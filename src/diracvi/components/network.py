@@ -215,12 +215,14 @@ class Circuit:
                 f"initial(...) names {sorted(unknown)}, which are not mechanical nodes of "
                 f"circuit {self.name!r} (nodes: {sorted(at_node)})."
             )
-        p0 = xp.concatenate(
+        p0 = jnp.concatenate(
             [
-                xp.asarray(p.momentum(q0[a:b], v0[a:b]))
+                jnp.asarray(p.momentum(q0[a:b], v0[a:b]))
                 for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
             ]
         )
+        if not traced(p0):  # (inside jax.jit every momentum is traced: kept as JAX's)
+            p0 = np.asarray(p0)
         interactions = []
         if node_list:
             interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
