@@ -17,8 +17,10 @@ diode (the internal node between ``R_S`` and the junction is the voltage ``φ_p 
 so it needs no coordinate). The energy is ``E = Q_j V_j − Φ(V_j) = ∫₀^{Q_j} V dQ``, the
 charge's stored energy — convex, because ``Q_j`` increases with ``V_j`` — and the power
 balance is ``dE/dt = V i − R_S i² − i_D V_j`` (port power in, series and junction losses
-out): the junction charge is a nonlinear capacitor, held in the Lagrangian, so the
-discrete power balance of the rules holds for it as for a linear one.
+out): the junction charge is a nonlinear capacitor held in the Lagrangian. Discretely the
+charge is the momentum of ``w``, balanced exactly step by step; the energy balance is that
+of any nonlinear capacitor under the rule (exact for a quadratic stored energy, to the
+rule's order otherwise).
 
 **Static current** (ngspice ``dioload.c``), ``nV_T = N kT/q``, ``I_S`` and ``I_BV`` scaled
 by ``AREA`` as ngspice does for level 1 (``I_S·AREA``; ``I_BV`` not scaled)::
