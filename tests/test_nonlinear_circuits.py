@@ -40,6 +40,22 @@ C1 p 0 100u{bleed}
 CIRCUITS = {
     "bridge": (BRIDGE.format(bleed=""), ("v(p)", "v(a)", "i(V1)"), 40),
     "bridge with bleed": (BRIDGE.format(bleed="\nR1 p 0 1k"), ("v(p)", "v(a)", "i(V1)"), 40),
+    "bridge, 1 ohm return": (
+        """Bridge whose source returns to ground through 1 ohm (Newton cycled at TSTEP before)
+V1 a b SIN(0 10 50)
+R0 b 0 1
+D1 a p dm
+D2 b p dm
+D3 0 a dm
+D4 0 b dm
+C1 p 0 100u
+.model dm D(IS=1e-14 N=1)
+.tran 100u 40m uic
+.end
+""",
+        ("v(p)", "i(V1)"),
+        40,
+    ),
     "doubler": (
         """Voltage doubler
 V1 in 0 SIN(0 5 50)
@@ -163,6 +179,7 @@ def test_agrees_with_ngspice_to_1e3_of_peak(name):
     [
         ("bridge with bleed", "v(p)"),
         ("bridge", "v(p)"),
+        ("bridge, 1 ohm return", "v(p)"),
         ("half-wave", "v(out)"),
         ("doubler", "v(out)"),
     ],
