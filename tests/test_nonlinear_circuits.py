@@ -473,3 +473,12 @@ def test_junction_charge_is_balanced_exactly_each_step():
     scale = np.max(np.abs(big_q))
     assert np.max(np.abs(lhs - rhs)) <= 1e-8 * scale
     assert np.max(np.abs(lhs)) > 1e-3 * scale  # the charge does move
+
+
+def test_off_diodes_start_the_operating_point_at_zero_and_reach_the_same_point():
+    seeded = spice.operating_point(DIVIDER)
+    off = spice.read(DIVIDER.replace("D1 a b dm 3", "D1 a b dm 3 OFF"))
+    assert off.off == frozenset({"D1"})
+    point = spice.operating_point(off)
+    for key in ("v(a)", "v(b)", "i(V1)"):
+        assert point[key] == pytest.approx(seeded[key], rel=1e-12)

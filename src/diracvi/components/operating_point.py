@@ -140,14 +140,24 @@ class _Equations:
         held = mu[self.held] - source * self.held_values
         return jnp.concatenate([balance, velocity, v[self.dep], held])
 
-    def start(self, off_junctions: bool):
+    def start(self, off):
+        """The first iterate: every junction at ``V_crit`` as SPICE seeds it, except
+        those of the parts named in ``off`` (``True``: all), which start at 0 V."""
         x = (
             jnp.zeros(self.size)
             .at[self.n + self.m : self.n + self.m + len(self.dep)]
             .set(self.q0[self.dep])
         )
-        if len(self.junction_index) and not off_junctions:  # SPICE seeds V_crit
-            x = x.at[self.junction_index].set(self.junction_limits[:, 1])
+        if len(self.junction_index):
+            coords = self.system.coords
+            seeded = np.asarray(
+                [
+                    not (off is True or coords[j].rsplit(".", 1)[0] in (off or ()))
+                    for j in self.junction_index
+                ]
+            )
+            seed = jnp.where(seeded, self.junction_limits[:, 1], 0.0)
+            x = x.at[self.junction_index].set(seed)
         return x
 
     def limit(self, x_old, x_new):
@@ -195,7 +205,8 @@ def operating_point(
             :class:`~diracvi.spice.Netlist`).
         t0: the time at which the sources are evaluated.
         hold: ``{node: voltage}`` held during the solve (SPICE's ``.ic`` without UIC).
-        off: start every junction off (0 V) instead of at ``V_crit`` (SPICE's ``OFF``).
+        off: the names of parts whose junctions start off (0 V) instead of at
+            ``V_crit`` (SPICE's ``OFF``), or ``True`` for all.
         methods: the methods tried, in order (default SPICE's: Newton, gmin stepping,
             source stepping); a subset forces one (each reaches the same point).
 

@@ -37,6 +37,7 @@ class Netlist:
         ic: the ``.ic`` node voltages (with UIC they set capacitor voltages; without,
             they hold their nodes during the operating point, as SPICE does).
         op: whether the netlist asks for ``.op``.
+        off: diodes marked ``OFF`` (their junctions start the operating point at 0 V).
         params: the evaluated ``.param`` values (lower-case names).
         notes: things the reader accepted but does not act on (``.options``, …).
     """
@@ -52,6 +53,7 @@ class Netlist:
     notes: list = field(default_factory=list)
     ic: dict = field(default_factory=dict)
     op: bool = False
+    off: frozenset = frozenset()
     _start: tuple | None = field(default=None, repr=False)
 
     @property
@@ -79,7 +81,7 @@ class Netlist:
             from ..components.operating_point import operating_point
 
             try:
-                op = operating_point(self.assembly, hold=self.ic)
+                op = operating_point(self.assembly, hold=self.ic, off=self.off)
             except ModelError as exc:
                 raise NetlistError(f"netlist {self.title!r}: {exc}") from None
             self._start = (op.q0, op.p0)
@@ -220,6 +222,7 @@ class _Reader:
             self.notes,
             dict(self.ic),
             self.op,
+            frozenset(self.off),
         )
 
     def directive(self, line: _Line) -> str | None:
@@ -366,7 +369,9 @@ class _Reader:
         area = self.value(rest[0] if rest else kw.get("area", "1"), line, "diode area")
         ic = self.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
         if flags:
-            self.notes.append(f"line {line.number}: {name} OFF only seeds the operating point")
+            self.notes.append(
+                f"line {line.number}: {name} OFF: its junction starts the operating point at 0 V"
+            )
             self.off.add(name)
         part = cp.spice_diode(model, name=name, area=area, ic=ic)
         return part, {"p": pos[1], "n": pos[2]}

@@ -93,6 +93,6 @@ def operating_point(source) -> OperatingPoint:
     does for a transient without UIC). ``op["v(out)"]``, ``op.q0``, ``op.p0``."""
     netlist = source if isinstance(source, Netlist) else read(source)
     try:
-        return _operating_point(netlist, hold=netlist.ic)
+        return _operating_point(netlist, hold=netlist.ic, off=netlist.off)
     except ModelError as exc:
         raise ModelError(f"netlist {netlist.title!r}: {exc}") from None
