@@ -24,7 +24,8 @@ def _tran(reader, line, pos, kw):
     uic = len(args) != len(pos) - 1
     if len(args) < 2 or len(args) > 4 or kw:
         raise line.fail("'.tran' expects TSTEP TSTOP [TSTART [TMAX]] [UIC]")
-    step, stop, start, tmax = ([reader.top.value(t, line, ".tran") for t in args] + [0.0, None])[:4]
+    values = [reader.top.value(t, line, ".tran") for t in args]
+    step, stop, start, tmax = values + [0.0, None][len(values) - 2 :]
     if not (step > 0 and stop > 0):
         raise line.fail(f"'.tran' needs TSTEP > 0 and TSTOP > 0 (got {step:g}, {stop:g})")
     if not 0.0 <= start < stop:

@@ -36,6 +36,7 @@ class LineError(NetlistError):
     def __init__(self, line: Line, why: str):
         self.line, self.why = line, why
         super().__init__(f"{line.where}: {why}\n    {line.text}", [(line.where, line.text, why)])
+        self.seq = line.seq
 
 
 @dataclass
@@ -45,6 +46,7 @@ class Line:
     number: int
     text: str
     file: str = ""  # "" for the top netlist, else the included file's name
+    seq: int = 0  # its place in the netlist with includes expanded (orders the problems)
 
     @property
     def where(self) -> str:
@@ -55,7 +57,7 @@ class Line:
         return LineError(self, why)
 
     def with_text(self, text: str) -> Line:
-        return Line(self.number, text, self.file)
+        return Line(self.number, text, self.file, self.seq)
 
 
 @dataclass
@@ -63,15 +65,20 @@ class Problems:
     """Every problem of a netlist, in the order met; ``check()`` raises them together."""
 
     items: list = field(default_factory=list)  # (where, text, why)
+    order: list = field(default_factory=list)  # the place of each item in the netlist
 
     def add(self, error: NetlistError) -> None:
         for item in error.problems or [("netlist", "", str(error))]:
             if item not in self.items:
                 self.items.append(item)
+                self.order.append(getattr(error, "seq", 1 << 60))
 
     def check(self) -> None:
         if not self.items:
             return
+        ranked = sorted(zip(self.order, range(len(self.items)), self.items, strict=True))
+        self.items = [item for _, _, item in ranked]
+        self.order = [seq for seq, _, _ in ranked]
         count = len(self.items)
         head = "1 problem" if count == 1 else f"{count} problems"
         body = "\n".join(
@@ -88,6 +95,7 @@ class Source:
     lines: list[Line]
     control: list[Line] = field(default_factory=list)  # commands of .control blocks
     notes: list[str] = field(default_factory=list)
+    count: int = 0  # lines taken so far
 
 
 def split(line: Line) -> tuple[list[str], dict[str, str]]:
@@ -156,6 +164,7 @@ def _expand(raw, first, file, base, source, problems, depth) -> None:
     k = 0
     while k < len(lines):
         line = lines[k]
+        line.seq, source.count = source.count, source.count + 1
         word = card(line)
         k += 1
         if word == ".end":  # the top netlist ends here; an included file's .end ends that file
