@@ -127,8 +127,16 @@ def _x(ctx, name, pos, kw, line):
     return None, {}
 
 
-#: first letter -> handler (see the module docstring for the handler's shape)
+#: first letter -> handler (see the module docstring for the handler's shape). A method
+#: written in the old ``_Reader`` style, ``def _e(self, name, pos, kw, line)``, is such a
+#: handler with ``self`` = ``ctx``: ``ctx`` has ``value``, ``_need``, ``_two``, ``tran``,
+#: ``circuit``; read a model with ``ctx.model(token, line)`` and a node's ``.ic`` with
+#: ``ctx.ic(node)`` (today's ``self.models[...]`` and ``self.ic[...]``).
 ELEMENTS = {"R": _r, "C": _c, "L": _l, "K": _k, "V": _v, "I": _i, "D": _d, "X": _x}
+
+#: letters read after the other elements of their scope, because their lines name other
+#: elements (K its inductors; controlled sources F and H their controlling V belong here)
+LATE = ("K",)
 
 #: element letters ngspice knows and diracvi does not build yet: what each one is, and
 #: whether it names a model (refused at the element line, which names the model's line)

@@ -15,7 +15,7 @@ import re
 from dataclasses import dataclass, field
 
 from .._errors import ModelError
-from ._elements import ELEMENTS, SUPPORTED, UNSUPPORTED, unsupported
+from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
 from ._lines import Line, LineError, NetlistError, card, split
 from ._subckt import MAX_DEPTH, collect, instance_parts
 from ._values import ExpressionError, evaluate, number
@@ -70,6 +70,14 @@ class Scope:
             return evaluate(text, self.params)
         except ExpressionError as exc:
             raise line.fail(f"{what}: {exc}") from None
+
+    def _need(self, pos, count, line, form):
+        """``raise line.fail`` unless the line has ``count`` positional fields."""
+        _need(pos, count, line, form)
+
+    def _two(self, pos, kw, line, form, extra=()):
+        """``Xname n+ n- value [extra=…]``: ``(n+, n-, value)``."""
+        return _two(self, pos, kw, line, form, extra)
 
     def model(self, token: str, line: Line):
         """The visible ``.model`` named ``token``: ``(kind, {param: value}, where)``."""
@@ -186,7 +194,7 @@ def read_body(scope: Scope, lines: list[Line]) -> None:
     for line in rest:
         if line.text.startswith("."):
             _guard(scope, line, lambda ln=line: _directive(scope, ln))
-        elif line.text[0].upper() == "K":
+        elif line.text[0].upper() in LATE:
             couplings.append(line)
         else:
             elements.append(line)
