@@ -125,7 +125,9 @@ _TOKENS = st.sampled_from(
     ["R1", "C2", "L3", "V4", "I5", "D6", "K7", "X8", "Q9", "E1", "a", "b", "0", "gnd",
      "1k", "2u", "-3", "{1+}", "{x}", "'2*3'", "(", ")", "=", "IC=1", "DC", "SIN", "PULSE",
      "PWL", ".tran", ".ic", ".param", ".model", ".end", ".subckt", ".ac", "+", "*", ";",
-     "v(a)=1", "D(IS=1e-14)", "1meg", "uic", "", "\t", "é", "1e999"]
+     "v(a)=1", "D(IS=1e-14)", "1meg", "uic", "", "\t", "é", "1e999", ".ends", "params:",
+     "x=2", "sub", ".control", ".endc", "tran", ".save", "@r1[i]", "AC", ".global", ".op",
+     ".include", ".lib", ".temp", "27", "NPN", ".options"]
 )  # fmt: skip
 
 

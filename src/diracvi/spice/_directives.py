@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import re
 
+from ._lines import card
 from ._values import number
 
 #: ngspice's nominal temperature, the only one diracvi's parts are written for
@@ -62,7 +63,7 @@ def _options(reader, line, pos, kw):
         if key == "temp":
             _check_temperature(line, value)
     reader.options.update({p.lower(): True for p in pos[1:]})
-    reader.note(line, f"{pos[0].lower()} read into netlist.options (it tunes ngspice's solver)")
+    reader.note(line, f"{card(line)} read into netlist.options (it tunes ngspice's solver)")
 
 
 def _temp(reader, line, pos, kw):
@@ -101,14 +102,14 @@ def _title(reader, line, pos, kw):
 
 def _noted(what):
     def handler(reader, line, pos, kw):
-        reader.note(line, f"{pos[0].lower()} {what}")
+        reader.note(line, f"{card(line)} {what}")
 
     return handler
 
 
 def _refused(why):
     def handler(reader, line, pos, kw):
-        raise line.fail(f"directive {pos[0].lower()!r} is not supported: {why}")
+        raise line.fail(f"directive {card(line)!r} is not supported: {why}")
 
     return handler
 

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ._lines import Line, Problems, card, split
+from ._lines import Line, NetlistError, Problems, card, split
 
 #: instance chains deeper than this are taken as a subcircuit that instantiates itself
 MAX_DEPTH = 30
@@ -62,7 +62,7 @@ def collect(lines: list[Line], problems: Problems) -> tuple[list[Line], dict[str
         body, k = lines[k:end], end + 1
         try:
             sub = _header(line, body)
-        except Exception as exc:  # a LineError: recorded, the definition skipped
+        except NetlistError as exc:  # recorded, the definition skipped
             problems.add(exc)
             continue
         if sub.name in defs:
