@@ -472,3 +472,24 @@ def test_cli_run_writes_raw_and_reads_spice_steps(tmp_path):
     assert bad.exit_code == 2 and "'fast' is not a step > 0" in bad.output
     res = CliRunner().invoke(app, ["run", "rlc", "--raw", str(raw)])
     assert res.exit_code != 0 and "is not a netlist" in res.output
+
+
+def test_ngspice_keyword_forms_of_values():
+    net = spice.read("t\nV1 a 0 DC=3\nV2 b 0\nR1 a b r=2k\nC1 b 0 c={1u*2}\nL1 a 0 l=1m\n")
+    parts = _parts(net)
+    q, v = np.zeros(1), np.zeros(1)
+    assert float(parts["V1"].force(q, v, 0.0)[0]) == -3.0  # F = −u(t)
+    assert float(parts["V2"].force(q, v, 0.0)[0]) == 0.0  # no value: a 0 V source
+    assert _value(parts["R1"], "resistance") == 2e3
+    assert _value(parts["C1"], "capacitance") == pytest.approx(2e-6)
+    assert _value(parts["L1"], "inductance") == 1e-3
+
+
+def test_ic_inside_a_subcircuit_sets_the_instance_nodes():
+    net = spice.read(
+        "t\n.subckt rc a\nR1 a m 1k\nC1 m 0 1u\n.ic v(m)=0.25\n.ends\nV1 in 0 1\nXA in rc\n"
+        "XB in rc\n.ic v(xb.m)=0.5\n"
+    )
+    parts = _parts(net)
+    assert parts["c:xa:c1"].initial_q == (0.25e-6,)  # the instance's own .ic line
+    assert parts["c:xb:c1"].initial_q == (0.5e-6,)  # the top-level .ic wins (ngspice 39 too)

@@ -133,7 +133,9 @@ DIRECTIVES = {
         "noted (diracvi starts from .ic/IC=/zero state; the operating point is separate)"
     ),
     **dict.fromkeys((".four", ".print", ".plot", ".probe", ".meas", ".measure", ".width"), _OUTPUT),
-    **dict.fromkeys((".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp"), _ANALYSIS),
+    **dict.fromkeys(
+        (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
+    ),
     ".func": _refused("user functions; write the expression out in {…}"),
     ".if": _refused("conditional netlists; keep one branch"),
     ".csparam": _refused("control-language parameters; use .param"),

@@ -34,7 +34,12 @@ def _need(pos, count, line, form):
 
 
 def _two(ctx, pos, kw, line, form, extra=()):
-    """``Xname n+ n- value`` with the keywords ``extra``: the nodes and the value."""
+    """``Xname n+ n- value`` (or ``Xname n+ n- x=value``, ngspice's keyword form) with the
+    keywords ``extra``: the nodes and the value."""
+    letter = pos[0][0].lower()
+    if len(pos) == 3 and letter in kw:
+        kw = dict(kw)
+        pos = [*pos, kw.pop(letter)]
     _need(pos, 4, line, form)
     unknown = sorted(set(kw) - set(extra))
     if unknown:

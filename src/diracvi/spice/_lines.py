@@ -62,29 +62,41 @@ class Line:
 
 @dataclass
 class Problems:
-    """Every problem of a netlist, in the order met; ``check()`` raises them together."""
+    """Every problem of a netlist, in netlist order; ``check()`` raises them together.
 
-    items: list = field(default_factory=list)  # (where, text, why)
-    order: list = field(default_factory=list)  # the place of each item in the netlist
+    A line of a subcircuit definition that fails in several instances is one problem
+    naming the instances (``in xa.x1, xb: …``)."""
 
-    def add(self, error: NetlistError) -> None:
+    found: dict = field(default_factory=dict)  # (where, text, why) -> (place, [chains])
+
+    def add(self, error: NetlistError, chain: str = "") -> None:
         for item in error.problems or [("netlist", "", str(error))]:
-            if item not in self.items:
-                self.items.append(item)
-                self.order.append(getattr(error, "seq", 1 << 60))
+            _, chains = self.found.setdefault(item, (getattr(error, "seq", 1 << 60), []))
+            if chain and chain not in chains:
+                chains.append(chain)
+
+    @property
+    def items(self) -> list:
+        """``(where, text, why)`` in netlist order, the instance chains in ``why``."""
+        ranked = sorted(self.found.items(), key=lambda kv: kv[1][0])
+        return [(w, t, _chained(why, chains)) for (w, t, why), (_, chains) in ranked]
 
     def check(self) -> None:
-        if not self.items:
+        items = self.items
+        if not items:
             return
-        ranked = sorted(zip(self.order, range(len(self.items)), self.items, strict=True))
-        self.items = [item for _, _, item in ranked]
-        self.order = [seq for seq, _, _ in ranked]
-        count = len(self.items)
-        head = "1 problem" if count == 1 else f"{count} problems"
+        head = "1 problem" if len(items) == 1 else f"{len(items)} problems"
         body = "\n".join(
-            f"{where}: {why}" + (f"\n    {text}" if text else "") for where, text, why in self.items
+            f"{where}: {why}" + (f"\n    {text}" if text else "") for where, text, why in items
         )
-        raise NetlistError(f"the netlist has {head}:\n{body}", self.items)
+        raise NetlistError(f"the netlist has {head}:\n{body}", items)
+
+
+def _chained(why: str, chains: list) -> str:
+    if not chains:
+        return why
+    shown = ", ".join(chains[:4]) + (f" and {len(chains) - 4} more" if len(chains) > 4 else "")
+    return f"in {shown}: {why}"
 
 
 @dataclass

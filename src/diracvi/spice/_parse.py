@@ -139,7 +139,7 @@ class _Reader:
                 note = f"{model.where}: .model {model.name} {model.kind} is not used (accepted)"
                 if note not in self.notes:
                     self.notes.append(note)
-        if not self.circuit._parts and not self.problems.items:
+        if not self.circuit._parts and not self.problems.found:
             raise NetlistError("the netlist has no elements (only a title and directives).")
         self.problems.check()
         try:

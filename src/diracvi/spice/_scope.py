@@ -206,14 +206,13 @@ def _guard(scope: Scope, line: Line, action) -> None:
     """Run ``action``; a problem is recorded (with the instance chain), not raised."""
     try:
         action()
-    except LineError as exc:
-        if scope.path and exc.line is line:
-            exc = line.fail(f"in {'.'.join(scope.path)}: {exc.why}")
-        scope.reader.problems.add(exc)
+    except LineError as exc:  # the instance chain, for a line of this scope's body
+        chain = ".".join(scope.path) if exc.line is line else ""
+        scope.reader.problems.add(exc, chain)
     except NetlistError as exc:
         scope.reader.problems.add(exc)
     except ModelError as exc:  # a part refusing its values: the line's problem
-        scope.reader.problems.add(line.fail(str(exc)))
+        scope.reader.problems.add(line.fail(str(exc)), ".".join(scope.path))
 
 
 def _directive(scope: Scope, line: Line) -> None:
@@ -228,10 +227,19 @@ def _directive(scope: Scope, line: Line) -> None:
     if word == ".model":
         _model(scope, line)
         return
+    if word == ".ic" and scope.path:  # the instance's nodes, by their scoped names
+        body = line.text.split(None, 1)[1] if len(line.text.split()) > 1 else ""
+        pairs = re.findall(r"v\s*\(\s*([^)\s]+)\s*\)\s*=\s*(\{[^}]*\}|\S+)", body, re.I)
+        if not pairs:
+            raise line.fail("'.ic' expects V(node)=value pairs")
+        for node, token in pairs:  # a top-level .ic of the same node wins, as in ngspice
+            value = scope.value(token, line, f".ic v({node})")
+            scope.reader.ic.setdefault(scope.node(node), value)
+        return
     if scope.path:
         raise line.fail(
-            f"directive {word!r} inside a subcircuit (only .param, .model and .subckt may be "
-            "there); move it outside the '.subckt … .ends'"
+            f"directive {word!r} inside a subcircuit (only .param, .model, .ic and .subckt "
+            "may be there); move it outside the '.subckt … .ends'"
         )
     scope.reader.directive(line)
 
@@ -242,8 +250,7 @@ def _model(scope: Scope, line: Line) -> None:
         raise line.fail("'.model' expects NAME TYPE(param=value …)")
     name, kind = m.group(1).lower(), m.group(2).upper()
     pos, kw = split(line.with_text(m.group(3)))
-    if pos:
-        raise line.fail(f"'.model {m.group(1)}': parameters are name=value pairs, got {pos}")
+    kw.update({flag.lower(): "1" for flag in pos})  # flags such as ltra's 'steplimit'
     first = scope.models.get(name)
     if first is not None and first.scope is scope:
         raise line.fail(f"model {m.group(1)!r} is defined twice (first {first.where})")

@@ -24,15 +24,17 @@ _KEYWORDS = ("dc", "ac", "distof1", "distof2")
 def source(ctx, pos, kw, line):
     """The waveform of a ``V``/``I`` line (``pos[3:]`` is the specification)."""
     form = f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] [SIN(…) | PULSE(…) | PWL(…)]"
-    if len(pos) < 4:
-        raise line.fail(f"expected '{form}' (the source has no value)")
-    if kw:
+    if len(pos) < 3:
+        raise line.fail(f"expected '{form}' (a source has two nodes)")
+    unknown = sorted(set(kw) - {"dc"})
+    if unknown:
         raise line.fail(
-            f"unsupported parameters {sorted(kw)} on a source (form: '{form}'; PWL's "
+            f"unsupported parameters {unknown} on a source (form: '{form}'; PWL's "
             "r=/td= options are not supported)"
         )
     rest = pos[3:]
-    dc = fn = None
+    fn = None
+    dc = ctx.value(kw["dc"], line, "DC value") if "dc" in kw else None  # ngspice's DC=3
     args: list[str] = []
     k = 0
     while k < len(rest):
