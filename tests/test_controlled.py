@@ -118,6 +118,20 @@ e1 3 0 0 2 999k
         # v(3) and i(v1) are almost unchanged over 2 ms
         ("v(3)", "v(2)", "i(v1)"),
     ),
+    "E-subckt": (  # the issue's acceptance case: the E source inside a subcircuit
+        """op-amp integrator, the amplifier a subcircuit
+.subckt opamp inp inn out
+e1 out 0 inp inn 999k
+.ends opamp
+v1 1 0 SIN(0 1 1k)
+r1 1 2 1k
+c1 2 3 100n
+x1 0 2 3 opamp
+.tran 1u 2m uic
+.end
+""",
+        ("v(3)", "v(2)", "i(v1)"),
+    ),
     "G": (
         """VCCS transconductance stage into an RC
 v1 a 0 SIN(0 1 1k)
