@@ -34,16 +34,17 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ._compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
 from ._config import ensure_float64
 from ._discretize import get_rule
 from ._equations import StepEquations, first_guess, split
 from ._errors import ModelError
 from ._solvers.newton import NewtonSolver
+from ._stored import StoredJit
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -58,6 +59,12 @@ MESSAGES = {
     FAILED_SOLVE: "a step's equations could not be solved even at the smallest step",
     TOO_MANY: "the run took more tries than max_tries",
 }
+
+#: the local error of a step is held at this share of the tolerance: errors accumulate
+#: over the steps, and with 0.25 the test decks' global error stays within ``rtol`` of
+#: each signal's peak (measured against a fine ngspice; with 1 a 1 ns-edge RLC was off by
+#: 2.4e-3 at reltol = 1e-3)
+SAFETY = 0.25
 
 #: the order this error control is written for (the midpoint rule's)
 _ORDER = 2
@@ -109,7 +116,7 @@ def _march(system, rule, solver, capacity, x):
     TRACES["count"] += 1
     n, m = system.n, system.m
     dtype = x["q"].dtype
-    rtol, atol_q, atol_v = x["rtol"], x["atol_q"], x["atol_v"]
+    rtol, atol_q, atol_v = SAFETY * x["rtol"], x["atol_q"], x["atol_v"]
     hmax, hmin, t_stop, breaks = x["hmax"], x["hmin"], x["t_stop"], x["breaks"]
 
     def step(h, t, q, p, dq, mu):
@@ -200,7 +207,14 @@ def _march(system, rule, solver, capacity, x):
     return jax.lax.while_loop(cond, body, init)
 
 
-_program = eqx.filter_jit(_march)
+#: compiled like a marching chunk (XLA's default optimization, or the run-once options
+#: under DIRACVI_FAST_COMPILE=1) and kept in the program store: a later process loads it
+_program = StoredJit(
+    _march,
+    "diracvi._adaptive._march",
+    run_once_options if fast_compile() else dict,
+    options_key=RUN_ONCE_REQUESTED if fast_compile() else {},
+)
 
 
 def buffer_size(n: int) -> int:

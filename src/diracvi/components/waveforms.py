@@ -132,9 +132,7 @@ class Pulse(Waveform):
         last = math.floor((t_stop - self.delay) / self.period)
         if self.count > 0:
             last = min(last, self.count - 1)
-        times = [
-            self.delay + k * self.period + c for k in range(first, last + 1) for c in corners
-        ]
+        times = [self.delay + k * self.period + c for k in range(first, last + 1) for c in corners]
         return _within(times, t_start, t_stop)
 
 

@@ -45,6 +45,9 @@ class Netlist:
     uic: bool
     params: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    #: the netlist's text as read (``.tran``'s TSTART/TMAX and ``.options`` are read from
+    #: it by :func:`diracvi.spice._tran.tran_settings`)
+    text: str = field(default="", repr=False)
 
     @property
     def system(self):
@@ -204,8 +207,9 @@ class _Reader:
             step, stop = (self.value(t, line, ".tran") for t in args[:2])
             if not (step > 0 and stop > 0):
                 raise line.fail(f"'.tran' needs TSTEP > 0 and TSTOP > 0 (got {step}, {stop})")
-            if len(args) > 2 and self.value(args[2], line, ".tran TSTART") != 0.0:
-                raise line.fail("'.tran' with TSTART ≠ 0 is not supported")
+            for extra, what in zip(args[2:], ("TSTART", "TMAX"), strict=False):
+                if not self.value(extra, line, f".tran {what}") >= 0.0:
+                    raise line.fail(f"'.tran' {what} must be ≥ 0 (got {extra})")
             if self.tran is not None:
                 raise line.fail("a second '.tran'")
             self.tran = (step, stop)
@@ -420,4 +424,6 @@ def read(source, name: str | None = None) -> Netlist:
         text = source
     else:
         raise NetlistError(f"read({source!r}): pass a path or the netlist text (str).")
-    return _Reader(text, name or "netlist").read()
+    netlist = _Reader(text, name or "netlist").read()
+    netlist.text = text
+    return netlist
