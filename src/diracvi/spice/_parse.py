@@ -225,7 +225,13 @@ class _Reader:
         if card == ".model":
             self.model(line)
             return None
-        if card in (".options", ".option", ".opt", ".save", ".print", ".probe", ".plot"):
+        if card in (".options", ".option", ".opt"):
+            self.notes.append(
+                f"line {line.number}: {card}: reltol, abstol, vntol, chgtol, trtol are used "
+                "by variable-step runs; anything else is ignored"
+            )
+            return None
+        if card in (".save", ".print", ".probe", ".plot"):
             self.notes.append(
                 f"line {line.number}: {card} ignored (it tunes ngspice's output/solver)"
             )

@@ -10,7 +10,9 @@ are then the output).
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -74,6 +76,24 @@ class Result:
         ds = xr.Dataset(data, coords={"time": self.time})
         ds.attrs.update(title=self.netlist.title, steps=len(self.trajectory.h))
         return ds
+
+    def save(self, path) -> Path:
+        """Write :meth:`to_xarray` as NetCDF (atomically: a temporary file, then a rename)."""
+        path = Path(path)
+        if self.internal is None and self.times is None:
+            return self.trajectory.save(path, dataset=self.to_xarray())
+        if not path.parent.exists():
+            raise ModelError(
+                f"path={str(path)!r}: folder {str(path.parent)!r} does not exist; create it first."
+            )
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
+            os.replace(tmp, path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+        return path
 
 
 def _lookup(waves: dict, key: str) -> np.ndarray:
