@@ -74,7 +74,26 @@ class Result:
 
         data = {k: (("time",), v) for k, v in self.waveforms.items()}
         ds = xr.Dataset(data, coords={"time": self.time})
-        ds.attrs.update(title=self.netlist.title, steps=len(self.trajectory.h))
+        march, settings = self.trajectory, self.settings
+        ds.attrs.update(
+            title=self.netlist.title,
+            scheme="plus",
+            discretization="midpoint",
+            steps="variable",
+            steps_taken=len(march.h),
+            tries=march.tries,
+            rejected=march.rejected,
+            h_min=float(march.h.min()),
+            h_max=float(march.h.max()),
+            tstep=settings.step,
+            tstop=settings.stop,
+            tstart=settings.start,
+            tmax=settings.max_step,
+            reltol=settings.reltol,
+            abstol=settings.abstol,
+            vntol=settings.vntol,
+            chgtol=settings.chgtol,
+        )
         return ds
 
     def save(self, path) -> Path:
