@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+import _ngspice as ng
 from _ngspice import available, ngspice
 from diracvi import _adaptive, spice
 from diracvi import components as cp
@@ -116,6 +117,32 @@ def test_decks_agree_with_a_fine_ngspice_at_their_own_settings(name):
     assert np.max(march.h) <= settings.max_step * (1 + 1e-12)
     assert np.min(march.h) < 0.5 * np.max(march.h)
     for probe, err in errors.items():
+        assert err <= 1e-3, (probe, err)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "rc",
+        "rlc",
+        "ladder",
+        pytest.param("coupled", marks=pytest.mark.slow),
+        pytest.param("rectifier", marks=pytest.mark.slow),
+    ],
+)
+def test_validation_circuits_agree_at_their_own_settings(name):
+    """The committed fine-ngspice references (tests/data/ngspice; no ngspice needed), at
+    each netlist's own .tran and default tolerances, on its TSTEP grid."""
+    netlist, probes, _ = ng.CIRCUITS[name]
+    t_ref, ref = ng.load(name)
+    result = spice.run(netlist)
+    assert result.trajectory.status == 0
+    # the reference's 101 times are points of the TSTEP grid
+    at = np.searchsorted(result.time, t_ref - 1e-9 * t_ref[-1])
+    np.testing.assert_allclose(result.time[at], t_ref, rtol=0, atol=1e-9 * t_ref[-1])
+    for probe in probes:
+        # t = 0 is not an independent check (SPICE's UIC point is the given state)
+        err = np.max(np.abs(result[probe][at] - ref[probe])[1:]) / np.max(np.abs(ref[probe]))
         assert err <= 1e-3, (probe, err)
 
 
