@@ -208,7 +208,8 @@ def run(
             help="A built-in problem (see `diracvi list`), a model file path/to/model.py "
             "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
             "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt; "
-            "its .tran gives dt and steps, the NetCDF holds v(<node>) and i(<element>)).",
+            "run as SPICE does: variable steps, output every TSTEP from TSTART, or a fixed "
+            "step with --dt; the NetCDF holds v(<node>) and i(<element>)).",
             show_default=False,
         ),
     ],
