@@ -353,3 +353,27 @@ def test_fixed_dt_is_the_simulate_run_bitwise():
     np.testing.assert_array_equal(result.time, traj.t)
     np.testing.assert_array_equal(result["v(out)"], spice.waveforms(netlist, traj)["v(out)"])
     assert math.isclose(result.time[-1], 5e-3)
+
+
+def test_bad_tran_or_options_name_the_line_and_the_fix():
+    base = DECKS["rc-charge"][0]
+    late = spice.read(base.replace(".tran 0.1m 5m uic", ".tran 0.1m 5m 6m uic"))
+    with pytest.raises(spice.NetlistError, match=r"TSTART=0\.006 is not before TSTOP=0\.005"):
+        spice.run(late)
+    bad = spice.read(base.replace(".end", ".options reltol=-1\n.end"))
+    with pytest.raises(spice.NetlistError, match=r"line 6: \.options reltol=-1 must be a positive"):
+        spice.run(bad)
+    with pytest.raises(spice.NetlistError, match=r"line 5: '\.tran' TMAX must be ≥ 0"):
+        spice.read(base.replace(".tran 0.1m 5m uic", ".tran 0.1m 5m 0 -1u uic"))
+
+
+def test_a_tolerance_below_round_off_stops_with_the_fix():
+    from diracvi import StepFailure
+
+    deck = DECKS["rc-charge"][0].replace(
+        ".end", ".options reltol=1e-17 abstol=1e-30 chgtol=1e-40\n.end"
+    )
+    with pytest.raises(StepFailure, match=r"stopped at t = .* below hmin.*Fix: a fixed step"):
+        spice.run(deck)
+    # the fix it names works
+    assert spice.run(deck, dt=1e-4).trajectory.status == 0
