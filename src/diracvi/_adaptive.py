@@ -16,7 +16,10 @@ the positions and on the mean velocity over the step,
 
 with ``Q_j``, ``V_j`` the largest ``|q_j|``, ``|v_j|`` met so far (the signal's running
 peak, so a waveform passing through zero is not stepped ever finer there) and ``s`` =
-:data:`SAFETY` (local errors add up over many steps). ``e ≤ 1``
+:data:`SAFETY` (local errors add up over many steps); and per constraint on the
+step-centred multiplier ``φ = −c/h`` (a circuit's node potential; ``c_k = 2μ_k − c_{k−1}``
+is the step's own impulse, see :mod:`diracvi.spice._resample`), the coarse step's against
+the mean of the two fine ones, with ``atol_m``. ``e ≤ 1``
 accepts the two fine steps (they are what is recorded: every recorded step is a plain
 Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
 ``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
@@ -66,7 +69,8 @@ MESSAGES = {
 #: over the steps (an oscillating circuit's phase error over many periods). Measured
 #: against fine ngspice runs at the decks' own settings (reltol 1e-3): with 1 a 1 ns-edge
 #: RLC was off by 2.4e-3 of its peak, with 0.1 the 3-stage ladder (2000 steps, 5
-#: periods) by 1.3e-3, with 0.03 every deck within 5.6e-4 for 1.1-1.7x the steps of 0.1.
+#: periods) by 1.3e-3, with 0.03 every deck within 5.6e-4 for 1.1-1.7x the steps of 0.1
+#: (4.0e-4 once the node potentials were judged too).
 #: Passed to the program as data, like the tolerances (a change compiles nothing).
 SAFETY = 0.03
 
@@ -80,6 +84,7 @@ class Controls(NamedTuple):
     rtol: float
     atol_q: np.ndarray  # per coordinate, on positions
     atol_v: np.ndarray  # per coordinate, on the mean velocity over a step
+    atol_m: np.ndarray  # per constraint, on the step-centred multiplier (a node potential)
     hmax: float
     hmin: float
     h_first: float
@@ -140,7 +145,7 @@ def _march(system, rule, solver, capacity, x):
         # a first guess from the last velocity (linear models converge in one update)
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
-        qc, _, _, ok_c = step(h_try, t, q, p, h_try * vel, mu_g)
+        qc, _, mu_c, ok_c = step(h_try, t, q, p, h_try * vel, mu_g)
         half = 0.5 * h_try
         q1, p1, mu1, ok1 = step(half, t, q, p, half * vel, 0.5 * mu_g)
         q2, p2, mu2, ok2 = step(half, t + half, q1, p1, q1 - q, mu1)
@@ -152,7 +157,17 @@ def _march(system, rule, solver, capacity, x):
         share = x["safety"]
         e_q = diff / (share * rtol * q_peak + atol_q)
         e_v = diff / h_try / (share * rtol * v_peak + atol_v)
-        err = jnp.max(jnp.concatenate([e_q, e_v]), initial=0.0)
+        # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
+        # (node potentials of a circuit), coarse against the mean of the two fine ones
+        c_prev = c["c_last"]
+        c1 = 2.0 * mu1 - c_prev
+        c2 = 2.0 * mu2 - c1
+        phi_c = -(2.0 * mu_c - c_prev) / h_try
+        phi1, phi2 = -c1 / half, -c2 / half
+        diff_m = jnp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
+        m_peak = jnp.maximum(c["m_peak"], jnp.maximum(jnp.abs(phi1), jnp.abs(phi2)))
+        e_m = diff_m / (share * rtol * m_peak + x["atol_m"])
+        err = jnp.max(jnp.concatenate([e_q, e_v, e_m]), initial=0.0)
         ok = ok & jnp.isfinite(err)
         accept = ok & (err <= 1.0)
         grow = jnp.clip(0.9 * jnp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
@@ -180,6 +195,8 @@ def _march(system, rule, solver, capacity, x):
         new["h_last"] = jnp.where(accept, half, c["h_last"])
         new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
         new["v_peak"] = jnp.where(accept, v_peak, c["v_peak"])
+        new["m_peak"] = jnp.where(accept, m_peak, c["m_peak"])
+        new["c_last"] = jnp.where(accept, c2, c["c_last"])
         passed = accept & land & (target == breaks[c["ib"]])
         new["ib"] = jnp.where(passed, c["ib"] + 1, c["ib"])
         new["h"] = jnp.minimum(h_next, 2.0 * hmax)
@@ -201,6 +218,8 @@ def _march(system, rule, solver, capacity, x):
         "h_last": x["h_last"],
         "q_peak": x["q_peak"],
         "v_peak": x["v_peak"],
+        "m_peak": x["m_peak"],
+        "c_last": x["c_last"],
         "tries": jnp.asarray(0),
         "rejected": jnp.asarray(0),
         "status": jnp.asarray(OK),
@@ -274,12 +293,15 @@ def adaptive(
         "h_last": np.float64(1.0),
         "q_peak": np.abs(q),
         "v_peak": np.zeros(n),
+        "m_peak": np.zeros(m),
+        "c_last": np.zeros(m),  # the given p0 carries no lag: c_{−1} = 0
     }
     fixed = {
         "rtol": np.float64(controls.rtol),
         "safety": np.float64(SAFETY),
         "atol_q": np.broadcast_to(np.asarray(controls.atol_q, np.float64), (n,)).copy(),
         "atol_v": np.broadcast_to(np.asarray(controls.atol_v, np.float64), (n,)).copy(),
+        "atol_m": np.broadcast_to(np.asarray(controls.atol_m, np.float64), (m,)).copy(),
         "hmax": np.float64(controls.hmax),
         "hmin": np.float64(controls.hmin),
         "t_stop": np.float64(t_stop),

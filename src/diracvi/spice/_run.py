@@ -168,8 +168,9 @@ def run(
 
 def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     """Step control for a netlist: ``reltol`` on every signal; branch charges against
-    ``chgtol`` and their currents against ``abstol``; any other coordinate (a diode's
-    flux linkage ∫V dt) against ``vntol`` (its velocity is a voltage)."""
+    ``chgtol``, their currents against ``abstol``, node potentials (the KCL multipliers)
+    against ``vntol``; any other coordinate (a diode's flux linkage ∫V dt) against
+    ``vntol`` too (its velocity is a voltage)."""
     system = netlist.system
     charges = set(netlist.assembly.currents.values())
     is_charge = np.array([c in charges for c in system.coords])
@@ -179,7 +180,8 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     span = settings.stop
     # SPICE's first step: a tenth of min(TSTEP, TSTOP/100) (the control then adapts it)
     h_first = min(settings.step, span / 100.0, hmax) / 10.0
-    return Controls(settings.reltol, atol_q, atol_v, hmax, 1e-13 * span, h_first)
+    atol_m = np.full(system.m, settings.vntol)  # node potentials (and source voltages)
+    return Controls(settings.reltol, atol_q, atol_v, atol_m, hmax, 1e-13 * span, h_first)
 
 
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
