@@ -377,3 +377,35 @@ def test_a_tolerance_below_round_off_stops_with_the_fix():
         spice.run(deck)
     # the fix it names works
     assert spice.run(deck, dt=1e-4).trajectory.status == 0
+
+
+def _source(netlist, name):
+    (part,) = [s for s in netlist.system.subsystems if s.name == name]
+    (wave,) = part.waveforms
+    return wave
+
+
+def test_pulse_and_sin_defaults_without_ngspice():
+    """ngspice's defaults, checked on the read waveforms (the decks above check them
+    against ngspice itself): PULSE's PW and PER are TSTOP, TR and TF are TSTEP; SIN
+    holds VO + VA sin(PHASE) until TD, then runs from TD."""
+    text = """defaults
+V1 a 0 PULSE(0 1 1u)
+V2 b 0 SIN(0.5 2 1k 0.2m 0 30)
+R1 a b 1k
+R2 b 0 1k
+.tran 1u 1m
+.end
+"""
+    netlist = spice.read(text)
+    pulse, sine = _source(netlist, "V1"), _source(netlist, "V2")
+    # rises over TSTEP = 1 µs from TD = 1 µs, then stays up to TSTOP (PW = TSTOP)
+    assert float(pulse(1.5e-6)) == pytest.approx(0.5)
+    assert float(pulse(2e-6)) == 1.0 and float(pulse(0.9e-3)) == 1.0
+    assert pulse.breakpoints(0.0, 1e-3) == (1e-6, 2e-6)
+    held = 0.5 + 2 * math.sin(math.radians(30))
+    assert float(sine(0.1e-3)) == pytest.approx(held, rel=1e-15)
+    t = 0.45e-3
+    running = 0.5 + 2 * math.sin(2 * math.pi * 1e3 * (t - 0.2e-3) + math.radians(30))
+    assert float(sine(t)) == pytest.approx(running, rel=1e-12)
+    assert sine.breakpoints(0.0, 1e-3) == (0.2e-3,)
