@@ -402,7 +402,8 @@ def test_result_is_a_short_read_only_mapping():
     assert dict(result.items()).keys() == {"v(2)", "i(@r9[i])"}
     text = repr(result)
     assert text.startswith("<spice.Result 'Saved vectors")
-    assert "t 0 → 0.001 s, 500 steps of 2e-06 s; vectors v(2), i(@r9[i])" in text
+    assert "t 0 → 0.001 s, " in text and " variable steps of " in text
+    assert text.endswith("; vectors v(2), i(@r9[i])>")
     assert "[" not in text.replace("[i]", "")  # no array dumped
     with pytest.raises(TypeError):
         result["v(2)"] = 0

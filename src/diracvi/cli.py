@@ -101,9 +101,13 @@ def _positive_float(ctx: typer.Context, param, value: str | None) -> float | Non
     try:
         number = float(value)
     except ValueError:
-        raise typer.BadParameter(
-            f"{value!r} is not a number; give a step > 0, e.g. 0.01."
-        ) from None
+        from .spice._values import number as spice_number
+
+        number = spice_number(value)  # SPICE's scale suffixes: 5u, 10n, 1meg
+        if number is None:
+            raise typer.BadParameter(
+                f"{value!r} is not a number; give a step > 0, e.g. 0.01 or 5u."
+            ) from None
     if not math.isfinite(number) or number <= 0.0:
         raise typer.BadParameter(f"{value} is not a finite number > 0; e.g. 0.01.")
     return number
@@ -218,7 +222,8 @@ def run(
             help="A built-in problem (see `diracvi list`), a model file path/to/model.py "
             "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
             "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt; "
-            "its .tran gives dt and steps, the NetCDF holds v(<node>) and i(<element>)).",
+            "run as SPICE does: variable steps, output every TSTEP from TSTART, or a fixed "
+            "step with --dt; the NetCDF holds v(<node>) and i(<element>)).",
             show_default=False,
         ),
     ],
@@ -272,6 +277,9 @@ def run(
     model = _resolve_model(problem)
     if raw is not None and not hasattr(model, "assembly"):
         _fail(f"--raw writes a SPICE netlist's vectors; {problem!r} is not a netlist.", EXIT_USAGE)
+    if hasattr(model, "assembly"):  # a netlist: SPICE's time semantics (see spice.run)
+        _run_netlist(model, dt, steps, scheme, discretization, out, plot, raw)
+        return
     h = dt if dt is not None else getattr(model, "dt", None)
     n_steps = steps if steps is not None else getattr(model, "steps", None)
     if steps is None and dt is not None and getattr(model, "stop", None) is not None:
@@ -333,6 +341,64 @@ def run(
             from .plotting import plot_trajectory
 
             plot_trajectory(traj, png, name=model.name)
+        _out().print(f"wrote {png}", markup=False, soft_wrap=True)
+
+
+def _run_netlist(netlist, dt, steps, scheme, discretization, out, plot, raw=None) -> None:
+    """``diracvi run deck.cir``: variable steps and output every TSTEP from TSTART, or a
+    fixed step ``--dt`` to TSTOP (``--steps`` alone: the netlist's TSTEP, that many)."""
+    from . import spice
+
+    if scheme != "plus":
+        _fail("--scheme minus: a netlist runs forward from its initial state.", EXIT_USAGE)
+    fixed = dt is not None or steps is not None
+    with _library_errors(partial_out=out if fixed else None):
+        result = spice.run(netlist, dt=dt, steps=steps, discretization=discretization or "midpoint")
+    if fixed:
+        _print_summary(netlist.name, result.trajectory)
+    else:
+        march, settings = result.trajectory, result.settings
+        table = Table(show_header=False, box=None, pad_edge=False)
+        table.add_column(style="bold")
+        table.add_column()
+        rows = [
+            ("problem", netlist.name),
+            ("scheme", "plus, midpoint, variable steps"),
+            (
+                "steps",
+                f"{len(march.h)} (h {march.h.min():.3g} … {march.h.max():.3g}, TMAX "
+                f"{settings.max_step:.3g}; {march.rejected} of {march.tries} tries rejected)",
+            ),
+            ("time", f"{march.t[0]:g} → {march.t[-1]:g}"),
+            (
+                "output",
+                f"{len(result.time)} points every {settings.step:g} from {settings.start:g}",
+            ),
+            (
+                "tolerances",
+                f"reltol {settings.reltol:g}, abstol {settings.abstol:g}, "
+                f"vntol {settings.vntol:g}, chgtol {settings.chgtol:g}",
+            ),
+            ("status", march.message),
+        ]
+        for key, value in rows:
+            table.add_row(key, value)
+        _out().print(table)
+    for note in netlist.notes:
+        _note(f"note: {note}")
+    if out is not None:
+        with _library_errors():
+            result.save(out)
+        _out().print(f"wrote {out}", markup=False, soft_wrap=True)
+    if raw is not None:
+        with _library_errors():
+            spice.write_raw(result, raw)
+        _out().print(f"wrote {raw}", markup=False, soft_wrap=True)
+    if plot:
+        from .plotting import plot_waveforms
+
+        png = out.with_suffix(".png") if out is not None else Path(f"{netlist.name}.png")
+        plot_waveforms(result.time, result.waveforms, png, title=netlist.title)
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 

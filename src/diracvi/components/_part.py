@@ -44,6 +44,9 @@ class Part(LagrangeDiracSystem):
         role: what the part is (``"resistor"``, ``"voltage"``, ``"current"``, …); the
             network's topology checks read it.
         parameters: the part's defining values, e.g. ``{"inductance": 1e-3}``.
+        waveforms: the source waveforms the part is driven by (their
+            :meth:`~diracvi.components.Waveform.breakpoints` are where a variable-step
+            run must end a step).
         **system_kwargs: ``constraints``, ``force``, ``constraint_names``,
             ``constraint_offset`` of :class:`~diracvi.LagrangeDiracSystem`.
     """
@@ -55,6 +58,7 @@ class Part(LagrangeDiracSystem):
     initial_v: tuple[float, ...] = eqx.field(static=True)
     role: str = eqx.field(static=True)
     parameters: tuple[tuple[str, float], ...] = eqx.field(static=True)
+    waveforms: tuple = eqx.field(static=True)
 
     def __init__(
         self,
@@ -69,6 +73,7 @@ class Part(LagrangeDiracSystem):
         initial_v=None,
         role="part",
         parameters=(),
+        waveforms=(),
         **system_kwargs,
     ):
         super().__init__(coords, lagrangian, name=name, **system_kwargs)
@@ -84,6 +89,7 @@ class Part(LagrangeDiracSystem):
         self.initial_v = _initial("initial_v", initial_v, n, name)
         self.role = str(role)
         self.parameters = tuple((str(k), float(x)) for k, x in dict(parameters).items())
+        self.waveforms = tuple(waveforms)
         for _, coord, _ in (*self.pins, *self.flanges):
             if coord not in self.coords:
                 raise ModelError(

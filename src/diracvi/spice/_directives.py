@@ -56,14 +56,26 @@ def _nodeset(reader, line, pos, kw):
     reader.note(line, ".nodeset noted (an operating-point hint; the transient starts from .ic/IC=)")
 
 
+#: the ``.options`` tolerances a variable-step run meets (checked here, used by _tran)
+TOLERANCES = ("reltol", "abstol", "vntol", "chgtol", "trtol")
+
+
 def _options(reader, line, pos, kw):
     for key, token in kw.items():
         value = number(token)
+        if key in TOLERANCES:  # the variable-step control meets these (spice._tran)
+            value = reader.top.value(token, line, f".options {key}")
+            if not value > 0.0:
+                raise line.fail(f".options {key}={token} must be a positive number")
         reader.options[key] = value if value is not None else token
         if key == "temp":
             _check_temperature(line, value)
     reader.options.update({p.lower(): True for p in pos[1:]})
-    reader.note(line, f"{card(line)} read into netlist.options (it tunes ngspice's solver)")
+    reader.note(
+        line,
+        f"{card(line)} read into netlist.options (reltol, abstol, vntol, chgtol, trtol are "
+        "used by variable-step runs; the rest tunes ngspice's solver)",
+    )
 
 
 def _temp(reader, line, pos, kw):
