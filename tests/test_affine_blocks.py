@@ -8,9 +8,9 @@ import pytest
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._discretize import get_rule
-from diracvi._simulate import check_run, prepared_plan
-from diracvi._solvers import affine
+from diracvi.discretization.rules import get_rule
+from diracvi.driver.simulate import check_run, prepared_plan
+from diracvi.solvers import affine
 
 
 @pytest.mark.parametrize(

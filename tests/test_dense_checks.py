@@ -14,8 +14,8 @@ import pytest
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._consistency import _complement, _port_groups
-from diracvi._solvers.solvability import check_step_jacobian, null_directions
+from diracvi.model.consistency import _complement, _port_groups
+from diracvi.solvers.solvability import check_step_jacobian, null_directions
 
 
 def _dense_complement(w, forms):

@@ -371,7 +371,7 @@ def test_lobatto_runs_traced_with_implicit_function_gradients():
 def test_tangent_solve_elimination_matches_lapack():
     """The traced tangent solve (plain-lax elimination with partial pivoting) against
     LAPACK, on matrices that need row exchanges (zero and tiny leading pivots)."""
-    from diracvi._traced import _gauss_solve
+    from diracvi.driver.traced import _gauss_solve
 
     rng = np.random.default_rng(7)
     solve = jax.jit(_gauss_solve)

@@ -6,7 +6,7 @@ import numpy as np
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._program import lift
+from diracvi.runtime.program import lift
 
 
 def _closure_chain(n: int, m: int):

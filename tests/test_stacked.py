@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-import diracvi._plan as plan_module
-from diracvi import _stacked, problems
-from diracvi._discretize import get_rule
-from diracvi._equations import residual
-from diracvi._stepping import chunk_runner
+import diracvi.driver.plan as plan_module
+from diracvi import problems
+from diracvi.discretization.equations import residual
+from diracvi.discretization.rules import get_rule
+from diracvi.driver.stepping import chunk_runner
+from diracvi.model import stacked as _stacked
 from diracvi.problems.spring_chain import _segment
 
 jax.config.update("jax_enable_x64", True)

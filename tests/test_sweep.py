@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _sweep, problems
+from diracvi import problems
+from diracvi.sweeps import run as _sweep
 
 DT, STEPS = 0.1, 60
 BATCH = 4  # one batch shape in every test: the compiled programs are shared

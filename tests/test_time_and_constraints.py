@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _checkpoint
+from diracvi.driver import checkpoint as _checkpoint
 
 
 def _free_mass():

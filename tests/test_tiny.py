@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from diracvi import _tiny
+from diracvi.solvers import tiny as _tiny
 
 
 @pytest.mark.parametrize(

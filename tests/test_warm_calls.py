@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _simulate, problems
+from diracvi import problems
+from diracvi.driver import simulate as _simulate
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ from collections.abc import Callable, Sequence
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._forms import check_regular, evaluate
 from ._linalg import kernel_basis, row_basis
 from ._structure import DiracStructure

@@ -32,8 +32,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._discretize import RULES, get_rule
-from .._errors import ModelError
+from ..discretization.rules import RULES, get_rule
+from ..errors import ModelError
 from ._discrete import InducedDiscrete, combine
 from ._staged import staged_parts
 from ._tulczyjew import as_rule

@@ -21,7 +21,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._forms import as_forms_function
 from ._linalg import (
     batched_rowspace_residual,

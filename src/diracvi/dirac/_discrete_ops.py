@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._discrete import DiscreteDiracStructure
 from ._linalg import block_diag, row_basis
 from ._tulczyjew import _point

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._linalg import distance, kernel_basis, row_basis, subspace_gap
 
 #: default tolerance of membership and equality tests (relative to O(1) data)

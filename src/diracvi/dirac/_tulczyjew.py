@@ -49,8 +49,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._discretize import QuadratureRule, get_rule
-from .._errors import ModelError
+from ..discretization.rules import QuadratureRule, get_rule
+from ..errors import ModelError
 
 SIDES = ("plus", "minus")
 

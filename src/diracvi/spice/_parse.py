@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import components as cp
-from .._errors import ModelError
+from ..errors import ModelError
 from ._values import ExpressionError, evaluate, number
 
 

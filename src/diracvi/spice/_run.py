@@ -7,8 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._errors import ModelError
-from .._simulate import simulate
+from ..driver.simulate import simulate
+from ..errors import ModelError
 from ._parse import Netlist, read
 from ._probe import to_dataset, waveforms
 
