@@ -250,7 +250,7 @@ def test_large_interconnections_are_stepped_by_the_partitioned_solver():
 
 
 def test_grouped_diagnostics_equal_the_per_subsystem_sum():
-    from diracvi.model.grouped import _plain, step_diagnostics
+    from diracvi.discretization.diagnostics import _plain, step_diagnostics
 
     problem = problems.chain_torn(40, 10)  # ten pieces: evaluated as groups
     rng = np.random.default_rng(7)

@@ -15,6 +15,7 @@ import diracvi as dv
 import diracvi.driver.plan as plan_module
 from diracvi import problems
 from diracvi.discretization.equations import residual
+from diracvi.discretization.maps import discrete_constraints, discrete_momenta
 from diracvi.discretization.rules import get_rule
 from diracvi.driver.stepping import chunk_runner
 from diracvi.model import stacked as _stacked
@@ -82,8 +83,8 @@ def test_packed_terms_match_subsystem_by_subsystem(monkeypatch, rule_name, max_r
         (lambda s: s.lagrangian(q, v), 1e-14),
         (lambda s: s.force(q, v), 0.0),
         (lambda s: s.multiplier_force(q, mu), 0.0),
-        (lambda s: s.discrete_momenta(rule, q, q1, h), 0.0),
-        (lambda s: s.discrete_constraints(rule, "plus", q, q1, h), 0.0),
+        (lambda s: discrete_momenta(rule, s, q, q1, h), 0.0),
+        (lambda s: discrete_constraints(rule, s, "plus", q, q1, h), 0.0),
         (lambda s: s.constraint_forms(q), 0.0),
         (lambda s: residual(s, rule, "plus", h, q, p, x), 0.0),
     ]

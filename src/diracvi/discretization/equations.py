@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from ..model.system import DiracSystem
+from .maps import discrete_constraints, discrete_momenta, reactions
 from .rules import QuadratureRule
 
 SCHEMES = ("plus", "minus")
@@ -94,13 +95,13 @@ def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x,
     q_other, mu = split(system, x)
     if scheme == "plus":
         qk, qk1 = q, q_other
-        p_left, _ = system.discrete_momenta(rule, qk, qk1, h, t)
+        p_left, _ = discrete_momenta(rule, system, qk, qk1, h, t)
         r_mom = p_left + system.multiplier_force(qk, mu, t) - p
     else:
         qk, qk1 = q_other, q
-        _, p_right = system.discrete_momenta(rule, qk, qk1, h, t)
+        _, p_right = discrete_momenta(rule, system, qk, qk1, h, t)
         r_mom = p_right + system.multiplier_force(qk1, mu, t + h) - p
-    r_con = system.discrete_constraints(rule, scheme, qk, qk1, h, t)
+    r_con = discrete_constraints(rule, system, scheme, qk, qk1, h, t)
     return jnp.concatenate([r_mom, r_con])
 
 
@@ -111,11 +112,10 @@ def _staged_lines(system, rule, scheme, h, q, x, t):
     q_other, mu, unknowns, nu = split_stage(system, x)
     qk, qk1 = ordered(scheme, q, q_other)
     stage = rule.stage_from_unknowns(scheme, qk, qk1, unknowns)
-    p_left, p_right, p_stage = system.discrete_momenta(rule, qk, qk1, h, t, stage=stage)
-    reactions = rule.reaction_covectors(
-        system.multiplier_force, scheme, qk, stage, qk1, h, t, mu, nu
+    p_left, p_right, p_stage = discrete_momenta(rule, system, qk, qk1, h, t, stage=stage)
+    r_left, r_stage, r_right = rule.pullback(
+        reactions(rule, system, scheme, qk, stage, qk1, h, t, mu, nu)
     )
-    r_left, r_stage, r_right = rule.pullback(reactions)
     return qk, qk1, p_left - r_left, p_right + r_right, p_stage + r_stage, stage
 
 
@@ -123,7 +123,7 @@ def _staged_residual(system, rule, scheme, h, q, p, x, t):
     """:func:`residual` of a staged rule: ``[momentum; c_end; stage lines; stage rows]``."""
     qk, qk1, left, right, lines, stage = _staged_lines(system, rule, scheme, h, q, x, t)
     r_mom = (left if scheme == "plus" else right) - p
-    c_end, c_stage = system.discrete_constraints(rule, scheme, qk, qk1, h, t, stage=stage)
+    c_end, c_stage = discrete_constraints(rule, system, scheme, qk, qk1, h, t, stage=stage)
     return jnp.concatenate([r_mom, c_end, lines.T.ravel(), c_stage.T.ravel()])
 
 
@@ -135,8 +135,8 @@ def new_momentum(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, x
         return right if scheme == "plus" else left
     q_other, _ = split(system, x)
     if scheme == "plus":
-        return system.discrete_momenta(rule, q, q_other, h, t)[1]
-    return system.discrete_momenta(rule, q_other, q, h, t)[0]
+        return discrete_momenta(rule, system, q, q_other, h, t)[1]
+    return discrete_momenta(rule, system, q_other, q, h, t)[0]
 
 
 def reaction_impulse(system: DiracSystem, scheme: str, h, q, mu, t=0.0):

@@ -22,10 +22,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..discretization.diagnostics import GROUPED_MIN_SUBSYSTEMS
 from ..discretization.equations import first_guess, residual, unknown_count
 from ..errors import ModelError
 from ..model.consistency import Checker
-from ..model.grouped import GROUPED_MIN_SUBSYSTEMS
 from ..model.interconnect import InterconnectedSystem
 from ..runtime.compile import run_once_jit
 from ..solvers.affine import AffineSolver, AffineStepMap, build

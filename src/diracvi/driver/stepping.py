@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..discretization.diagnostics import step_diagnostics
 from ..discretization.equations import (
     StepEquations,
     first_guess,
@@ -42,7 +43,6 @@ from ..discretization.equations import (
     split,
     stage_of,
 )
-from ..model.grouped import step_diagnostics
 from ..runtime.compile import stored_chunk_jit
 from ..solvers.affine import AffineStepMap
 from ..solvers.base import SolveStatus

@@ -437,50 +437,50 @@ class InterconnectedSystem(DiracSystem):
             force = force + general.T @ lam[self._form_row_index()]
         return force
 
-    def interaction_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
-        r"""``α_{d±}(q_k, q_{k+1}) = B(node±) v_k``, with ``v_k = (q_{k+1} − q_k)/h``.
+    # ------------------------------------------ what the discrete maps read
+    def port_arrays(self):
+        """The connections as index arrays ``(x, y, row)`` (row ``row`` of ``B`` is
+        ``dx − dy``), or ``None`` if there are none."""
+        return self._port_arrays() if self._port_index else None
 
-        With internal stages: the pair (end rows, stage rows), the staged rule's rows
-        ``B(Q_j) V_j`` at its stages."""
-        if stage is not None:
-            return self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
-        out = jnp.zeros(len(self._interaction_names), dtype=qk.dtype)
-        if self._port_index:
-            a, b, rows = self._port_arrays()
-            v = (qk1 - qk) / h
-            out = out.at[rows].set(v[a] - v[b])
-        if self.interactions:
-            forms = self.general_forms
-            general = rule.discrete_constraints(lambda q, t: forms(q), side, qk, qk1, h, tk)
-            out = out.at[self._form_row_index()].set(general)
-        return out
+    def general_rows(self):
+        """The rows of ``B`` that :meth:`general_forms` fills, or ``None`` if there are
+        no general interactions."""
+        return self._form_row_index() if self.interactions else None
 
-    def _staged_interaction(self, rule, side, qk, stage, qk1, h, tk):
-        rows = len(self._interaction_names)
-        end = jnp.zeros(rows, dtype=qk.dtype)
-        mid = jnp.zeros((rows, *stage.shape[1:]), dtype=qk.dtype)  # one column per stage row
-        if self._port_index:
-            a, b, index = self._port_arrays()
-            # row by row, the rule's quadratures of v[x] − v[y] along the path: the
-            # constant one-form dx − dy applied to the difference path
-            e, s = rule.discrete_constraints(
-                lambda q, t: jnp.eye(len(a), dtype=q.dtype),
-                side,
-                qk[a] - qk[b],
-                qk1[a] - qk1[b],
-                h,
-                tk,
-                stage=stage[a] - stage[b],
+    def map_subsystems(self, fn, *vectors):
+        """``fn(subsystem, *blocks)`` for every subsystem, on its blocks of the global
+        coordinate-sized ``vectors`` (leading axis of length n); group by group under
+        ``jax.vmap`` when alike subsystems are packed. The parts are read back with
+        :meth:`join_subsystems`."""
+        if self._packing is not None:
+            return self._per_group(fn, *((x, "n") for x in vectors))
+        return [
+            fn(sub, *blocks)
+            for sub, *blocks in zip(
+                self.subsystems, *(self._split(x) for x in vectors), strict=True
             )
-            end, mid = end.at[index].set(e), mid.at[index].set(s)
-        if self.interactions:
-            forms = self.general_forms
-            e, s = rule.discrete_constraints(
-                lambda q, t: forms(q), side, qk, qk1, h, tk, stage=stage
-            )
-            index = self._form_row_index()
-            end, mid = end.at[index].set(e), mid.at[index].set(s)
-        return end, mid
+        ]
+
+    def join_subsystems(self, parts, kind: str = "n"):
+        """The per-subsystem ``parts`` of :meth:`map_subsystems` (each of size ``n_i`` for
+        ``kind="n"``, ``m_i`` for ``"m"``) stacked in subsystem order."""
+        if self._packing is not None:
+            return self._packing.join(parts, kind)
+        return jnp.concatenate(parts)
+
+    @property
+    def packed(self) -> bool:
+        """Whether alike subsystems' parameters are stacked (see :meth:`_packed`)."""
+        return self._packing is not None
+
+    @property
+    def has_offset(self) -> bool:
+        return any(s.has_offset for s in self._kinds())
+
+    @property
+    def has_holonomic(self) -> bool:
+        return any(self.holonomic_mask)
 
     def constraint_forms(self, q, t=0.0):
         r"""``[⊕ A_i(q_i, t); B(q)]``: a basis of ``((⊕Δ_i) ∩ Σ)°`` (the paper's choice)."""
@@ -521,79 +521,6 @@ class InterconnectedSystem(DiracSystem):
             ]
         )
         return own + self.interaction_force(q, lam)
-
-    def discrete_momenta(self, rule, qk, qk1, h, tk=0.0, stage=None):
-        r"""Each subsystem's ``(−D₁L_d^i − f_d^{i,−}, D₂L_d^i + f_d^{i,+})``, stacked (and
-        each one's stage line ``D_Q L_d^i + f_Q^i`` for a staged rule)."""
-        if self._packing is not None:
-            vectors = [(qk, "n"), (qk1, "n")] + ([] if stage is None else [(stage, "n")])
-            parts = self._per_group(
-                lambda s, a, b, *st: s.discrete_momenta(rule, a, b, h, tk, *st), *vectors
-            )
-            return tuple(
-                self._packing.join([p[j] for p in parts], "n") for j in range(len(parts[0]))
-            )
-        if stage is not None:
-            parts = [
-                sub.discrete_momenta(rule, a, b, h, tk, stage=s)
-                for sub, a, b, s in zip(
-                    self.subsystems,
-                    self._split(qk),
-                    self._split(qk1),
-                    self._split(stage),
-                    strict=True,
-                )
-            ]
-            return tuple(jnp.concatenate([p[j] for p in parts]) for j in range(3))
-        parts = [
-            sub.discrete_momenta(rule, a, b, h, tk)
-            for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
-        ]
-        return (
-            jnp.concatenate([p[0] for p in parts]),
-            jnp.concatenate([p[1] for p in parts]),
-        )
-
-    def discrete_constraints(self, rule, side, qk, qk1, h, tk=0.0, stage=None):
-        r"""Each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product retraction); for a
-        staged rule the pair (end rows, stage rows), each in that order."""
-        if self._packing is not None:
-            vectors = [(qk, "n"), (qk1, "n")] + ([] if stage is None else [(stage, "n")])
-            parts = self._per_group(
-                lambda s, a, b, *st: s.discrete_constraints(rule, side, a, b, h, tk, *st),
-                *vectors,
-            )
-            pk = self._packing
-            if stage is None:
-                own = pk.join(parts, "m")
-                return jnp.concatenate(
-                    [own, self.interaction_constraints(rule, side, qk, qk1, h, tk)]
-                )
-            end, mid = self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
-            own_end = pk.join([p[0] for p in parts], "m")
-            own_mid = pk.join([p[1] for p in parts], "m")
-            return jnp.concatenate([own_end, end]), jnp.concatenate([own_mid, mid])
-        if stage is not None:
-            own = [
-                sub.discrete_constraints(rule, side, a, b, h, tk, stage=s)
-                for sub, a, b, s in zip(
-                    self.subsystems,
-                    self._split(qk),
-                    self._split(qk1),
-                    self._split(stage),
-                    strict=True,
-                )
-            ]
-            end, mid = self._staged_interaction(rule, side, qk, stage, qk1, h, tk)
-            return (
-                jnp.concatenate([*(o[0] for o in own), end]),
-                jnp.concatenate([*(o[1] for o in own), mid]),
-            )
-        own = [
-            sub.discrete_constraints(rule, side, a, b, h, tk)
-            for sub, a, b in zip(self.subsystems, self._split(qk), self._split(qk1), strict=True)
-        ]
-        return jnp.concatenate([*own, self.interaction_constraints(rule, side, qk, qk1, h, tk)])
 
     # ------------------------------------------------------------ monolithic
     @property

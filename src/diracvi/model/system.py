@@ -25,7 +25,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..discretization.rules import QuadratureRule
 from ..errors import ModelError
 from ..runtime.config import ensure_float64
 from ..runtime.program import Program, lift
@@ -130,47 +129,24 @@ class DiracSystem(eqx.Module):
         """``A(q, t)ᵀ μ``: the constraint force the multipliers exert."""
         return self.constraint_forms(q, t).T @ mu
 
-    def discrete_momenta(self, rule: QuadratureRule, qk, qk1, h, tk=0.0, stage=None):
-        r"""``(−D₁L_d − f_d^−, D₂L_d + f_d^+)`` at ``(q_k, q_{k+1})`` on ``[t_k, t_k + h]``.
-
-        These are the two discrete Legendre transforms of the forced system: the (+)
-        equations read ``p_k = first + A(q_k)ᵀ μ`` and ``p_{k+1} = second``. A rule with
-        internal stages (``rule.stages``) takes them as ``stage=`` and returns a third
-        entry, ``D_Q L_d + f_Q`` (the stage equations add the stage reactions).
-        """
-        if stage is not None:
-            return self._staged_momenta(rule, qk, stage, qk1, h, tk)
-        d1, d2 = jax.grad(
-            lambda a, b: rule.discrete_lagrangian(self.lagrangian, a, b, h, tk), argnums=(0, 1)
-        )(qk, qk1)
-        if not self.has_force:  # skip tracing a zero force
-            return -d1, d2
-        f_minus, f_plus = rule.discrete_forces(self.force, qk, qk1, h, tk)
-        return -d1 - f_minus, d2 + f_plus
-
-    def _staged_momenta(self, rule: QuadratureRule, qk, stage, qk1, h, tk):
-        d1, dq, d2 = jax.grad(
-            lambda a, s, b: rule.discrete_lagrangian(self.lagrangian, a, b, h, tk, stage=s),
-            argnums=(0, 1, 2),
-        )(qk, stage, qk1)
-        if not self.has_force:
-            return -d1, d2, dq
-        f_minus, f_plus, f_stage = rule.discrete_forces(self.force, qk, qk1, h, tk, stage=stage)
-        return -d1 - f_minus, d2 + f_plus, dq + f_stage
-
     @property
     def has_force(self) -> bool:
         """Whether ``force`` can be nonzero (systems without one skip its quadrature)."""
         return True
 
-    def discrete_constraints(self, rule: QuadratureRule, side: str, qk, qk1, h, tk=0.0, stage=None):
-        """``ω_{d±}(q_k, q_{k+1})``, shape (m,); with a stage, the pair (end rows, stage
-        rows) of the staged rule."""
-        if stage is not None:
-            return rule.discrete_constraints(
-                self.constraint_forms, side, qk, qk1, h, tk, stage=stage
-            )
-        return rule.discrete_constraints(self.constraint_forms, side, qk, qk1, h, tk)
+    @property
+    def has_offset(self) -> bool:
+        """Whether :meth:`constraint_offset` can be nonzero (affine one-form rows)."""
+        return False
+
+    @property
+    def has_holonomic(self) -> bool:
+        """Whether there are holonomic rows ``g(q, t) = 0``."""
+        return False
+
+    def order_rows(self, rows):
+        """The one-form rows then the holonomic rows, put in the system's row order."""
+        return rows
 
 
 def _zero_force(q, v):
@@ -562,41 +538,16 @@ class LagrangeDiracSystem(DiracSystem):
             forms = jnp.concatenate([forms, grad], axis=0)
         return self._ordered(forms)
 
-    def discrete_constraints(self, rule: QuadratureRule, side: str, qk, qk1, h, tk=0.0, stage=None):
-        r"""``[A(node±, t±) v_k + b(node±, t±);  g(q_end, t_end)/h]``, where the holonomic
-        rows are evaluated at the unknown end of the step (``q_{k+1}`` for (+), ``q_k``
-        for (−)) and scaled by ``1/h`` to the size of a velocity row.
-
-        With internal stages (``stage=``), the pair (end rows, stage rows): the staged
-        rule's one-form rows at its stages, and ``g`` at the unknown end and at the
-        rule's other stages (:meth:`~diracvi.discretization.rules.Lobatto.holonomic_points`)."""
-        if stage is not None:
-            return self._staged_constraints(rule, side, qk, stage, qk1, h, tk)
-        rows = rule.discrete_constraints(
-            self.one_forms,
-            side,
-            qk,
-            qk1,
-            h,
-            tk,
-            offset=None if not self._has_offset else self.constraint_offset,
-        )
-        if self._holonomic is not None:
-            q_end, t_end = (qk1, tk + h) if side == "plus" else (qk, tk)
-            rows = jnp.concatenate([rows, self._holonomic(q_end, t=t_end) / h])
+    def order_rows(self, rows):
         return self._ordered(rows)
 
-    def _staged_constraints(self, rule, side, qk, stage, qk1, h, tk):
-        offset = None if not self._has_offset else self.constraint_offset
-        end, mid = rule.discrete_constraints(
-            self.one_forms, side, qk, qk1, h, tk, offset=offset, stage=stage
-        )
-        if self._holonomic is not None:
-            (q_end, t_end), points = rule.holonomic_points(side, qk, stage, qk1, h, tk)
-            end = jnp.concatenate([end, self._holonomic(q_end, t=t_end) / h])
-            held = jnp.stack([self._holonomic(q, t=t) / h for q, t in points], axis=-1)
-            mid = jnp.concatenate([mid, held])
-        return self._ordered(end), self._ordered(mid)
+    @property
+    def has_holonomic(self) -> bool:
+        return self._holonomic is not None
+
+    @property
+    def has_offset(self) -> bool:
+        return self._has_offset
 
     @property
     def _has_offset(self) -> bool:

@@ -14,8 +14,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .interconnect import InterconnectedSystem
-from .stacked import structure_key as _structure_key
+from ..model.interconnect import InterconnectedSystem
+from ..model.stacked import structure_key as _structure_key
+from .maps import discrete_constraints, interaction_constraints
 
 #: below this many subsystems the plain per-subsystem sum traces quickly enough
 GROUPED_MIN_SUBSYSTEMS = 8
@@ -25,8 +26,8 @@ def _plain(system, rule, scheme, h):
     def one(a, b, tk=0.0, stage=None):
         energy = rule.step_energy(system.energy, a, b, h, tk, stage)
         if stage is not None:  # a staged rule: its end rows (the stage rows are internal)
-            return energy, system.discrete_constraints(rule, scheme, a, b, h, tk, stage)[0]
-        return energy, system.discrete_constraints(rule, scheme, a, b, h, tk)
+            return energy, discrete_constraints(rule, system, scheme, a, b, h, tk, stage)[0]
+        return energy, discrete_constraints(rule, system, scheme, a, b, h, tk)
 
     return one
 
@@ -37,7 +38,7 @@ def step_diagnostics(system, rule, scheme: str, h):
     subs = getattr(system, "subsystems", ())
     if not isinstance(system, InterconnectedSystem) or len(subs) < GROUPED_MIN_SUBSYSTEMS:
         return _plain(system, rule, scheme, h)
-    if system._packing is not None:  # its own sums are vmapped group by group already
+    if system.packed:  # its own sums are vmapped group by group already
         return _plain(system, rule, scheme, h)
     offsets = np.cumsum([0] + [s.n for s in subs])
     own = np.cumsum([0] + [s.m for s in subs])
@@ -68,8 +69,8 @@ def step_diagnostics(system, rule, scheme: str, h):
                 sub = eqx.combine(arrays, rest)
                 e = rule.step_energy(sub.energy, x, y, h, tk, s)
                 if s is not None:
-                    return e, sub.discrete_constraints(rule, scheme, x, y, h, tk, s)[0]
-                return e, sub.discrete_constraints(rule, scheme, x, y, h, tk)
+                    return e, discrete_constraints(rule, sub, scheme, x, y, h, tk, s)[0]
+                return e, discrete_constraints(rule, sub, scheme, x, y, h, tk)
 
             s = None if stage is None else stage[q_index]
             if stacked is None:
@@ -80,7 +81,7 @@ def step_diagnostics(system, rule, scheme: str, h):
             energy = energy + jnp.sum(e)
             if c_index.size:
                 con = con.at[c_index.ravel()].set(c.reshape(-1))
-        inter = system.interaction_constraints(rule, scheme, a, b, h, tk, stage)
+        inter = interaction_constraints(rule, system, scheme, a, b, h, tk, stage)
         con = con.at[own[-1] :].set(inter if stage is None else inter[0])
         return energy, con
 
