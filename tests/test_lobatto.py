@@ -81,7 +81,7 @@ def test_lobatto_iiia_iiib_is_singular_on_the_degenerate_rlc_and_iiid_is_not():
     """Why the rule is IIID: under IIIA–IIIB (IIIB's last column is zero) the resistor's
     last-stage velocity enters no equation but the constraint, so the step is singular
     on the paper's RLC; IIID's invertible ``a`` determines every stage."""
-    from diracvi.discretization.rules import IIID
+    from diracvi.discretization.lobatto import IIID
 
     iiia = [[0, 0, 0], [5 / 24, 1 / 3, -1 / 24], [1 / 6, 2 / 3, 1 / 6]]
     iiib = [[1 / 6, -1 / 6, 0], [1 / 6, 1 / 3, 0], [1 / 6, 5 / 6, 0]]

@@ -326,7 +326,7 @@ def test_module_parameters_are_leaves_so_equal_segments_share_one_structure():
     [(2, 1), (0, 2), *(pytest.param(*b, marks=pytest.mark.slow) for b in ((0, 0), (1, 1), (3, 0)))],
 )
 def test_banded_lu_with_pivoting_solves_like_numpy(rng, kl, ku):
-    from diracvi.solvers import _banded
+    from diracvi.solvers import banded as _banded
 
     size = 23
     i, j = np.indices((size, size))

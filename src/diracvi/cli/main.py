@@ -25,6 +25,8 @@ import typer
 from rich.console import Console
 from rich.table import Table
 
+from ..discretization.rules import rule_names
+
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
 
@@ -121,10 +123,14 @@ def _positive_int(ctx: typer.Context, param, value: str | None) -> int | None:
     return number
 
 
-def _choice(options: tuple[str, ...]):
+def _choice(options):
+    """A typer callback accepting only ``options`` (a tuple, or a function giving one when
+    the command runs: the rule registry may grow after this module is imported)."""
+
     def check(ctx: typer.Context, param, value: str | None) -> str | None:
-        if value is not None and value not in options:
-            raise typer.BadParameter(f"{value!r} is not one of {', '.join(options)}.")
+        names = options() if callable(options) else options
+        if value is not None and value not in names:
+            raise typer.BadParameter(f"{value!r} is not one of {', '.join(names)}.")
         return value
 
     return check
@@ -231,8 +237,8 @@ def run(
     discretization: Annotated[
         str | None,
         typer.Option(
-            callback=_choice(("retraction", "midpoint", "lobatto")),
-            metavar="retraction|midpoint|lobatto",
+            callback=_choice(rule_names),
+            metavar="|".join(rule_names()),
             help="Quadrature rule (default: the problem's first solvable one, usually retraction).",
         ),
     ] = None,
@@ -400,8 +406,8 @@ def sweep_command(
     discretization: Annotated[
         str,
         typer.Option(
-            callback=_choice(("retraction", "midpoint", "lobatto")),
-            metavar="retraction|midpoint|lobatto",
+            callback=_choice(rule_names),
+            metavar="|".join(rule_names()),
         ),
     ] = "retraction",
     save_every: Annotated[

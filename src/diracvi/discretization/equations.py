@@ -18,9 +18,9 @@ whichever way the scheme runs (the rule picks its own nodes from it).
 Each residual function returns the stacked residual of the first two lines; the third
 line is the explicit update :func:`new_momentum`.
 
-A rule with internal stages (``rule.stages == 2``, ``"lobatto"``) has the unknowns
-``x = (q_other, μ, S₁, S₂, ν_a, ν_b)``: two stage positions (the stage at the known end
-and the middle one) and the multipliers of the stage rows follow, so the first
+A rule with ``s = rule.stages`` internal stages (``"lobatto"``: 2) has the unknowns
+``x = (q_other, μ, S₁ … S_s, ν₁ … ν_s)``: its stage positions (for Lobatto the stage at
+the known end and the middle one) and the multipliers of the stage rows follow, so the first
 ``n + m`` entries mean what they mean for every rule. Its multipliers act at the stages
 (``r_j = −b_j A(Q_j)ᵀ μ_j``, pulled back to the step's variables like the forces, see
 :class:`~diracvi.discretization.rules.Lobatto`)::
@@ -58,30 +58,30 @@ def unknown_count(system: DiracSystem, rule: QuadratureRule) -> int:
     return (system.n + system.m) * (1 + rule.stages)
 
 
-def split_stage(system: DiracSystem, x):
-    """``x = (q_other, μ, S₁, S₂, ν_a, ν_b)`` of a staged rule → ``(q_other, μ, S, ν)`` with
-    the stage unknowns ``S = [S₁ S₂]`` of shape (n, 2) and ``ν`` of shape (m, 2)."""
+def split_stage(system: DiracSystem, x, stages: int = 2):
+    """``x = (q_other, μ, S₁ … S_s, ν₁ … ν_s)`` of a rule with ``s = stages`` internal stages
+    → ``(q_other, μ, S, ν)`` with the stage unknowns ``S`` of shape (n, s) and ``ν`` of
+    shape (m, s)."""
     n, m = system.n, system.m
-    stage = x[n + m : 3 * n + m].reshape(2, n).T
-    nu = x[3 * n + m : 3 * (n + m)].reshape(2, m).T
+    stage = x[n + m : n + m + stages * n].reshape(stages, n).T
+    nu = x[n + m + stages * n : (n + m) * (1 + stages)].reshape(stages, m).T
     return x[:n], x[n : n + m], stage, nu
 
 
 def stage_of(system: DiracSystem, rule: QuadratureRule, scheme: str, qk, qk1, x):
     """The internal stages ``[Q₁ Q₂]`` (shape (n, 2)) of a staged rule's step ``x`` between
     ``q_k`` and ``q_{k+1}``, else ``None``."""
-    if not rule.stages:
-        return None
-    return rule.stage_from_unknowns(scheme, qk, qk1, split_stage(system, x)[2])
+    unknowns = split_stage(system, x, rule.stages)[2]
+    return rule.stage_from_unknowns(scheme, qk, qk1, unknowns)
 
 
 def first_guess(system: DiracSystem, rule: QuadratureRule, q, q_other, mu):
     """A starting ``x`` from guesses of ``q_other`` and ``μ`` (stages: the rule's guess
     between the ends, every stage multiplier ``= μ``)."""
-    parts = [q_other, mu]
-    if rule.stages:
-        parts += [rule.stage_guess(q, q_other).T.ravel(), jnp.tile(mu, rule.stages)]
-    return jnp.concatenate(parts)
+    if not rule.stages:  # nothing to append: the guess is (q_other, μ) as it is
+        return jnp.concatenate([q_other, mu])
+    stage = rule.stage_guess(q, q_other).T.ravel()
+    return jnp.concatenate([q_other, mu, stage, jnp.tile(mu, rule.stages)])
 
 
 def residual(system: DiracSystem, rule: QuadratureRule, scheme: str, h, q, p, x, t=0.0):
@@ -109,7 +109,7 @@ def _staged_lines(system, rule, scheme, h, q, x, t):
     """``(q_k, q_{k+1}, left, right, stage lines)`` of a staged rule: ``left = −D₁L_d −
     f_d^− − r^−``, ``right = D₂L_d + f_d^+ + r^+``, ``stage = D_Q L_d + f_Q + r_Q``,
     with ``r`` the pull-back of the stage reactions."""
-    q_other, mu, unknowns, nu = split_stage(system, x)
+    q_other, mu, unknowns, nu = split_stage(system, x, rule.stages)
     qk, qk1 = ordered(scheme, q, q_other)
     stage = rule.stage_from_unknowns(scheme, qk, qk1, unknowns)
     p_left, p_right, p_stage = discrete_momenta(rule, system, qk, qk1, h, t, stage=stage)

@@ -94,11 +94,11 @@ def default_solver(system, rule, scheme) -> StepSolver:
 def unknown_names(system, scheme, rule=None):
     other = "q_{k+1}" if scheme == "plus" else "q_k"
     names = [f"{other}[{c}]" for c in system.coords] + [f"μ[{c}]" for c in system.constraint_names]
-    if rule is not None and rule.stages:  # a staged rule's stages Q_j, then their ν_j
-        for j in range(1, rule.stages + 1):
-            names += [f"Q{j}[{c}]" for c in system.coords]
-        for j in range(1, rule.stages + 1):
-            names += [f"ν{j}[{c}]" for c in system.constraint_names]
+    stages = 0 if rule is None else rule.stages  # a staged rule's stages Q_j, then their ν_j
+    for j in range(1, stages + 1):
+        names += [f"Q{j}[{c}]" for c in system.coords]
+    for j in range(1, stages + 1):
+        names += [f"ν{j}[{c}]" for c in system.constraint_names]
     return names
 
 
@@ -106,11 +106,11 @@ def equation_names(system, rule=None):
     names = [f"momentum balance of {c}" for c in system.coords] + [
         f"constraint {c}" for c in system.constraint_names
     ]
-    if rule is not None and rule.stages:
-        for j in range(1, rule.stages + 1):
-            names += [f"stage {j} balance of {c}" for c in system.coords]
-        for j in range(1, rule.stages + 1):
-            names += [f"stage {j} constraint {c}" for c in system.constraint_names]
+    stages = 0 if rule is None else rule.stages
+    for j in range(1, stages + 1):
+        names += [f"stage {j} balance of {c}" for c in system.coords]
+    for j in range(1, stages + 1):
+        names += [f"stage {j} constraint {c}" for c in system.constraint_names]
     return names
 
 

@@ -148,8 +148,8 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     mus = step_map.multipliers(z_from)
     if step_map.driven:
         mus = mus - step_map.mu_offset + mu_offsets
-    if rule.stages:  # the map gives the stage as an increment Q − q
-        mus = mus.at[:, system.m : system.m + n].add(z_from[:, :n])
+    for j in rule.increment_stages():  # the map gives these stages as increments Q − q
+        mus = mus.at[:, system.m + j * n : system.m + (j + 1) * n].add(z_from[:, :n])
     q1s, p1s = zs[:, :n], zs[:, n:]
     zero = jnp.zeros(k, dtype=jnp.int32)
     nan = jnp.full(k, jnp.nan, dtype=q.dtype)

@@ -194,8 +194,8 @@ def _linearizations(system, rule, scheme, h, points, times):
         # in increments: x = (q + d, μ), and the momentum line as p_other − p (a staged
         # rule's stage Q = q + d_Q is an increment too)
         x = y.at[:n].add(q)
-        if rule.stages:
-            x = x.at[n + m : 2 * n + m].add(q)
+        for j in rule.increment_stages():
+            x = x.at[n + m + j * n : n + m + (j + 1) * n].add(q)
         return residual(system, rule, scheme, h, q, p, x, tk), new_momentum(
             system, rule, scheme, h, q, x, tk
         ) - p
