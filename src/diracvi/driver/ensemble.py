@@ -12,9 +12,8 @@ import numpy as np
 from ..errors import ModelError, StepFailure
 from ..model.system import DiracSystem
 from ..model.validate import check_float, check_state
-from .record import failure_message
+from ..status import SolveStatus
 from .simulate import check_run, prepared_plan
-from .stepping import AFFINE_REJECTED
 from .trajectory import Trajectory
 
 
@@ -68,8 +67,13 @@ class Ensemble:
         if code:
             steps = int(self.steps[i])
             its, res, q_bad = self.failure[i]
-            message = failure_message(
-                code, steps, self.t0 + self.sign * self.dt * steps, its, res, self.coords, q_bad
+            message = SolveStatus(code).explain(
+                step=steps,
+                t=self.t0 + self.sign * self.dt * steps,
+                iterations=its,
+                res_norm=res,
+                coords=self.coords,
+                q=q_bad,
             )
         return Trajectory(
             t=self.t0 + self.sign * self.dt * self.step_index[i, : saved + 1],
@@ -165,7 +169,7 @@ def simulate_ensemble(
     carry, fail, saved = plan.chunk(affine, k, bool(save_states), steps // k, batched=True)(
         plan.h_array, clock, carry0
     )
-    if affine and np.any(fail[0] == AFFINE_REJECTED):
+    if affine and np.any(fail[0] == SolveStatus.AFFINE_REJECTED):
         affine, fallback_from = False, 0
         carry, fail, saved = plan.chunk(False, k, bool(save_states), steps // k, batched=True)(
             plan.h_array, clock, carry0

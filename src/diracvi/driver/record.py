@@ -13,33 +13,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..solvers import SolveStatus
-from .trajectory import STATUS_MESSAGES, Trajectory
+from ..status import SolveStatus
+from .trajectory import Trajectory
 
 if TYPE_CHECKING:
     from .plan import Layout
-
-
-def failure_message(status, step, t, iterations, res_norm, coords, q) -> str:
-    where = f"at step {step} (t = {t:.6g})"
-    if status == SolveStatus.MAX_ITERATIONS:
-        return (
-            f"Newton did not converge {where} after {iterations} iterations; residual "
-            f"‖r‖∞ = {res_norm:.3e}. Try a smaller dt, check that the initial data are "
-            "consistent, or raise NewtonSolver(max_steps=...)."
-        )
-    if status == SolveStatus.SINGULAR:
-        return (
-            f"The step equations are not solvable {where}: the step Jacobian became singular "
-            "(the linear solve returned non-finite values). The constraints or the "
-            "Lagrangian degenerate at this state; try a smaller dt or check the model."
-        )
-    bad = [c for c, x in zip(coords, q, strict=True) if not np.isfinite(x)]
-    return (
-        f"NaN or Inf appeared {where}" + (f" in {bad}" if bad else "") + ": the model "
-        "returned non-finite values (a division by zero, a singular mass matrix, or a "
-        "blow-up). Try a smaller dt; check L, the constraints and the force at this state."
-    )
 
 
 class March:
@@ -100,19 +78,18 @@ class March:
             self.failure = (int(iterations), float(res_norm), q_bad)
 
     def trajectory(self, t0, sign, h, scheme, discretization, steps, solver) -> Trajectory:
-        code, message = self.status, STATUS_MESSAGES[0]
+        code, message = self.status, SolveStatus.SUCCESS.summary
         if code and len(self.failure) == 1:
             message = self.failure[0]
         elif code:
             iterations, res_norm, q_bad = self.failure
-            message = failure_message(
-                code,
-                self.done,
-                t0 + sign * h * self.done,
-                iterations,
-                res_norm,
-                self.system.coords,
-                q_bad,
+            message = SolveStatus(code).explain(
+                step=self.done,
+                t=t0 + sign * h * self.done,
+                iterations=iterations,
+                res_norm=res_norm,
+                coords=self.system.coords,
+                q=q_bad,
             )
         index = np.concatenate(self.index)
         cols = [np.concatenate(c) for c in zip(*self.diag, strict=True)] if self.diag else []
@@ -166,7 +143,7 @@ def run_fields(plan, run) -> dict:
         discretization=discretization,
         system_name=shape.name,
         status=0,
-        message=STATUS_MESSAGES[0],
+        message=SolveStatus.SUCCESS.summary,
         solver=plan.describe(),
         steps_requested=steps,
     )

@@ -32,10 +32,10 @@ from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers import StepSolver
 from ..solvers.affine import AffineSolver
+from ..status import SolveStatus
 from . import checkpoint as _checkpoint
 from .plan import Layout, get_plan, layout
 from .record import March, run_fields, whole_run
-from .stepping import AFFINE_REJECTED
 from .traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from .trajectory import Trajectory
 
@@ -312,7 +312,7 @@ def _march(
                 plan.h_array, clock, march.carry
             )
         first = None
-        if affine and int(fail[0]) == AFFINE_REJECTED:
+        if affine and int(fail[0]) == SolveStatus.AFFINE_REJECTED:
             # the equations are not affine after all: redo this chunk with the fallback
             at = march.done + int(np.argmin(np.asarray(saved["n_good"]) == k)) * k
             march.fallback_from = march.done

@@ -45,11 +45,8 @@ from ..discretization.equations import (
 )
 from ..runtime.compile import stored_chunk_jit
 from ..solvers.affine import AffineStepMap
-from ..solvers.base import SolveStatus
 from ..solvers.tiny import max_abs
-
-#: internal status of a step the affine map computed but its verification rejected
-AFFINE_REJECTED = 4
+from ..status import SolveStatus
 
 
 def step_times(scheme: str, h, clock, offset, length: int):
@@ -200,7 +197,7 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
     )
     if affine:
         bad = ~(correction <= method.verify_rtol) | ~jnp.all(jnp.isfinite(q1s), axis=1)
-        status = jnp.where(bad, AFFINE_REJECTED, status)
+        status = jnp.where(bad, SolveStatus.AFFINE_REJECTED, status)
         res = correction
     return energy, con, its, res, status, p_node
 

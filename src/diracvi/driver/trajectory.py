@@ -10,15 +10,7 @@ import jax
 import numpy as np
 
 from ..errors import ModelError
-
-#: status codes of a Trajectory, in the spirit of solve_ivp
-STATUS_MESSAGES = {
-    0: "success",
-    1: "Newton did not converge",
-    2: "the step equations became singular",
-    3: "NaN or Inf appeared",
-}
-
+from ..status import SolveStatus
 
 #: the array attributes of a Trajectory (PyTree children; see _flatten below)
 _ARRAY_FIELDS = (
@@ -156,10 +148,7 @@ class Trajectory:
         self.step_index = np.asarray(fields.pop("step_index"), dtype=np.int64)
         self.status = status
         self.steps_requested = steps_requested
-        self.message = (
-            "traced run: status is an array (0 success, 1 Newton did not converge, 2 the "
-            "step equations became singular, 3 NaN or Inf appeared)"
-        )
+        self.message = f"traced run: status is an array ({SolveStatus.legend()})"
         for name, value in fields.items():
             setattr(self, name, value)
         self.coords = tuple(self.coords)

@@ -9,29 +9,13 @@ same arithmetic exactly.
 
 from __future__ import annotations
 
-import enum
 from typing import Any, ClassVar, NamedTuple
 
 import equinox as eqx
 import jax
 
 from ..errors import ModelError
-
-
-class SolveStatus(enum.IntEnum):
-    """Outcome of one step's solve (the ``status`` of a ``StepResult``).
-
-    ``SUCCESS``: the residual met the tolerance. ``MAX_ITERATIONS``: it did not within the
-    solver's iteration budget. ``SINGULAR``: the linear solve produced non-finite values
-    from finite inputs. ``NONFINITE``: the model itself produced NaN/Inf. ``dv.simulate``
-    raises ``StepFailure`` (keeping the partial trajectory) at the first step whose status
-    is not ``SUCCESS`` (the trajectory's ``status``/``message`` say why).
-    """
-
-    SUCCESS = 0
-    MAX_ITERATIONS = 1
-    SINGULAR = 2  # the linear solve produced non-finite values from finite inputs
-    NONFINITE = 3  # the model itself produced NaN/Inf
+from ..status import SolveStatus  # noqa: F401  (re-exported: a solver's codes)
 
 
 class StepResult(NamedTuple):

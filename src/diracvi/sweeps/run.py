@@ -50,7 +50,6 @@ import numpy as np
 from ..discretization.equations import first_guess, residual
 from ..discretization.rules import get_rule
 from ..driver.plan import equation_names, unknown_names
-from ..driver.record import failure_message
 from ..driver.simulate import check_run
 from ..driver.stepping import chunk_runner
 from ..errors import DiracviError, ModelError, UnsolvableStepError
@@ -60,8 +59,8 @@ from ..model.validate import check_float, check_positive_int
 from ..runtime.compile import run_once_jit, stored_chunk_jit
 from ..runtime.config import ensure_float64
 from ..solvers import NewtonSolver
-from ..solvers.base import SolveStatus
 from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ..status import SolveStatus
 
 #: names the result uses for its own dimensions and variables
 RESERVED = ("time", "step", "step_time", "sample", "status", "message", "steps_taken", "energy")
@@ -523,14 +522,13 @@ def run_batch(build, names, values, settings: SweepSettings, cap: int | None = N
         out["status"][index] = status
         out["steps_taken"][index] = taken
         for j in np.nonzero(status)[0]:
-            out["message"][index[j]] = failure_message(
-                int(status[j]),
-                int(taken[j]),
-                settings.t0 + sign * h * int(taken[j]),
-                int(res["iterations"][j]),
-                float(res["residual"][j]),
-                coords,
-                res["q_bad"][j],
+            out["message"][index[j]] = SolveStatus(int(status[j])).explain(
+                step=int(taken[j]),
+                t=settings.t0 + sign * h * int(taken[j]),
+                iterations=int(res["iterations"][j]),
+                res_norm=float(res["residual"][j]),
+                coords=coords,
+                q=res["q_bad"][j],
             )
         for j in np.nonzero(singular)[0]:
             i = index[j]
