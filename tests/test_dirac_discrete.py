@@ -32,8 +32,8 @@ from diracvi.dirac import (
     omega_flat_plus,
     system_dirac_differential,
 )
-from diracvi.dirac._constructions import combined_forms
 from diracvi.dirac._linalg import rank
+from diracvi.dirac._structure import combined_forms
 
 pytestmark = pytest.mark.filterwarnings("ignore::diracvi.dirac.RedundantFormsWarning")
 

@@ -22,7 +22,7 @@ from diracvi.dirac import (
     is_clean,
     tensor,
 )
-from diracvi.dirac._constructions import combined_forms
+from diracvi.dirac._structure import combined_forms
 
 pytestmark = pytest.mark.filterwarnings("ignore::diracvi.dirac.RedundantFormsWarning")
 
