@@ -107,3 +107,17 @@ def test_no_import_circle_anywhere():
 
 def _is_package(module: str) -> bool:
     return (ROOT.parent / module.replace(".", "/") / "__init__.py").exists()
+
+
+def test_command_modules_do_not_import_each_other():
+    # each command of the CLI lives in its own module and shares only cli/common.py;
+    # cli/main.py registers them
+    shared = {"diracvi.cli", "diracvi.cli.main", "diracvi.cli.common"}
+    wrong = [
+        f"{module} -> {dep}"
+        for module, deps in _imports().items()
+        if module.startswith("diracvi.cli.") and module not in shared
+        for dep in deps
+        if dep.startswith("diracvi.cli") and dep != "diracvi.cli.common"
+    ]
+    assert not wrong, "\n".join(wrong)
