@@ -29,8 +29,9 @@ import numpy as np
 from ..errors import ModelError
 from ..runtime.config import ensure_float64
 from ..runtime.program import Program, lift
+from .monolithic import monolithic
 from .stacked import Packing, pack
-from .system import DiracSystem, LagrangeDiracSystem, StaticTuple, with_row_order
+from .system import DiracSystem, LagrangeDiracSystem, StaticTuple
 from .validate import check_forms_array, check_name, eval_shape
 
 
@@ -557,63 +558,7 @@ class InterconnectedSystem(DiracSystem):
         Lagrangian in one piece — a different computation from the per-subsystem
         assembly, which is what makes the comparison a check of the paper's theorem.
         """
-        subsystems, split = self._members(), self._split
-        timed = self.time_dependent
-
-        def lagrangian(q, v, t=0.0):
-            return sum(
-                s.lagrangian(a, b, t)
-                for s, a, b in zip(subsystems, split(q), split(v), strict=True)
-            )
-
-        mask = self.holonomic_mask
-        m_forms = mask.count(False)
-        q_probe = jnp.zeros(self.n)
-        with_offset = self.constraint_offset(q_probe) is not None
-        forms, offset, held, force = (
-            self.one_forms,
-            self.constraint_offset,
-            self.position_constraints,
-            self.force,
-        )
-        if timed:  # the driven forms take t; autonomous ones keep the two-argument form
-            parts = dict(
-                lagrangian=lambda q, v, t: lagrangian(q, v, t),
-                constraints=lambda q, t: forms(q, t),
-                constraint_offset=lambda q, t: offset(q, t),
-                holonomic=lambda q, t: held(q, t),
-                force=lambda q, v, t: force(q, v, t),
-            )
-        else:
-            parts = dict(
-                lagrangian=lambda q, v: lagrangian(q, v),
-                constraints=lambda q: forms(q),
-                constraint_offset=lambda q: offset(q),
-                holonomic=lambda q: held(q),
-                force=lambda q, v: force(q, v),
-            )
-        names = self.constraint_names
-        mono = LagrangeDiracSystem(
-            self.coords,
-            parts["lagrangian"],
-            constraints=parts["constraints"] if m_forms else None,
-            force=parts["force"] if self.has_force else None,
-            name=self.name,
-            constraint_names=[c for c, h in zip(names, mask, strict=True) if not h] or None,
-            constraint_offset=parts["constraint_offset"] if with_offset else None,
-            holonomic=parts["holonomic"] if any(mask) else None,
-            holonomic_names=[c for c, h in zip(names, mask, strict=True) if h] or None,
-        )
-        if any(mask):
-            # keep the interconnection's row order: its j-th row is the monolithic
-            # system's next one-form row, or (holonomic) its next g row after all forms
-            forms_seen, held_seen, order = 0, 0, []
-            for flag in mask:
-                order.append(m_forms + held_seen if flag else forms_seen)
-                held_seen += flag
-                forms_seen += not flag
-            mono = with_row_order(mono, order, names)
-        return mono
+        return monolithic(self)
 
     @property
     def has_force(self) -> bool:
