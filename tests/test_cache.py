@@ -1,5 +1,7 @@
 """The on-disk compilation cache: where it is, switching it off, and a second process
-really reading the first one's programs (JAX's own cache log says hit or miss)."""
+really reading the first one's programs (JAX's own cache log says hit or miss).
+
+White-box: reads internals of ``diracvi.runtime``."""
 
 import os
 import re

@@ -1,5 +1,8 @@
 """``DIRACVI_FAST_COMPILE``: the same program compiled without LLVM optimization, and the
-run-once options themselves."""
+run-once options themselves.
+
+White-box: reads internals of ``diracvi.driver.plan``, ``diracvi.runtime``,
+``diracvi.runtime.compile``."""
 
 import jax.numpy as jnp
 import numpy as np

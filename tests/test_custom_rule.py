@@ -1,15 +1,16 @@
 """A two-point rule written and registered from a test module, editing no library file:
-the θ-rule, nodes at ``q_k + θ (q_{k+1} − q_k)``, ``t_k + θ h`` (docs/architecture.md)."""
+the θ-rule, nodes at ``q_k + θ (q_{k+1} − q_k)``, ``t_k + θ h`` (docs/architecture.md).
+
+The registry (``diracvi.discretization.rules``) is the documented way in for a new rule."""
 
 import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi.discretization.base import QuadratureRule
 from diracvi.discretization.rules import register_rule, unregister_rule
 
 
-class _Theta(QuadratureRule):
+class _Theta(dv.QuadratureRule):
     """``L_d = h L(q_θ, v_k, t_θ)`` with ``q_θ = (1 − θ) q_k + θ q_{k+1}``; the force
     splits ``(1 − θ, θ)`` between the ends, as ``∂q_θ/∂(q_k, q_{k+1})`` does."""
 

@@ -7,7 +7,9 @@ dense formulas on random instances that have what models have: block-diagonal ``
 massless (singular) blocks, constraint rows across blocks, singular Jacobians. The
 groups of connected ports (connected components of the connection graph, by index) are
 compared with a union–find over the coordinates' names.
-"""
+
+White-box: reads internals of ``diracvi.model.consistency``,
+``diracvi.solvers.solvability``."""
 
 import numpy as np
 import pytest

@@ -1,6 +1,8 @@
 """Importing diracvi makes JAX run CPU programs on the calling thread (diracvi.runtime.dispatch),
 unless DIRACVI_CPU_ASYNC_DISPATCH=1 keeps JAX's default, and says so truthfully when
-JAX's CPU client existed before the import."""
+JAX's CPU client existed before the import.
+
+White-box: reads internals of ``diracvi.runtime``."""
 
 import os
 import subprocess

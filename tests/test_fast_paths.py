@@ -1,6 +1,8 @@
 """Every fast path gives the trajectory plain Newton gives (≤ 1e-12), and says what ran:
 the affine step map (with its per-step verification and fallback), Newton with reused
-factors, thinned and diagnostics-only saving, and ensembles."""
+factors, thinned and diagnostics-only saving, and ensembles.
+
+White-box: reads internals of ``diracvi.discretization.diagnostics``."""
 
 import warnings
 

@@ -3,7 +3,8 @@
 Gradients are checked against central finite differences of the same forward map (the
 jitted traced run, whose values equal the untraced run's, see test_jit_equals_untraced):
 one compilation for the values and one for the gradient per case keeps the file fast.
-"""
+
+White-box: reads internals of ``diracvi.driver.traced``."""
 
 from __future__ import annotations
 

@@ -1,7 +1,9 @@
 """The order-4 rule keeps the structural properties of the others on the paper's
 degenerate RLC circuit: the affine step map is Newton's step, the (−) scheme inverts
 the (+) scheme (Lobatto IIID is symmetric), and checkpointed and ensemble runs are the
-plain run."""
+plain run.
+
+White-box: reads internals of ``diracvi.discretization.lobatto``."""
 
 import numpy as np
 import pytest

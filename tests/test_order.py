@@ -1,4 +1,6 @@
-"""Order of accuracy against exact solutions: the fitted log–log slope is the rule's order."""
+"""Order of accuracy against exact solutions: the fitted log–log slope is the rule's order.
+
+White-box: reads internals of ``diracvi.discretization.lobatto``."""
 
 import numpy as np
 import pytest

@@ -1,4 +1,7 @@
-"""PartitionedSolver: the same steps as dense Newton, solved subsystem by subsystem."""
+"""PartitionedSolver: the same steps as dense Newton, solved subsystem by subsystem.
+
+White-box: reads internals of ``diracvi.discretization.equations``,
+``diracvi.discretization.rules``, ``diracvi.solvers``."""
 
 import dataclasses
 

@@ -5,7 +5,9 @@ unknowns and its three stage multipliers; every interaction row is imposed at th
 stages, each copy with its own multiplier (``docs/discretizations.md``). These tests hold
 the partitioned solver to the paper's theorem (torn ≡ monolithic), to dense Newton's
 iterates, and to the automatic solver choice.
-"""
+
+White-box: reads internals of ``diracvi.discretization.equations``,
+``diracvi.discretization.rules``, ``diracvi.driver.plan``."""
 
 import equinox as eqx
 import jax.numpy as jnp

@@ -3,7 +3,10 @@
 The packed system must compute what the subsystem-by-subsystem one computes (every
 per-subsystem term, the step residual, a whole simulated trajectory), and its compiled
 chunk must not grow with the number of alike pieces.
-"""
+
+White-box: reads internals of ``diracvi.discretization.equations``,
+``diracvi.discretization.maps``, ``diracvi.discretization.rules``,
+``diracvi.driver.plan``, ``diracvi.driver.stepping``, ``diracvi.model``."""
 
 import equinox as eqx
 import jax

@@ -1,6 +1,9 @@
 """The program store (diracvi.runtime.store): a second process loads the first one's compiled
 programs without tracing, gets bitwise the same run, and a key never confuses two
-programs — what the key cannot represent is compiled as before."""
+programs — what the key cannot represent is compiled as before.
+
+White-box: reads internals of ``diracvi.runtime``, ``diracvi.runtime.fingerprint``,
+``diracvi.runtime.program``, ``diracvi.runtime.store``, ``diracvi.solvers``."""
 
 import functools
 import json

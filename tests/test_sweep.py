@@ -1,5 +1,7 @@
 """``dv.sweep``: members equal single runs, one compilation per structure, Dask equals
-embedded bitwise (also after a worker dies), and ``out=`` resumes after an interruption."""
+embedded bitwise (also after a worker dies), and ``out=`` resumes after an interruption.
+
+White-box: reads internals of ``diracvi.sweeps``."""
 
 from __future__ import annotations
 

@@ -4,7 +4,8 @@ The physics (orders against closed forms, power balance, linkages against reduce
 solve_ivp references) is in test_driven.py and test_holonomic.py; here: how callables are
 read, where each rule evaluates time and the affine term, bad input, initial data and
 resumed runs.
-"""
+
+White-box: reads internals of ``diracvi.driver``."""
 
 import jax.numpy as jnp
 import numpy as np

@@ -1,4 +1,6 @@
-"""The elementwise forms of tiny products and maxima equal NumPy's, NaN and all."""
+"""The elementwise forms of tiny products and maxima equal NumPy's, NaN and all.
+
+White-box: reads internals of ``diracvi.solvers``."""
 
 import jax
 import jax.numpy as jnp

@@ -1,6 +1,8 @@
 """A warm ``simulate`` (plan cached, the quick consistency check, a whole run returned
 from one compiled chunk) checks exactly what a cold call checks, and returns what the
-general chunk-by-chunk march returns."""
+general chunk-by-chunk march returns.
+
+White-box: reads internals of ``diracvi.driver``."""
 
 import pickle
 
