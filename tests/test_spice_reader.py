@@ -13,8 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 import _ngspice as ng
-from diracvi import spice
-from diracvi._errors import ModelError
+from diracvi import ModelError, spice
 from diracvi.cli import app
 from diracvi.spice._values import number
 

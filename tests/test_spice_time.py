@@ -19,10 +19,11 @@ from typer.testing import CliRunner
 
 import _ngspice as ng
 from _ngspice import available, ngspice
-from diracvi import _adaptive, spice
 from diracvi import components as cp
-from diracvi._discretize import get_rule
+from diracvi import spice
 from diracvi.cli import app
+from diracvi.discretization.rules import get_rule
+from diracvi.driver import adaptive as _adaptive
 from diracvi.spice._resample import Sampler
 from diracvi.spice._tran import breakpoints, tran_settings
 

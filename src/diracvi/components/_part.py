@@ -15,8 +15,8 @@ from __future__ import annotations
 import equinox as eqx
 import numpy as np
 
-from .._errors import ModelError
-from .._system import LagrangeDiracSystem
+from ..errors import ModelError
+from ..model.system import LagrangeDiracSystem
 
 TRANSLATIONAL = "translational"
 ROTATIONAL = "rotational"

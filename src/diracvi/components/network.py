@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._errors import ModelError
-from .._interconnect import Interaction, connect, interconnect
+from ..errors import ModelError
+from ..model.interconnect import Interaction, connect, interconnect
 from ._part import Part
 from .electrical import CoupledInductors, Ground, MutualInductance
 

@@ -13,7 +13,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 
 def _num(where: str, arg: str, value, positive: bool = False, nonneg: bool = False) -> float:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import components as cp
-from .._errors import ModelError
+from ..errors import ModelError
 from ._directives import DIRECTIVES
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._save import select

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth

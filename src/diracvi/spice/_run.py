@@ -17,9 +17,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .._adaptive import Controls, adaptive
-from .._errors import ModelError, StepFailure
-from .._simulate import simulate
+from ..driver.adaptive import Controls, adaptive
+from ..driver.simulate import simulate
+from ..errors import ModelError, StepFailure
 from ._parse import Netlist, read
 from ._probe import to_dataset, waveforms
 from ._resample import Sampler, step_potentials
@@ -53,7 +53,7 @@ class Result(Mapping):
     fixed-step one.
     ``result.internal``: a variable-step run's own points (``None`` for a fixed step);
     ``result.trajectory``: the :class:`~diracvi.Trajectory` of a fixed-step run, the
-    :class:`~diracvi._adaptive.AdaptiveRun` of a variable-step one;
+    :class:`~diracvi.driver.adaptive.AdaptiveRun` of a variable-step one;
     ``result.settings``: the :class:`~diracvi.spice._tran.TranSettings` used.
     """
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
 from ._lines import Line, LineError, NetlistError, card, split
 from ._subckt import MAX_DEPTH, collect, instance_parts
