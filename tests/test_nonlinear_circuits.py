@@ -20,7 +20,7 @@ from _ngspice import operating_point as ngspice_op
 from diracvi import spice
 from diracvi._solvers.limiting import pnjlim
 from diracvi.components.diode import THERMAL_VOLTAGE, Diode, _Junction, breakdown_knee
-from diracvi.components.operating_point import METHODS, operating_point
+from diracvi.spice._operating_point import METHODS, operating_point
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
 

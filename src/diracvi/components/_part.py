@@ -18,8 +18,8 @@ import equinox as eqx
 import jax
 import numpy as np
 
-from .._errors import ModelError
-from .._system import LagrangeDiracSystem
+from ..errors import ModelError
+from ..model.system import LagrangeDiracSystem
 
 # A part built inside jax.grad may keep a traced number in a static field (a capacitor's
 # initial charge C·v0, a waveform's amplitude): it is read while the model is built or
@@ -56,6 +56,9 @@ class Part(LagrangeDiracSystem):
         role: what the part is (``"resistor"``, ``"voltage"``, ``"current"``, …); the
             network's topology checks read it.
         parameters: the part's defining values, e.g. ``{"inductance": 1e-3}``.
+        waveforms: the source waveforms the part is driven by (their
+            :meth:`~diracvi.components.Waveform.breakpoints` are where a variable-step
+            run must end a step).
         **system_kwargs: ``constraints``, ``force``, ``constraint_names``,
             ``constraint_offset`` of :class:`~diracvi.LagrangeDiracSystem`.
     """
@@ -68,9 +71,10 @@ class Part(LagrangeDiracSystem):
     role: str = eqx.field(static=True)
     parameters: tuple[tuple[str, float], ...] = eqx.field(static=True)
     #: coordinates whose velocity is a junction voltage, limited between Newton iterates
-    #: (:mod:`diracvi._solvers.limiting`), and their ``(nV_T, V_crit, BV)`` rows
+    #: (:mod:`diracvi.solvers.limiting`), and their ``(nV_T, V_crit, BV)`` rows
     junctions: tuple[int, ...] = eqx.field(static=True)
     junction_limits: object
+    waveforms: tuple = eqx.field(static=True)
 
     def __init__(
         self,
@@ -87,6 +91,7 @@ class Part(LagrangeDiracSystem):
         parameters=(),
         junctions=(),
         junction_limits=None,
+        waveforms=(),
         **system_kwargs,
     ):
         super().__init__(coords, lagrangian, name=name, **system_kwargs)
@@ -107,6 +112,7 @@ class Part(LagrangeDiracSystem):
         self.parameters = tuple(
             (str(k), float(x)) for k, x in dict(parameters).items() if not traced(x)
         )
+        self.waveforms = tuple(waveforms)
         for _, coord, _ in (*self.pins, *self.flanges):
             if coord not in self.coords:
                 raise ModelError(

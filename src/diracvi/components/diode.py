@@ -52,7 +52,7 @@ import math
 
 import jax.numpy as jnp
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._part import Part, finite, positive, traced
 
 #: kT/q at ngspice's nominal 27 °C (CONSTboltz, CHARGE of ngspice's const.h)

@@ -16,7 +16,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._part import Part, finite, positive
 from .waveforms import as_waveform
 
@@ -194,7 +194,9 @@ def VoltageSource(value, *, name: str) -> Part:
     def force(q, v, t):
         return -jnp.atleast_1d(wave(t)) + 0.0 * v
 
-    return Part(("q",), _zero_l, force=force, name=name, pins=_TWO_PINS, role="voltage")
+    return Part(
+        ("q",), _zero_l, force=force, name=name, pins=_TWO_PINS, role="voltage", waveforms=(wave,)
+    )
 
 
 def CurrentSource(value, *, name: str) -> Part:
@@ -210,4 +212,5 @@ def CurrentSource(value, *, name: str) -> Part:
         name=name,
         pins=_TWO_PINS,
         role="current",
+        waveforms=(wave,),
     )

@@ -19,7 +19,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
@@ -42,6 +42,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     :class:`~diracvi.spice.Netlist`); ``traj``: its trajectory (states saved, every step).
     A traced trajectory (inside ``jax.grad``) gives JAX arrays, differentiable.
     """
+    display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
     assembly = getattr(assembly, "assembly", assembly)
     if traj.q is None or traj.save_every != 1:
         raise ValueError(
@@ -71,7 +72,8 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         vel = xp.diff(q) / h  # at the half nodes
         mid = 0.5 * (vel[1:] + vel[:-1])
         ends = (_end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES))
-        out[f"i({label})"] = xp.concatenate([xp.stack([ends[0]]), mid, xp.stack([ends[1]])])
+        cur = xp.concatenate([xp.stack([ends[0]]), mid, xp.stack([ends[1]])])
+        out[f"i({display.get(label, label)})"] = cur
     return out
 
 
