@@ -90,7 +90,7 @@ def test_reader_understands_the_supported_syntax():
         ("D1 a 0 nomodel", r"line 2: model 'nomodel' is not defined"),
         ("M1 d g s b nmos", r"line 2: element 'M1': a MOSFET is not supported"),
         ("D1 a 0 d1 2 3", r"line 2: expected 'Dname anode cathode model \[area\] \[OFF\]"),
-        (".model d1 D(IS=1e-14 IKF=10)\nD1 a 0 d1", r"diode model 'd1' \(line 2\) sets \['ikf'\]"),
+        ("D1 a 0 d1\n.model d1 D(IS=1e-14 IKF=10)", r"line 2: diode model 'd1' \(line 3\) sets"),
         ("V1 a 0 SIN(0 1 50", r"line 2: unbalanced"),
         ("V1 a 0 AM(1 2 3)", r"line 2: .*'AM'"),
         (".tran 1u", r"line 2: '.tran' expects"),

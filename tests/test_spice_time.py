@@ -22,6 +22,7 @@ from _ngspice import available, ngspice
 from diracvi import components as cp
 from diracvi import spice
 from diracvi.cli import app
+from diracvi.discretization.maps import discrete_constraints
 from diracvi.discretization.rules import get_rule
 from diracvi.driver import adaptive as _adaptive
 from diracvi.spice._resample import Sampler
@@ -246,7 +247,7 @@ def test_variable_steps_keep_kcl_and_the_power_balance_per_step(name):
     t, h, q, p, mu = march.t, march.h, march.q, march.p, march.mu
     assert np.max(h) / np.min(h) > 5.0  # the steps did vary
     rule = get_rule("midpoint")
-    con = jax.vmap(lambda a, b, hh, tt: system.discrete_constraints(rule, "plus", a, b, hh, tt))(
+    con = jax.vmap(lambda a, b, hh, tt: discrete_constraints(rule, system, "plus", a, b, hh, tt))(
         q[:-1], q[1:], h, t[:-1]
     )
     v = np.diff(q, axis=0) / h[:, None]

@@ -114,8 +114,11 @@ def _title(reader, line, pos, kw):
 
 def _op(reader, line, pos, kw):
     reader.op = True  # spice.operating_point() reports it; a transient starts from it
-    reader.note(line, ".op: the DC operating point (spice.operating_point(); without UIC "
-                "the transient starts from it)")
+    reader.note(
+        line,
+        ".op: the DC operating point (spice.operating_point(); without UIC "
+        "the transient starts from it)",
+    )
 
 
 def _noted(what):

@@ -238,6 +238,8 @@ def operating_point(source) -> OperatingPoint:
         return _operating_point(netlist, hold=netlist.ic, off=netlist.off)
     except ModelError as exc:
         raise ModelError(f"netlist {netlist.title!r}: {exc}") from None
+
+
 def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     """Step control for a netlist: ``reltol`` on every signal; branch charges against
     ``chgtol``, their currents against ``abstol``, node potentials (the KCL multipliers)
