@@ -8,7 +8,7 @@ known: from the output voltage alone only the ratios of ``I_S``, ``C`` and ``1/R
 identifiable, since ``C dv/dt = I_S e^{v_D/nV_T} − v/R`` is homogeneous in the three).
 Its output voltage, sampled with noise (σ = 5 mV), is the "measurement". The two values
 are then fitted by Levenberg–Marquardt (``optimistix.least_squares``) in log space through
-``spice.run`` itself: ``spice.run(NETLIST, params=...)`` accepts traced values, so the
+``spice.run`` itself: ``spice.run(NETLIST, dt=..., params=...)`` accepts traced values, so the
 residuals' Jacobian comes from forward-mode derivatives of the run (implicit-function
 derivatives of each Newton step). The fit recovers each value within three standard
 errors, ``cov = σ² (JᵀJ)⁻¹``.
@@ -43,7 +43,7 @@ SIGMA = 5e-3
 def observe(log_theta):
     """The output voltage at every step (t > 0) for parameters ``exp(log_theta)``."""
     values = dict(zip(NAMES, jnp.exp(log_theta), strict=True))
-    return spice.run(NETLIST, params=values)["v(out)"][1:]
+    return spice.run(NETLIST, dt=20e-6, params=values)["v(out)"][1:]  # a fixed step: traced
 
 
 def fit(seed: int = 0):

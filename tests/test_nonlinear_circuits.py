@@ -18,8 +18,8 @@ import diracvi as dv
 from _ngspice import available, fine_transient
 from _ngspice import operating_point as ngspice_op
 from diracvi import spice
-from diracvi._solvers.limiting import pnjlim
 from diracvi.components.diode import THERMAL_VOLTAGE, Diode, _Junction, breakdown_knee
+from diracvi.solvers.limiting import pnjlim
 from diracvi.spice._operating_point import METHODS, operating_point
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
@@ -373,7 +373,7 @@ R1 out 0 1k
 """
     read = spice.read(netlist)
     assert any("OFF" in note for note in read.notes)
-    with pytest.raises(spice.NetlistError, match=r"line 5: diode parameters \['ikf'\]"):
+    with pytest.raises(spice.NetlistError, match=r"diode model 'dall' \(line 5\) sets \['ikf'\]"):
         spice.read(netlist.replace("M=0.33", "M=0.33 IKF=1"))
     with pytest.raises(spice.NetlistError, match="TNOM"):
         spice.read(netlist.replace("TNOM=27", "TNOM=50"))
@@ -398,7 +398,7 @@ NAMES = ("rval", "cval", "lval", "isat", "amp")
 
 
 def _loss(theta):
-    result = spice.run(GRADIENT_NETLIST, params=dict(zip(NAMES, theta, strict=True)))
+    result = spice.run(GRADIENT_NETLIST, dt=10e-6, params=dict(zip(NAMES, theta, strict=True)))
     return jnp.sum(result["v(c)"] ** 2) + 1e3 * jnp.sum(result["i(L1)"] ** 2)
 
 

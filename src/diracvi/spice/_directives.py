@@ -116,8 +116,8 @@ def _op(reader, line, pos, kw):
     reader.op = True  # spice.operating_point() reports it; a transient starts from it
     reader.note(
         line,
-        ".op: the DC operating point (spice.operating_point(); without UIC "
-        "the transient starts from it)",
+        ".op noted: spice.operating_point() gives the DC operating point; without UIC "
+        "the transient starts from it",
     )
 
 

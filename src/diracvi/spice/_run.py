@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
+import jax
 import numpy as np
 
 from ..driver.adaptive import Controls, adaptive
@@ -207,6 +208,12 @@ def run(
     """
     netlist = source if isinstance(source, Netlist) else read(source, params=params)
     if dt is None and steps is None:
+        if any(isinstance(v, jax.core.Tracer) for v in (params or {}).values()):
+            raise ModelError(
+                "params=: traced values (jax.grad, jit, vmap) need a fixed step, because the "
+                "variable steps are chosen on the host; pass dt= (e.g. the netlist's TSTEP "
+                f"{netlist.dt:g})."
+            )
         return _variable(netlist, discretization, internal, simulate_kwargs)
     q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC
     h = dt if dt is not None else netlist.dt
