@@ -27,7 +27,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
-import _corpus as corpus  # noqa: E402
+import _corpus as corpus
 
 SLOW_SECONDS = 10.0
 
@@ -51,7 +51,7 @@ def run_deck(name: str, entry: dict, *, references: bool) -> dict:
         row["message"] = f"{type(exc).__name__}: {exc}"
     else:
         row["seconds"] = time.perf_counter() - t0
-        worst, errors, missing = corpus.compare(result, t, ref)
+        worst, _, missing = corpus.compare(result, t, ref)
         row["error"], row["missing"] = worst, missing
         row["status"] = "agrees" if worst <= corpus.TOL and not missing else "disagrees"
     try:
@@ -93,7 +93,7 @@ def table(rows: list[dict], markdown: bool) -> str:
         lines += ["| " + " | ".join(f"`{c}`" if j == 0 else c for j, c in enumerate(b)) + " |"
                   for b in body]  # fmt: skip
         return "\n".join(lines)
-    widths = [max(len(str(x)) for x in col) for col in zip(head, *body)]
+    widths = [max(len(str(x)) for x in col) for col in zip(head, *body, strict=True)]
     widths = [min(w, 70) for w in widths]
     fmt = "  ".join(f"{{:{w}.{w}}}" for w in widths)
     return "\n".join(fmt.format(*map(str, line)) for line in [head, *body])
@@ -113,7 +113,7 @@ def write_expected(rows: list[dict], expected: dict) -> None:
     out = [
         "# What diracvi does with each corpus deck today (tests/test_corpus.py checks it).",
         "# status: agrees | disagrees (runs, off by more than 1e-3 of a peak) | refused",
-        '# (then `match` must be in the error message). Regenerate the statuses with',
+        "# (then `match` must be in the error message). Regenerate the statuses with",
         "#     python benchmarks/corpus.py --write-expected",
         "# and update them by hand when support lands (the test says which).",
         "",

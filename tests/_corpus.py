@@ -239,7 +239,11 @@ def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], f
     tran = find_tran(deck.read_text(errors="replace"))
     t = data[:, 0]
     grid = tran.grid()
-    return grid, {n: np.interp(grid, t, data[:, j]) for j, n in enumerate(names) if kept(n)}, seconds
+    return (
+        grid,
+        {n: np.interp(grid, t, data[:, j]) for j, n in enumerate(names) if kept(n)},
+        seconds,
+    )
 
 
 def write_reference(path: Path, grid: np.ndarray, signals: dict[str, np.ndarray]) -> None:
