@@ -110,6 +110,8 @@ def summary(rows: list[dict]) -> str:
 
 
 def write_expected(rows: list[dict], expected: dict) -> None:
+    """Rewrite EXPECTED.toml: the statuses of ``rows``, every other deck as it was."""
+    done = {r["deck"]: r for r in rows}
     out = [
         "# What diracvi does with each corpus deck today (tests/test_corpus.py checks it).",
         "# status: agrees | disagrees (runs, off by more than 1e-3 of a peak) | refused",
@@ -118,11 +120,22 @@ def write_expected(rows: list[dict], expected: dict) -> None:
         "# and update them by hand when support lands (the test says which).",
         "",
     ]
-    for r in rows:
-        e = expected[r["deck"]]
-        out.append(f"[{r['deck']}]")
+    for name, e in expected.items():
+        out.append(f"[{name}]")
         out.append(f'file = "{e["file"]}"')
         out.append(f'blob = "{e["blob"]}"')
+        r = done.get(name)
+        if r is None:
+            for key in ("status", "match", "error", "slow"):
+                if key in e:
+                    value = e[key]
+                    if isinstance(value, str):
+                        value = '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+                    elif isinstance(value, bool):
+                        value = str(value).lower()
+                    out.append(f"{key} = {value}")
+            out.append("")
+            continue
         out.append(f'status = "{r["status"]}"')
         if r["status"] == "refused":
             match = reason(r).replace("\\", "\\\\").replace('"', '\\"')
