@@ -109,6 +109,18 @@ def summary(rows: list[dict]) -> str:
     )
 
 
+def tally(rows: list[dict]) -> str:
+    """How many decks use each feature beyond today's reader (the table's survey)."""
+    count: dict[str, list[str]] = {}
+    for r in rows:
+        for item in r["needs"]:
+            count.setdefault(item, []).append(r["deck"])
+    lines = ["decks needing each feature (a deck usually needs several):"]
+    for item, decks in sorted(count.items(), key=lambda kv: (-len(kv[1]), kv[0])):
+        lines.append(f"  {len(decks):3d}  {item}")
+    return "\n".join(lines)
+
+
 def write_expected(rows: list[dict], expected: dict) -> None:
     """Rewrite EXPECTED.toml: the statuses of ``rows``, every other deck as it was."""
     done = {r["deck"]: r for r in rows}
@@ -164,6 +176,8 @@ def main(argv=None) -> int:
     print(table(rows, args.markdown))
     print()
     print(summary(rows))
+    print()
+    print(tally(rows))
     if args.write_expected:
         write_expected(rows, expected)
     return 0

@@ -320,7 +320,8 @@ def elements(deck: Path) -> str:
 # ------------------------------------------------------------------ what a deck needs
 
 _BASIC = set("RCLKVID")
-_KNOWN_DIRECTIVES = {".tran", ".ic", ".param", ".model", ".options", ".option", ".opt", ".end"}
+_KNOWN_DIRECTIVES = {".tran", ".ic", ".param", ".model", ".options", ".option", ".opt", ".end",
+                     ".print", ".plot", ".save", ".ends"}  # fmt: skip
 _DIODE_BASIC = {"is", "n"}
 
 
@@ -337,7 +338,7 @@ def needs(deck: Path) -> list[str]:
 
     if re.search(r"^\s*\.control\b", text, re.I | re.M):
         add(".control")
-    lines = logical_lines("\n".join(strip_control(text)))
+    lines = _with_includes(logical_lines("\n".join(strip_control(text))), deck.parent)
     tran = None
     for line in lines:
         low = line.lower()
@@ -355,10 +356,12 @@ def needs(deck: Path) -> list[str]:
             elif head == ".tran":
                 tran = _tran(low.replace(",", " ").split()[1:])
             elif head not in _KNOWN_DIRECTIVES:
-                add(head)
+                add({".meas": ".measure", ".inc": ".include"}.get(head, head))
             continue
         letter = head[0].upper()
-        if letter not in _BASIC:
+        if not letter.isalpha():
+            add(f"a line starting with {head[0]!r}")
+        elif letter not in _BASIC:
             add(letter)
         if letter in "VI":
             if re.search(r"\bac\b", low):
@@ -370,10 +373,29 @@ def needs(deck: Path) -> list[str]:
                 add("source without ( )")
             if re.search(r"\bpwl\b.*\b(td|r)\s*=", low):
                 add("PWL TD=/R=")
+            if re.search(r"\bsin\s*\(?\s*\S+\s+\S+\s+\S+\s+-", low):
+                add("SIN with TD < 0")
     if tran is None:
         add("tran in .control only")
     elif tran.start:
         add("TSTART")
     if tran is not None and not tran.uic:
-        add("OP (no UIC)")
+        add("DC OP (no UIC)")
+    return out
+
+
+def _with_includes(lines: list[str], folder: Path, depth: int = 0) -> list[str]:
+    """``lines`` with each ``.include``/``.inc``/``.lib <file>`` of a local file spliced in
+    (an included file has no title line)."""
+    out: list[str] = []
+    for line in lines:
+        words = line.split()
+        if words[0].lower() in (".include", ".inc", ".lib") and len(words) == 2 and depth < 5:
+            path = folder / words[1].strip("'\"")
+            if path.is_file():
+                text = "* included\n" + path.read_text(errors="replace")
+                out.append(line)
+                out += _with_includes(logical_lines(text), path.parent, depth + 1)
+                continue
+        out.append(line)
     return out
