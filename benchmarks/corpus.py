@@ -21,13 +21,16 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
 import time
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT / "src"))  # this checkout's diracvi, as the tests import it
 
-import _corpus as corpus
+import _corpus as corpus  # noqa: E402  (after the path set-up above)
 
 SLOW_SECONDS = 10.0
 
@@ -63,7 +66,10 @@ def run_deck(name: str, entry: dict, *, references: bool) -> dict:
 
 def reason(row: dict) -> str:
     if row["status"] == "refused":
-        first = row["message"].splitlines()[0]
+        # the first line naming a netlist line (a reader may list several problems)
+        lines = [x.strip() for x in row["message"].splitlines() if x.strip()]
+        first = next((x for x in lines if re.search(r"\bline \d+", x)), lines[0])
+        first = re.sub(r"^\w+(Error|Exception): ", "", first)  # the class name is not the point
         return first.split(" (supported")[0].split(" (only")[0]
     if row["status"] == "disagrees":
         text = f"max error {row['error']:.2g} of peak"

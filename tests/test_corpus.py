@@ -114,3 +114,38 @@ def test_a_fresh_ngspice_run_reproduces_the_committed_reference(name):
     for vector, values in committed.items():
         peak = max(float(np.max(np.abs(values))), 1e-300)
         assert np.max(np.abs(fresh[vector] - values)) <= 1e-8 * peak, vector
+
+
+def test_the_rc_reference_is_the_exact_response():
+    # guards the harness end to end: ngspice's tests/general/rc.cir (R = 1, C = 1, PULSE(0 1)
+    # with TR = TSTEP = 0.1 by default) against the exact response to that ramp-and-hold
+    t, ref = corpus.load_reference("ng_rc")
+    tr = 0.1
+    ramp = (t - 1 + np.exp(-t)) / tr
+    v_tr = (tr - 1 + np.exp(-tr)) / tr
+    exact = np.where(t <= tr, ramp, 1 + (v_tr - 1) * np.exp(-(t - tr)))
+    assert np.max(np.abs(ref["v(2)"] - exact)) < 1e-6
+    np.testing.assert_allclose(t, np.arange(71) * 0.1, rtol=0, atol=1e-12)
+
+
+def test_tran_lines_and_the_output_grid():
+    tran = corpus.find_tran("t\n.TRAN .2U 3M 0.50M\n")
+    assert (tran.step, tran.stop, tran.start) == pytest.approx((2e-7, 3e-3, 5e-4), rel=1e-12)
+    assert not tran.uic
+    grid = tran.grid()  # 12 501 TSTEP points, subsampled, ending at TSTOP
+    assert len(grid) <= corpus.MAX_POINTS
+    assert grid[0] == pytest.approx(5e-4) and grid[-1] == pytest.approx(3e-3, rel=1e-12)
+    assert np.allclose(np.diff(grid[:-1]), 7 * 2e-7)
+    # a tran command inside .control when there is no .tran line; UIC kept
+    only = corpus.find_tran("t\nv1 1 0 1\n.control\ntran 10u 10m uic\n.endc\n.end\n")
+    assert (only.step, only.stop) == pytest.approx((1e-5, 1e-2), rel=1e-12) and only.uic
+    assert corpus.spice_number("2ns") == pytest.approx(2e-9) and corpus.spice_number("1MEG") == 1e6
+
+
+def test_which_vectors_are_compared_and_their_diracvi_names():
+    assert corpus.kept("v(out)") and corpus.kept("i(vin)") and corpus.kept("i(l1)")
+    assert corpus.kept("v(x1.net-_m1-pad1_)") and corpus.kept("i(v.x1.v1)")
+    assert not corpus.kept("i(e1)") and not corpus.kept("i(a.xtr2.a1)")
+    assert not corpus.kept("v(pa_00)") and not corpus.kept("time")
+    assert corpus.diracvi_keys("i(v.x1.vm)") == ["i(v.x1.vm)", "i(x1.vm)"]
+    assert corpus.diracvi_keys("V(Out)") == ["v(out)"]
