@@ -125,7 +125,7 @@ def _tran(words: list[str]) -> Tran:
 
 
 def strip_control(text: str) -> list[str]:
-    """The deck's physical lines without its ``.control … .endc`` blocks and ``.end``."""
+    """The deck's physical lines up to ``.end``, without ``.control … .endc`` blocks."""
     out, control = [], False
     for raw in text.splitlines():
         low = raw.strip().lower()
@@ -136,7 +136,7 @@ def strip_control(text: str) -> list[str]:
             control = not low.startswith(".endc")
             continue
         if re.fullmatch(r"\.end\b.*", low) and not low.startswith(".ends"):
-            continue
+            break  # SPICE reads nothing after .end
         out.append(raw)
     return out
 
