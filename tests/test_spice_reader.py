@@ -503,3 +503,19 @@ def test_ic_inside_a_subcircuit_sets_the_instance_nodes():
     parts = _parts(net)
     assert parts["c:xa:c1"].initial_q == (0.25e-6,)  # the instance's own .ic line
     assert parts["c:xb:c1"].initial_q == (0.5e-6,)  # the top-level .ic wins (ngspice 39 too)
+
+
+def test_what_kicad_and_ngspice_decks_write_reads_as_ngspice_does():
+    """``SINE(…)`` is SIN (KiCad/eSim decks), ``2µ`` is 2e-6 (the micro sign as ``u``),
+    and a resistor's ``ac=`` value (AC analysis only) is noted, not refused."""
+    base = "t\nV1 a 0 {}\nR1 a 0 1k{}\n.tran 1u 1m\n"
+    sin = spice.read(base.format("SIN(0 1 1k)", ""))
+    sine = spice.read(base.format("sine(0 1 1k)", " ac=2k"))
+    t = np.linspace(0.0, 1e-3, 7)
+    (w_sin,), (w_sine,) = (n.system.subsystems[0].waveforms for n in (sin, sine))
+    assert np.array_equal(w_sin(t), w_sine(t)) and abs(w_sine(2.5e-4) - 1.0) < 1e-12
+    assert any("ac=2k ignored" in note for note in sine.notes)
+    micro = spice.read(base.format("PULSE(0 1 2\u00b5 1u 1u 5u 20u)", ""))
+    micro_u = spice.read(base.format("PULSE(0 1 2u 1u 1u 5u 20u)", ""))
+    (w_mu,), (w_u,) = (n.system.subsystems[0].waveforms for n in (micro, micro_u))
+    assert np.array_equal(w_mu(t), w_u(t)) and w_mu(3.5e-6) == 1.0 and w_mu(1.9e-6) == 0.0

@@ -50,7 +50,9 @@ def _two(ctx, pos, kw, line, form, extra=()):
 
 
 def _r(ctx, name, pos, kw, line):
-    a, b, r = _two(ctx, pos, kw, line, "Rname n+ n- value")
+    a, b, r = _two(ctx, pos, kw, line, "Rname n+ n- value [ac=value]", ("ac",))
+    if "ac" in kw:  # ngspice: a resistance for the AC analysis only
+        ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
     return cp.Resistor(r, name=name), {"p": a, "n": b}
 
 

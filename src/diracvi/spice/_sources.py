@@ -19,6 +19,8 @@ FUNCTIONS = ("sin", "pulse", "pwl")
 #: transient functions ngspice knows and diracvi does not build (refused by name)
 OTHER_FUNCTIONS = ("exp", "sffm", "am", "trnoise", "trrandom", "external")
 _KEYWORDS = ("dc", "ac", "distof1", "distof2")
+#: other spellings ngspice accepts for a function (KiCad and eSim write SINE)
+ALIASES = {"sine": "sin"}
 
 
 def source(ctx, pos, kw, line):
@@ -38,7 +40,7 @@ def source(ctx, pos, kw, line):
     args: list[str] = []
     k = 0
     while k < len(rest):
-        word = rest[k].lower()
+        word = ALIASES.get(rest[k].lower(), rest[k].lower())
         if word == "dc":
             if k + 1 >= len(rest) or _keyword(rest[k + 1]):
                 raise line.fail("'DC' without a value (write DC 1.5)")
@@ -79,7 +81,7 @@ def source(ctx, pos, kw, line):
 
 
 def _keyword(token: str) -> bool:
-    word = token.lower()
+    word = ALIASES.get(token.lower(), token.lower())
     return word in _KEYWORDS or word in FUNCTIONS or word in OTHER_FUNCTIONS
 
 

@@ -67,10 +67,15 @@ class ExpressionError(ValueError):
 def number(token: str) -> float | None:
     """``4.7k`` → 4700.0; trailing letters after a scale (``1kOhm``) are ignored as in
     SPICE (note ``1F`` is one femto-unit, as SPICE reads it). ``None`` if not a number."""
-    m = _NUMBER.match(token)
+    m = _NUMBER.match(_micro(token))
     if m is None:
         return None
     return _scaled(m.group(1), m.group(2))
+
+
+def _micro(text: str) -> str:
+    """ngspice reads the micro sign (µ U+00B5, μ U+03BC) as ``u``."""
+    return text.replace("\u00b5", "u").replace("\u03bc", "u")
 
 
 def _scaled(mantissa: str, suffix: str | None) -> float:
@@ -90,7 +95,7 @@ def _traced(x) -> bool:
 
 def evaluate(text: str, params: dict[str, float]) -> float:
     """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
-    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), text.strip())
+    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
     source = source.replace("^", "**")
     try:
         tree = ast.parse(source, mode="eval")
