@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import equinox as eqx
 import numpy as np
 
 from .._errors import ModelError
@@ -209,12 +210,6 @@ class Circuit:
                 f"initial(...) names {sorted(unknown)}, which are not mechanical nodes of "
                 f"circuit {self.name!r} (nodes: {sorted(at_node)})."
             )
-        p0 = np.concatenate(
-            [
-                np.asarray(p.momentum(q0[a:b], v0[a:b]))
-                for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
-            ]
-        )
         interactions = []
         if node_list:
             interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
@@ -229,6 +224,7 @@ class Circuit:
                 )
             system = interconnect([p for p, _ in parts], interactions, name=self.name)
             prefix = None
+        p0 = _momenta(system, parts, q0, v0, offsets)
         currents = {}
         for part, _ in parts:
             for label, coord in part.currents:
@@ -294,6 +290,28 @@ class Circuit:
                         "add a series resistance or remove one source."
                     )
                 uf.union(canon(a), canon(b))
+
+
+#: from this many parts the initial momenta are one compiled call on the packed
+#: interconnection (one trace per kind of part) instead of one eager call per part
+_BATCH_MOMENTA = 8
+
+
+@eqx.filter_jit
+def _packed_momentum(system, q, v):
+    return system.momentum(q, v, 0.0)
+
+
+def _momenta(system, parts, q0, v0, offsets) -> np.ndarray:
+    """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``)."""
+    if len(parts) >= _BATCH_MOMENTA and hasattr(system, "_packed"):
+        return np.asarray(_packed_momentum(system._packed(), q0, v0))
+    return np.concatenate(
+        [
+            np.asarray(p.momentum(q0[a:b], v0[a:b]))
+            for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
+        ]
+    )
 
 
 def _kind(part: Part) -> str:
