@@ -32,6 +32,7 @@ from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
+from ._solvers.sparse_affine import SparseAffineSolver, sparse_map
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import CompiledChunk, keeps_nodal
 
@@ -150,6 +151,8 @@ class Plan:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
         self.h_array = np.asarray(h, dtype=np.float64)
         self.step_map: AffineStepMap | None = None
+        self.sparse = None  # the circuit-scale sparse affine map, when it applies
+        self._packed = None
         first_jacobian = None  # J of the first step, if the affine probes formed it
         if isinstance(solver, StepSolver):
             self.fallback, self.affine_reason = solver, "a step solver was given"
@@ -158,7 +161,15 @@ class Plan:
             self.fallback = (
                 default_solver(system, rule, scheme) if solver is None else options.fallback
             )
-            if solver is None and isinstance(self.fallback, PartitionedSolver):
+            if isinstance(solver, SparseAffineSolver) or (
+                solver is None and isinstance(self.fallback, PartitionedSolver)
+            ):
+                self.sparse, self.affine_reason = sparse_map(
+                    self.stepped_system, rule, scheme, h, q0, p0, t0, options
+                )
+            if self.sparse is not None:
+                pass
+            elif solver is None and isinstance(self.fallback, PartitionedSolver):
                 # a large interconnection: the partitioned solver factorizes once per chunk
                 # for linear equations too, at O(n) per step against the dense map's O(n²)
                 self.affine_reason = "a large interconnection is stepped by the partitioned solver"
@@ -175,13 +186,15 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
-        if self.step_map is None:  # (the affine build has checked J already)
+        if self.step_map is None and self.sparse is None:  # (their builds checked J)
             check_solvable(system, rule, scheme, q0, p0, self.h_array, t0, first_jacobian)
-        self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
+        # (the sparse path's system is packed: the check's Legendre data traces once per
+        # kind of part, not once per part)
+        checked = system if self.sparse is None else self.stepped_system
+        self.checker = Checker(checked, linear=True, q_probe=q0, t_probe=t0)
         # whether a run that saves its states also stores the nodal momenta
         self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}
-        self._packed = None
         self._fallback_name = repr(self.fallback)  # once: a Module's repr takes ~0.1 ms
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:
