@@ -490,7 +490,10 @@ class InterconnectedSystem(DiracSystem):
         """``[⊕ R_i(q_i, t); B(q)]`` for the subsystems' ``rows`` method (each block padded
         with zeros to the columns of its subsystem), then the interaction rows."""
         blocks = []
-        for k, (sub, qi) in enumerate(self._pairs(q)):
+        for k, skeleton in enumerate(self.subsystems):
+            if skeleton.m == 0:  # no rows (most parts of a circuit): nothing to place
+                continue
+            sub, qi = self._member(k), q[self._offsets[k] : self._offsets[k + 1]]
             a = getattr(sub, rows)(qi, t)
             left = jnp.zeros((a.shape[0], self._offsets[k]))
             right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))

@@ -84,33 +84,29 @@ def _probe_fn(system, rule, scheme, h, bases, times, seeds):
     return jax.vmap(at)(bases, times)
 
 
-def _offsets_fn(system, rule, scheme, h, times):
-    """``(r₀(t), P₀(t))`` at the zero state for each ``t`` of ``times``."""
+def _block_fn(system, rule, scheme, h, times_next, qk, qk1, times):
+    """``(r₀(t), P₀(t))`` at the zero state for each ``t`` of ``times_next`` (the next
+    block's offsets), and ``E`` at the quadrature node of each step ``(q_k, q_{k+1},
+    t_k)`` of this block: one program for both, so a run compiles one program here."""
     import jax
     import jax.numpy as jnp
 
+    from .._grouped import step_diagnostics
+
     size = 2 * system.n + unknown_count(system, rule)
 
-    def at(tk):
+    def offsets(tk):
         r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), tk)
         return r, pm
 
-    return jax.vmap(at)(times)
-
-
-def _energy_fn(system, rule, scheme, h, qk, qk1, times):
-    """``E`` at the quadrature node of each step ``(q_k, q_{k+1}, t_k)``."""
-    import jax
-
-    from .._grouped import step_diagnostics
-
     diagnostics = step_diagnostics(system, rule, scheme, h)
-    return jax.vmap(lambda a, b, t: diagnostics(a, b, t, None)[0])(qk, qk1, times)
+    r0, pm0 = jax.vmap(offsets)(times_next)
+    energy = jax.vmap(lambda a, b, t: diagnostics(a, b, t, None)[0])(qk, qk1, times)
+    return r0, pm0, energy
 
 
 _probe = run_once_jit(_probe_fn, "diracvi._solvers.sparse_affine._probe")
-_offsets = run_once_jit(_offsets_fn, "diracvi._solvers.sparse_affine._offsets")
-_energies = run_once_jit(_energy_fn, "diracvi._solvers.sparse_affine._energies")
+_block = run_once_jit(_block_fn, "diracvi._solvers.sparse_affine._block")
 
 
 # ----------------------------------------------------------------------- structure
@@ -205,7 +201,7 @@ class SparseAffineMap:
 
     describe = "sparse affine step map (SuperLU, COLAMD)"
 
-    def __init__(self, system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol):
+    def __init__(self, system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds):
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
         self.jz, self.jx, self.pz, self.px, self.imp = mats
         self.n, self.size = system.n, self.jx.shape[0]
@@ -217,47 +213,43 @@ class SparseAffineMap:
         self.lu, self.driven = lu, driven
         self.r0, self.pm0 = r0, pm0  # the autonomous offsets (driven: at t0)
         self.verify_rtol = verify_rtol
+        self.seeds = seeds
 
-    # ------------------------------------------------------------------ offsets
-    def _block_offsets(self, times):
-        """``(r₀, P₀)`` of a block of steps, (len, U) and (len, n)."""
-        count = len(times)
-        if not self.driven:
-            return np.broadcast_to(self.r0, (count, self.size)), np.broadcast_to(
-                self.pm0, (count, self.n)
-            )
-        padded = np.concatenate([times, np.repeat(times[-1:], BLOCK - count)])
-        h = np.float64(self.h)
-        r0, pm0 = _offsets(self.system, self.rule, self.scheme, h, padded)
-        return np.asarray(r0)[:count], np.asarray(pm0)[:count]
-
-    def _block_energy(self, qk, qk1, times):
-        count = len(times)
-        pad = BLOCK - count
+    # ------------------------------------------------------------------ blocks
+    def _block(self, times_next, qk, qk1, times):
+        """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
+        one compiled program; every argument padded to ``BLOCK`` rows)."""
 
         def padded(a):
-            return np.concatenate([a, np.repeat(a[-1:], pad, axis=0)])
+            return np.concatenate([a, np.repeat(a[-1:], BLOCK - len(a), axis=0)])
 
-        h = np.float64(self.h)
-        out = _energies(
-            self.system, self.rule, self.scheme, h, padded(qk), padded(qk1), padded(times)
-        )
-        return np.asarray(out)[:count]
+        r0, pm0, energy = _block(
+            self.system, self.rule, self.scheme, np.float64(self.h),
+            padded(times_next), padded(qk), padded(qk1), padded(times),
+        )  # fmt: skip
+        count = len(times_next)
+        return np.asarray(r0)[:count], np.asarray(pm0)[:count], np.asarray(energy)[: len(times)]
 
     def _check_steps(self, z, y, times):
         """The largest Newton correction ``J_x⁻¹ r`` (relative) of the steps ``z → y``,
-        with ``r`` the model's own residual (one compiled call for up to BLOCK steps)."""
-        count = len(times)
-        pad = BLOCK - count
-        w = np.concatenate([z, y], axis=1)
-        w = np.concatenate([w, np.repeat(w[-1:], pad, axis=0)])
-        times = np.concatenate([times, np.repeat(times[-1:], pad)])
-        seeds = np.zeros((1, w.shape[1]))
-        (r, _, _), _ = _probe(self.system, self.rule, self.scheme, np.float64(self.h), w, times, seeds)
-        r = np.asarray(r)[:count]
-        dx = self.lu.solve(np.ascontiguousarray(r.T))
-        size = np.maximum(np.max(np.abs(y), axis=1), np.max(np.abs(z[:, : self.n]), axis=1))
-        return float(np.max(np.max(np.abs(dx), axis=0) / np.maximum(size, 1e-300)))
+        with ``r`` the model's own residual: the probe program of :func:`build`, three
+        steps per call (its shapes: nothing new is compiled)."""
+        worst = 0.0
+        for a in range(0, len(times), 3):
+            w = np.concatenate([z[a : a + 3], y[a : a + 3]], axis=1)
+            tk = times[a : a + 3]
+            count = len(tk)
+            w = np.concatenate([w, np.repeat(w[-1:], 3 - count, axis=0)])
+            tk = np.concatenate([tk, np.repeat(tk[-1:], 3 - count)])
+            (r, _, _), _ = _probe(
+                self.system, self.rule, self.scheme, np.float64(self.h), w, tk, self.seeds
+            )
+            r = np.asarray(r)[:count]
+            dx = self.lu.solve(np.ascontiguousarray(r.T)).T
+            yy, zz = y[a : a + count], z[a : a + count, : self.n]
+            size = np.maximum(np.max(np.abs(yy), axis=1), np.max(np.abs(zz), axis=1))
+            worst = max(worst, float(np.max(np.max(np.abs(dx), axis=1) / np.maximum(size, 1e-300))))
+        return worst
 
     # --------------------------------------------------------------------- run
     def run(self, q0, p0, t0, steps, save_every, save_states, nodal, share):
@@ -270,30 +262,46 @@ class SparseAffineMap:
         zmap, px, solve = self._zmap, self.px, self.lu.solve
         keep_q, keep_p, keep_mu, keep_con, keep_node = [], [], [], [], []
         energy, violation = np.empty(steps), np.empty(steps)
-        worst = 0.0
+        starts = list(range(0, steps, BLOCK))
+
+        def times_of(start):
+            index = start + np.arange(min(BLOCK, steps - start), dtype=np.float64)
+            return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+
+        times = times_of(0)
+        if self.driven:
+            zeros = np.zeros((1, n))
+            r0, pm0, _ = self._block(times, zeros, zeros, times[:1])
+        else:
+            r0 = np.broadcast_to(self.r0, (len(times), size))
+            pm0 = np.broadcast_to(self.pm0, (len(times), n))
+        checks = []  # (z, y, t) of the last step of every block, verified at the end
         y = np.zeros(size)
-        for start in range(0, steps, BLOCK):
-            count = min(BLOCK, steps - start)
-            index = start + np.arange(count, dtype=np.float64)
-            times = t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
-            r0, pm0 = self._block_offsets(times)
+        for b, start in enumerate(starts):
+            count = len(times)
             zs = np.empty((count + 1, 2 * n))
             ys = np.empty((count, size))
             zs[0] = z
             for j in range(count):
                 g = zmap @ z
-                y = solve(-(r0[j] + g[:size]))
-                step = np.empty(2 * n)
-                step[:n] = y[:n]
-                step[n:] = pm0[j] + g[size:] + px @ y
-                z = z + step
-                zs[j + 1] = z
+                rhs = g[:size]
+                rhs += r0[j]
+                np.negative(rhs, out=rhs)
+                y = solve(rhs)
+                after = zs[j + 1]
+                np.add(z[:n], y[:n], out=after[:n])
+                after[n:] = z[n:] + pm0[j] + g[size:] + px @ y
                 ys[j] = y
-            # diagnostics of the block, vectorized over its steps
-            con = (self._con @ np.concatenate([zs[:-1], ys], axis=1).T).T + r0[:, n:]
+                z = after
+            z = z.copy()
+            # diagnostics of the block, vectorized over its steps; with them, the next
+            # block's offsets (one call)
+            con = (self._con @ np.concatenate([zs[:-1], ys], axis=1).T).T + r0[:count, n:]
             q_from, q_to = zs[:-1, :n], zs[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
-            energy[start : start + count] = self._block_energy(qk, qk1, times)
+            following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
+            r0_next, pm0_next, e = self._block(following, qk, qk1, times)
+            energy[start : start + count] = e
             violation[start : start + count] = np.max(np.abs(con), axis=1, initial=0.0)
             saved = (start + np.arange(count) + 1) % k == 0
             if save_states:
@@ -307,7 +315,15 @@ class SparseAffineMap:
                     if start == 0:
                         scale[0] = share / (1.0 - share)
                     keep_node.append((zs[1:, n:] - scale[:, None] * impulse)[saved])
-            worst = max(worst, self._check_steps(zs[-2:-1], ys[-1:], times[-1:]))
+            checks.append((zs[-2], ys[-1], times[-1]))
+            times = following
+            if self.driven:
+                r0, pm0 = r0_next, pm0_next
+            else:
+                r0 = np.broadcast_to(self.r0, (len(times), size))
+                pm0 = np.broadcast_to(self.pm0, (len(times), n))
+        zc, yc, tc = (np.stack(c) for c in zip(*checks))
+        worst = self._check_steps(zc, yc, tc)
         if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
             raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
         return dict(
@@ -381,7 +397,9 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     r0 = np.asarray(values[0][0])
     pm0 = np.asarray(values[1][0])
     mats = (jz.tocsr(), jx, pz.tocsr(), px, impulse)
-    return SparseAffineMap(system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol)
+    return SparseAffineMap(
+        system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds
+    )
 
 
 class SparseAffineSolver(AffineSolver):
