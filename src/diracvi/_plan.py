@@ -32,7 +32,7 @@ from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
-from ._solvers.sparse_affine import SparseAffineSolver, sparse_map
+from ._solvers.sparse_affine import SPARSE_MOMENTUM_CHECK_LIMIT, SparseAffineSolver, sparse_map
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
 from ._stepping import CompiledChunk, keeps_nodal
 
@@ -188,10 +188,16 @@ class Plan:
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
         if self.step_map is None and self.sparse is None:  # (their builds checked J)
             check_solvable(system, rule, scheme, q0, p0, self.h_array, t0, first_jacobian)
-        # (the sparse path's system is packed: the check's Legendre data traces once per
-        # kind of part, not once per part)
-        checked = system if self.sparse is None else self.stepped_system
-        self.checker = Checker(checked, linear=True, q_probe=q0, t_probe=t0)
+        if self.sparse is None:
+            self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
+        else:
+            # the packed system (its Legendre data traced once per kind of part); the
+            # momentum check's dense projector is O(n³): as above MOMENTUM_CHECK_LIMIT,
+            # a large circuit's momenta are not checked (ports are)
+            self.checker = Checker(
+                self.stepped_system, linear=True, q_probe=q0, t_probe=t0,
+                momentum_limit=SPARSE_MOMENTUM_CHECK_LIMIT,
+            )  # fmt: skip
         # whether a run that saves its states also stores the nodal momenta
         self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}

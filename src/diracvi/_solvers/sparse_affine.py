@@ -49,6 +49,10 @@ from .._compile import run_once_jit
 from .._equations import new_momentum, reaction_impulse, residual, unknown_count
 from .affine import AffineSolver
 
+#: the initial-data check of a run on this path checks momenta (a dense O(n³)
+#: projector) up to this many coordinates; joined ports always
+SPARSE_MOMENTUM_CHECK_LIMIT = 256
+
 #: steps per block: the driven offsets and the energies are computed a block at a time
 #: (one compiled program for every block: the last is padded)
 BLOCK = 256
@@ -84,25 +88,53 @@ def _probe_fn(system, rule, scheme, h, bases, times, seeds):
     return jax.vmap(at)(bases, times)
 
 
-def _block_fn(system, rule, scheme, h, times_next, qk, qk1, times):
-    """``(r₀(t), P₀(t))`` at the zero state for each ``t`` of ``times_next`` (the next
-    block's offsets), and ``E`` at the quadrature node of each step ``(q_k, q_{k+1},
-    t_k)`` of this block: one program for both, so a run compiles one program here."""
+def _own_offsets(sub, rule, scheme, h, tk):
+    """One part's own residual and momentum line at its zero state: its rows of the
+    interconnection's at the zero state (the interaction terms ``Bᵀλ``, ``B v`` vanish
+    there)."""
+    import jax.numpy as jnp
+
+    zero_q, zero_x = jnp.zeros(sub.n), jnp.zeros(sub.n + sub.m)
+    r = residual(sub, rule, scheme, h, zero_q, zero_q, zero_x, tk)
+    return r, new_momentum(sub, rule, scheme, h, zero_q, zero_x, tk)
+
+
+def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
+    """The offsets ``r₀(t)``, ``P₀(t)`` of each ``t`` of ``times_next`` (the next block's)
+    and ``E`` at the quadrature node of each step ``(q_k, q_{k+1}, t_k)`` of this block:
+    one program for both. ``drivers``: the time-dependent parts, whose rows are all that
+    move with ``t`` (each part's own rows, so the program does not evaluate the
+    interconnection's dense one-forms), or ``None``: the whole residual at zero."""
     import jax
     import jax.numpy as jnp
 
     from .._grouped import step_diagnostics
 
-    size = 2 * system.n + unknown_count(system, rule)
+    if drivers is None:
+        size = 2 * system.n + unknown_count(system, rule)
 
-    def offsets(tk):
-        r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), tk)
-        return r, pm
+        def offsets(tk):
+            r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), tk)
+            return r, pm
+
+    else:
+
+        def offsets(tk):
+            pieces = [_own_offsets(sub, rule, scheme, h, tk) for sub in drivers]
+            return (
+                jnp.concatenate([r for r, _ in pieces]),
+                jnp.concatenate([pm for _, pm in pieces]),
+            )
 
     diagnostics = step_diagnostics(system, rule, scheme, h)
     r0, pm0 = jax.vmap(offsets)(times_next)
     energy = jax.vmap(lambda a, b, t: diagnostics(a, b, t, None)[0])(qk, qk1, times)
     return r0, pm0, energy
+
+
+#: at most this many time-dependent parts are evaluated part by part for the offsets
+#: (more: the whole residual at zero, one program over the packed system)
+MAX_DRIVERS = 16
 
 
 _probe = run_once_jit(_probe_fn, "diracvi._solvers.sparse_affine._probe")
@@ -214,6 +246,7 @@ class SparseAffineMap:
         self.r0, self.pm0 = r0, pm0  # the autonomous offsets (driven: at t0)
         self.verify_rtol = verify_rtol
         self.seeds = seeds
+        self.drivers = self.driver_rows = self.driver_coords = None
 
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
@@ -224,11 +257,18 @@ class SparseAffineMap:
             return np.concatenate([a, np.repeat(a[-1:], BLOCK - len(a), axis=0)])
 
         r0, pm0, energy = _block(
-            self.system, self.rule, self.scheme, np.float64(self.h),
+            self.system, self.drivers, self.rule, self.scheme, np.float64(self.h),
             padded(times_next), padded(qk), padded(qk1), padded(times),
         )  # fmt: skip
         count = len(times_next)
-        return np.asarray(r0)[:count], np.asarray(pm0)[:count], np.asarray(energy)[: len(times)]
+        r0, pm0 = np.asarray(r0)[:count], np.asarray(pm0)[:count]
+        if self.drivers is not None:  # the drivers' rows into the constant offsets
+            full_r = np.repeat(self.r0[None], count, axis=0)
+            full_p = np.repeat(self.pm0[None], count, axis=0)
+            full_r[:, self.driver_rows] = r0
+            full_p[:, self.driver_coords] = pm0
+            r0, pm0 = full_r, full_p
+        return r0, pm0, np.asarray(energy)[: len(times)]
 
     def _check_steps(self, z, y, times):
         """The largest Newton correction ``J_x⁻¹ r`` (relative) of the steps ``z → y``,
@@ -397,9 +437,34 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     r0 = np.asarray(values[0][0])
     pm0 = np.asarray(values[1][0])
     mats = (jz.tocsr(), jx, pz.tocsr(), px, impulse)
-    return SparseAffineMap(
-        system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds
+    out = SparseAffineMap(system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds)
+    if driven:
+        _use_drivers(out, system, values, t1)
+    return out
+
+
+def _use_drivers(out, system, values, t1) -> None:
+    """Offsets from the time-dependent parts alone, if there are few and they give the
+    interconnection's offsets at ``t1`` exactly (checked here; else the whole residual)."""
+    subs = system.subsystems
+    driving = [i for i, s in enumerate(subs) if s.time_dependent]
+    if not driving or len(driving) > MAX_DRIVERS:
+        return
+    offsets, mu_start, mu_sizes, *_ = _structure(system)
+    coords = [np.arange(offsets[i], offsets[i + 1]) for i in driving]
+    rows = np.concatenate(
+        [np.concatenate([c, np.arange(mu_start[i], mu_start[i] + mu_sizes[i])])
+         for c, i in zip(coords, driving, strict=True)]
+    )  # fmt: skip
+    out.drivers = tuple(system._member(i) for i in driving)
+    out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
+    zeros = np.zeros((1, system.n))
+    r_t1, p_t1, _ = out._block(np.array([t1]), zeros, zeros, np.array([t1]))
+    same = np.array_equal(r_t1[0], np.asarray(values[0][2])) and np.array_equal(
+        p_t1[0], np.asarray(values[1][2])
     )
+    if not same:
+        out.drivers = out.driver_rows = out.driver_coords = None
 
 
 class SparseAffineSolver(AffineSolver):
