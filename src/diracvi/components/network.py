@@ -61,6 +61,7 @@ class Circuit:
     def __init__(self, name: str = "circuit"):
         self.name = str(name)
         self._parts: list[tuple[Part, dict]] = []
+        self._names: set[str] = set()
         self._grounds: set[str] = set()
         self._couplings: list[MutualInductance] = []
         self._initial: dict[str, tuple[float, float]] = {}
@@ -83,7 +84,7 @@ class Circuit:
                 f"circuit.add({part!r}): not a part; build one with diracvi.components "
                 "(Resistor(1.0, name='R1'), Mass(2.0, name='m'), …)."
             )
-        if any(p.name == part.name for p, _ in self._parts):
+        if part.name in self._names:  # (a set: a scan of the parts is O(N²) overall)
             raise ModelError(f"circuit {self.name!r}: a part named {part.name!r} exists already.")
         wanted = (*part.pin_names, *part.flange_names)
         missing = [w for w in wanted if w not in nodes]
@@ -94,6 +95,7 @@ class Circuit:
                 f"(missing {missing}, unknown {extra})."
             )
         self._parts.append((part, {k: str(v) for k, v in nodes.items()}))
+        self._names.add(part.name)
         return part
 
     def initial(self, node: str, position: float = 0.0, velocity: float = 0.0) -> None:
@@ -241,8 +243,8 @@ class Circuit:
                 "(SPICE's reference, potential 0)."
             )
         for node in node_list:
-            touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
             if len(incidence[node]) < 2:
+                touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
                 raise ModelError(
                     f"node {node!r} is floating: only {touching[0]} connects to it (a node "
                     "needs at least two connections; KCL would force that current to 0)."
