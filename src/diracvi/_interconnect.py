@@ -18,6 +18,7 @@ can be checked to round-off.
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from collections import Counter
 from collections.abc import Callable, Sequence
 
@@ -32,6 +33,10 @@ from ._program import Program, lift
 from ._stacked import Packing, pack
 from ._system import DiracSystem, LagrangeDiracSystem, StaticTuple, with_row_order
 from ._validate import check_forms_array, check_name, eval_shape
+
+
+#: packed copies by the id of their system (see InterconnectedSystem._packed)
+_PACKED: dict = {}
 
 
 class Interaction(eqx.Module):
@@ -282,12 +287,17 @@ class InterconnectedSystem(DiracSystem):
         (names, sizes and flags only); :meth:`_member` gives one in full."""
         if self._packing is not None:
             return self
+        hit = _PACKED.get(id(self))  # packed once per system (the netlist reader's
+        if hit is not None and hit[0]() is self:  # momenta and the plan both ask)
+            return hit[1]
         skeletons, packing = pack(self.subsystems)
         out = object.__new__(type(self))
         for f in dataclasses.fields(self):
             object.__setattr__(out, f.name, getattr(self, f.name))
         object.__setattr__(out, "subsystems", skeletons)
         object.__setattr__(out, "_packing", packing)
+        key = id(self)
+        _PACKED[key] = (weakref.ref(self, lambda _, c=_PACKED, key=key: c.pop(key, None)), out)
         return out
 
     def _member(self, i: int) -> DiracSystem:
