@@ -34,7 +34,6 @@ from ._stacked import Packing, pack
 from ._system import DiracSystem, LagrangeDiracSystem, StaticTuple, with_row_order
 from ._validate import check_forms_array, check_name, eval_shape
 
-
 #: packed copies by the id of their system (see InterconnectedSystem._packed)
 _PACKED: dict = {}
 

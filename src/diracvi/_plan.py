@@ -32,8 +32,8 @@ from ._solvers.affine import AffineSolver, AffineStepMap, build
 from ._solvers.base import StepSolver
 from ._solvers.newton import NewtonSolver
 from ._solvers.partitioned import PartitionedSolver
-from ._solvers.sparse_affine import SPARSE_MOMENTUM_CHECK_LIMIT, SparseAffineSolver, sparse_map
 from ._solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ._solvers.sparse_affine import SPARSE_MOMENTUM_CHECK_LIMIT, SparseAffineSolver, sparse_map
 from ._stepping import CompiledChunk, keeps_nodal
 
 _CACHE: OrderedDict = OrderedDict()

@@ -179,9 +179,7 @@ def _pattern(system, rule):
     n, size = system.n, unknown_count(system, rule)
     offsets, mu_start, mu_sizes, own, row_subs, rows_of_sub = _structure(system)
     count = len(system.subsystems)
-    sub_color = _greedy(
-        count, lambda i: {j for b in rows_of_sub[i] for j in row_subs[b] if j != i}
-    )
+    sub_color = _greedy(count, lambda i: {j for b in rows_of_sub[i] for j in row_subs[b] if j != i})
     row_color = _greedy(
         len(row_subs), lambda b: {c for i in row_subs[b] for c in rows_of_sub[i] if c != b}
     )
@@ -220,7 +218,9 @@ def _pattern(system, rule):
         )
         rows = np.concatenate([coords, mus, size + coords])
         entries.append((np.full(rows.size, seed), rows, np.full(rows.size, col)))
-    seed_of, row_of, col_of = (np.concatenate(e).astype(np.int64) for e in zip(*entries))
+    seed_of, row_of, col_of = (
+        np.concatenate(e).astype(np.int64) for e in zip(*entries, strict=True)
+    )
     return seeds, seed_of, row_of, col_of
 
 
@@ -362,7 +362,7 @@ class SparseAffineMap:
             else:
                 r0 = np.broadcast_to(self.r0, (len(times), size))
                 pm0 = np.broadcast_to(self.pm0, (len(times), n))
-        zc, yc, tc = (np.stack(c) for c in zip(*checks))
+        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
         worst = self._check_steps(zc, yc, tc)
         if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
             raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
