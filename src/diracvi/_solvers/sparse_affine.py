@@ -31,9 +31,11 @@ relative, as :class:`~diracvi.AffineSolver`.
 
 **Why SciPy on the host and not a compiled scan.** The factorization has data-dependent
 fill and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to
-form and would not serve general meshes. SuperLU's triangular solves cost microseconds
-per thousand unknowns, and the step loop is a few library calls per step (measured in
-``benchmarks/README.md``). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the energies
+form and would not serve general meshes. SuperLU's solve is a few library calls per
+step (measured in ``benchmarks/README.md``). A banded LAPACK solve in reverse
+Cuthill–McKee order was measured too and dropped: on the 1000-stage ladder (bandwidths
+(2, 2), 5002 unknowns) ``dgbtrs`` took 430 µs a call against SuperLU's 240 µs (it makes
+two BLAS calls per column). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the energies
 are evaluated by compiled JAX programs, a block of steps per call.
 
 **Verification.** A sample of steps (the last of every block) is re-evaluated with the
@@ -108,8 +110,6 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
     import jax
     import jax.numpy as jnp
 
-    from .._grouped import step_diagnostics
-
     if drivers is None:
         size = 2 * system.n + unknown_count(system, rule)
 
@@ -126,9 +126,12 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
                 jnp.concatenate([pm for _, pm in pieces]),
             )
 
-    diagnostics = step_diagnostics(system, rule, scheme, h)
     r0, pm0 = jax.vmap(offsets)(times_next)
-    energy = jax.vmap(lambda a, b, t: diagnostics(a, b, t, None)[0])(qk, qk1, times)
+    # the energy alone (the step diagnostics' constraint rows would evaluate the
+    # interaction's dense one-forms: they are formed on the host, from the sparse rows)
+    energy = jax.vmap(lambda a, b, t: rule.step_energy(system.energy, a, b, h, t, None))(
+        qk, qk1, times
+    )
     return r0, pm0, energy
 
 
