@@ -6,10 +6,10 @@ For each ladder (:func:`diracvi.bench.ladders.ladder`: R, L, C per stage, a 1 kH
 - **ngspice**: ``ngspice -b`` on the netlist with a ``.control`` block that runs the
   ``.tran`` (maximum step = the netlist's step, default tolerances) and writes three
   probes with ``wrdata``: the whole process's wall time and peak RSS;
-- **diracvi end to end**: ``diracvi run ladder.cir --out x.nc`` as a subprocess (Python
-  start, ``import diracvi``, reading, the plan, stepping, the NetCDF of every variable),
-  with the disk cache cold (a fresh ``DIRACVI_CACHE_DIR``) and then warm (the same
-  directory again): wall time and peak RSS;
+- **diracvi end to end**: ``diracvi run ladder.cir`` as a subprocess (Python start,
+  ``import diracvi``, reading, the plan, stepping, the summary), with the disk cache cold
+  (a fresh ``DIRACVI_CACHE_DIR``) and then warm (the same directory again): wall time and
+  peak RSS; up to ``MAX_OUT`` stages also with ``--out x.nc`` (every variable written);
 - **warm in-process** ``simulate``: after a first call in this process, the min of a few;
 - **agreement**: ``max |v_diracvi − v_ngspice| / peak`` over the probes, ngspice
   interpolated onto diracvi's time nodes (t > 0).
@@ -38,6 +38,8 @@ from .ladders import ladder
 NAME = "circuits"
 PROBES = ("v(n1)", "v(n10)", "i(L1)")
 SIZES_ENV = "DIRACVI_BENCH_LADDERS"
+#: the largest ladder also run with ``--out`` (the NetCDF holds every variable)
+MAX_OUT = 1000
 
 
 def sizes(settings: Settings) -> tuple[int, ...]:
@@ -98,12 +100,14 @@ def _ngspice(text: str, tmp: Path):
     return wall, mb, data[:, 0], {p: data[:, 1 + j] for j, p in enumerate(PROBES)}
 
 
-def _diracvi_run(path: Path, cache: Path, tmp: Path):
+def _diracvi_run(path: Path, cache: Path, tmp: Path, out: bool = False):
     env = dict(os.environ, DIRACVI_CACHE_DIR=str(cache))
     src = Path(__file__).resolve().parents[2]  # the package's own tree first
     env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")])
     code = "from diracvi.cli import app; app()"
-    cmd = [sys.executable, "-c", code, "run", str(path), "--out", str(tmp / "x.nc")]
+    cmd = [sys.executable, "-c", code, "run", str(path)]
+    if out:
+        cmd += ["--out", str(tmp / "x.nc")]
     wall, mb, _ = _timed(cmd, tmp, env)
     return wall, mb
 
@@ -149,14 +153,19 @@ def rows(settings: Settings) -> list[Row]:
             cache = tmp / "cache"
             cold, cold_mb = _diracvi_run(path, cache, tmp)
             warm_e2e, warm_mb = _diracvi_run(path, cache, tmp)
-            size_mb = (tmp / "x.nc").stat().st_size / 1e6
+            with_out = size_mb = None
+            if stages <= MAX_OUT:
+                with_out, _ = _diracvi_run(path, cache, tmp, out=True)
+                size_mb = (tmp / "x.nc").stat().st_size / 1e6
             warm, netlist, traj = _warm(text, repeats)
             err = _agreement(netlist, traj, t_ref, ref)
         label = f"ladder {stages} stages ({3 * stages + 1} elements, 2000 steps)"
         notes = (
             f"max error / peak vs ngspice {err:.1e}; peak RSS diracvi {warm_mb:.0f} MB (cold "
-            f"{cold_mb:.0f}), ngspice {ng_mb:.0f} MB; NetCDF {size_mb:.0f} MB"
+            f"{cold_mb:.0f}), ngspice {ng_mb:.0f} MB"
         )
+        if with_out is not None:
+            notes += f"; with --out (every variable, {size_mb:.0f} MB NetCDF) {with_out:.1f} s"
         solver = traj.solver
         out += [
             Row(NAME, f"{label}: `diracvi run` end to end, cache cold ÷ ngspice -b", cold,
