@@ -196,6 +196,20 @@ def _resolve_model(target: str):
     return problems.get(target)
 
 
+def _positive_step(ctx: typer.Context, param, value: str | None) -> float | None:
+    """A step > 0 in SPICE's number syntax (``5u``, ``1e-6``, ``0.01``)."""
+    if value is None:
+        return None
+    from .spice._values import number
+
+    step = number(value.strip())
+    if step is None or not math.isfinite(step) or step <= 0.0:
+        raise typer.BadParameter(
+            f"{value!r} is not a step > 0; give a number, SPICE suffixes allowed (0.01, 5u, 2.5m)."
+        )
+    return step
+
+
 @app.command()
 def run(
     problem: Annotated[
@@ -211,7 +225,9 @@ def run(
     dt: Annotated[
         str | None,
         typer.Option(
-            callback=_positive_float, metavar="FLOAT", help="Step size h (default: the problem's)."
+            callback=_positive_step,
+            metavar="FLOAT",
+            help="Step size h, SPICE suffixes allowed (5u) (default: the problem's).",
         ),
     ] = None,
     steps: Annotated[
@@ -242,13 +258,24 @@ def run(
     plot: Annotated[
         bool, typer.Option("--plot", help="Also write a PNG plot next to --out (or ./NAME.png).")
     ] = False,
+    raw: Annotated[
+        Path | None,
+        typer.Option(help="Also write an ngspice raw file of a netlist's saved vectors."),
+    ] = None,
 ) -> None:
     """Simulate a built-in problem or a model file and print a short summary."""
-    if out is not None and not out.parent.exists():
-        _fail(f"--out {str(out)!r}: folder {str(out.parent)!r} does not exist.", EXIT_USAGE)
+    for flag, target in (("--out", out), ("--raw", raw)):
+        if target is not None and not target.parent.exists():
+            _fail(
+                f"{flag} {str(target)!r}: folder {str(target.parent)!r} does not exist.", EXIT_USAGE
+            )
     model = _resolve_model(problem)
+    if raw is not None and not hasattr(model, "assembly"):
+        _fail(f"--raw writes a SPICE netlist's vectors; {problem!r} is not a netlist.", EXIT_USAGE)
     h = dt if dt is not None else getattr(model, "dt", None)
     n_steps = steps if steps is not None else getattr(model, "steps", None)
+    if steps is None and dt is not None and getattr(model, "stop", None) is not None:
+        n_steps = max(1, math.ceil(model.stop / h - 1e-9))  # a netlist still ends at TSTOP
     if h is None or n_steps is None:
         missing = " and ".join(o for o, v in (("--dt", h), ("--steps", n_steps)) if v is None)
         _fail(
@@ -287,6 +314,12 @@ def run(
             else:
                 traj.save(out)
         _out().print(f"wrote {out}", markup=False, soft_wrap=True)
+    if raw is not None:
+        from .spice import Result, waveforms, write_raw
+
+        with _library_errors():
+            write_raw(Result(model, traj, waveforms(model, traj)), raw)
+        _out().print(f"wrote {raw}", markup=False, soft_wrap=True)
     if plot:
         png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
         if netlist:

@@ -9,6 +9,7 @@ built = c.build()   # built.system, built.q0, built.p0
 """
 
 from ._part import Part
+from .controlled import CCCS, CCVS, VCCS, VCVS
 from .diode import Diode
 from .electrical import (
     Capacitor,
@@ -38,9 +39,13 @@ from .network import Assembly, Circuit
 from .waveforms import DC, PWL, Pulse, Sine, Waveform
 
 __all__ = [
+    "CCCS",
+    "CCVS",
     "DC",
     "EMF",
     "PWL",
+    "VCCS",
+    "VCVS",
     "Assembly",
     "Capacitor",
     "Circuit",

@@ -8,7 +8,9 @@ over the branch charges of all parts (paper §5.2: ``v^R − v^L − v^C = 0`` f
 circuit). Stacked, one row per node except ground, they form one
 :class:`~diracvi.Interaction`; their multipliers are the node potentials (the discrete
 λ is the impulse ``−h φ_n``). Mechanical flanges sharing a node are joined by
-:func:`~diracvi.connect`.
+:func:`~diracvi.connect`. A current-controlled source (``part.senses``) adds one more
+row, ``dc − dq_element = 0``, tying its pin-less coordinate to the controlling branch
+(:mod:`~diracvi.components.controlled`).
 """
 
 from __future__ import annotations
@@ -98,6 +100,11 @@ class Circuit:
         self._names.add(part.name)
         return part
 
+    @property
+    def parts(self) -> tuple[Part, ...]:
+        """The parts added so far, in order."""
+        return tuple(p for p, _ in self._parts)
+
     def initial(self, node: str, position: float = 0.0, velocity: float = 0.0) -> None:
         """Initial position and velocity of a mechanical node (default 0, 0)."""
         self._initial[str(node)] = (float(position), float(velocity))
@@ -167,8 +174,8 @@ class Circuit:
                 node = nodes[pin]
                 incidence.setdefault(node, []).append((index[f"{part.name}.{coord}"], sign))
                 ends.setdefault(coord, {})[sign] = node
-            for e in ends.values():
-                branches.append((part.name, _kind(part), e.get(1), e.get(-1)))
+            for coord, e in ends.items():
+                branches.append((part.name, _kind(part, coord), e.get(1), e.get(-1)))
         mech_nodes = {n for part, nodes in parts for f in part.flange_names for n in [nodes[f]]}
         clash = mech_nodes & set(incidence)
         if clash:
@@ -215,6 +222,7 @@ class Circuit:
         interactions = []
         if node_list:
             interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
+        interactions += self._sense_rows(parts, index)
         interactions += ports
         if len(parts) == 1 and not interactions:
             system = parts[0][0]
@@ -234,6 +242,34 @@ class Circuit:
                 currents[key] = f"{part.name}.{coord}" if prefix is None else coord
         mechanical = {node: members[0][0] for node, members in at_node.items()}
         return Assembly(system, q0, p0, tuple(node_list), kcl_rows, currents, mechanical)
+
+    def _sense_rows(self, parts, index) -> list:
+        """One row ``dc − dq_element = 0`` per current-controlled source (``part.senses``):
+        the pin-less coordinate ``c`` of the source follows the controlling element's
+        branch charge. The source's ``c``-line is ``0 = ν`` (nothing in its ``L`` or ``F``
+        depends on ``c``), so the row's multiplier vanishes and the controlling branch
+        feels no reaction (see :mod:`~diracvi.components.controlled`)."""
+        branch = {}  # i(label) -> the full name of its coordinate
+        for part, _ in parts:
+            for label, coord in part.currents:
+                branch[label or part.name] = f"{part.name}.{coord}"
+        lower = {k.lower(): v for k, v in branch.items()}
+        rows, names = [], []
+        for part, _ in parts:
+            for coord, element in getattr(part, "senses", ()):
+                target = branch.get(element, lower.get(element.lower()))
+                if target is None:
+                    raise ModelError(
+                        f"{self._where(part.name)}: the controlling element {element!r} is "
+                        f"not in circuit {self.name!r}; name an element whose current is "
+                        f"reported, one of {sorted(branch)} (SPICE: a voltage source)."
+                    )
+                row = np.zeros(len(index))
+                row[index[f"{part.name}.{coord}"]] += 1.0
+                row[index[target]] -= 1.0
+                rows.append(row)
+                names.append(f"sense({part.name})")
+        return [Interaction(np.array(rows), names=tuple(names))] if rows else []
 
     def _check_topology(self, incidence, branches, node_list) -> None:
         grounds = [n for n in incidence if self._is_ground(n)]
@@ -316,8 +352,10 @@ def _momenta(system, parts, q0, v0, offsets) -> np.ndarray:
     )
 
 
-def _kind(part: Part) -> str:
-    return part.role
+def _kind(part: Part, coord: str) -> str:
+    """The topology role of one branch: a controlled source's own per-branch roles
+    (its sensing branch is an open circuit), else the part's role."""
+    return dict(getattr(part, "branch_roles", ())).get(coord, part.role)
 
 
 def _inductance(part: Part):

@@ -7,6 +7,16 @@ result["v(out)"], result["i(R1)"], result.time
 
 from ._parse import Netlist, NetlistError, read
 from ._probe import to_dataset, waveforms
+from ._raw import write_raw
 from ._run import Result, run
 
-__all__ = ["Netlist", "NetlistError", "Result", "read", "run", "to_dataset", "waveforms"]
+__all__ = [
+    "Netlist",
+    "NetlistError",
+    "Result",
+    "read",
+    "run",
+    "to_dataset",
+    "waveforms",
+    "write_raw",
+]

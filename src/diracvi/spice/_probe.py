@@ -39,6 +39,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     ``assembly``: the :class:`~diracvi.components.Assembly` (or a
     :class:`~diracvi.spice.Netlist`); ``traj``: its trajectory (states saved, every step).
     """
+    display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
     assembly = getattr(assembly, "assembly", assembly)
     if traj.q is None or traj.save_every != 1:
         raise ValueError(
@@ -70,7 +71,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         cur = np.empty(len(q))
         cur[1:-1] = 0.5 * (vel[1:] + vel[:-1])
         cur[0], cur[-1] = _end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES)
-        out[f"i({label})"] = cur
+        out[f"i({display.get(label, label)})"] = cur
     return out
 
 

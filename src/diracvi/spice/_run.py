@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -13,11 +14,16 @@ from ._parse import Netlist, read
 from ._probe import to_dataset, waveforms
 
 
-@dataclass(frozen=True)
-class Result:
+@dataclass(frozen=True, eq=False)
+class Result(Mapping):
     """A netlist's transient: the trajectory and its SPICE-named waveforms.
 
-    ``result["v(out)"]``, ``result["i(R1)"]`` are arrays over ``result.time``.
+    A read-only mapping over the saved vectors (``netlist.vectors``: the ``.save``
+    lines, else node voltages and voltage-source and inductor currents), named as
+    ngspice names them: ``result["v(out)"]``, ``result["i(v1)"]`` over ``result.time``;
+    ``keys()``, ``items()``, ``len``. Any other waveform of the circuit can still be
+    asked for by name (``result["i(R1)"]``, ``"i(R1)" in result``); names are
+    case-insensitive.
     """
 
     netlist: Netlist
@@ -29,14 +35,48 @@ class Result:
         """The time nodes ``t_k``."""
         return self.trajectory.t
 
+    def _saved(self) -> dict:
+        vectors = self.netlist.vectors or tuple((k, k) for k in self.waveforms)
+        return {name: key for name, key in vectors if key in self.waveforms}
+
     def __getitem__(self, key: str) -> np.ndarray:
         want = key.replace(" ", "").lower()
+        for name, wave in self._saved().items():
+            if name == want:
+                return self.waveforms[wave]
         for name, values in self.waveforms.items():
             if name.lower() == want:
                 return values
         raise KeyError(
-            f"{key!r} is not a waveform of this circuit; there are {sorted(self.waveforms)}"
+            f"{key!r} is not a waveform of this circuit; the saved ones are "
+            f"{list(self._saved())}, others {sorted(self.waveforms)}"
         )
+
+    def __contains__(self, key) -> bool:
+        if not isinstance(key, str):
+            return False
+        try:
+            self[key]
+        except KeyError:
+            return False
+        return True
+
+    def __iter__(self):
+        return iter(self._saved())
+
+    def __len__(self) -> int:
+        return len(self._saved())
+
+    def __repr__(self) -> str:
+        t = self.time
+        names = list(self._saved())
+        shown = ", ".join(names[:8]) + (f", … ({len(names)} in all)" if len(names) > 8 else "")
+        return (
+            f"<spice.Result {self.netlist.title!r}: t {t[0]:g} → {t[-1]:g} s, "
+            f"{len(t) - 1} steps of {float(self.trajectory.dt):g} s; vectors {shown}>"
+        )
+
+    __str__ = __repr__
 
     def to_xarray(self):
         """The trajectory's dataset plus ``v(<node>)``/``i(<element>)`` over ``time``."""
