@@ -13,8 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 import _ngspice as ng
-from diracvi import spice
-from diracvi._errors import ModelError
+from diracvi import ModelError, spice
 from diracvi.cli import app
 from diracvi.spice._values import number
 
@@ -402,7 +401,8 @@ def test_result_is_a_short_read_only_mapping():
     assert dict(result.items()).keys() == {"v(2)", "i(@r9[i])"}
     text = repr(result)
     assert text.startswith("<spice.Result 'Saved vectors")
-    assert "t 0 → 0.001 s, 500 steps of 2e-06 s; vectors v(2), i(@r9[i])" in text
+    assert "t 0 → 0.001 s, " in text and " variable steps of " in text
+    assert text.endswith("; vectors v(2), i(@r9[i])>")
     assert "[" not in text.replace("[i]", "")  # no array dumped
     with pytest.raises(TypeError):
         result["v(2)"] = 0
@@ -479,7 +479,7 @@ def test_cli_run_writes_raw_and_reads_spice_steps(tmp_path):
     assert "No. Points: 1001" in header  # TSTOP = 1m at the step 1u
     assert "\ti(v.xa.v1)\tcurrent" in header
     bad = CliRunner().invoke(app, ["run", str(deck), "--dt", "fast"])
-    assert bad.exit_code == 2 and "'fast' is not a step > 0" in bad.output
+    assert bad.exit_code == 2 and "'fast' is not a number" in bad.output
     res = CliRunner().invoke(app, ["run", "rlc", "--raw", str(raw)])
     assert res.exit_code != 0 and "is not a netlist" in res.output
 

@@ -10,7 +10,7 @@ built = c.build()   # built.system, built.q0, built.p0
 
 from ._part import Part
 from .controlled import CCCS, CCVS, VCCS, VCVS
-from .diode import Diode
+from .diode import SPICE_PARAMETERS, Diode, spice_diode
 from .electrical import (
     Capacitor,
     CoupledInductors,
@@ -44,6 +44,7 @@ __all__ = [
     "DC",
     "EMF",
     "PWL",
+    "SPICE_PARAMETERS",
     "VCCS",
     "VCVS",
     "Assembly",
@@ -73,4 +74,5 @@ __all__ = [
     "VoiceCoil",
     "VoltageSource",
     "Waveform",
+    "spice_diode",
 ]

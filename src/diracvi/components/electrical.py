@@ -20,9 +20,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
-from .._validate import check_name
-from ._part import Part, finite, positive
+from ..errors import ModelError
+from ..model.validate import check_name
+from ._part import Part, finite, positive, traced
 from .waveforms import as_waveform
 
 _TWO_PINS = (("p", "q", 1), ("n", "q", -1))
@@ -78,8 +78,9 @@ class _Source(eqx.Module):
         return -jnp.atleast_1d(self.wave(t)) + 0.0 * v
 
 
-def _value(x: float) -> np.ndarray:
-    return np.asarray(x, dtype=np.float64)
+def _value(x):
+    # a traced parameter (jax.grad through a circuit) stays the tracer it is
+    return x if traced(x) else np.asarray(x, dtype=np.float64)
 
 
 #: the first linear R, L or C built: later ones are copies of it with their own name,
@@ -92,6 +93,8 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
     """A linear part of ``kind``: ``build()`` the first time, else the template copied
     with ``name``, the parameter leaf ``value`` and the static fields ``statics``."""
     template = _TEMPLATES.get(kind)
+    if traced(value) or any(traced(x) for v in statics.values() for x in _flat(v)):
+        return build()  # a traced value is no template's copy (nor a template)
     if template is None:
         part = build()
         if len(jax.tree.leaves(part)) == 1:  # one parameter leaf: a template
@@ -105,6 +108,13 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
         object.__setattr__(part, key, val)
     treedef = jax.tree.structure(part)
     return jax.tree.unflatten(treedef, [_value(value)])
+
+
+def _flat(value):
+    """The scalars of a static field's value (tuples of numbers or of pairs)."""
+    if isinstance(value, tuple):
+        return [x for v in value for x in _flat(v)]
+    return [value]
 
 
 class Ground:
@@ -162,7 +172,7 @@ def Capacitor(
             "capacitor", name, c,
             lambda: Part(("q",), _Elastance(_value(c)), name=name, pins=_TWO_PINS,
                          initial_q=[q0], role="capacitor"),
-            initial_q=(float(q0),),
+            initial_q=(q0 if traced(q0) else float(q0),),
         )  # fmt: skip
 
     else:
@@ -277,7 +287,15 @@ def VoltageSource(value, *, name: str) -> Part:
     out of ``n`` (negative while the source delivers power).
     """
     wave = as_waveform(value, f"VoltageSource {name!r}")
-    return Part(("q",), _zero_l, force=_Source(wave), name=name, pins=_TWO_PINS, role="voltage")
+    return Part(
+        ("q",),
+        _zero_l,
+        force=_Source(wave),
+        name=name,
+        pins=_TWO_PINS,
+        role="voltage",
+        waveforms=(wave,),
+    )
 
 
 def CurrentSource(value, *, name: str) -> Part:
@@ -293,4 +311,5 @@ def CurrentSource(value, *, name: str) -> Part:
         name=name,
         pins=_TWO_PINS,
         role="current",
+        waveforms=(wave,),
     )

@@ -18,11 +18,12 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
-from .._interconnect import Interaction, connect, interconnect
-from ._part import Part
+from ..errors import ModelError
+from ..model.interconnect import Interaction, connect, interconnect
+from ._part import Part, traced
 from .electrical import CoupledInductors, Ground, MutualInductance
 
 GROUND_NAMES = ("0", "gnd")
@@ -207,12 +208,17 @@ class Circuit:
                 )
             ports += [connect(members[0][0], c, name=f"{node}:{c}") for c, _ in members[1:]]
 
-        q0 = np.concatenate([np.asarray(p.initial_q) for p, _ in parts])
-        v0 = np.concatenate([np.asarray(p.initial_v) for p, _ in parts])
+        # a traced initial state (a differentiated capacitance, say) stays a JAX array
+        xp = jnp if any(traced(x) for p, _ in parts for x in p.initial_q + p.initial_v) else np
+        q0 = xp.concatenate([xp.asarray(p.initial_q, dtype=float) for p, _ in parts])
+        v0 = xp.concatenate([xp.asarray(p.initial_v, dtype=float) for p, _ in parts])
         for node, members in at_node.items():
             x, v = self._initial.get(node, (0.0, 0.0))
             for c, _ in members:
-                q0[index[c]], v0[index[c]] = x, v
+                if xp is np:
+                    q0[index[c]], v0[index[c]] = x, v
+                else:
+                    q0, v0 = q0.at[index[c]].set(x), v0.at[index[c]].set(v)
         unknown = set(self._initial) - set(at_node)
         if unknown:
             raise ModelError(
@@ -342,6 +348,13 @@ def _packed_momentum(system, q, v):
 
 def _momenta(system, parts, q0, v0, offsets) -> np.ndarray:
     """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``)."""
+    if traced(q0) or traced(v0):  # inside jax.jit (a traced fit): kept as JAX's
+        return jnp.concatenate(
+            [
+                jnp.asarray(p.momentum(q0[a:b], v0[a:b]))
+                for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
+            ]
+        )
     if len(parts) >= _BATCH_MOMENTA and hasattr(system, "_packed"):
         return np.asarray(_packed_momentum(system._packed(), q0, v0))
     return np.concatenate(

@@ -56,14 +56,26 @@ def _nodeset(reader, line, pos, kw):
     reader.note(line, ".nodeset noted (an operating-point hint; the transient starts from .ic/IC=)")
 
 
+#: the ``.options`` tolerances a variable-step run meets (checked here, used by _tran)
+TOLERANCES = ("reltol", "abstol", "vntol", "chgtol", "trtol")
+
+
 def _options(reader, line, pos, kw):
     for key, token in kw.items():
         value = number(token)
+        if key in TOLERANCES:  # the variable-step control meets these (spice._tran)
+            value = reader.top.value(token, line, f".options {key}")
+            if not value > 0.0:
+                raise line.fail(f".options {key}={token} must be a positive number")
         reader.options[key] = value if value is not None else token
         if key == "temp":
             _check_temperature(line, value)
     reader.options.update({p.lower(): True for p in pos[1:]})
-    reader.note(line, f"{card(line)} read into netlist.options (it tunes ngspice's solver)")
+    reader.note(
+        line,
+        f"{card(line)} read into netlist.options (reltol, abstol, vntol, chgtol, trtol are "
+        "used by variable-step runs; the rest tunes ngspice's solver)",
+    )
 
 
 def _temp(reader, line, pos, kw):
@@ -100,6 +112,15 @@ def _title(reader, line, pos, kw):
     reader.title = line.text.split(None, 1)[1] if len(line.text.split(None, 1)) > 1 else ""
 
 
+def _op(reader, line, pos, kw):
+    reader.op = True  # spice.operating_point() reports it; a transient starts from it
+    reader.note(
+        line,
+        ".op noted: spice.operating_point() gives the DC operating point; without UIC "
+        "the transient starts from it",
+    )
+
+
 def _noted(what):
     def handler(reader, line, pos, kw):
         reader.note(line, f"{card(line)} {what}")
@@ -129,9 +150,7 @@ DIRECTIVES = {
     ".save": _save,
     ".global": _global,
     ".title": _title,
-    ".op": _noted(
-        "noted (diracvi starts from .ic/IC=/zero state; the operating point is separate)"
-    ),
+    ".op": _op,
     **dict.fromkeys((".four", ".print", ".plot", ".probe", ".meas", ".measure", ".width"), _OUTPUT),
     **dict.fromkeys(
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS

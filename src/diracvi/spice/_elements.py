@@ -25,6 +25,7 @@ A handler has the shape
 from __future__ import annotations
 
 from .. import components as cp
+from ..components.diode import SPICE_ALIASES
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._sources import source
 
@@ -82,49 +83,32 @@ def _i(ctx, name, pos, kw, line):
     return cp.CurrentSource(source(ctx, pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
 
 
-# diode parameters that leave a transient at ngspice's defaults unchanged, with the
-# condition under which they do (noise only; temperature terms at TEMP = TNOM = 27 °C;
-# the capacitance's shape when there is no capacitance)
-_DIODE_DEFAULTS = {"is": 1e-14, "n": 1.0}
-_DIODE_ZERO = ("rs", "cjo", "cj0", "cj", "tt")
-_DIODE_NOISE = ("kf", "af")
-_DIODE_TEMPERATURE = ("eg", "xti", "tnom")
-_DIODE_SHAPE = ("vj", "pb", "m", "mj", "fc")
-
-
 def _d(ctx, name, pos, kw, line):
-    form = "Dname anode cathode model [area]"
-    if len(pos) not in (4, 5) or set(kw) - {"area"}:
-        raise line.fail(f"expected '{form}' (no options besides the area)")
+    """``Dname anode cathode model [area] [OFF] [IC=v]`` with a ``.model NAME D(…)`` of
+    :data:`~diracvi.components.SPICE_PARAMETERS` (ngspice's names, aliases and defaults)."""
+    form = "Dname anode cathode model [area] [OFF] [IC=v]"
+    flags = [t for t in pos[4:] if t.lower() == "off"]
+    rest = [t for t in pos[4:] if t.lower() != "off"]
+    if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area"}:
+        raise line.fail(f"expected '{form}'")
     kind, params, where = ctx.model(pos[3], line)
     if kind != "D":
         raise line.fail(f"model {pos[3]!r} ({where}) is a {kind} model, not a diode (D) model")
-    area = ctx.value(pos[4] if len(pos) == 5 else kw.get("area", "1"), line, "area")
-    ignored, refused = [], []
-    for key, value in params.items():
-        if key in _DIODE_DEFAULTS or key in _DIODE_NOISE:
-            continue
-        if key in _DIODE_ZERO and value == 0.0:
-            continue
-        if key in _DIODE_SHAPE and all(params.get(c, 0.0) == 0.0 for c in _DIODE_ZERO[1:]):
-            continue
-        if key in _DIODE_TEMPERATURE and (key != "tnom" or value == 27.0):
-            ignored.append(key)
-            continue
-        refused.append(key)
+    known = set(cp.SPICE_PARAMETERS) | set(SPICE_ALIASES)
+    refused = sorted(k for k in params if k not in known)
     if refused:
         raise line.fail(
-            f"diode model {pos[3]!r} ({where}) sets {sorted(refused)}, which diracvi's diode "
-            "does not have yet (only IS and N: a Shockley junction without series "
-            "resistance, capacitance or breakdown); remove them to run without"
+            f"diode model {pos[3]!r} ({where}) sets {refused}, which diracvi's diode does "
+            f"not have (it reads {', '.join(k.upper() for k in cp.SPICE_PARAMETERS)}); "
+            "remove them to run without"
         )
-    if ignored:
-        ctx.note(line, f"diode parameters {sorted(ignored)} have no effect at 27 °C")
-    i_s = params.get("is", _DIODE_DEFAULTS["is"]) * area
-    return cp.Diode(i_s, params.get("n", _DIODE_DEFAULTS["n"]), name=name), {
-        "p": pos[1],
-        "n": pos[2],
-    }
+    area = ctx.value(rest[0] if rest else kw.get("area", "1"), line, "diode area")
+    ic = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
+    if flags:
+        ctx.note(line, f"{pos[0]} OFF: its junction starts the operating point at 0 V")
+        ctx.reader.off.add(name)
+    part = cp.spice_diode(params, name=name, area=area, ic=ic)
+    return part, {"p": pos[1], "n": pos[2]}
 
 
 def _x(ctx, name, pos, kw, line):

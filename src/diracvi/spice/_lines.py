@@ -16,7 +16,7 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 _TOKEN = re.compile(r"\{[^}]*\}|'[^']*'|=|[^\s,()={}']+")
 

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import components as cp
-from .._errors import ModelError
+from ..errors import ModelError
 from ._directives import DIRECTIVES
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._save import select
@@ -35,7 +35,8 @@ class Netlist:
         assembly: ``circuit.build()`` (the system, ``q0``, ``p0`` and name maps).
         dt, steps, stop: from ``.tran TSTEP TSTOP`` (``None`` without ``.tran``);
             ``steps`` covers ``[0, TSTOP]`` at ``dt``.
-        uic: whether ``.tran … uic`` was given.
+        uic: whether ``.tran … uic`` was given (without it a transient starts from the
+            DC operating point, :func:`diracvi.spice.operating_point`).
         params: the evaluated top-level ``.param`` values (lower-case names).
         notes: what the reader accepted but does not act on (``.options``, ``.four``,
             AC specifications, unused models, …), each with its line.
@@ -46,6 +47,10 @@ class Netlist:
             lines, else node voltages and the currents of voltage sources and inductors
             (ngspice's default).
         display: part name -> the element's ngspice name (``v:xa:v1`` -> ``v.xa.v1``).
+        ic: the ``.ic`` node voltages (with UIC they set capacitor voltages; without,
+            they hold their nodes during the operating point, as SPICE does).
+        op: whether the netlist asks for ``.op``.
+        off: diodes marked ``OFF`` (their junctions start the operating point at 0 V).
     """
 
     title: str
@@ -62,6 +67,10 @@ class Netlist:
     options: dict = field(default_factory=dict)
     vectors: tuple = ()
     display: dict = field(default_factory=dict)
+    ic: dict = field(default_factory=dict)
+    op: bool = False
+    off: frozenset = frozenset()
+    _start: tuple | None = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -70,13 +79,29 @@ class Netlist:
 
     @property
     def q0(self):
-        """Initial coordinates (``assembly.q0``)."""
-        return self.assembly.q0
+        """The transient's initial coordinates, as SPICE starts it: with ``UIC`` the
+        netlist's state (``assembly.q0``), otherwise the DC operating point's."""
+        return self.initial_state()[0]
 
     @property
     def p0(self):
-        """Initial momenta (``assembly.p0``)."""
-        return self.assembly.p0
+        """The transient's initial momenta (see :attr:`q0`)."""
+        return self.initial_state()[1]
+
+    def initial_state(self):
+        """``(q0, p0)``: the netlist's state with ``UIC``, the DC operating point without
+        (computed once; ``.ic`` values hold their nodes while it is solved)."""
+        if self.uic:
+            return self.assembly.q0, self.assembly.p0
+        if self._start is None:
+            from ._operating_point import operating_point
+
+            try:
+                op = operating_point(self.assembly, hold=self.ic, off=self.off)
+            except ModelError as exc:
+                raise NetlistError(f"netlist {self.title!r}: {exc}") from None
+            self._start = (op.q0, op.p0)
+        return self._start
 
     @property
     def discretizations(self) -> tuple[str, ...]:
@@ -97,8 +122,12 @@ class Netlist:
 class _Reader:
     """The state of one read: what the directives set, and the problems met."""
 
-    def __init__(self, name: str):
+    def __init__(self, name: str, overrides=None):
         self.problems = Problems()
+        # read(..., params=): values that win over the netlist's top-level .param lines
+        self.overrides = {str(k).lower(): v for k, v in (overrides or {}).items()}
+        self.off: set[str] = set()  # diodes marked OFF
+        self.op = False
         self.circuit = cp.Circuit(name)
         self.title = ""
         self.tran: tuple[float, float] | None = None
@@ -111,7 +140,7 @@ class _Reader:
         self.globals: set[str] = set()
         self.all_models: list = []
         self.display: dict[str, str] = {}
-        self.top = Scope(self)
+        self.top = Scope(self, params=dict(self.overrides))
 
     def note(self, line: Line, text: str) -> None:
         self.notes.append(f"{line.where}: {text}")
@@ -172,19 +201,25 @@ class _Reader:
             tmax=self.tmax,
             options=self.options,
             display=self.display,
+            ic=dict(self.ic),
+            op=self.op,
+            off=frozenset(self.off),
         )
         netlist.vectors = select(netlist, self.saves, self.problems)
         self.problems.check()
         return netlist
 
 
-def read(source, name: str | None = None) -> Netlist:
+def read(source, name: str | None = None, params=None) -> Netlist:
     """Read a SPICE netlist from a path or from its text.
 
     Args:
         source: a :class:`~pathlib.Path`, a path string, or the netlist text (a string
             with a newline). The first line is the title.
         name: the circuit's name (default: the file's stem, or ``"netlist"``).
+        params: ``{name: value}`` overriding the netlist's top-level ``.param`` values
+            (names case-insensitive). Values may be JAX tracers, so ``jax.grad`` flows
+            from a run to any parameter: ``R1 a b {rval}`` with ``params={"rval": r}``.
 
     Returns:
         A :class:`Netlist`; ``netlist.system``, ``q0``, ``p0``, ``dt``, ``steps``.
@@ -213,4 +248,4 @@ def read(source, name: str | None = None) -> Netlist:
         text = source
     else:
         raise NetlistError(f"read({source!r}): pass a path or the netlist text (str).")
-    return _Reader(name or "netlist").read(text, base)
+    return _Reader(name or "netlist", params).read(text, base)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 
 def write_raw(result, path, *, ascii: bool = False) -> Path:

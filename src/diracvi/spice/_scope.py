@@ -14,7 +14,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
 from ._lines import Line, LineError, NetlistError, card, split
 from ._subckt import MAX_DEPTH, collect, instance_parts
@@ -222,6 +222,8 @@ def _directive(scope: Scope, line: Line) -> None:
         if pos[1:]:
             raise line.fail(f"'.param' expects name=value pairs, got {pos[1:]}")
         for key, token in kw.items():
+            if not scope.path and key in scope.reader.overrides:
+                continue  # read(..., params=) wins over the netlist's own value
             scope.params[key] = scope.value(token, line, f".param {key}")
         return
     if word == ".model":

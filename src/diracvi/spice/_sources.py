@@ -12,7 +12,7 @@ PW, PER = TSTOP) are taken from it here too.
 from __future__ import annotations
 
 from .. import components as cp
-from .._errors import ModelError
+from ..errors import ModelError
 from ._lines import NetlistError
 
 FUNCTIONS = ("sin", "pulse", "pwl")
