@@ -32,9 +32,9 @@ def main() -> None:
     t = time.perf_counter()
     import diracvi as dv
     from diracvi import spice
-    from diracvi._plan import Plan
     from diracvi.bench.ladders import ladder
     from diracvi.components.network import Circuit
+    from diracvi.driver.plan import Plan
 
     rows = [("import diracvi", None, time.perf_counter() - t)]
     spent: dict[str, float] = {}

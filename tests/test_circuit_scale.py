@@ -1,4 +1,4 @@
-"""The circuit-scale sparse affine path (``diracvi._solvers.sparse_affine``).
+"""White-box: the circuit-scale sparse affine path (``diracvi.solvers.sparse_affine``).
 
 A sparse step matrix of the interconnected parts, factored once: the same trajectory as
 the dense affine map and Newton to round-off, chosen automatically for a large linear
@@ -13,8 +13,8 @@ import pytest
 
 import diracvi as dv
 from diracvi import spice
-from diracvi._solvers.sparse_affine import SparseAffineSolver
 from diracvi.bench.ladders import ladder
+from diracvi.solvers.sparse_affine import SparseAffineSolver
 from diracvi.spice._ngspice import available, ngspice
 
 SPARSE = "sparse affine step map (SuperLU, COLAMD)"
