@@ -33,6 +33,7 @@ from ..solvers.base import StepSolver
 from ..solvers.newton import NewtonSolver
 from ..solvers.partitioned import PartitionedSolver
 from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ..solvers.sparse_affine import SPARSE_MOMENTUM_CHECK_LIMIT, SparseAffineSolver, sparse_map
 from .stepping import CompiledChunk, keeps_nodal
 
 _CACHE: OrderedDict = OrderedDict()
@@ -158,6 +159,8 @@ class Plan:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, h
         self.h_array = np.asarray(h, dtype=np.float64)
         self.step_map: AffineStepMap | None = None
+        self.sparse = None  # the circuit-scale sparse affine map, when it applies
+        self._packed = None
         first_jacobian = None  # J of the first step, if the affine probes formed it
         if isinstance(solver, StepSolver):
             self.fallback, self.affine_reason = solver, "a step solver was given"
@@ -166,7 +169,15 @@ class Plan:
             self.fallback = (
                 default_solver(system, rule, scheme) if solver is None else options.fallback
             )
-            if solver is None and isinstance(self.fallback, PartitionedSolver):
+            if isinstance(solver, SparseAffineSolver) or (
+                solver is None and isinstance(self.fallback, PartitionedSolver)
+            ):
+                self.sparse, self.affine_reason = sparse_map(
+                    self.stepped_system, rule, scheme, h, q0, p0, t0, options
+                )
+            if self.sparse is not None:
+                pass
+            elif solver is None and isinstance(self.fallback, PartitionedSolver):
                 # a large interconnection: the partitioned solver factorizes once per chunk
                 # for linear equations too, at O(n) per step against the dense map's O(n²)
                 self.affine_reason = "a large interconnection is stepped by the partitioned solver"
@@ -183,13 +194,21 @@ class Plan:
                 )
         # the linear fast path of the initial-data check is verified at q0 before use
         self.fallback.check(system, rule, scheme)  # a solver that cannot apply says why
-        if self.step_map is None:  # (the affine build has checked J already)
+        if self.step_map is None and self.sparse is None:  # (their builds checked J)
             check_solvable(system, rule, scheme, q0, p0, self.h_array, t0, first_jacobian)
-        self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
+        if self.sparse is None:
+            self.checker = Checker(system, linear=True, q_probe=q0, t_probe=t0)
+        else:
+            # the packed system (its Legendre data traced once per kind of part); the
+            # momentum check's dense projector is O(n³): as above MOMENTUM_CHECK_LIMIT,
+            # a large circuit's momenta are not checked (ports are)
+            self.checker = Checker(
+                self.stepped_system, linear=True, q_probe=q0, t_probe=t0,
+                momentum_limit=SPARSE_MOMENTUM_CHECK_LIMIT,
+            )  # fmt: skip
         # whether a run that saves its states also stores the nodal momenta
         self.nodal_when_saved = keeps_nodal(system, rule, True)
         self._chunks: dict = {}
-        self._packed = None
         self._fallback_name = repr(self.fallback)  # once: a Module's repr takes ~0.1 ms
 
     def describe(self, fallback_from: int | None = None, reason: str = "") -> str:

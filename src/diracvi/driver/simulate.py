@@ -36,6 +36,7 @@ from ..status import SolveStatus
 from . import checkpoint as _checkpoint
 from .plan import Layout, get_plan, layout
 from .record import March, run_fields, whole_run
+from .sparse_run import run_sparse
 from .traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from .trajectory import Trajectory
 
@@ -159,6 +160,10 @@ def simulate(
     if not plan.checker.accepts(q0, p0):
         q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
     save_states = bool(save_states)
+    if plan.sparse is not None and checkpoint is None:  # a large linear interconnection
+        traj = run_sparse(plan, run, q0, p0, t0, save_states)
+        if traj is not None:
+            return traj
     first = None
     if checkpoint is None:
         # the whole run is one compiled chunk; a run that took every step is returned

@@ -208,8 +208,16 @@ class Checker:
     is a matrix–vector product; it is verified at ``q_probe`` and otherwise dropped.
     """
 
-    def __init__(self, system: DiracSystem, linear: bool = False, q_probe=None, t_probe=0.0):
+    def __init__(
+        self,
+        system: DiracSystem,
+        linear: bool = False,
+        q_probe=None,
+        t_probe=0.0,
+        momentum_limit: int = MOMENTUM_CHECK_LIMIT,
+    ):
         self.system = system
+        self._momentum_limit = momentum_limit  # above it, momenta are not checked
         self.holonomic = any(getattr(system, "holonomic_mask", ()))
         self.groups = [np.asarray(g) for g in _port_groups(system)]
         # every member of a group against its first: one gather for the common case
@@ -222,7 +230,7 @@ class Checker:
             else None
         )
         self._linear = None
-        if linear and system.n <= MOMENTUM_CHECK_LIMIT:
+        if linear and system.n <= momentum_limit:
             probe = np.zeros(system.n) if q_probe is None else np.asarray(q_probe)
             scale = 1.0 + np.max(np.abs(probe), initial=0.0)
             # a driven system keeps this path only if nothing here moves with time either
@@ -280,7 +288,7 @@ class Checker:
         return self._quick
 
     def _momentum_projection(self, q, p, t=0.0):
-        if self.system.n > MOMENTUM_CHECK_LIMIT:
+        if self.system.n > self._momentum_limit:
             return p  # the dense Hessian would not fit: ports are checked, momenta not
         if self._linear is not None:
             g0, slope, comp = self._linear

@@ -18,6 +18,7 @@ can be checked to round-off.
 from __future__ import annotations
 
 import dataclasses
+import weakref
 from collections import Counter
 from collections.abc import Callable, Sequence
 
@@ -33,6 +34,9 @@ from .monolithic import monolithic
 from .stacked import Packing, pack
 from .system import DiracSystem, LagrangeDiracSystem, StaticTuple
 from .validate import check_forms_array, check_name, eval_shape
+
+#: packed copies by the id of their system (see InterconnectedSystem._packed)
+_PACKED: dict = {}
 
 
 class Interaction(eqx.Module):
@@ -286,12 +290,17 @@ class InterconnectedSystem(DiracSystem):
         (names, sizes and flags only); :meth:`_member` gives one in full."""
         if self._packing is not None:
             return self
+        hit = _PACKED.get(id(self))  # packed once per system (the netlist reader's
+        if hit is not None and hit[0]() is self:  # momenta and the plan both ask)
+            return hit[1]
         skeletons, packing = pack(self.subsystems)
         out = object.__new__(type(self))
         for f in dataclasses.fields(self):
             object.__setattr__(out, f.name, getattr(self, f.name))
         object.__setattr__(out, "subsystems", skeletons)
         object.__setattr__(out, "_packing", packing)
+        key = id(self)
+        _PACKED[key] = (weakref.ref(self, lambda _, c=_PACKED, key=key: c.pop(key, None)), out)
         return out
 
     def _member(self, i: int) -> DiracSystem:
@@ -494,7 +503,10 @@ class InterconnectedSystem(DiracSystem):
         """``[⊕ R_i(q_i, t); B(q)]`` for the subsystems' ``rows`` method (each block padded
         with zeros to the columns of its subsystem), then the interaction rows."""
         blocks = []
-        for k, (sub, qi) in enumerate(self._pairs(q)):
+        for k, skeleton in enumerate(self.subsystems):
+            if skeleton.m == 0:  # no rows (most parts of a circuit): nothing to place
+                continue
+            sub, qi = self._member(k), q[self._offsets[k] : self._offsets[k + 1]]
             a = getattr(sub, rows)(qi, t)
             left = jnp.zeros((a.shape[0], self._offsets[k]))
             right = jnp.zeros((a.shape[0], self.n - self._offsets[k + 1]))

@@ -24,7 +24,7 @@ Jacobian freshly formed at the iterate, the iterate is accepted whatever the upd
 long after the residual has reached round-off.
 
 **Junction limiting**: a system whose parts declare junction coordinates
-(:mod:`diracvi._solvers.limiting`) has each Newton iterate's junction voltages limited
+(:mod:`diracvi.solvers.limiting`) has each Newton iterate's junction voltages limited
 as SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
 iterate (without it Newton cycles between two iterates on a diode turning on).
 
@@ -79,7 +79,7 @@ def chord_newton(
     ‖r‖∞, factors)`` with the residual of the last iterate evaluated.
 
     ``limit(x, x_new)`` (optional) limits an iterate (junction voltages, see
-    :mod:`~diracvi._solvers.limiting`); ``row_scale(factors, x)`` (optional) gives each
+    :mod:`~diracvi.solvers.limiting`); ``row_scale(factors, x)`` (optional) gives each
     equation's size at ``x``, which enables the round-off residual test.
     """
     full_from = (3 * options.max_steps) // 4  # from here on, a fresh Jacobian every time
@@ -153,7 +153,7 @@ class NewtonSolver(StepSolver):
         residual_rtol: a residual within this fraction of each equation's terms (see
             above) is at round-off: the step has converged (default 1e-13).
         limit_junctions: limit junction voltages between iterates as SPICE's
-            ``pnjlim`` (default True; see :mod:`diracvi._solvers.limiting`).
+            ``pnjlim`` (default True; see :mod:`diracvi.solvers.limiting`).
     """
 
     rtol: float = eqx.field(static=True, default=1e-13)

@@ -18,7 +18,7 @@ is constant). The coordinates the equations do not depend on (every branch charg
 capacitor's, a diode's flux) keep their values.
 
 Newton's method solves it, with the junction voltages limited as in a transient step
-(:mod:`diracvi._solvers.limiting`). When plain Newton fails, SPICE's homotopies follow:
+(:mod:`diracvi.solvers.limiting`). When plain Newton fails, SPICE's homotopies follow:
 **gmin stepping** (a conductance ``G`` from every node to ground, ``G = 10⁻² … 10⁻¹²``,
 then 0, each solve starting from the last) and **source stepping** (the equations'
 source terms — their value at the zero state — scaled by ``s`` from 0 to 1).

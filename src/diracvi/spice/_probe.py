@@ -81,6 +81,5 @@ def to_dataset(assembly, traj):
     """The trajectory's dataset (:meth:`~diracvi.Trajectory.to_xarray`) with the
     waveforms added as data variables ``v(<node>)`` and ``i(<element>)`` over ``time``."""
     ds = traj.to_xarray()
-    for key, values in waveforms(assembly, traj).items():
-        ds[key] = (("time",), values)
-    return ds
+    # all at once: one assignment per waveform copies the dataset each time (O(N²))
+    return ds.assign({key: (("time",), v) for key, v in waveforms(assembly, traj).items()})
