@@ -22,9 +22,9 @@ import numpy as np
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._dispatch import synchronous
-from diracvi._simulate import check_run, prepared_plan
+from diracvi.driver.simulate import check_run, prepared_plan
 from diracvi.reproduce.paper import RLC, SPRING_CHAIN
+from diracvi.runtime.dispatch import synchronous
 
 
 def example(name: str, steps: int | None):

@@ -4,7 +4,7 @@ and in a second one sharing its new, empty cache directory.
 python benchmarks/store_chain.py [N] [M] [--steps S]
 
 Each process builds the chain and times its first ``dv.simulate`` (S steps); the second
-loads the programs the first stored (``diracvi._stored``) instead of tracing them. Also
+loads the programs the first stored (``diracvi.runtime.store``) instead of tracing them. Also
 printed: the time to print the chain's key (``canonical``), which both processes pay.
 """
 
@@ -20,7 +20,7 @@ CHILD = """
 import json, sys, time
 import diracvi as dv
 from diracvi import problems
-from diracvi._fingerprint import canonical
+from diracvi.runtime.fingerprint import canonical
 n, m, steps = (int(a) for a in sys.argv[1:4])
 problem = problems.chain_torn(n, m)
 start = time.perf_counter()

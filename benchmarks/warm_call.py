@@ -51,7 +51,7 @@ def examples():
 def one_step_program(system, q0, p0, dt):
     """The compiled 1-step chunk of the warm call, called directly on the same input:
     the call less this is the Python side (checks, plan lookup, Trajectory)."""
-    from diracvi._simulate import check_run, prepared_plan
+    from diracvi.driver.simulate import check_run, prepared_plan
 
     dv.simulate(system, q0, p0, dt=dt, steps=1)
     run = check_run(system, "plus", "retraction", dt, 1, 1, None)

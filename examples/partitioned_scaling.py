@@ -29,7 +29,7 @@ def one(n_masses: int, kind: str, steps: int, repeats: int = 3) -> dict:
 
     import diracvi as dv
     from diracvi import problems
-    from diracvi._equations import StepEquations
+    from diracvi.discretization.equations import StepEquations
 
     t0 = time.perf_counter()
     problem = problems.chain_torn(n_masses, max(2, n_masses // 100))

@@ -55,3 +55,57 @@ def write(name: str) -> Path:
 if __name__ == "__main__":
     for circuit in CIRCUITS:
         print("wrote", write(circuit))
+
+
+def fine_transient(netlist: str, probes, points: int = 20000):
+    """ngspice's transient of ``netlist`` at fine settings (``OPTIONS``: reltol 1e-7,
+    TMAX = TSTOP/``points``), refusing a run that stopped before TSTOP (ngspice gives up
+    with "timestep too small" on some circuits and still writes what it has)."""
+    stop = _stop(netlist)
+    t, values = ngspice(netlist, probes, tmax=stop / points)
+    if t[-1] < stop * (1 - 1e-9):
+        raise RuntimeError(f"ngspice stopped at t = {t[-1]:g} of {stop:g}")
+    return t, values
+
+
+def operating_point(netlist: str) -> dict:
+    """ngspice's ``.op`` of ``netlist`` (its analyses replaced), 15 digits:
+    ``{"v(node)": …, "i(source)": …}`` (names lower-case)."""
+    import subprocess
+    import tempfile
+
+    body, _, _ = netlist.rpartition(".end")
+    lines = [ln for ln in body.strip().splitlines() if not ln.lower().startswith((".tran", ".op"))]
+    deck = "\n".join(
+        [
+            *lines,
+            ".options reltol=1e-12 abstol=1e-18 vntol=1e-15",
+            ".control",
+            "set numdgt=15",
+            "op",
+            "print all",
+            ".endc",
+            ".end",
+            "",
+        ]
+    )
+    with tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "deck.cir").write_text(deck)
+        out = subprocess.run(
+            ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=120
+        ).stdout
+    values = {}
+    for line in out.splitlines():
+        name, eq, rest = line.partition("=")
+        name = name.strip().lower()
+        if not eq or not rest.split() or " " in name:
+            continue
+        try:
+            x = float(rest.split()[0])
+        except ValueError:
+            continue
+        key = f"i({name[: -len('#branch')]})" if name.endswith("#branch") else f"v({name})"
+        values[key] = x
+    if not values:
+        raise RuntimeError(f"ngspice .op gave nothing:\n{out[-2000:]}")
+    return values

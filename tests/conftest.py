@@ -15,7 +15,7 @@ if "DIRACVI_CACHE_DIR" not in os.environ:
 
 # The marching chunks are compiled without XLA's backend (LLVM) optimization: the same
 # programs (HLO) as a user's, compiled in about half the time and run up to 2x slower,
-# which suits a suite that compiles hundreds of short runs (diracvi._compile). Run
+# which suits a suite that compiles hundreds of short runs (diracvi.runtime.compile). Run
 # ``DIRACVI_FAST_COMPILE=0 pytest`` to test the default machine code; the benchmarks
 # (diracvi bench) measure it.
 os.environ.setdefault("DIRACVI_FAST_COMPILE", "1")

@@ -1,6 +1,9 @@
 """An affine run in blocks (the blocks' starts by a recursion, every state from its
 block's start) is the single-step recursion ``z_{k+1} = z_k + Δ z_k + b``, whatever the
-block length and however the run's length falls on the blocks."""
+block length and however the run's length falls on the blocks.
+
+White-box: reads internals of ``diracvi.discretization.rules``,
+``diracvi.driver.simulate``, ``diracvi.solvers``."""
 
 import jax
 import numpy as np
@@ -8,9 +11,9 @@ import pytest
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._discretize import get_rule
-from diracvi._simulate import check_run, prepared_plan
-from diracvi._solvers import affine
+from diracvi.discretization.rules import get_rule
+from diracvi.driver.simulate import check_run, prepared_plan
+from diracvi.solvers import affine
 
 
 @pytest.mark.parametrize(

@@ -1,5 +1,7 @@
 """The on-disk compilation cache: where it is, switching it off, and a second process
-really reading the first one's programs (JAX's own cache log says hit or miss)."""
+really reading the first one's programs (JAX's own cache log says hit or miss).
+
+White-box: reads internals of ``diracvi.runtime``."""
 
 import os
 import re
@@ -9,12 +11,12 @@ from pathlib import Path
 
 from typer.testing import CliRunner
 
-from diracvi import _cache
 from diracvi.cli import app
+from diracvi.runtime import cache as _cache
 
 # A small model in a fresh process that logs JAX's cache decisions. Its Lagrangian is a
 # callable Module of the user's, which diracvi keeps whole (not lifted to a program), so
-# the program store (diracvi._stored, tested in test_stored.py) cannot key its programs:
+# the program store (diracvi.runtime.store, tested in test_stored.py) cannot key its programs:
 # they are traced in every process, and JAX's cache saves their compilation.
 CHILD = """
 import logging, sys

@@ -1,14 +1,19 @@
 """``DIRACVI_FAST_COMPILE``: the same program compiled without LLVM optimization, and the
-run-once options themselves."""
+run-once options themselves.
+
+White-box: reads internals of ``diracvi.driver.plan``, ``diracvi.runtime``,
+``diracvi.runtime.compile``."""
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _compile, _stored, problems
-from diracvi._compile import FAST_COMPILE_ENV, fast_compile, run_once_options
-from diracvi._plan import clear_cache
+from diracvi import problems
+from diracvi.driver.plan import clear_cache
+from diracvi.runtime import compile as _compile
+from diracvi.runtime import store as _stored
+from diracvi.runtime.compile import FAST_COMPILE_ENV, fast_compile, run_once_options
 
 
 def test_fast_compiled_chunks_give_the_default_trajectory(monkeypatch, tmp_path):

@@ -7,15 +7,17 @@ dense formulas on random instances that have what models have: block-diagonal ``
 massless (singular) blocks, constraint rows across blocks, singular Jacobians. The
 groups of connected ports (connected components of the connection graph, by index) are
 compared with a union–find over the coordinates' names.
-"""
+
+White-box: reads internals of ``diracvi.model.consistency``,
+``diracvi.solvers.solvability``."""
 
 import numpy as np
 import pytest
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._consistency import _complement, _port_groups
-from diracvi._solvers.solvability import check_step_jacobian, null_directions
+from diracvi.model.consistency import _complement, _port_groups
+from diracvi.solvers.solvability import check_step_jacobian, null_directions
 
 
 def _dense_complement(w, forms):

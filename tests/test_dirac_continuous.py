@@ -185,3 +185,30 @@ def test_argument_errors_name_the_argument():
         tensor(induced(None, n=2), induced(None, n=3))
     with pytest.raises(ModelError, match="4n"):
         induced(None, n=2).contains(np.ones(5))
+
+
+def _tensor_by_definition(da, db):
+    # {(v, α) | ∃β: (v, α + β) ∈ Da, (v, −β) ∈ Db} by brute force: the kernel of the two
+    # membership conditions in the unknowns (v, α, β), then projected onto (v, α)
+    n2 = 2 * da.n
+    pa = np.eye(2 * n2) - da.basis.T @ da.basis  # annihilates Da exactly
+    pb = np.eye(2 * n2) - db.basis.T @ db.basis
+    eye, zero = np.eye(n2), np.zeros((n2, n2))
+    to_a = np.block([[eye, zero, zero], [zero, eye, eye]])  # (v, α, β) ↦ (v, α + β)
+    to_b = np.block([[eye, zero, zero], [zero, zero, -eye]])  # (v, α, β) ↦ (v, −β)
+    _, s, vt = np.linalg.svd(np.concatenate([pa @ to_a, pb @ to_b]))
+    kernel = vt[np.sum(s > 1e-10) :]
+    return DiracStructure.from_subspace(kernel[:, : 2 * n2])
+
+
+def test_tensor_equals_its_definition_where_the_shared_covector_sign_matters():
+    # two induced structures with non-zero two-forms on their distributions: (v, γ) ∈ D
+    # does not give (v, −γ) ∈ D, so α = γ_a + γ_b and α = γ_a − γ_b differ
+    da = induced(np.array([[1.0, -1.0, 0.5]]))
+    db = induced(np.array([[0.0, 1.0, 2.0]]))
+    prod = tensor(da, db)
+    assert prod == _tensor_by_definition(da, db)
+    # Da = Db = D_TQ: (v, α + β) = (v, −β) = (v, ω♭v) forces α = 2 ω♭v
+    d_tq = induced(None, n=1)
+    v = np.array([0.7, -0.4])
+    assert tensor(d_tq, d_tq).contains((v, 2.0 * np.array([-v[1], v[0]])))

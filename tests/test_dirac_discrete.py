@@ -1,6 +1,8 @@
 """Discrete Dirac structures (paper §2.3, §4.2): the Tulczyjew maps and 𝔇^±L_d by hand,
 the (±) equations they encode vs the integrator's residuals, the discrete direct-sum
-lemma and the main theorem (D^{d+}_{Δ1} ⊕ D^{d+}_{Δ2}) ⊠_d D^{d+}_int = D^{d+}_Δ."""
+lemma and the main theorem (D^{d+}_{Δ1} ⊕ D^{d+}_{Δ2}) ⊠_d D^{d+}_int = D^{d+}_Δ.
+
+White-box: reads internals of ``diracvi.dirac._linalg``, ``diracvi.dirac._structure``."""
 
 from __future__ import annotations
 
@@ -32,8 +34,8 @@ from diracvi.dirac import (
     omega_flat_plus,
     system_dirac_differential,
 )
-from diracvi.dirac._constructions import combined_forms
 from diracvi.dirac._linalg import rank
+from diracvi.dirac._structure import combined_forms
 
 pytestmark = pytest.mark.filterwarnings("ignore::diracvi.dirac.RedundantFormsWarning")
 

@@ -1,5 +1,7 @@
 """Jacobs–Yoshimura proposition: (D_{Δ1} ⊕ D_{Δ2}) ⊠ D_int = D_{(Δ1⊕Δ2)∩Σ} (paper §2.2),
-on the paper's torn examples and on random instances; non-clean points are refused."""
+on the paper's torn examples and on random instances; non-clean points are refused.
+
+White-box: reads internals of ``diracvi.dirac._structure``."""
 
 from __future__ import annotations
 
@@ -22,7 +24,7 @@ from diracvi.dirac import (
     is_clean,
     tensor,
 )
-from diracvi.dirac._constructions import combined_forms
+from diracvi.dirac._structure import combined_forms
 
 pytestmark = pytest.mark.filterwarnings("ignore::diracvi.dirac.RedundantFormsWarning")
 

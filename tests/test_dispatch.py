@@ -1,6 +1,8 @@
-"""Importing diracvi makes JAX run CPU programs on the calling thread (diracvi._dispatch),
+"""Importing diracvi makes JAX run CPU programs on the calling thread (diracvi.runtime.dispatch),
 unless DIRACVI_CPU_ASYNC_DISPATCH=1 keeps JAX's default, and says so truthfully when
-JAX's CPU client existed before the import."""
+JAX's CPU client existed before the import.
+
+White-box: reads internals of ``diracvi.runtime``."""
 
 import os
 import subprocess
@@ -8,7 +10,7 @@ import sys
 
 import pytest
 
-from diracvi import _dispatch
+from diracvi.runtime import dispatch as _dispatch
 
 PROBE = """
 import sys
@@ -17,7 +19,7 @@ if sys.argv[1] == "jax-first":
     jax.numpy.ones(2).block_until_ready()  # JAX's CPU client exists before diracvi
 import diracvi
 from jax._src import xla_bridge
-print(diracvi._dispatch.synchronous(), xla_bridge._CPU_ENABLE_ASYNC_DISPATCH.value)
+print(diracvi.runtime.dispatch.synchronous(), xla_bridge._CPU_ENABLE_ASYNC_DISPATCH.value)
 """
 
 

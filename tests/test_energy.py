@@ -1,4 +1,6 @@
-"""Long-time energy behaviour, dissipation, and the sign of the resistor force."""
+"""Long-time energy behaviour, dissipation, and the sign of the resistor force.
+
+White-box: reads internals of ``diracvi.problems._problem``."""
 
 import numpy as np
 import pytest

@@ -1,6 +1,8 @@
 """Every fast path gives the trajectory plain Newton gives (≤ 1e-12), and says what ran:
 the affine step map (with its per-step verification and fallback), Newton with reused
-factors, thinned and diagnostics-only saving, and ensembles."""
+factors, thinned and diagnostics-only saving, and ensembles.
+
+White-box: reads internals of ``diracvi.discretization.diagnostics``."""
 
 import warnings
 
@@ -250,7 +252,7 @@ def test_large_interconnections_are_stepped_by_the_partitioned_solver():
 
 
 def test_grouped_diagnostics_equal_the_per_subsystem_sum():
-    from diracvi._grouped import _plain, step_diagnostics
+    from diracvi.discretization.diagnostics import _plain, step_diagnostics
 
     problem = problems.chain_torn(40, 10)  # ten pieces: evaluated as groups
     rng = np.random.default_rng(7)

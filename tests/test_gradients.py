@@ -3,7 +3,8 @@
 Gradients are checked against central finite differences of the same forward map (the
 jitted traced run, whose values equal the untraced run's, see test_jit_equals_untraced):
 one compilation for the values and one for the gradient per case keeps the file fast.
-"""
+
+White-box: reads internals of ``diracvi.driver.traced``."""
 
 from __future__ import annotations
 
@@ -371,7 +372,7 @@ def test_lobatto_runs_traced_with_implicit_function_gradients():
 def test_tangent_solve_elimination_matches_lapack():
     """The traced tangent solve (plain-lax elimination with partial pivoting) against
     LAPACK, on matrices that need row exchanges (zero and tiny leading pivots)."""
-    from diracvi._traced import _gauss_solve
+    from diracvi.driver.traced import _gauss_solve
 
     rng = np.random.default_rng(7)
     solve = jax.jit(_gauss_solve)

@@ -315,3 +315,37 @@ def test_multipliers_report_subsystems_then_interactions():
     # the rotor-side λ is the gyrator torque impulse: λ = −h K i (per step)
     k = problem.parameters["K"]
     np.testing.assert_allclose(torque, -problem.dt * k * current, rtol=1e-9, atol=1e-15)
+
+
+def test_monolithic_keeps_the_subsystems_affine_constraint_offsets():
+    # a current source u(t) = I₀ cos ωt inside the torn subsystem ``src`` (the affine row
+    # v^I − u(t) = 0) feeds R ∥ C across the tear: q̇^C = u − q^C/(RC), a closed form.
+    # monolithic() must carry the offset b(q, t) = −u(t): without it the twin's source
+    # is dead and q^C stays at rest.
+    r, c, i0, om = 2.0, 0.5, 1.5, 3.0
+    src = dv.LagrangeDiracSystem(
+        ("qI", "qR", "qS1"),
+        lambda q, v, t: 0.0 * v[0],
+        constraints=lambda q, t: jnp.array([[1.0, 0.0, 0.0], [1.0, -1.0, -1.0]]),
+        constraint_offset=lambda q, t: jnp.array([-i0 * jnp.cos(om * t), 0.0]),
+        force=lambda q, v, t: jnp.stack([0.0 * v[0], -r * v[1], 0.0 * v[2]]),
+        name="src",
+        constraint_names=("I", "KCL"),
+    )
+    cap = dv.LagrangeDiracSystem(
+        ("qS2", "qC"),
+        lambda q, v: -(q[1] ** 2) / (2.0 * c),
+        constraints=np.array([[-1.0, 1.0]]),
+        name="cap",
+        constraint_names=("KCL",),
+    )
+    torn = dv.interconnect([src, cap], [dv.connect("src.qS1", "cap.qS2")])
+    kwargs = dict(dt=0.01, steps=300, discretization="midpoint")
+    a_torn = dv.simulate(torn, np.zeros(5), np.zeros(5), **kwargs)
+    a_mono = dv.simulate(torn.monolithic(), np.zeros(5), np.zeros(5), **kwargs)
+    a, t = 1.0 / (r * c), np.asarray(a_torn.t)
+    exact = (-i0 * a * np.exp(-a * t) + i0 * (a * np.cos(om * t) + om * np.sin(om * t))) / (
+        a * a + om * om
+    )
+    np.testing.assert_allclose(np.asarray(a_torn.q)[:, 4], exact, atol=1e-4)  # O(h²) = 3e-5
+    np.testing.assert_allclose(np.asarray(a_mono.q), np.asarray(a_torn.q), rtol=0, atol=1e-12)

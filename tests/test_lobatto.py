@@ -1,7 +1,9 @@
 """The order-4 rule keeps the structural properties of the others on the paper's
 degenerate RLC circuit: the affine step map is Newton's step, the (−) scheme inverts
 the (+) scheme (Lobatto IIID is symmetric), and checkpointed and ensemble runs are the
-plain run."""
+plain run.
+
+White-box: reads internals of ``diracvi.discretization.lobatto``."""
 
 import numpy as np
 import pytest
@@ -81,7 +83,7 @@ def test_lobatto_iiia_iiib_is_singular_on_the_degenerate_rlc_and_iiid_is_not():
     """Why the rule is IIID: under IIIA–IIIB (IIIB's last column is zero) the resistor's
     last-stage velocity enters no equation but the constraint, so the step is singular
     on the paper's RLC; IIID's invertible ``a`` determines every stage."""
-    from diracvi._discretize import IIID
+    from diracvi.discretization.lobatto import IIID
 
     iiia = [[0, 0, 0], [5 / 24, 1 / 3, -1 / 24], [1 / 6, 2 / 3, 1 / 6]]
     iiib = [[1 / 6, -1 / 6, 0], [1 / 6, 1 / 3, 0], [1 / 6, 5 / 6, 0]]

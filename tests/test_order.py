@@ -1,4 +1,6 @@
-"""Order of accuracy against exact solutions: the fitted log–log slope is the rule's order."""
+"""Order of accuracy against exact solutions: the fitted log–log slope is the rule's order.
+
+White-box: reads internals of ``diracvi.discretization.lobatto``."""
 
 import numpy as np
 import pytest
@@ -151,7 +153,7 @@ def test_lobatto_stage_algebra_is_lobatto_iiid():
     positions are ``q_k + h Σ a_ij V_j`` and the step ``q_k + h Σ b_j V_j`` for the
     velocities it returns, IIID is its own symplectic partner, and its ``a`` is
     invertible (a wrong coefficient, or IIIA/IIIB, fails one of these)."""
-    from diracvi._discretize import IIID, NODES, WEIGHTS
+    from diracvi.discretization.lobatto import IIID, NODES, WEIGHTS
 
     a, b = np.array(IIID), np.array(WEIGHTS)
     rng = np.random.default_rng(0)

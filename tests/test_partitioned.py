@@ -1,4 +1,7 @@
-"""PartitionedSolver: the same steps as dense Newton, solved subsystem by subsystem."""
+"""PartitionedSolver: the same steps as dense Newton, solved subsystem by subsystem.
+
+White-box: reads internals of ``diracvi.discretization.equations``,
+``diracvi.discretization.rules``, ``diracvi.solvers``."""
 
 import dataclasses
 
@@ -13,8 +16,8 @@ from hypothesis import strategies as st
 import diracvi as dv
 from conftest import examples
 from diracvi import problems
-from diracvi._discretize import get_rule
-from diracvi._equations import StepEquations, first_guess
+from diracvi.discretization.equations import StepEquations, first_guess
+from diracvi.discretization.rules import get_rule
 from diracvi.problems.spring_chain import SegmentLagrangian
 
 DENSE = dv.NewtonSolver(reuse_jacobian=False)
@@ -326,7 +329,7 @@ def test_module_parameters_are_leaves_so_equal_segments_share_one_structure():
     [(2, 1), (0, 2), *(pytest.param(*b, marks=pytest.mark.slow) for b in ((0, 0), (1, 1), (3, 0)))],
 )
 def test_banded_lu_with_pivoting_solves_like_numpy(rng, kl, ku):
-    from diracvi._solvers import _banded
+    from diracvi.solvers import banded as _banded
 
     size = 23
     i, j = np.indices((size, size))

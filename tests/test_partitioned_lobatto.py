@@ -5,7 +5,9 @@ unknowns and its three stage multipliers; every interaction row is imposed at th
 stages, each copy with its own multiplier (``docs/discretizations.md``). These tests hold
 the partitioned solver to the paper's theorem (torn ≡ monolithic), to dense Newton's
 iterates, and to the automatic solver choice.
-"""
+
+White-box: reads internals of ``diracvi.discretization.equations``,
+``diracvi.discretization.rules``, ``diracvi.driver.plan``."""
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -16,8 +18,8 @@ from hypothesis import given
 import diracvi as dv
 from conftest import examples
 from diracvi import problems
-from diracvi._discretize import get_rule
-from diracvi._equations import StepEquations, first_guess
+from diracvi.discretization.equations import StepEquations, first_guess
+from diracvi.discretization.rules import get_rule
 from test_partitioned import check_random_interconnection, constant_interconnection, star
 
 PARTITIONED = dv.PartitionedSolver()
@@ -108,7 +110,7 @@ def test_partitioned_newton_takes_dense_newtons_iterates(rng, counts):
 
 
 def test_the_automatic_choice_picks_the_partitioned_solver_for_a_large_lobatto_chain():
-    from diracvi._plan import default_solver
+    from diracvi.driver.plan import default_solver
 
     big = problems.chain_torn(masses=200, pieces=100).system  # 299 + 99 unknowns
     for rule in ("midpoint", "lobatto"):
@@ -125,7 +127,7 @@ def test_lobatto_with_a_configuration_dependent_interaction_is_refused_with_the_
     """The torn double pendulum's joint ``B(θ₁)`` is imposed at the stages, which move
     with the unknowns: not linear, not split by subsystem. Refused by name; the automatic
     choice falls back to dense Newton."""
-    from diracvi._plan import default_solver
+    from diracvi.driver.plan import default_solver
 
     problem = problems.get("double-pendulum-torn")
     with pytest.raises(dv.ModelError) as info:
@@ -146,7 +148,7 @@ def test_a_large_chain_is_stepped_by_the_partitioned_solver_automatically():
     ``solver=None`` picks the partitioned solver, whose pieces keep their stages and
     stage multipliers local with banded factors, and the run equals dense Newton on the
     monolithic chain."""
-    from diracvi._plan import default_solver
+    from diracvi.driver.plan import default_solver
 
     problem = problems.chain_torn(masses=250, pieces=5)
     system = problem.system

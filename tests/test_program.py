@@ -1,12 +1,14 @@
 """User functions are alike by what they compute (traced programs, constants lifted):
-closures from a loop group and vmap, and each piece still computes with its own numbers."""
+closures from a loop group and vmap, and each piece still computes with its own numbers.
+
+White-box: reads internals of ``diracvi.runtime.program``."""
 
 import jax.numpy as jnp
 import numpy as np
 
 import diracvi as dv
 from diracvi import problems
-from diracvi._program import lift
+from diracvi.runtime.program import lift
 
 
 def _closure_chain(n: int, m: int):

@@ -37,7 +37,7 @@ def test_every_figure_is_a_non_empty_png(run):
 def test_summary_has_the_expected_keys(run):
     _, summary, _ = run
     assert summary["quick"] is True
-    # timings are reported with the dispatch mode they were taken in (diracvi._dispatch)
+    # timings are reported with the dispatch mode they were taken in (diracvi.runtime.dispatch)
     assert summary["machine"]["cpu_dispatch"] == "synchronous"
     assert set(summary["examples"]) == {"spring_chain", "rlc"}
     for s in summary["examples"].values():

@@ -1,6 +1,9 @@
-"""The program store (diracvi._stored): a second process loads the first one's compiled
+"""The program store (diracvi.runtime.store): a second process loads the first one's compiled
 programs without tracing, gets bitwise the same run, and a key never confuses two
-programs — what the key cannot represent is compiled as before."""
+programs — what the key cannot represent is compiled as before.
+
+White-box: reads internals of ``diracvi.runtime``, ``diracvi.runtime.fingerprint``,
+``diracvi.runtime.program``, ``diracvi.runtime.store``, ``diracvi.solvers``."""
 
 import functools
 import json
@@ -16,10 +19,11 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _fingerprint, _stored
-from diracvi._fingerprint import Unstorable, canonical
-from diracvi._program import lift
-from diracvi._stored import StoredJit
+from diracvi.runtime import fingerprint as _fingerprint
+from diracvi.runtime import store as _stored
+from diracvi.runtime.fingerprint import Unstorable, canonical
+from diracvi.runtime.program import lift
+from diracvi.runtime.store import StoredJit
 
 # A torn model in a fresh process: what the store did (its log) and the run's bits.
 CHILD = """
@@ -28,15 +32,16 @@ records = []
 class Keep(logging.Handler):
     def emit(self, record):
         records.append(record.getMessage())
-logging.getLogger("diracvi._stored").addHandler(Keep())
-logging.getLogger("diracvi._stored").setLevel(logging.DEBUG)
+logging.getLogger("diracvi.runtime.store").addHandler(Keep())
+logging.getLogger("diracvi.runtime.store").setLevel(logging.DEBUG)
 import jax
 traces = []
 jax.monitoring.register_event_duration_secs_listener(
     lambda name, *a, **k: traces.append(name) if name.endswith("trace_duration") else None
 )
 import diracvi as dv
-from diracvi import _stored, problems
+from diracvi import problems
+from diracvi.runtime import store as _stored
 if sys.argv[2] == "off":  # JAX's cache only, as before the store
     _stored.enabled = lambda: False
 pr = problems.get(sys.argv[1])
@@ -133,7 +138,7 @@ def test_what_the_key_cannot_represent_is_refused():
 
 
 def test_a_diracvi_setting_is_part_of_the_key(monkeypatch):
-    from diracvi._solvers import affine
+    from diracvi.solvers import affine
 
     before = _fingerprint.key("f", "args", {})
     monkeypatch.setattr(affine, "MAX_BLOCK", affine.MAX_BLOCK + 1)

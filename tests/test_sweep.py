@@ -1,5 +1,7 @@
 """``dv.sweep``: members equal single runs, one compilation per structure, Dask equals
-embedded bitwise (also after a worker dies), and ``out=`` resumes after an interruption."""
+embedded bitwise (also after a worker dies), and ``out=`` resumes after an interruption.
+
+White-box: reads internals of ``diracvi.sweeps``."""
 
 from __future__ import annotations
 
@@ -9,11 +11,15 @@ import signal
 import sys
 import textwrap
 
+import equinox as eqx
+import jax
+import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _sweep, problems
+from diracvi import problems
+from diracvi.sweeps import batch as _sweep
 
 DT, STEPS = 0.1, 60
 BATCH = 4  # one batch shape in every test: the compiled programs are shared
@@ -320,3 +326,48 @@ def test_cli_sweep_writes_the_dataset(tmp_path):
         assert (ds.status.values == 0).all()
     bad = CliRunner().invoke(app, [*args[:3], "R=1:2", "--dt", "0.1", "--steps", "5"])
     assert bad.exit_code == 2 and "start:stop:count" in bad.output
+
+
+class _SeriesLoop(eqx.Module):
+    """``L = ½ l q̇² − q²/(2C)`` of a series RLC loop's charge; parameters as array leaves."""
+
+    ell: jax.Array
+    cap: jax.Array
+
+    def __call__(self, q, v):
+        return 0.5 * self.ell * v[0] ** 2 - q[0] ** 2 / (2.0 * self.cap)
+
+
+class _Drag(eqx.Module):
+    r: jax.Array
+
+    def __call__(self, q, v):
+        return -self.r * v
+
+
+def series_rlc(R, C):
+    system = dv.LagrangeDiracSystem(
+        ("q",), _SeriesLoop(jnp.asarray(0.5), jnp.asarray(C)), force=_Drag(jnp.asarray(R))
+    )
+    return system, np.array([1.0]), np.array([0.0])
+
+
+def test_a_linear_sweep_is_stepped_by_the_affine_map_and_equals_simulate():
+    # one driver: the sweep's plan is simulate's, so a linear circuit takes the affine
+    # map (one per member) and every member equals its own simulate call
+    grid = {"R": [0.1, 0.5, 2.0], "C": [0.5, 2.0]}
+    ds = dv.sweep(series_rlc, grid, dt=DT, steps=STEPS, batch_size=BATCH)
+    assert set(ds.solver.values.ravel()) == {"affine step map"}
+    assert (ds.status.values == 0).all()
+    for R in grid["R"]:
+        for C in grid["C"]:
+            traj = dv.simulate(*series_rlc(R, C), dt=DT, steps=STEPS)
+            assert traj.solver == "affine step map"
+            member = ds.sel(R=R, C=C)
+            np.testing.assert_allclose(member["q"].values, traj.q[:, 0], rtol=0, atol=1e-12)
+            np.testing.assert_allclose(member["p(q)"].values, traj.p[:, 0], rtol=0, atol=1e-12)
+    # solver= is simulate's: Newton steps the same members to round-off
+    newton = dv.sweep(series_rlc, grid, dt=DT, steps=STEPS, batch_size=BATCH,
+                      solver=dv.NewtonSolver())  # fmt: skip
+    assert set(newton.solver.values.ravel()) == {repr(dv.NewtonSolver())}
+    np.testing.assert_allclose(newton["q"].values, ds["q"].values, rtol=0, atol=1e-11)

@@ -4,14 +4,15 @@ The physics (orders against closed forms, power balance, linkages against reduce
 solve_ivp references) is in test_driven.py and test_holonomic.py; here: how callables are
 read, where each rule evaluates time and the affine term, bad input, initial data and
 resumed runs.
-"""
+
+White-box: reads internals of ``diracvi.driver``."""
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _checkpoint
+from diracvi.driver import checkpoint as _checkpoint
 
 
 def _free_mass():

@@ -1,11 +1,13 @@
-"""The elementwise forms of tiny products and maxima equal NumPy's, NaN and all."""
+"""The elementwise forms of tiny products and maxima equal NumPy's, NaN and all.
+
+White-box: reads internals of ``diracvi.solvers``."""
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from diracvi import _tiny
+from diracvi.solvers import tiny as _tiny
 
 
 @pytest.mark.parametrize(

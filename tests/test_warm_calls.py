@@ -1,6 +1,8 @@
 """A warm ``simulate`` (plan cached, the quick consistency check, a whole run returned
 from one compiled chunk) checks exactly what a cold call checks, and returns what the
-general chunk-by-chunk march returns."""
+general chunk-by-chunk march returns.
+
+White-box: reads internals of ``diracvi.driver``."""
 
 import pickle
 
@@ -8,7 +10,8 @@ import numpy as np
 import pytest
 
 import diracvi as dv
-from diracvi import _simulate, problems
+from diracvi import problems
+from diracvi.driver import simulate as _simulate
 
 
 @pytest.fixture(scope="module")

@@ -6,19 +6,22 @@ system = dv.LagrangeDiracSystem(coords=("x",), lagrangian=L)
 traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
-from . import _cache, _config, _dispatch  # noqa: F401  (float64 on; CPU dispatch on the caller)
+# float64 on; CPU dispatch on the caller
 from . import dirac as dirac  # the Dirac-structure subpackage: dv.dirac.…
-from ._consistency import InconsistentInitialDataWarning
-from ._consistency import project as project_initial_state
-from ._discretize import Lobatto, Midpoint, QuadratureRule, Retraction
-from ._ensemble import Ensemble, simulate_ensemble
-from ._errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
-from ._interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
-from ._simulate import momenta, simulate
-from ._solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus, StepSolver
-from ._sweep import sweep
-from ._system import DiracSystem, LagrangeDiracSystem
-from ._trajectory import Trajectory, load
+from .discretization.rules import Lobatto, Midpoint, QuadratureRule, Retraction
+from .driver.ensemble import Ensemble, simulate_ensemble
+from .driver.simulate import momenta, simulate
+from .driver.trajectory import Trajectory, load
+from .errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
+from .model.consistency import InconsistentInitialDataWarning
+from .model.consistency import project as project_initial_state
+from .model.interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
+from .model.system import DiracSystem, LagrangeDiracSystem
+from .runtime import cache as _cache
+from .runtime import config as _config  # noqa: F401
+from .runtime import dispatch as _dispatch  # noqa: F401
+from .solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus, StepSolver
+from .sweeps.run import sweep
 
 _cache.enable()  # the on-disk compilation cache (DIRACVI_CACHE_DIR; "" switches it off)
 

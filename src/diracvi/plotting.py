@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ._trajectory import Trajectory
+from .driver.trajectory import Trajectory
 
 #: more coordinates than this and the legend is left out (it would cover the plot)
 LEGEND_LIMIT = 12

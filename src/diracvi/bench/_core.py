@@ -248,7 +248,7 @@ def machine_info() -> dict:
     import jax
     import scipy
 
-    from .._dispatch import mode
+    from ..runtime.dispatch import mode
 
     return {
         "commit": source_commit(),

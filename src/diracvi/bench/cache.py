@@ -5,7 +5,7 @@ processes run one after the other with the same new, empty ``DIRACVI_CACHE_DIR``
 first compiles everything and writes the cache, the second reads it. Each times its
 first ``dv.simulate`` call (tracing, compilation or cache reads, every check and the run)
 exactly as :mod:`.compile_latency` does. The second process loads diracvi's stored
-executables (:mod:`diracvi._stored`) without tracing or lowering them; what is left is
+executables (:mod:`diracvi.runtime.store`) without tracing or lowering them; what is left is
 reading them, the Python side of the plan's analysis and the run itself.
 
 A first call is one sample of a few seconds, which a busy machine stretches at random;

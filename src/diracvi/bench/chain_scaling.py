@@ -94,9 +94,9 @@ def factor_values(problem) -> int:
     import jax
     import jax.numpy as jnp
 
-    from .._discretize import get_rule
-    from .._equations import StepEquations
-    from .._plan import get_plan
+    from ..discretization.equations import StepEquations
+    from ..discretization.rules import get_rule
+    from ..driver.plan import get_plan
 
     rule = get_rule("retraction")
     q0, p0 = jnp.asarray(problem.q0), jnp.asarray(problem.p0)

@@ -19,6 +19,9 @@ r"""Netlists against ngspice: time at matched accuracy, and a lossless LC tank's
    and error control do not keep the step fixed). (The node-sampled energy of diracvi's
    reported ``v(n)``, ``i(L1)`` oscillates by O(h²), 2e-3 here, without drift.)
 
+3. **Ladders** of 10²… stages end to end and warm against ``ngspice -b``
+   (:mod:`diracvi.bench.ladder_scaling`).
+
 Without ngspice the rows are reported as not run.
 """
 
@@ -31,6 +34,7 @@ import numpy as np
 
 from .. import spice
 from ..spice._ngspice import CIRCUITS, available, ngspice
+from . import ladder_scaling
 from ._core import BenchmarkError, Result, Row, Settings
 
 NAME = "circuits"
@@ -154,6 +158,7 @@ def run(settings: Settings) -> Result:
     names = ("rc", "rlc") if settings.quick else tuple(CIRCUITS)
     rows = [_matched(n, settings) for n in names]
     rows += _energy_drift(10_000 if settings.quick else 1_000_000)
+    rows += ladder_scaling.rows(settings)  # RLC ladders of 10²… stages, end to end
     if any(r.status for r in rows if r.diracvi is None):
         raise BenchmarkError("a circuit row could not be measured")
     return Result(rows, {"circuits": list(names)})

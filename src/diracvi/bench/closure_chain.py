@@ -5,7 +5,7 @@ The shared-code chain is ``problems.chain_torn(N, M)``: every piece's Lagrangian
 closure chain has the same pieces, each ``LagrangeDiracSystem`` given a new Python
 closure over that piece's masses and stiffnesses, as a loop in a user's script makes
 them. diracvi traces each closure once and compares the programs (see
-:mod:`diracvi._program`), so both chains should group, compile and step alike.
+:mod:`diracvi.runtime.program`), so both chains should group, compile and step alike.
 
 Each variant's first ``dv.simulate`` call (``save_states=False``, ``STEPS`` steps:
 tracing, compilation, the run) is timed in a fresh process of its own with the

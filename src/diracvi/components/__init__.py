@@ -11,7 +11,7 @@ built = c.build()   # built.system, built.q0, built.p0
 from ._part import Part
 from .bjt import BJT
 from .controlled import CCCS, CCVS, VCCS, VCVS
-from .diode import Diode
+from .diode import SPICE_PARAMETERS, Diode, spice_diode
 from .electrical import (
     Capacitor,
     CoupledInductors,
@@ -48,6 +48,7 @@ __all__ = [
     "EMF",
     "MOSFET",
     "PWL",
+    "SPICE_PARAMETERS",
     "VCCS",
     "VCVS",
     "Assembly",
@@ -77,4 +78,5 @@ __all__ = [
     "VoiceCoil",
     "VoltageSource",
     "Waveform",
+    "spice_diode",
 ]

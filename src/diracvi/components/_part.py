@@ -12,11 +12,20 @@ position (or an angle), and flanges at one mechanical node are joined by
 
 from __future__ import annotations
 
+import warnings
+
 import equinox as eqx
+import jax
 import numpy as np
 
-from .._errors import ModelError
-from .._system import LagrangeDiracSystem
+from ..errors import ModelError
+from ..model.system import LagrangeDiracSystem
+
+# A part built inside jax.grad may keep a traced number in a static field (a capacitor's
+# initial charge C·v0, a waveform's amplitude): it is read while the model is built or
+# inside the same trace, never baked into a compiled program, so equinox's warning for
+# it is silenced — only where diracvi's own modules build parts (user code still warns).
+warnings.filterwarnings("ignore", message="A JAX array is being set as static", module=r"diracvi\.")
 
 TRANSLATIONAL = "translational"
 ROTATIONAL = "rotational"
@@ -41,9 +50,15 @@ class Part(LagrangeDiracSystem):
         initial_q, initial_v: the part's own initial coordinates and velocities
             (a capacitor's charge, an inductor's current); flange values are set by
             the network's mechanical nodes instead.
+        junctions, junction_limits: coordinate names whose velocity is a junction
+            voltage, and a ``(len(junctions), 3)`` array of ``(nV_T, V_crit, BV)``:
+            Newton limits those voltages between iterates (SPICE's ``pnjlim``).
         role: what the part is (``"resistor"``, ``"voltage"``, ``"current"``, …); the
             network's topology checks read it.
         parameters: the part's defining values, e.g. ``{"inductance": 1e-3}``.
+        waveforms: the source waveforms the part is driven by (their
+            :meth:`~diracvi.components.Waveform.breakpoints` are where a variable-step
+            run must end a step).
         **system_kwargs: ``constraints``, ``force``, ``constraint_names``,
             ``constraint_offset`` of :class:`~diracvi.LagrangeDiracSystem`.
     """
@@ -55,6 +70,11 @@ class Part(LagrangeDiracSystem):
     initial_v: tuple[float, ...] = eqx.field(static=True)
     role: str = eqx.field(static=True)
     parameters: tuple[tuple[str, float], ...] = eqx.field(static=True)
+    #: coordinates whose velocity is a junction voltage, limited between Newton iterates
+    #: (:mod:`diracvi.solvers.limiting`), and their ``(nV_T, V_crit, BV)`` rows
+    junctions: tuple[int, ...] = eqx.field(static=True)
+    junction_limits: object
+    waveforms: tuple = eqx.field(static=True)
 
     def __init__(
         self,
@@ -69,6 +89,9 @@ class Part(LagrangeDiracSystem):
         initial_v=None,
         role="part",
         parameters=(),
+        junctions=(),
+        junction_limits=None,
+        waveforms=(),
         **system_kwargs,
     ):
         super().__init__(coords, lagrangian, name=name, **system_kwargs)
@@ -83,7 +106,13 @@ class Part(LagrangeDiracSystem):
         self.initial_q = _initial("initial_q", initial_q, n, name)
         self.initial_v = _initial("initial_v", initial_v, n, name)
         self.role = str(role)
-        self.parameters = tuple((str(k), float(x)) for k, x in dict(parameters).items())
+        self.junctions = tuple(self.coords.index(c) for c in junctions)
+        self.junction_limits = junction_limits
+        # (a traced value is not kept: the table is static, and only K reads it)
+        self.parameters = tuple(
+            (str(k), float(x)) for k, x in dict(parameters).items() if not traced(x)
+        )
+        self.waveforms = tuple(waveforms)
         for _, coord, _ in (*self.pins, *self.flanges):
             if coord not in self.coords:
                 raise ModelError(
@@ -104,14 +133,27 @@ class Part(LagrangeDiracSystem):
 def _initial(arg: str, values, n: int, name: str) -> tuple[float, ...]:
     if values is None:
         return (0.0,) * n
+    if any(traced(x) for x in values):  # a traced initial state: kept as given
+        if len(values) != n:
+            raise ModelError(f"part {name!r}: {arg} must be {n} numbers.")
+        return tuple(values)
     out = np.asarray(values, dtype=np.float64).reshape(-1)
     if out.shape != (n,) or not np.all(np.isfinite(out)):
         raise ModelError(f"part {name!r}: {arg}={values!r} must be {n} finite numbers.")
     return tuple(float(x) for x in out)
 
 
+def traced(value) -> bool:
+    """Whether ``value`` is a JAX tracer (a parameter being differentiated or mapped):
+    such a value is used as it is, unchecked (its number is not known yet)."""
+    return isinstance(value, jax.core.Tracer)
+
+
 def positive(part: str, arg: str, value) -> float:
-    """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it."""
+    """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it
+    (a traced value passes through unchecked, so parts are differentiable)."""
+    if traced(value):
+        return value
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -124,7 +166,10 @@ def positive(part: str, arg: str, value) -> float:
 
 
 def finite(part: str, arg: str, value) -> float:
-    """``float(value)`` if it is finite, else a :class:`ModelError` naming it."""
+    """``float(value)`` if it is finite, else a :class:`ModelError` naming it (a traced
+    value passes through unchecked)."""
+    if traced(value):
+        return value
     try:
         x = float(value)
     except (TypeError, ValueError):

@@ -36,7 +36,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._part import Part
 
 _OUT = (("p", "q", 1), ("n", "q", -1))

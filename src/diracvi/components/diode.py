@@ -1,61 +1,319 @@
-r"""The Shockley diode, ``i = I_S (e^{V/(N V_T)} − 1) + G_min V``, as a Lagrange–Dirac part.
+r"""The SPICE junction diode (ngspice's level 1 at its nominal 27 °C) as a Lagrange–Dirac part.
 
-A diode is *voltage-controlled*: its current is a function of its voltage, while a
-force ``F(q, q̇)`` can only give a voltage as a function of current. The part therefore
-carries, beside its branch charge ``q``, the flux linkage ``w = ∫ V dt`` of the branch
-and the Lagrangian ``L = w q̇`` (linear in velocity, like a gyrator; energy ``E = 0``),
-with the force ``F = (0, −g(ẇ))``. Its Euler–Lagrange equations are
+A diode is *voltage-controlled*: its current is a function of its junction voltage, while
+a force ``F(q, q̇)`` can only give a voltage as a function of current. The part therefore
+carries, beside its branch charge ``q``, the flux linkage ``w = ∫ V_j dt`` of the junction,
+with
 
-    ẇ = φ_p − φ_n = V              (the q-line: d/dt ∂L/∂q̇ = ẇ equals the KCL force),
-    0 = q̇ − g(ẇ)  ⇒  i = g(V)       (the w-line),
+    L(q, w, q̇, ẇ) = w q̇ + Φ(ẇ),        F = (−R_S q̇,  −i_D(ẇ)),
 
-exactly the diode law, with power ``⟨F, v⟩ = −g(V) V ≤ 0`` (it dissipates). ``G_min``
-(default 1e-12 S, as ngspice adds across every junction) keeps ``g`` strictly
-increasing. Above ``V = 40 N V_T`` the exponential is continued linearly (C¹), so that a
-Newton iterate cannot overflow; the forward currents there exceed ``I_S e^{40}``
-(thousands of amperes for ``I_S = 10⁻¹⁴``), far outside any solution it is used for.
+``Φ(V) = ∫₀^V Q_j(u) du`` the junction's charge co-energy. Its Euler–Lagrange equations are
+
+    ẇ = (φ_p − φ_n) − R_S q̇ = V_j                  (the q-line: d/dt ∂L/∂q̇ = ẇ),
+    q̇ = i_D(V_j) + d/dt Q_j(V_j)                    (the w-line: d/dt Φ′(ẇ) − q̇ = −i_D),
+
+the series resistance, the static current and the junction charge exactly as SPICE's
+diode (the internal node between ``R_S`` and the junction is the voltage ``φ_p − R_S i``,
+so it needs no coordinate). The energy is ``E = Q_j V_j − Φ(V_j) = ∫₀^{Q_j} V dQ``, the
+charge's stored energy — convex, because ``Q_j`` increases with ``V_j`` — and the power
+balance is ``dE/dt = V i − R_S i² − i_D V_j`` (port power in, series and junction losses
+out): the junction charge is a nonlinear capacitor held in the Lagrangian. Discretely the
+charge is the momentum of ``w``, balanced exactly step by step; the energy balance is that
+of any nonlinear capacitor under the rule (exact for a quadratic stored energy, to the
+rule's order otherwise).
+
+**Static current** (ngspice ``dioload.c``), ``nV_T = N kT/q``, ``I_S`` and ``I_BV`` scaled
+by ``AREA`` as ngspice does for level 1 (``I_S·AREA``; ``I_BV`` not scaled)::
+
+    V ≥ −3 nV_T        i = I_S (e^{V/nV_T} − 1)
+    −BV' ≤ V < −3 nV_T   i = −I_S (1 + (3 nV_T/(e V))³)
+    V < −BV'           i = −I_S e^{−(BV' + V)/(N_BV V_T)}         (only with BV)
+    plus G_min V       (ngspice's GMIN, 1e-12 S, across the junction)
+
+where ``BV'`` is ngspice's adjusted breakdown voltage: the ``x`` with
+``I_S (e^{(BV−x)/(N_BV V_T)} − 1 + x/V_T) = I_BV`` (``I_BV`` raised to ``I_S BV/V_T`` if
+smaller, then ``BV' = BV``). Above ``40 nV_T`` the exponential is continued by its tangent
+(C¹) so that no iterate can overflow; that is thousands of amperes for ``I_S = 10⁻¹⁴``.
+
+**Junction charge** ``Q_j = Q_dep + TT·i_D`` (``i_D`` without G_min), with the depletion
+charge of ``C_J = CJO·AREA``, ``V_d = FC·VJ``::
+
+    V < V_d    Q_dep = C_J VJ (1 − (1 − V/VJ)^{1−M}) / (1 − M)
+    V ≥ V_d    Q_dep = C_J [F1 + (F3 (V − V_d) + M (V² − V_d²)/(2 VJ)) / F2]
+    F1 = VJ (1 − (1−FC)^{1−M})/(1 − M),  F2 = (1−FC)^{1+M},  F3 = 1 − FC (1 + M)
+
+(the linear extension of the capacitance above ``V_d``); ``Φ`` is its integral in closed
+form.
 """
 
 from __future__ import annotations
 
+import math
+
 import jax.numpy as jnp
 
-from ._part import Part, positive
+from ..errors import ModelError
+from ._part import Part, finite, positive, traced
 
 #: kT/q at ngspice's nominal 27 °C (CONSTboltz, CHARGE of ngspice's const.h)
 THERMAL_VOLTAGE = 1.38064852e-23 * 300.15 / 1.6021766208e-19
 _LIMIT = 40.0
 
+#: ngspice's diode model parameters that diracvi accepts (``.model NAME D(...)``):
+#: name -> (default, unit, meaning). ``None``: not given (no breakdown; NBV = N).
+#: EG, XTI, KF, AF only act away from the nominal temperature or in noise analyses,
+#: so they are accepted and have no effect here; TNOM must stay 27 °C.
+SPICE_PARAMETERS = {
+    "is": (1e-14, "A", "saturation current"),
+    "n": (1.0, "", "emission coefficient"),
+    "rs": (0.0, "Ω", "ohmic (series) resistance"),
+    "cjo": (0.0, "F", "zero-bias junction capacitance"),
+    "vj": (1.0, "V", "junction potential"),
+    "m": (0.5, "", "grading coefficient"),
+    "fc": (0.5, "", "forward-bias depletion capacitance coefficient"),
+    "tt": (0.0, "s", "transit time"),
+    "bv": (None, "V", "reverse breakdown voltage"),
+    "ibv": (1e-3, "A", "current at the breakdown voltage"),
+    "nbv": (None, "", "breakdown emission coefficient (default N)"),
+    "eg": (1.11, "eV", "activation energy (temperature only)"),
+    "xti": (3.0, "", "saturation-current temperature exponent (temperature only)"),
+    "kf": (0.0, "", "flicker noise coefficient (noise only)"),
+    "af": (1.0, "", "flicker noise exponent (noise only)"),
+    "tnom": (27.0, "°C", "nominal temperature (only 27 °C is supported)"),
+    "level": (1.0, "", "model level (only 1)"),
+}
+#: other spellings ngspice accepts -> the name above
+SPICE_ALIASES = {"cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "rs0": "rs"}
+
+
+def _exp_capped(x):
+    capped = jnp.minimum(x, _LIMIT)
+    return jnp.exp(capped) * (1.0 + (x - capped))  # e^x, continued by its tangent
+
+
+def _exp_capped_integral(x):
+    """``∫₀^x`` of :func:`_exp_capped` (the tangent continuation integrated too)."""
+    capped = jnp.minimum(x, _LIMIT)
+    over = x - capped
+    return jnp.exp(capped) - 1.0 + jnp.exp(_LIMIT) * (over + 0.5 * over**2)
+
+
+def breakdown_knee(i_s, bv, ibv, nbv_vt):
+    """ngspice's adjusted breakdown voltage ``BV'`` (``diotemp.c``), see the module text."""
+    vt = THERMAL_VOLTAGE
+    cbv = jnp.maximum(ibv, i_s * bv / vt)
+    x = bv - nbv_vt * jnp.log(1.0 + cbv / i_s)
+    for _ in range(60):  # a contraction: converged to round-off long before
+        x = bv - nbv_vt * jnp.log(cbv / i_s + 1.0 - x / vt)
+    return jnp.where(ibv < i_s * bv / vt, bv, x)
+
+
+class _Junction:
+    """The junction's static current, charge and charge co-energy at voltage ``V``."""
+
+    def __init__(self, i_s, nvt, gmin, bv, nbv_vt, cj, vj, m, fc, tt):
+        self.i_s, self.nvt, self.gmin = i_s, nvt, gmin
+        self.bv, self.nbv_vt = bv, nbv_vt
+        self.cj, self.vj, self.m, self.fc, self.tt = cj, vj, m, fc, tt
+
+    # --- static current i_D (without G_min) and its integral
+    def _regions(self, v):
+        knee = -3.0 * self.nvt
+        forward = v >= knee
+        broken = (v < -self.bv) if self.bv is not None else jnp.zeros_like(v, dtype=bool)
+        return knee, forward, broken
+
+    def current(self, v):
+        """``i_D(V)`` without G_min (the diffusion charge is ``TT`` times this)."""
+        knee, forward, broken = self._regions(v)
+        f = self.i_s * (_exp_capped(v / self.nvt) - 1.0)
+        vr = jnp.minimum(v, knee)
+        arg = (3.0 * self.nvt / (math.e * vr)) ** 3
+        r = -self.i_s * (1.0 + arg)
+        out = jnp.where(forward, f, r)
+        if self.bv is not None:
+            b = -self.i_s * jnp.exp(-(self.bv + jnp.minimum(v, -self.bv)) / self.nbv_vt)
+            out = jnp.where(broken, b, out)
+        return out
+
+    def current_integral(self, v):
+        """``∫₀^V i_D(u) du`` (piecewise closed form, continuous)."""
+        knee, forward, broken = self._regions(v)
+        i_s, nvt = self.i_s, self.nvt
+
+        def fwd(x):
+            return i_s * (nvt * _exp_capped_integral(x / nvt) - x)
+
+        c = (3.0 * nvt / math.e) ** 3
+
+        def rev(x):  # ∫_knee^x −I_S (1 + c/u³) du
+            return -i_s * ((x - knee) - 0.5 * c * (1.0 / x**2 - 1.0 / knee**2))
+
+        vr = jnp.minimum(v, knee)
+        out = jnp.where(forward, fwd(jnp.maximum(v, knee)), fwd(knee) + rev(vr))
+        if self.bv is not None:
+            vb = jnp.minimum(v, -self.bv)
+            at_bv = fwd(knee) + rev(jnp.minimum(-self.bv, knee))
+            # ∫_{−BV'}^x −I_S e^{−(BV'+u)/nbv} du = I_S nbv (e^{−(BV'+x)/nbv} − 1)
+            brk = at_bv + i_s * self.nbv_vt * (jnp.exp(-(self.bv + vb) / self.nbv_vt) - 1.0)
+            out = jnp.where(broken, brk, out)
+        return out
+
+    # --- depletion charge and its integral
+    def _depletion_integral(self, v):
+        cj, vj, m, fc = self.cj, self.vj, self.m, self.fc
+        vd = fc * vj
+        vlow = jnp.minimum(v, vd)
+
+        def low(x):  # ∫₀^x C_J VJ (1 − (1 − u/VJ)^{1−M})/(1−M) du
+            return cj * vj / (1.0 - m) * (x - vj / (2.0 - m) * (1.0 - (1.0 - x / vj) ** (2.0 - m)))
+
+        f1 = vj * (1.0 - (1.0 - fc) ** (1.0 - m)) / (1.0 - m)
+        f2 = (1.0 - fc) ** (1.0 + m)
+        f3 = 1.0 - fc * (1.0 + m)
+        x = jnp.maximum(v, vd) - vd
+        high = cj * f1 * x + cj / f2 * (
+            0.5 * f3 * x**2 + m / (2.0 * vj) * ((x + vd) ** 3 / 3.0 - vd**3 / 3.0 - vd**2 * x)
+        )
+        return low(vlow) + jnp.where(v > vd, high, 0.0)
+
+    def coenergy(self, v):
+        """``Φ(V) = ∫₀^V Q_j``; ``Φ′ = Q_j`` (JAX differentiates it)."""
+        out = 0.0 * v
+        if not (isinstance(self.cj, float) and self.cj == 0.0):
+            out = out + self._depletion_integral(v)
+        if not (isinstance(self.tt, float) and self.tt == 0.0):
+            out = out + self.tt * self.current_integral(v)
+        return out
+
 
 def shockley_current(v, saturation_current, emission, gmin):
     """``I_S (e^{V/(N V_T)} − 1) + G_min V`` with the linear continuation above 40 N V_T."""
     nvt = emission * THERMAL_VOLTAGE
-    x = v / nvt
-    capped = jnp.minimum(x, _LIMIT)
-    expo = jnp.exp(capped) * (1.0 + (x - capped))  # e^x, continued by its tangent
-    return saturation_current * (expo - 1.0) + gmin * v
+    return saturation_current * (_exp_capped(v / nvt) - 1.0) + gmin * v
 
 
-def Diode(saturation_current=1e-14, emission=1.0, *, name: str, gmin=1e-12) -> Part:
-    r"""A junction diode from anode ``p`` to cathode ``n`` (SPICE ``D`` with ``IS``, ``N``).
+def Diode(
+    saturation_current=1e-14,
+    emission=1.0,
+    *,
+    name: str,
+    gmin=1e-12,
+    series_resistance=0.0,
+    junction_capacitance=0.0,
+    junction_potential=1.0,
+    grading=0.5,
+    depletion_coefficient=0.5,
+    transit_time=0.0,
+    breakdown_voltage=None,
+    breakdown_current=1e-3,
+    breakdown_emission=None,
+    area=1.0,
+    v0=0.0,
+) -> Part:
+    r"""A junction diode from anode ``p`` to cathode ``n`` (SPICE's ``D``; see the module).
 
-    Coordinates ``(q, w)``: branch charge and flux linkage; see the module docstring.
+    Arguments are ngspice's model parameters in SI units: ``IS``, ``N``, ``GMIN``, ``RS``,
+    ``CJO``, ``VJ``, ``M``, ``FC``, ``TT``, ``BV`` (``None``: no breakdown), ``IBV``,
+    ``NBV`` (``None``: ``N``) and the instance's ``AREA``; ``v0`` is the initial junction
+    voltage (SPICE's ``IC=``, used by the junction charge). Every value may be traced
+    (``jax.grad`` flows to it). Coordinates ``(q, w)``: branch charge and flux linkage.
     """
     where = f"Diode {name!r}"
-    i_s = positive(where, "saturation_current", saturation_current)
+    area = positive(where, "area", area)
+    i_s = positive(where, "saturation_current", saturation_current) * area
     n = positive(where, "emission", emission)
     g = positive(where, "gmin", gmin)
+    rs = finite(where, "series_resistance", series_resistance)
+    cj = finite(where, "junction_capacitance", junction_capacitance)
+    vj = positive(where, "junction_potential", junction_potential)
+    m = finite(where, "grading", grading)
+    fc = finite(where, "depletion_coefficient", depletion_coefficient)
+    tt = finite(where, "transit_time", transit_time)
+    ibv = positive(where, "breakdown_current", breakdown_current)
+    v0 = finite(where, "v0", v0)
+    for arg, value, ok, need in (
+        ("series_resistance", rs, lambda x: x >= 0, "≥ 0"),
+        ("junction_capacitance", cj, lambda x: x >= 0, "≥ 0"),
+        ("transit_time", tt, lambda x: x >= 0, "≥ 0"),
+        ("grading", m, lambda x: 0 <= x < 1, "in [0, 1)"),
+        ("depletion_coefficient", fc, lambda x: 0 <= x < 1, "in [0, 1)"),
+    ):
+        if not traced(value) and not ok(value):
+            raise ModelError(f"{where}: {arg}={value!r} must be {need} (ngspice's range).")
+    rs, cj = rs / area, cj * area  # ngspice's area scaling (level 1)
+    if not traced(fc) and not traced(vj) and fc * vj > 1.0:  # ngspice limits VJ to 1/FC
+        vj = 1.0 / fc
+    nvt = n * THERMAL_VOLTAGE
+    bv = None
+    nbv_vt = nvt
+    if breakdown_voltage is not None:
+        bv = positive(where, "breakdown_voltage", breakdown_voltage)
+        if breakdown_emission is not None:
+            nbv_vt = positive(where, "breakdown_emission", breakdown_emission) * THERMAL_VOLTAGE
+        bv = breakdown_knee(i_s, bv, ibv, nbv_vt)
+    junction = _Junction(i_s, nvt, g, bv, nbv_vt, cj, vj, m, fc, tt)
+    has_charge = not (isinstance(cj, float) and cj == 0.0 and isinstance(tt, float) and tt == 0.0)
+    has_rs = not (isinstance(rs, float) and rs == 0.0)
 
     def lagrangian(q, v):
-        return q[1] * v[0]
+        out = q[1] * v[0]
+        if has_charge:
+            out = out + junction.coenergy(v[1])
+        return out
 
     def force(q, v):
-        return jnp.stack([0.0 * v[0], -shockley_current(v[1], i_s, n, g)])
+        series = -rs * v[0] if has_rs else 0.0 * v[0]
+        return jnp.stack([series, -(junction.current(v[1]) + g * v[1])])
 
+    vcrit = nvt * jnp.log(nvt / (math.sqrt(2.0) * i_s))
+    limits = jnp.stack([jnp.asarray(x, float) for x in (nvt, vcrit, jnp.inf if bv is None else bv)])
+    limits = limits[None, :]
     return Part(
         ("q", "w"),
         lagrangian,
         force=force,
         name=name,
         pins=(("p", "q", 1), ("n", "q", -1)),
+        initial_v=[0.0, v0],
+        role="diode",
+        junctions=("w",),
+        junction_limits=limits,
+    )
+
+
+def spice_diode(model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12) -> Part:
+    """A :func:`Diode` from ngspice model parameters (lower-case names of
+    :data:`SPICE_PARAMETERS`, aliases allowed; missing ones take their defaults)."""
+    values = {SPICE_ALIASES.get(k, k): v for k, v in model.items()}
+    unknown = sorted(set(values) - set(SPICE_PARAMETERS))
+    if unknown:
+        raise ModelError(
+            f"diode {name!r}: parameters {unknown} are not supported; supported: "
+            f"{', '.join(k.upper() for k in SPICE_PARAMETERS)}."
+        )
+    p = {k: values.get(k, d[0]) for k, d in SPICE_PARAMETERS.items()}
+    if float(p["level"]) != 1.0:
+        raise ModelError(f"diode {name!r}: LEVEL={p['level']} is not supported (only level 1).")
+    if float(p["tnom"]) != 27.0:
+        raise ModelError(
+            f"diode {name!r}: TNOM={p['tnom']} is not supported (diracvi simulates at ngspice's "
+            "nominal 27 °C; remove TNOM or set it to 27)."
+        )
+    return Diode(
+        p["is"],
+        p["n"],
+        name=name,
+        gmin=gmin,
+        series_resistance=p["rs"],
+        junction_capacitance=p["cjo"],
+        junction_potential=p["vj"],
+        grading=p["m"],
+        depletion_coefficient=p["fc"],
+        transit_time=p["tt"],
+        breakdown_voltage=p["bv"],
+        breakdown_current=p["ibv"],
+        breakdown_emission=p["nbv"],
+        area=area,
+        v0=ic,
     )

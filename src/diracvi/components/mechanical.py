@@ -18,7 +18,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._part import ROTATIONAL, TRANSLATIONAL, Part, finite, positive
 from .waveforms import as_waveform
 

@@ -17,11 +17,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
-from .._interconnect import Interaction, connect, interconnect
-from ._part import Part
+from ..errors import ModelError
+from ..model.interconnect import Interaction, connect, interconnect
+from ._part import Part, traced
 from .electrical import CoupledInductors, Ground, MutualInductance
 
 GROUND_NAMES = ("0", "gnd")
@@ -62,6 +64,7 @@ class Circuit:
     def __init__(self, name: str = "circuit"):
         self.name = str(name)
         self._parts: list[tuple[Part, dict]] = []
+        self._names: set[str] = set()
         self._grounds: set[str] = set()
         self._couplings: list[MutualInductance] = []
         self._initial: dict[str, tuple[float, float]] = {}
@@ -84,7 +87,7 @@ class Circuit:
                 f"circuit.add({part!r}): not a part; build one with diracvi.components "
                 "(Resistor(1.0, name='R1'), Mass(2.0, name='m'), …)."
             )
-        if any(p.name == part.name for p, _ in self._parts):
+        if part.name in self._names:  # (a set: a scan of the parts is O(N²) overall)
             raise ModelError(f"circuit {self.name!r}: a part named {part.name!r} exists already.")
         wanted = (*part.pin_names, *part.flange_names)
         missing = [w for w in wanted if w not in nodes]
@@ -95,6 +98,7 @@ class Circuit:
                 f"(missing {missing}, unknown {extra})."
             )
         self._parts.append((part, {k: str(v) for k, v in nodes.items()}))
+        self._names.add(part.name)
         return part
 
     @property
@@ -207,24 +211,23 @@ class Circuit:
                 )
             ports += [connect(members[0][0], c, name=f"{node}:{c}") for c, _ in members[1:]]
 
-        q0 = np.concatenate([np.asarray(p.initial_q) for p, _ in parts])
-        v0 = np.concatenate([np.asarray(p.initial_v) for p, _ in parts])
+        # a traced initial state (a differentiated capacitance, say) stays a JAX array
+        xp = jnp if any(traced(x) for p, _ in parts for x in p.initial_q + p.initial_v) else np
+        q0 = xp.concatenate([xp.asarray(p.initial_q, dtype=float) for p, _ in parts])
+        v0 = xp.concatenate([xp.asarray(p.initial_v, dtype=float) for p, _ in parts])
         for node, members in at_node.items():
             x, v = self._initial.get(node, (0.0, 0.0))
             for c, _ in members:
-                q0[index[c]], v0[index[c]] = x, v
+                if xp is np:
+                    q0[index[c]], v0[index[c]] = x, v
+                else:
+                    q0, v0 = q0.at[index[c]].set(x), v0.at[index[c]].set(v)
         unknown = set(self._initial) - set(at_node)
         if unknown:
             raise ModelError(
                 f"initial(...) names {sorted(unknown)}, which are not mechanical nodes of "
                 f"circuit {self.name!r} (nodes: {sorted(at_node)})."
             )
-        p0 = np.concatenate(
-            [
-                np.asarray(p.momentum(q0[a:b], v0[a:b]))
-                for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
-            ]
-        )
         interactions = []
         if node_list:
             interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
@@ -240,6 +243,7 @@ class Circuit:
                 )
             system = interconnect([p for p, _ in parts], interactions, name=self.name)
             prefix = None
+        p0 = _momenta(system, parts, q0, v0, offsets)
         currents = {}
         for part, _ in parts:
             for label, coord in part.currents:
@@ -284,8 +288,8 @@ class Circuit:
                 "(SPICE's reference, potential 0)."
             )
         for node in node_list:
-            touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
             if len(incidence[node]) < 2:
+                touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
                 raise ModelError(
                     f"node {node!r} is floating: only {touching[0]} connects to it (a node "
                     "needs at least two connections; KCL would force that current to 0)."
@@ -333,6 +337,35 @@ class Circuit:
                         "add a series resistance or remove one source."
                     )
                 uf.union(canon(a), canon(b))
+
+
+#: from this many parts the initial momenta are one compiled call on the packed
+#: interconnection (one trace per kind of part) instead of one eager call per part
+_BATCH_MOMENTA = 8
+
+
+@eqx.filter_jit
+def _packed_momentum(system, q, v):
+    return system.momentum(q, v, 0.0)
+
+
+def _momenta(system, parts, q0, v0, offsets) -> np.ndarray:
+    """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``)."""
+    if traced(q0) or traced(v0):  # inside jax.jit (a traced fit): kept as JAX's
+        return jnp.concatenate(
+            [
+                jnp.asarray(p.momentum(q0[a:b], v0[a:b]))
+                for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
+            ]
+        )
+    if len(parts) >= _BATCH_MOMENTA and hasattr(system, "_packed"):
+        return np.asarray(_packed_momentum(system._packed(), q0, v0))
+    return np.concatenate(
+        [
+            np.asarray(p.momentum(q0[a:b], v0[a:b]))
+            for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
+        ]
+    )
 
 
 def _kind(part: Part, coord: str) -> str:

@@ -10,13 +10,16 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 
 def _num(where: str, arg: str, value, positive: bool = False, nonneg: bool = False) -> float:
+    if isinstance(value, jax.core.Tracer):  # a differentiated amplitude: used unchecked
+        return value
     try:
         x = float(value)
     except (TypeError, ValueError):
@@ -32,6 +35,12 @@ class Waveform(eqx.Module):
 
     def __call__(self, t):
         raise NotImplementedError
+
+    def breakpoints(self, t_start: float, t_stop: float) -> tuple[float, ...]:
+        """The times in ``[t_start, t_stop]`` where ``u`` or a derivative jumps (its
+        corners), increasing: a variable-step run ends a step exactly on each, since a
+        step across a corner loses the rule's order. None for a smooth waveform."""
+        return ()
 
 
 class DC(Waveform):
@@ -75,6 +84,10 @@ class Sine(Waveform):
         wave = jnp.exp(-self.damping * s) * jnp.sin(2.0 * math.pi * self.frequency * s + phi)
         return self.offset + self.amplitude * wave
 
+    def breakpoints(self, t_start, t_stop):
+        # the delay's end: held value before it, the sine (or its slope) after
+        return _within((self.delay,), t_start, t_stop) if self.delay > 0.0 else ()
+
 
 class Pulse(Waveform):
     r"""SPICE ``PULSE(V1 V2 TD TR TF PW PER NP)``.
@@ -114,6 +127,17 @@ class Pulse(Waveform):
         value = jnp.where(s < self.rise, up, jnp.where(s <= top, self.v2, down))
         return jnp.where((s <= 0.0) | (s >= top + self.fall), self.v1, value)
 
+    def breakpoints(self, t_start, t_stop):
+        # the four corners of each period, TD + k·PER + (0, TR, TR+PW, TR+PW+TF), for
+        # the periods that start before t_stop (at most NP of them when NP is given)
+        corners = (0.0, self.rise, self.rise + self.width, self.rise + self.width + self.fall)
+        first = max(0, math.floor((t_start - self.delay - corners[-1]) / self.period))
+        last = math.floor((t_stop - self.delay) / self.period)
+        if self.count > 0:
+            last = min(last, self.count - 1)
+        times = [self.delay + k * self.period + c for k in range(first, last + 1) for c in corners]
+        return _within(times, t_start, t_stop)
+
 
 class PWL(Waveform):
     """SPICE ``PWL(T1 V1 T2 V2 …)``: linear between the points, constant outside."""
@@ -134,6 +158,14 @@ class PWL(Waveform):
 
     def __call__(self, t):
         return jnp.interp(t, jnp.asarray(self.times), jnp.asarray(self.values))
+
+    def breakpoints(self, t_start, t_stop):
+        return _within(self.times, t_start, t_stop)
+
+
+def _within(times, t_start: float, t_stop: float) -> tuple[float, ...]:
+    """``times`` inside ``[t_start, t_stop]``, sorted, each once."""
+    return tuple(sorted({float(x) for x in times if t_start <= x <= t_stop}))
 
 
 def as_waveform(value, where: str) -> Waveform:

@@ -14,12 +14,24 @@ step for any ``DiracSystem`` (also ``Trajectory.dirac_residual``).
 See ``docs/dirac-structures.md`` for the map to the paper's notation.
 """
 
-from ._constructions import direct_sum, induced, interaction, interconnection, tensor
 from ._diagnostic import StepResiduals, step_residuals, trajectory_residual
-from ._discrete import DiscreteDiracStructure, InducedDiscrete, InteractionDiscrete
-from ._discrete_ops import DirectSumDiscrete, TensorDiscrete
+from ._discrete import (
+    DirectSumDiscrete,
+    DiscreteDiracStructure,
+    InducedDiscrete,
+    InteractionDiscrete,
+    TensorDiscrete,
+)
 from ._forms import RedundantFormsWarning, check_regular, is_clean
-from ._structure import DiracStructure, pairing_matrix
+from ._structure import (
+    DiracStructure,
+    direct_sum,
+    induced,
+    interaction,
+    interconnection,
+    pairing_matrix,
+    tensor,
+)
 from ._tulczyjew import (
     dirac_differential_minus,
     dirac_differential_plus,

@@ -21,7 +21,9 @@ structure would change along the step).
 The discrete velocity ``q_k⁺`` (``q_{k+1}⁻``) is set to ``q_{k+1}`` (``q_k``), which makes
 the condition ``q_{k+1} = q_k⁺`` hold by construction. Nothing here calls the
 integrator's equations: the check uses only the ``DiracSystem`` protocol
-(``discrete_momenta``, ``constraint_forms``, ``n``) and the structure's membership code.
+(``constraint_forms``, ``n``), the rule's discrete momenta
+(:func:`~diracvi.discretization.maps.discrete_momenta`) and the structure's membership
+code.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._discretize import RULES, get_rule
-from .._errors import ModelError
+from ..discretization.maps import discrete_constraints, discrete_momenta
+from ..discretization.rules import RULES, get_rule
+from ..errors import ModelError
 from ._discrete import InducedDiscrete, combine
 from ._staged import staged_parts
 from ._tulczyjew import as_rule
@@ -116,7 +119,7 @@ def step_residuals(system, traj) -> StepResiduals:
         parts["base"] = np.concatenate(slot, axis=1)  # the base point's (q, p⁺) / (p⁻, q)
         return StepResiduals(total=combine(parts), **parts)
 
-    momenta = jax.jit(jax.vmap(lambda a, b, s: system.discrete_momenta(rule, a, b, h, s)))
+    momenta = jax.jit(jax.vmap(lambda a, b, s: discrete_momenta(rule, system, a, b, h, s)))
     p_minus, p_plus = (
         np.asarray(x) for x in momenta(jnp.asarray(q0), jnp.asarray(q1), jnp.asarray(tk))
     )
@@ -130,7 +133,7 @@ def step_residuals(system, traj) -> StepResiduals:
     if getattr(system, "affine_constraints", False):
         # holonomic rows g(q_end)/h and affine terms b: the system's own discrete rows
         rows = jax.jit(
-            jax.vmap(lambda a, b, s: system.discrete_constraints(rule, side, a, b, h, s))
+            jax.vmap(lambda a, b, s: discrete_constraints(rule, system, side, a, b, h, s))
         )
         parts["constraint"] = np.asarray(rows(jnp.asarray(q0), jnp.asarray(q1), jnp.asarray(tk)))
     # Δ° coefficients ν: plus has P⁻ − p_k = Aᵀν, i.e. μ = −ν; minus has p_{k+1} − P⁺ = Aᵀν

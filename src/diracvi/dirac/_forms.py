@@ -16,8 +16,8 @@ from collections.abc import Callable
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
-from .._validate import check_forms_array
+from ..errors import ModelError
+from ..model.validate import check_forms_array
 from ._linalg import rank
 
 

@@ -2,7 +2,7 @@ r"""The discrete Dirac equations of a staged rule (``"lobatto"``), checked on a 
 
 A staged rule's step ``(q_k, p_k) → (q_{k+1}, p_{k+1})`` is a two-point discrete Dirac
 relation once its internal stages are eliminated: with ``S`` the stage positions and
-``ν`` their multipliers (see :class:`~diracvi._discretize.Lobatto`), the (+) relation is
+``ν`` their multipliers (see :class:`~diracvi.discretization.rules.Lobatto`), the (+) relation is
 
     p_k     = −D_{q_k}L_d − f_d^− − r_k(μ, ν)      (the known end's momentum line)
     0       =  D_S L_d + f_S + r_S(μ, ν)            (stage lines)
@@ -32,7 +32,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._equations import first_guess, new_momentum, residual
+from ..discretization.equations import first_guess, new_momentum, residual
 
 #: Gauss–Newton iterations: the stage equations are close to linear at a trajectory's
 #: data (the starting stages are O(h) off), so a handful reach round-off

@@ -7,13 +7,21 @@ Paper §2.1: with ``V = T_{(q,p)}T*Q ≅ R^{2n}`` and the symmetric pairing
 a Dirac structure is ``D ⊂ V ⊕ V*`` with ``D = D^⊥``, i.e. isotropic and of dimension
 ``dim V = 2n``. A vector of ``V ⊕ V*`` is stored as the 4n-array ``(v_q, v_p, α_q, α_p)``
 (the paper's canonical coordinates), and ``D`` as an orthonormal basis of rows.
+
+The paper's continuous constructions follow the class, pointwise: ``D_Δ``, ``D_int``,
+``⊕``, ``⊠``. All return a :class:`DiracStructure` at one point ``(q, p)`` of ``T*Q``;
+none depends on ``p`` (the structures are lifted from distributions on ``Q``).
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+
+import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
+from ._forms import as_forms_function, check_regular, evaluate
 from ._linalg import distance, kernel_basis, row_basis, subspace_gap
 
 #: default tolerance of membership and equality tests (relative to O(1) data)
@@ -72,29 +80,21 @@ class DiracStructure:
     @classmethod
     def induced(cls, forms, q=None, *, n=None) -> DiracStructure:
         """``D_Δ`` of eq. (DiracStructCoord); see :func:`diracvi.dirac.induced`."""
-        from ._constructions import induced
-
         return induced(forms, q, n=n)
 
     @classmethod
     def interaction(cls, forms, q=None, *, n=None) -> DiracStructure:
         """``D_int = Σ_int ⊕ Σ_int°``; see :func:`diracvi.dirac.interaction`."""
-        from ._constructions import interaction
-
         return interaction(forms, q, n=n)
 
     @staticmethod
     def direct_sum(*structures: DiracStructure) -> DiracStructure:
         """``D₁ ⊕ D₂ ⊕ …`` on ``Q₁ × Q₂ × …``; see :func:`diracvi.dirac.direct_sum`."""
-        from ._constructions import direct_sum
-
         return direct_sum(*structures)
 
     @staticmethod
     def tensor(da: DiracStructure, db: DiracStructure) -> DiracStructure:
         """``D_a ⊠ D_b``; see :func:`diracvi.dirac.tensor`."""
-        from ._constructions import tensor
-
         return tensor(da, db)
 
     # ------------------------------------------------------------ views
@@ -214,3 +214,192 @@ class DiracStructure:
     def __repr__(self) -> str:
         tag = "Dirac" if self.is_dirac() else "not Dirac"
         return f"DiracStructure(n={self.n}, dim={self.dim}, {tag})"
+
+
+# ------------------------------------------------ the paper's constructions
+def _forms_at(arg: str, forms, q, n) -> np.ndarray:
+    if forms is None:
+        if n is None:
+            raise ModelError(f"{arg}=None (no one-forms) needs n=<dim Q>.")
+        return np.zeros((0, int(n)))
+    if callable(forms):
+        check_regular(arg, forms, q)
+        return evaluate(arg, forms, q)
+    mat = evaluate(arg, forms, None, n)
+    check_regular(arg, mat)  # constant: only the redundancy warning can fire
+    return mat
+
+
+def induced(forms, q=None, *, n: int | None = None) -> DiracStructure:
+    r"""``D_{Δ_Q}(q, p)`` from the constraint one-forms, eq. (DiracStructCoord):
+
+        D_Δ(q, p) = {(v_q, v_p, α_q, α_p) | v_q ∈ Δ(q), α_p = v_q, α_q + v_p ∈ Δ°(q)}
+
+    with ``Δ(q) = ker A(q)`` and ``Δ°(q) = span`` of the rows of ``A(q)``. It is spanned by
+    ``(a, 0, 0, a)`` for ``a ∈ Δ``, ``(0, e_j, −e_j, 0)`` for every ``j`` and ``(0, 0, b, 0)``
+    for ``b ∈ Δ°``: ``(n − r) + n + r = 2n`` vectors.
+
+    Args:
+        forms: ``A`` as an (m, n) array, a callable ``A(q)`` (then ``q`` is required and
+            the rank is checked to be locally constant), or ``None`` for ``Δ = TQ``
+            (then pass ``n``).
+        q: the configuration, for a callable ``A``.
+    """
+    a = _forms_at("forms", forms, q, n)
+    n = a.shape[1]
+    delta, ann = kernel_basis(a), row_basis(a)
+    zeros = np.zeros
+    rows = [np.concatenate([d, zeros(n), zeros(n), d]) for d in delta]
+    rows += [np.concatenate([zeros(n), e, -e, zeros(n)]) for e in np.eye(n)]
+    rows += [np.concatenate([zeros(n), zeros(n), b, zeros(n)]) for b in ann]
+    return DiracStructure(np.array(rows).reshape(-1, 4 * n), n)
+
+
+def interaction(forms, q=None, *, n: int | None = None) -> DiracStructure:
+    r"""The standard interaction structure ``D_int = Σ_int ⊕ Σ_int°`` (paper §2.2).
+
+    ``Σ_int = (Tπ_Q)^{-1}(Σ_Q) = {(v_q, v_p) | v_q ∈ Σ_Q}`` and
+    ``Σ_int° = {(α_q, 0) | α_q ∈ Σ_Q°}``, where ``Σ_Q°`` is spanned by the rows of
+    ``forms`` (the interaction one-forms ``α^b`` over all of ``Q``). Its distribution is
+    ``Σ_int`` and its two-form is zero.
+    """
+    b = _forms_at("forms", forms, q, n)
+    n = b.shape[1]
+    sigma, ann = kernel_basis(b), row_basis(b)
+    zeros = np.zeros
+    rows = [np.concatenate([s, zeros(n), zeros(n), zeros(n)]) for s in sigma]
+    rows += [np.concatenate([zeros(n), e, zeros(n), zeros(n)]) for e in np.eye(n)]
+    rows += [np.concatenate([zeros(n), zeros(n), c, zeros(n)]) for c in ann]
+    return DiracStructure(np.array(rows).reshape(-1, 4 * n), n)
+
+
+def direct_sum(*structures: DiracStructure) -> DiracStructure:
+    r"""``D₁ ⊕ D₂`` on ``T*(Q₁ × Q₂)`` (paper §2.2, "direct sum"):
+
+        (D₁ ⊕ D₂)(q, p) = {((v₁, v₂), (α₁, α₂)) | (v_i, α_i) ∈ D_i(q_i, p_i)}.
+
+    Coordinates are re-ordered to those of ``T*Q`` with ``q = (q₁, q₂)``,
+    ``p = (p₁, p₂)``: a vector is ``(v_{q1}, v_{q2}, v_{p1}, v_{p2}, α_{q1}, α_{q2},
+    α_{p1}, α_{p2})``. Any number of factors is allowed.
+    """
+    if not structures:
+        raise ModelError("direct_sum needs at least one DiracStructure.")
+    for i, d in enumerate(structures):
+        if not isinstance(d, DiracStructure):
+            raise ModelError(f"direct_sum argument {i} = {d!r} is not a DiracStructure.")
+    n = sum(d.n for d in structures)
+    rows = []
+    offset = 0
+    for d in structures:
+        for row in d.basis:
+            out = np.zeros(4 * n)
+            for block in range(4):  # v_q, v_p, α_q, α_p
+                out[block * n + offset : block * n + offset + d.n] = row[
+                    block * d.n : (block + 1) * d.n
+                ]
+            rows.append(out)
+        offset += d.n
+    # the factors are orthogonal to each other, so the stacked rows stay orthonormal
+    return DiracStructure(np.array(rows).reshape(-1, 4 * n), n, orthonormal=True)
+
+
+def tensor(da: DiracStructure, db: DiracStructure) -> DiracStructure:
+    r"""The Dirac tensor product (paper §2.2, Jacobs–Yoshimura):
+
+        D_a ⊠ D_b = {(v, α) | ∃β: (v, α + β) ∈ D_a, (v, −β) ∈ D_b}.
+
+    Write ``x_a = (v_a, γ_a) ∈ D_a`` and ``x_b = (v_b, γ_b) ∈ D_b`` in their bases with
+    coefficients ``(c_a, c_b)``. The conditions say ``v_a = v_b = v``, ``γ_a = α + β`` and
+    ``γ_b = −β``, i.e. ``α = γ_a + γ_b``. So ``D_a ⊠ D_b`` is the image of the linear map
+    ``(c_a, c_b) ↦ (v_a, γ_a + γ_b)`` restricted to the kernel of ``(c_a, c_b) ↦ v_a − v_b``:
+    one kernel and one image, no sampling.
+    """
+    if not isinstance(da, DiracStructure) or not isinstance(db, DiracStructure):
+        raise ModelError("tensor(da, db) needs two DiracStructure arguments.")
+    da._check_same_space(db, "db")
+    half = 2 * da.n
+    va, ga = da.basis[:, :half].T, da.basis[:, half:].T
+    vb, gb = db.basis[:, :half].T, db.basis[:, half:].T
+    ker = kernel_basis(np.concatenate([va, -vb], axis=1))  # rows = (c_a, c_b)
+    image = np.concatenate([va, np.zeros_like(vb)], axis=1), np.concatenate([ga, gb], axis=1)
+    vecs = np.concatenate([image[0] @ ker.T, image[1] @ ker.T], axis=0).T
+    return DiracStructure(vecs.reshape(-1, 4 * da.n), da.n)
+
+
+def _split_dims(forms: Sequence, dims, q) -> list[int]:
+    if dims is not None:
+        dims = [int(d) for d in dims]
+        if len(dims) != len(forms):
+            raise ModelError(
+                f"dims={dims} has {len(dims)} entries for {len(forms)} subsystems: give one "
+                "dim Q_i per subsystem."
+            )
+        return dims
+    out = []
+    for i, f in enumerate(forms):
+        if f is None or callable(f):
+            raise ModelError(
+                f"forms[{i}] is {'None' if f is None else 'callable'}, so dim Q_{i + 1} is "
+                "unknown: pass dims=(n_1, n_2, ...)."
+            )
+        out.append(np.atleast_2d(np.asarray(f, dtype=np.float64)).shape[1])
+    return out
+
+
+def combined_forms(forms: Sequence, sigma, dims: Sequence[int]) -> Callable:
+    r"""``q ↦`` the rows ``ω̃_i^a = (…, ω_i^a(q_i), …)`` then ``α^b(q)``: a basis choice
+    for ``((Δ₁ ⊕ … ⊕ Δ_N) ∩ Σ)°`` as in the paper's §4.1."""
+    fns = [
+        as_forms_function(f"forms[{i}]", f, d)[0]
+        for i, (f, d) in enumerate(zip(forms, dims, strict=True))
+    ]
+    sig_fn = as_forms_function("sigma", sigma, sum(dims))[0]
+    bounds = np.cumsum([0, *dims])
+
+    def forms_fn(q):
+        blocks = []
+        for i, fn in enumerate(fns):
+            a = fn(q[bounds[i] : bounds[i + 1]])
+            left = jnp.zeros((a.shape[0], bounds[i]))
+            right = jnp.zeros((a.shape[0], bounds[-1] - bounds[i + 1]))
+            blocks.append(jnp.concatenate([left, a, right], axis=1))
+        blocks.append(sig_fn(q))
+        return jnp.concatenate(blocks, axis=0)
+
+    return forms_fn
+
+
+def interconnection(forms: Sequence, sigma, q, *, dims=None) -> DiracStructure:
+    r"""``(D_{Δ₁} ⊕ … ⊕ D_{Δ_N}) ⊠ D_int`` at ``q = (q₁, …, q_N)``, computed with ⊠.
+
+    By the Jacobs–Yoshimura proposition this is ``D_{(Δ₁ ⊕ … ⊕ Δ_N) ∩ Σ}`` *when the
+    intersection is clean*. Pointwise, ⊠ cannot tell, so this function first checks
+    that the combined one-forms have locally constant rank at ``q`` and raises
+    :class:`ModelError` if they do not.
+
+    Args:
+        forms: per subsystem, ``A_i`` as an (m_i, n_i) array, a callable ``A_i(q_i)`` or
+            ``None`` (``Δ_i = TQ_i``; then pass ``dims``).
+        sigma: the interaction one-forms ``B`` over all of ``Q``: (l, n) array or callable.
+        q: the configuration on ``Q = Q₁ × … × Q_N``.
+        dims: ``(n_1, …, n_N)``, needed when some ``forms[i]`` is callable or ``None``.
+    """
+    q = np.asarray(q, dtype=np.float64)
+    dims = _split_dims(forms, dims, q)
+    if sum(dims) != q.shape[0]:
+        raise ModelError(
+            f"q has {q.shape[0]} entries but the subsystems have dims {dims} "
+            f"(total {sum(dims)}): pass q on Q = Q_1 × … × Q_N."
+        )
+    check_regular("(Δ1 ⊕ … ⊕ ΔN) ∩ Σ one-forms", combined_forms(forms, sigma, dims), q)
+    bounds = np.cumsum([0, *dims])
+    parts = []
+    for i, f in enumerate(forms):
+        qi = q[bounds[i] : bounds[i + 1]]
+        a = np.zeros((0, dims[i])) if f is None else evaluate(f"forms[{i}]", f, qi, dims[i])
+        parts.append(induced(a))
+    b = evaluate("sigma", sigma, q, q.shape[0])
+    return tensor(direct_sum(*parts), interaction(b))
+
+
+__all__ = ["combined_forms", "direct_sum", "induced", "interaction", "interconnection", "tensor"]

@@ -37,8 +37,9 @@ Lagrange–d'Alembert principle, and the forced differential is ``γ^{d±}(dL_d 
 
 which reproduces DESIGN.md's forced equations. Unlike the continuous ``F̃`` (which only
 shifts the fibre), ``f_d^±`` also moves the base point through ``γ^{d±}``. The entries
-``(−D₁L_d − f_d^−, D₂L_d + f_d^+)`` are exactly what ``DiracSystem.discrete_momenta``
-returns, which :func:`system_dirac_differential` uses.
+``(−D₁L_d − f_d^−, D₂L_d + f_d^+)`` are exactly what
+:func:`~diracvi.discretization.maps.discrete_momenta` returns, which
+:func:`system_dirac_differential` uses.
 """
 
 from __future__ import annotations
@@ -49,8 +50,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .._discretize import QuadratureRule, get_rule
-from .._errors import ModelError
+from ..discretization.maps import discrete_momenta
+from ..discretization.rules import QuadratureRule, get_rule
+from ..errors import ModelError
 
 SIDES = ("plus", "minus")
 
@@ -180,14 +182,14 @@ def check_side(side: str) -> str:
 def system_dirac_differential(system, q0, q1, *, h, rule="retraction", side="plus"):
     r"""The forced ``𝔇^±(L_d, f_d)`` of a :class:`~diracvi.DiracSystem` at ``(q₀, q₁)``.
 
-    Built from ``system.discrete_momenta(rule, q0, q1, h) = (−D₁L_d − f_d^−,
+    Built from ``discrete_momenta(rule, system, q0, q1, h) = (−D₁L_d − f_d^−,
     D₂L_d + f_d^+) =: (P⁻, P⁺)``: ``side="plus"`` gives ``(q₀, P⁺, P⁻, q₁)``,
     ``side="minus"`` gives ``(P⁻, q₁, −q₀, −P⁺)``.
     """
     rule, side = as_rule(rule), check_side(side)
     q0 = jnp.asarray(q0, dtype=jnp.float64)
     q1 = jnp.asarray(q1, dtype=jnp.float64)
-    p_minus, p_plus = (np.asarray(a) for a in system.discrete_momenta(rule, q0, q1, h))
+    p_minus, p_plus = (np.asarray(a) for a in discrete_momenta(rule, system, q0, q1, h))
     q0, q1 = np.asarray(q0), np.asarray(q1)
     if side == "plus":
         return np.concatenate([q0, p_plus, p_minus, q1])

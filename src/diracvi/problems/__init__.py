@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._problem import Problem
 from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
 from .dc_motor import dc_motor, dc_motor_driven

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._system import DiracSystem
+from ..model.system import DiracSystem
 
 
 @dataclass(frozen=True)

@@ -18,8 +18,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from .._interconnect import connect, interconnect
-from .._system import LagrangeDiracSystem
+from ..model.interconnect import connect, interconnect
+from ..model.system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow
 
 

@@ -21,9 +21,9 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._interconnect import Interaction, interconnect
-from .._simulate import momenta
-from .._system import LagrangeDiracSystem
+from ..driver.simulate import momenta
+from ..model.interconnect import Interaction, interconnect
+from ..model.system import LagrangeDiracSystem
 from ._problem import Problem
 
 

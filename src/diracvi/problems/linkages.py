@@ -16,8 +16,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._interconnect import connect, interconnect
-from .._system import LagrangeDiracSystem
+from ..model.interconnect import connect, interconnect
+from ..model.system import LagrangeDiracSystem
 from ._problem import Problem
 
 RTOL = ATOL = 1e-12

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._system import LagrangeDiracSystem
+from ..model.system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow
 
 

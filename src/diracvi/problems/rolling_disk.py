@@ -16,7 +16,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._system import LagrangeDiracSystem
+from ..model.system import LagrangeDiracSystem
 from ._problem import Problem
 
 

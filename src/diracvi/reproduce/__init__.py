@@ -20,7 +20,7 @@ from pathlib import Path
 
 import jax
 
-from .._dispatch import mode as dispatch_mode
+from ..runtime.dispatch import mode as dispatch_mode
 from . import convergence
 from .experiments import EXAMPLES, Settings, run_example
 from .figures import FIGURES, render_all

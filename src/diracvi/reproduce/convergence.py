@@ -20,7 +20,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from .. import problems
-from .._simulate import simulate
+from ..driver.simulate import simulate
 
 CITATION = (
     "Parks & Leok, *Constructing equivalence-preserving Dirac variational integrators "

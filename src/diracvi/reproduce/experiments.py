@@ -21,9 +21,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import problems
-from .._simulate import simulate
-from .._system import LagrangeDiracSystem
-from .._trajectory import Trajectory
+from ..driver.simulate import simulate
+from ..driver.trajectory import Trajectory
+from ..model.system import LagrangeDiracSystem
 from ..problems import Problem
 from . import metrics, paper
 from .timing import TIMING_PROTOCOL, time_simulations

@@ -10,7 +10,7 @@ from collections.abc import Iterable, Mapping
 
 import numpy as np
 
-from .._trajectory import Trajectory
+from ..driver.trajectory import Trajectory
 
 
 def max_abs(values) -> float:

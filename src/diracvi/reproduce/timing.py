@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from .._simulate import simulate
+from ..driver.simulate import simulate
 
 TIMING_PROTOCOL = (
     "min over N runs of a warm (already compiled) dv.simulate(system, q0, p0, dt, steps) "

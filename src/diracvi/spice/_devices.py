@@ -62,11 +62,11 @@ class DeviceModel:
     kind: str  # npn | pnp | nmos | pmos
     level: float
     values: dict
-    line: int
+    line: str  # where the .model card is ("line 7", "lib.mod line 3")
     notes: list = field(default_factory=list)
 
 
-def read_model(kind: str, kw: dict, value, fail, number: int) -> DeviceModel:
+def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     """Check a transistor ``.model`` card's parameters; ``value(token, what)`` evaluates,
     ``fail(why)`` builds the line's error."""
     mos = kind in ("NMOS", "PMOS")
@@ -88,7 +88,7 @@ def read_model(kind: str, kw: dict, value, fail, number: int) -> DeviceModel:
                     f"its default {default:g} (drop it)"
                 )
         elif key in inert or _TEMPCO.match(key):
-            notes.append(f"line {number}: {kind} {key.upper()} ignored (no effect here)")
+            notes.append(f"{number}: {kind} {key.upper()} ignored (no effect here)")
         elif mos and key in _MOS_PROCESS:
             raise fail(
                 f"NMOS/PMOS parameter {key.upper()} is not supported: process parameters "
@@ -108,7 +108,7 @@ def read_model(kind: str, kw: dict, value, fail, number: int) -> DeviceModel:
 def _level(name, model: DeviceModel, fail):
     if model.level != 1:
         raise fail(
-            f"element {name!r}: model of line {model.line} is LEVEL={model.level:g}; only "
+            f"element {name!r}: model ({model.line}) is LEVEL={model.level:g}; only "
             "level 1 is supported (Shichman–Hodges MOSFET, Gummel–Poon BJT)"
         )
 
@@ -128,11 +128,11 @@ def mosfet(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number):
             geometry[key] = x
         elif key in ("ad", "as", "pd", "ps", "nrd", "nrs"):
             # they scale CJ, CJSW, JS and RSH, all refused unless zero
-            notes.append(f"line {number}: {name} {key.upper()} ignored (CJ, JS, RSH are 0)")
+            notes.append(f"{number}: {name} {key.upper()} ignored (CJ, JS, RSH are 0)")
         else:
             raise fail(f"element {name!r}: parameter {key.upper()} is not supported on M lines")
     if any(t.lower() == "off" for t in pos[6:]):
-        notes.append(f"line {number}: {name} OFF ignored (it only seeds ngspice's DC solve)")
+        notes.append(f"{number}: {name} OFF ignored (it only seeds ngspice's DC solve)")
     v = model.values
     d, g, s, b = pos[1:5]
     caps = (v["cgso"], v["cgdo"], v["cgbo"])
@@ -171,4 +171,62 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
         vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
         tr=v["tr"], fc=v["fc"], area=area, v0=(vb - ve, vb - vc), name=name,
     )  # fmt: skip
+    return part, nodes
+
+
+# ------------------------------------------------ handlers on the element table
+class _IC:
+    """The ``.ic`` voltages of a line's nodes, as the device builders ask for them."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+
+    def get(self, node, default=0.0):
+        return self.ctx.ic(node)
+
+
+def _card(ctx, token, line, kinds):
+    """The transistor ``.model`` named ``token``, checked (its type among ``kinds``)."""
+    kind, params, where = ctx.model(token, line)
+    if kind not in kinds:
+        raise line.fail(
+            f"model {token!r} ({where}) is a {kind} model; this element needs {'/'.join(kinds)}"
+        )
+    model = read_model(kind, params, lambda x, what: x, line.fail, where)
+    for note in model.notes:
+        ctx.note(line, note)
+    return model
+
+
+def m_line(ctx, name, pos, kw, line):
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (level 1)."""
+    if len(pos) < 6:
+        raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
+    model = _card(ctx, pos[5], line, ("NMOS", "PMOS"))
+    notes: list[str] = []
+    value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
+    part, nodes = mosfet(name, pos, kw, model, value, line.fail, _IC(ctx), notes, line.where)
+    for note in notes:
+        ctx.note(line, note.split(": ", 1)[1])
+    return part, nodes
+
+
+def q_line(ctx, name, pos, kw, line):
+    """``Qname c b e [s] model [area] [OFF]`` (Gummel–Poon level 1)."""
+    found = ctx.find_model(pos[4:6])
+    if found is None:
+        token = pos[4] if len(pos) > 4 else "?"
+        raise line.fail(
+            f"element {pos[0]!r}: no defined model among {pos[4:6]} (add '.model {token} "
+            "NPN(IS=… BF=…)'); form 'Qname c b e [s] model [area]'"
+        )
+    token = found[0]
+    model = _card(ctx, token, line, ("NPN", "PNP"))
+    notes: list[str] = []
+    value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
+    part, nodes = bjt(
+        name, pos, kw, model, value, line.fail, _IC(ctx), notes, line.where, {token.lower()}
+    )
+    for note in notes:
+        ctx.note(line, note.split(": ", 1)[1])
     return part, nodes

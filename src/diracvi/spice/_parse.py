@@ -1,9 +1,11 @@
-r"""A small, strict SPICE netlist reader: R, L, C, K, V, I, D, linear E F G H, Q, M, ``.tran``,
-``.ic``, ``.param``, ``.model`` (diodes; level-1 transistors), ``.options`` (ignored), ``.end``.
+r"""Read a SPICE netlist into a circuit of parts: :func:`read` and :class:`Netlist`.
 
-The first line is the title (SPICE's rule). ``*`` starts a comment line, ``;`` and
-`` $ `` an inline comment, ``+`` continues the previous line. Anything else is refused
-with its line number and text (:class:`NetlistError`).
+The reader is split by concept: lines, comments, includes and ``.control`` blocks
+(:mod:`._lines`); directives (:mod:`._directives`); element handlers, one per letter
+(:mod:`._elements`); source specifications (:mod:`._sources`); subcircuits
+(:mod:`._subckt`) read in scopes (:mod:`._scope`); the saved vectors (:mod:`._save`).
+Every problem of a netlist is collected and reported at once in one
+:class:`NetlistError`, each with its line, its text and the fix.
 """
 
 from __future__ import annotations
@@ -14,13 +16,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .. import components as cp
-from .._errors import ModelError
-from . import _devices
-from ._values import ExpressionError, evaluate, number
+from ..errors import ModelError
+from ._directives import DIRECTIVES
+from ._lines import Line, NetlistError, Problems, card, load, split
+from ._save import select
+from ._scope import Scope, read_body
 
-
-class NetlistError(ModelError):
-    """A netlist line that cannot be read or a circuit that cannot be built."""
+__all__ = ["Netlist", "NetlistError", "read"]
 
 
 @dataclass
@@ -28,13 +30,27 @@ class Netlist:
     """A parsed netlist: the circuit, the analysis and where every element came from.
 
     Attributes:
-        title: the first line.
+        title: the first line (or ``.title``).
         circuit: the :class:`~diracvi.components.Circuit` of the elements.
         assembly: ``circuit.build()`` (the system, ``q0``, ``p0`` and name maps).
-        dt, steps, stop: from ``.tran TSTEP TSTOP`` (``None`` without ``.tran``).
-        uic: whether ``.tran … uic`` was given.
-        params: the evaluated ``.param`` values (lower-case names).
-        notes: things the reader accepted but does not act on (``.options``, …).
+        dt, steps, stop: from ``.tran TSTEP TSTOP`` (``None`` without ``.tran``);
+            ``steps`` covers ``[0, TSTOP]`` at ``dt``.
+        uic: whether ``.tran … uic`` was given (without it a transient starts from the
+            DC operating point, :func:`diracvi.spice.operating_point`).
+        params: the evaluated top-level ``.param`` values (lower-case names).
+        notes: what the reader accepted but does not act on (``.options``, ``.four``,
+            AC specifications, unused models, …), each with its line.
+        start: ``.tran``'s TSTART (0 if not given): SPICE outputs from there.
+        tmax: ``.tran``'s TMAX (``None`` if not given).
+        options: the ``.options`` values (lower-case names; numbers where they are).
+        vectors: the saved vectors as ``(ngspice name, waveform key)``: the ``.save``
+            lines, else node voltages and the currents of voltage sources and inductors
+            (ngspice's default).
+        display: part name -> the element's ngspice name (``v:xa:v1`` -> ``v.xa.v1``).
+        ic: the ``.ic`` node voltages (with UIC they set capacitor voltages; without,
+            they hold their nodes during the operating point, as SPICE does).
+        op: whether the netlist asks for ``.op``.
+        off: diodes marked ``OFF`` (their junctions start the operating point at 0 V).
     """
 
     title: str
@@ -46,6 +62,15 @@ class Netlist:
     uic: bool
     params: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    start: float = 0.0
+    tmax: float | None = None
+    options: dict = field(default_factory=dict)
+    vectors: tuple = ()
+    display: dict = field(default_factory=dict)
+    ic: dict = field(default_factory=dict)
+    op: bool = False
+    off: frozenset = frozenset()
+    _start: tuple | None = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -54,13 +79,29 @@ class Netlist:
 
     @property
     def q0(self):
-        """Initial coordinates (``assembly.q0``)."""
-        return self.assembly.q0
+        """The transient's initial coordinates, as SPICE starts it: with ``UIC`` the
+        netlist's state (``assembly.q0``), otherwise the DC operating point's."""
+        return self.initial_state()[0]
 
     @property
     def p0(self):
-        """Initial momenta (``assembly.p0``)."""
-        return self.assembly.p0
+        """The transient's initial momenta (see :attr:`q0`)."""
+        return self.initial_state()[1]
+
+    def initial_state(self):
+        """``(q0, p0)``: the netlist's state with ``UIC``, the DC operating point without
+        (computed once; ``.ic`` values hold their nodes while it is solved)."""
+        if self.uic:
+            return self.assembly.q0, self.assembly.p0
+        if self._start is None:
+            from ._operating_point import operating_point
+
+            try:
+                op = operating_point(self.assembly, hold=self.ic, off=self.off)
+            except ModelError as exc:
+                raise NetlistError(f"netlist {self.title!r}: {exc}") from None
+            self._start = (op.q0, op.p0)
+        return self._start
 
     @property
     def discretizations(self) -> tuple[str, ...]:
@@ -72,7 +113,7 @@ class Netlist:
         if any(
             (p.role == "current" and hasattr(p, "senses")) or p.role == "transistor"
             for p in self.circuit.parts
-        ):  # transistors: a branch flux enters only through other branches' forces
+        ):
             return ("midpoint",)
         return ("midpoint", "retraction")
 
@@ -82,107 +123,64 @@ class Netlist:
         return self.circuit.name
 
 
-_TOKEN = re.compile(r"\{[^}]*\}|'[^']*'|=|[^\s,()={}']+")
-_SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, Q, M"
-
-
-@dataclass
-class _Line:
-    number: int
-    text: str
-
-    def fail(self, why: str) -> NetlistError:
-        return NetlistError(f"line {self.number}: {why}\n    {self.text}")
-
-
-def _logical_lines(text: str) -> tuple[str, list[_Line]]:
-    raw = text.splitlines()
-    if not raw:
-        raise NetlistError("the netlist is empty (SPICE expects a title line, then elements).")
-    title = raw[0].strip()
-    lines: list[_Line] = []
-    for k, line in enumerate(raw[1:], start=2):
-        body = re.split(r";| \$ |\t\$ ", line, maxsplit=1)[0].rstrip()
-        stripped = body.strip()
-        if not stripped or stripped.startswith("*"):
-            continue
-        if stripped.startswith("+"):
-            if not lines:
-                raise NetlistError(
-                    f"line {k}: a '+' continuation with nothing to continue\n    {line}"
-                )
-            lines[-1].text += " " + stripped[1:].strip()
-            continue
-        lines.append(_Line(k, stripped))
-    return title, lines
-
-
-def _split(line: _Line) -> tuple[list[str], dict[str, str]]:
-    """Positional tokens and ``key=value`` pairs."""
-    tokens = _TOKEN.findall(line.text)
-    if line.text.count("(") != line.text.count(")") or line.text.count("{") != line.text.count("}"):
-        raise line.fail("unbalanced parentheses or braces")
-    pos, kw = [], {}
-    i = 0
-    while i < len(tokens):
-        if i + 2 < len(tokens) + 1 and i + 1 < len(tokens) and tokens[i + 1] == "=":
-            if i + 2 >= len(tokens):
-                raise line.fail(f"'{tokens[i]}=' has no value")
-            kw[tokens[i].lower()] = tokens[i + 2]
-            i += 3
-            continue
-        if tokens[i] == "=":
-            raise line.fail("'=' without a name before it")
-        pos.append(tokens[i])
-        i += 1
-    return pos, kw
-
-
 class _Reader:
-    def __init__(self, text: str, name: str):
-        self.title, self.lines = _logical_lines(text)
+    """The state of one read: what the directives set, and the problems met."""
+
+    def __init__(self, name: str, overrides=None):
+        self.problems = Problems()
+        # read(..., params=): values that win over the netlist's top-level .param lines
+        self.overrides = {str(k).lower(): v for k, v in (overrides or {}).items()}
+        self.off: set[str] = set()  # diodes marked OFF
+        self.op = False
         self.circuit = cp.Circuit(name)
-        self.params: dict[str, float] = {}
-        self.models: dict[str, dict[str, float]] = {}
-        self.devices: dict[str, _devices.DeviceModel] = {}  # transistor .model cards
-        self.ic: dict[str, float] = {}
+        self.title = ""
         self.tran: tuple[float, float] | None = None
-        self.uic = False
+        self.tran_line: Line | None = None
+        self.start, self.tmax, self.uic = 0.0, None, False
+        self.ic: dict[str, float] = {}
         self.notes: list[str] = []
-        self.elements: dict[str, _Line] = {}
+        self.options: dict = {}
+        self.saves: list = []
+        self.globals: set[str] = set()
+        self.all_models: list = []
+        self.display: dict[str, str] = {}
+        self.top = Scope(self, params=dict(self.overrides))
 
-    # --------------------------------------------------------------- values
-    def value(self, token: str, line: _Line, what: str) -> float:
-        x = number(token)
-        if x is not None:
-            return x
-        text = token[1:-1] if token[:1] in "{'" else token
-        try:
-            return evaluate(text, self.params)
-        except ExpressionError as exc:
-            raise line.fail(f"{what}: {exc}") from None
+    def note(self, line: Line, text: str) -> None:
+        self.notes.append(f"{line.where}: {text}")
 
-    # ---------------------------------------------------------------- passes
-    def read(self) -> Netlist:
-        # directives first (.param, .model, .tran, .ic), in order, then the elements
-        element_lines = []
-        for line in self.lines:
-            if line.text.startswith("."):
-                if self.directive(line) == "end":
-                    break
-            else:
-                element_lines.append(line)
-        deferred = []
-        for line in element_lines:
-            kind = line.text[0].upper()
-            if kind == "K":
-                deferred.append(line)
-            else:
-                self.element(line)
-        for line in deferred:
-            self.element(line)
-        if not self.elements:
+    def directive(self, line: Line) -> None:
+        """A top-level directive other than .param/.model/.subckt."""
+        word = card(line)
+        handler = DIRECTIVES.get(word)
+        if handler is None:
+            raise line.fail(
+                f"directive {word!r} is not supported (diracvi reads .tran, .ic, .param, "
+                ".model, .subckt, .include, .lib, .options, .save, .global, .temp and "
+                "tolerates the output and analysis directives)"
+            )
+        pos, kw = split(line)
+        handler(self, line, pos, kw)
+
+    def read(self, text: str, base: Path | None) -> Netlist:
+        source = load(text, base, self.problems)
+        self.title = source.title
+        self.notes += source.notes
+        lines = source.lines
+        if not any(card(line) == ".tran" for line in lines):
+            control = [c for c in source.control if card(c) == "tran"]
+            if control:  # a `tran` command of a .control block stands for the .tran
+                lines = [*lines, control[0].with_text("." + control[0].text)]
+                self.note(control[0], "the .control block's 'tran' is used as the .tran")
+        read_body(self.top, lines)
+        for model in self.all_models:
+            if not model.used:
+                note = f"{model.where}: .model {model.name} {model.kind} is not used (accepted)"
+                if note not in self.notes:
+                    self.notes.append(note)
+        if not self.circuit._parts and not self.problems.found:
             raise NetlistError("the netlist has no elements (only a title and directives).")
+        self.problems.check()
         try:
             assembly = self.circuit.build()
         except NetlistError:
@@ -193,316 +191,49 @@ class _Reader:
         if self.tran is not None:
             dt, stop = self.tran
             steps = max(1, math.ceil(stop / dt - 1e-9))
-        return Netlist(
-            self.title, self.circuit, assembly, dt, steps, stop, self.uic, self.params, self.notes
+        netlist = Netlist(
+            self.title,
+            self.circuit,
+            assembly,
+            dt,
+            steps,
+            stop,
+            self.uic,
+            dict(self.top.params),
+            self.notes,
+            start=self.start,
+            tmax=self.tmax,
+            options=self.options,
+            display=self.display,
+            ic=dict(self.ic),
+            op=self.op,
+            off=frozenset(self.off),
         )
-
-    def directive(self, line: _Line) -> str | None:
-        pos, kw = _split(line)
-        card = pos[0].lower() if pos else line.text.split()[0].lower()
-        if card == ".end":
-            return "end"
-        if card == ".param":
-            if pos[1:]:
-                raise line.fail(f"'.param' expects name=value pairs, got {pos[1:]}")
-            for key, token in kw.items():
-                self.params[key] = self.value(token, line, f".param {key}")
-            return None
-        if card == ".tran":
-            args = [t for t in pos[1:] if t.lower() != "uic"]
-            self.uic = len(args) != len(pos) - 1
-            if len(args) < 2 or len(args) > 4 or kw:
-                raise line.fail("'.tran' expects TSTEP TSTOP [TSTART [TMAX]] [UIC]")
-            step, stop = (self.value(t, line, ".tran") for t in args[:2])
-            if not (step > 0 and stop > 0):
-                raise line.fail(f"'.tran' needs TSTEP > 0 and TSTOP > 0 (got {step}, {stop})")
-            if len(args) > 2 and self.value(args[2], line, ".tran TSTART") != 0.0:
-                raise line.fail("'.tran' with TSTART ≠ 0 is not supported")
-            if self.tran is not None:
-                raise line.fail("a second '.tran'")
-            self.tran = (step, stop)
-            return None
-        if card == ".ic":
-            pairs = re.findall(r"v\s*\(\s*([^)\s]+)\s*\)\s*=\s*(\S+)", line.text, re.IGNORECASE)
-            rest = re.sub(r"v\s*\(\s*[^)\s]+\s*\)\s*=\s*\S+", "", line.text[3:], flags=re.I)
-            if not pairs or rest.strip():
-                raise line.fail("'.ic' expects V(node)=value pairs")
-            for node, token in pairs:
-                self.ic[node] = self.value(token, line, f".ic v({node})")
-            return None
-        if card == ".model":
-            self.model(line)
-            return None
-        if card in (".options", ".option", ".opt", ".save", ".print", ".probe", ".plot"):
-            self.notes.append(
-                f"line {line.number}: {card} ignored (it tunes ngspice's output/solver)"
-            )
-            return None
-        raise line.fail(
-            f"directive {card!r} is not supported (supported: .tran, .ic, .param, .model for "
-            "diodes and level-1 transistors, .options, .end)"
-        )
-
-    def model(self, line: _Line) -> None:
-        m = re.match(r"\.model\s+(\S+)\s+(\w+)\s*\(?(.*?)\)?\s*$", line.text, re.IGNORECASE)
-        if m is None:
-            raise line.fail("'.model' expects NAME TYPE(param=value …)")
-        name, kind, body = m.group(1).lower(), m.group(2).upper(), m.group(3)
-        if kind in _devices.KINDS:
-            self.transistor_model(name, kind, body, line)
-            return
-        if kind != "D":
-            raise line.fail(f"model type {kind!r} is not supported (D, NPN, PNP, NMOS, PMOS are)")
-        _, kw = _split(_Line(line.number, body))
-        allowed = {"is": 1e-14, "n": 1.0}
-        unknown = sorted(set(kw) - set(allowed))
-        if unknown:
-            raise line.fail(
-                f"diode parameters {unknown} are not supported (only IS and N: a Shockley "
-                "junction without series resistance or capacitance)"
-            )
-        self.models[name] = {k: self.value(kw.get(k, str(v)), line, k) for k, v in allowed.items()}
-
-    # -------------------------------------------------------------- elements
-    def element(self, line: _Line) -> None:
-        pos, kw = _split(line)
-        if not pos:
-            raise line.fail("no element name (an element line starts with its name, e.g. R1)")
-        name = pos[0]
-        kind = name[0].upper()
-        if kind not in "RCLKVIDEFGHQM":
-            raise line.fail(
-                f"element {name!r}: type {kind!r} is not supported (supported: {_SUPPORTED}; "
-                "no subcircuits or switches)"
-            )
-        if name.upper() in self.elements:
-            first = self.elements[name.upper()].number
-            raise line.fail(f"element {name!r} is defined twice (first on line {first})")
-        self.elements[name.upper()] = line
-        try:
-            part, nodes = getattr(self, f"_{kind.lower()}")(name, pos, kw, line)
-        except NetlistError:
-            raise
-        except ModelError as exc:
-            raise line.fail(str(exc)) from None
-        self.circuit.origin[name] = f"line {line.number} ({name})"
-        if not isinstance(part, _Skip):
-            self.circuit.add(part, **nodes)
-
-    def _need(self, pos, count, line, form):
-        if len(pos) != count:
-            raise line.fail(f"expected '{form}', got {len(pos)} fields")
-
-    def _two(self, pos, kw, line, form, extra=()):
-        self._need(pos, 4, line, form)
-        unknown = sorted(set(kw) - set(extra))
-        if unknown:
-            raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
-        return pos[1], pos[2], self.value(pos[3], line, f"{pos[0]} value")
-
-    def _r(self, name, pos, kw, line):
-        a, b, r = self._two(pos, kw, line, "Rname n+ n- value")
-        return cp.Resistor(r, name=name), {"p": a, "n": b}
-
-    def _c(self, name, pos, kw, line):
-        a, b, c = self._two(pos, kw, line, "Cname n+ n- value [IC=v]", ("ic",))
-        v0 = (
-            self.value(kw["ic"], line, "IC")
-            if "ic" in kw
-            else self.ic.get(a, 0.0) - self.ic.get(b, 0.0)
-        )
-        return cp.Capacitor(c, name=name, v0=v0), {"p": a, "n": b}
-
-    def _l(self, name, pos, kw, line):
-        a, b, ell = self._two(pos, kw, line, "Lname n+ n- value [IC=i]", ("ic",))
-        i0 = self.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
-        return cp.Inductor(ell, name=name, i0=i0), {"p": a, "n": b}
-
-    def _k(self, name, pos, kw, line):
-        self._need(pos, 4, line, "Kname Lname1 Lname2 k")
-        if kw:
-            raise line.fail(f"unsupported parameters {sorted(kw)}")
-        k = self.value(pos[3], line, "coupling")
-        self.circuit.add(cp.MutualInductance(pos[1], pos[2], k, name=name))
-        return _Skip(), {}
-
-    def _d(self, name, pos, kw, line):
-        if len(pos) != 4 or kw:
-            raise line.fail("expected 'Dname anode cathode model' (no area or options)")
-        model = self.models.get(pos[3].lower())
-        if model is None:
-            raise line.fail(
-                f"diode model {pos[3]!r} is not defined (add '.model {pos[3]} D(IS=… N=…)')"
-            )
-        return cp.Diode(model["is"], model["n"], name=name), {"p": pos[1], "n": pos[2]}
-
-    # ------------------------------------------------ transistors (Q, M; level 1)
-    def transistor_model(self, name, kind, body, line):
-        _, kw = _split(_Line(line.number, body))
-        model = _devices.read_model(
-            kind, kw, lambda t, what: self.value(t, line, what), line.fail, line.number
-        )
-        self.notes += model.notes
-        self.devices[name] = model
-
-    def _device(self, name, token, line, card):
-        model = self.devices.get(token.lower())
-        if model is None:
-            raise line.fail(f"element {name!r}: model {token!r} is not defined (add '{card}')")
-        return model
-
-    def _m(self, name, pos, kw, line):
-        if len(pos) < 6:
-            raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
-        model = self._device(name, pos[5], line, f".model {pos[5]} NMOS(LEVEL=1 VTO=… KP=…)")
-        return _devices.mosfet(
-            name, pos, kw, model, lambda t, w: self.value(t, line, w), line.fail, self.ic,
-            self.notes, line.number,
-        )  # fmt: skip
-
-    def _q(self, name, pos, kw, line):
-        known = [t for t in pos[4:6] if t.lower() in self.devices]
-        if not known:
-            token = pos[4] if len(pos) > 4 else "?"
-            raise line.fail(
-                f"element {name!r}: no defined model among {pos[4:6]} (add '.model {token} "
-                "NPN(IS=… BF=…)'); form 'Qname c b e [s] model [area]'"
-            )
-        model = self._device(name, known[0], line, "")
-        return _devices.bjt(
-            name, pos, kw, model, lambda t, w: self.value(t, line, w), line.fail, self.ic,
-            self.notes, line.number, self.devices,
-        )  # fmt: skip
-
-    # ------------------------------------------- linear controlled sources (E F G H)
-    def _linear_form(self, name, pos, kw, line, form, count):
-        """The fields of a linear controlled-source line; ``VALUE=``/``POLY`` refused."""
-        fields = [t.lower() for t in pos[1:]]
-        if "value" in kw or "poly" in fields or "value" in fields:
-            raise line.fail(
-                f"element {name!r}: the VALUE= and POLY(…) forms of {name[0].upper()} sources "
-                f"are not supported; write the linear form '{form}'"
-            )
-        if kw or len(pos) != count:
-            extra = f" and {sorted(kw)}" if kw else ""
-            raise line.fail(f"expected '{form}', got {len(pos)} fields{extra}")
-        return pos
-
-    def _e(self, name, pos, kw, line):
-        form = "Ename n+ n- nc+ nc- gain"
-        _, a, b, c, d, k = self._linear_form(name, pos, kw, line, form, 6)
-        gain = self.value(k, line, f"{name} gain")
-        return cp.VCVS(gain, name=name), {"p": a, "n": b, "cp": c, "cn": d}
-
-    def _g(self, name, pos, kw, line):
-        form = "Gname n+ n- nc+ nc- transconductance"
-        _, a, b, c, d, k = self._linear_form(name, pos, kw, line, form, 6)
-        gm = self.value(k, line, f"{name} transconductance")
-        return cp.VCCS(gm, name=name), {"p": a, "n": b, "cp": c, "cn": d}
-
-    def _f(self, name, pos, kw, line):
-        _, a, b, vctrl, k = self._linear_form(name, pos, kw, line, "Fname n+ n- Vname gain", 5)
-        gain = self.value(k, line, f"{name} gain")
-        return cp.CCCS(gain, control=self._ammeter(vctrl, line), name=name), {"p": a, "n": b}
-
-    def _h(self, name, pos, kw, line):
-        form = "Hname n+ n- Vname transresistance"
-        _, a, b, vctrl, k = self._linear_form(name, pos, kw, line, form, 5)
-        r = self.value(k, line, f"{name} transresistance")
-        return cp.CCVS(r, control=self._ammeter(vctrl, line), name=name), {"p": a, "n": b}
-
-    def _ammeter(self, vctrl, line):
-        # SPICE: the controlling current is the one through a voltage source, from its +
-        # node through it to its − node (the circuit checks that the source exists)
-        if vctrl[0].upper() != "V":
-            raise line.fail(
-                f"the controlling element {vctrl!r} must be a voltage source (SPICE's rule); "
-                "put a 0 V source in series with the branch to measure its current"
-            )
-        return vctrl
-
-    def _v(self, name, pos, kw, line):
-        return cp.VoltageSource(self.source(pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
-
-    def _i(self, name, pos, kw, line):
-        return cp.CurrentSource(self.source(pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
-
-    def source(self, pos, kw, line):
-        form = f"{pos[0][0]}name n+ n- [DC] value | SIN(…) | PULSE(…) | PWL(…)"
-        if len(pos) < 4 or kw:
-            raise line.fail(f"expected '{form}'")
-        rest = pos[3:]
-        dc = None
-        if rest[0].lower() == "dc":
-            if len(rest) < 2:
-                raise line.fail("'DC' without a value")
-            dc, rest = self.value(rest[1], line, "DC value"), rest[2:]
-        elif rest[0].lower() not in ("sin", "pulse", "pwl"):
-            dc, rest = self.value(rest[0], line, "value"), rest[1:]
-        if not rest:
-            return cp.DC(dc)
-        fn, args = rest[0].lower(), [self.value(t, line, rest[0]) for t in rest[1:]]
-        step, stop = self.tran or (None, None)
-        try:
-            if fn == "sin":
-                if not 2 <= len(args) <= 6:
-                    raise line.fail("SIN(VO VA [FREQ [TD [THETA [PHASE]]]]) takes 2 to 6 values")
-                if len(args) < 3 or args[2] == 0.0:  # ngspice: FREQ 0 or absent → 1/TSTOP
-                    args[2:3] = [self._default(stop, line, "SIN FREQ", 1)]
-                return cp.Sine(*args)
-            if fn == "pulse":
-                if not 2 <= len(args) <= 8:
-                    raise line.fail(
-                        "PULSE(V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]) takes 2 to 8 values"
-                    )
-                defaults = [0.0, step, step, stop, stop]
-                full = (
-                    args[:2]
-                    + [
-                        args[2 + j] if 2 + j < len(args) and (j == 0 or args[2 + j] > 0) else d
-                        for j, d in enumerate(defaults)
-                    ]
-                    + args[7:]
-                )
-                if any(x is None for x in full):
-                    raise line.fail("PULSE defaults TR, TF, PW, PER come from '.tran'; add one")
-                return cp.Pulse(*full)
-            if fn == "pwl":
-                if len(args) < 2 or len(args) % 2:
-                    raise line.fail("PWL(T1 V1 T2 V2 …) takes pairs of values")
-                return cp.PWL(args[0::2], args[1::2])
-        except ModelError as exc:
-            if isinstance(exc, NetlistError):
-                raise
-            raise line.fail(str(exc)) from None
-        raise line.fail(f"source function {rest[0]!r} is not supported (DC, SIN, PULSE, PWL)")
-
-    def _default(self, stop, line, what, invert):
-        if stop is None:
-            raise line.fail(f"{what} defaults to 1/TSTOP, but there is no '.tran'; give it")
-        return 1.0 / stop if invert else stop
+        netlist.vectors = select(netlist, self.saves, self.problems)
+        self.problems.check()
+        return netlist
 
 
-class _Skip:
-    """Placeholder returned for K lines (the coupling is registered directly)."""
-
-
-def read(source, name: str | None = None) -> Netlist:
+def read(source, name: str | None = None, params=None) -> Netlist:
     """Read a SPICE netlist from a path or from its text.
 
     Args:
         source: a :class:`~pathlib.Path`, a path string, or the netlist text (a string
             with a newline). The first line is the title.
         name: the circuit's name (default: the file's stem, or ``"netlist"``).
+        params: ``{name: value}`` overriding the netlist's top-level ``.param`` values
+            (names case-insensitive). Values may be JAX tracers, so ``jax.grad`` flows
+            from a run to any parameter: ``R1 a b {rval}`` with ``params={"rval": r}``.
 
     Returns:
         A :class:`Netlist`; ``netlist.system``, ``q0``, ``p0``, ``dt``, ``steps``.
 
     Raises:
-        NetlistError: naming the line number and text of what cannot be read, or the
-            element/node of a topology error (floating node, loop of voltage sources,
-            cut-set of current sources).
+        NetlistError: listing every line that cannot be read (its number, text and the
+            fix; ``error.problems``), or the element/node of a topology error (floating
+            node, loop of voltage sources, cut-set of current sources).
     """
+    base = None
     if isinstance(source, Path) or (isinstance(source, str) and "\n" not in source):
         path = Path(source)
         try:
@@ -516,8 +247,9 @@ def read(source, name: str | None = None) -> Netlist:
             )
         text = path.read_text(encoding="utf-8", errors="replace")
         name = name or re.sub(r"[^A-Za-z0-9_]", "_", path.stem) or "netlist"
+        base = path.parent
     elif isinstance(source, str):
         text = source
     else:
         raise NetlistError(f"read({source!r}): pass a path or the netlist text (str).")
-    return _Reader(text, name or "netlist").read()
+    return _Reader(name or "netlist", params).read(text, base)

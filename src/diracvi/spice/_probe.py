@@ -15,9 +15,11 @@ by quadratic extrapolation.
 
 from __future__ import annotations
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
@@ -25,11 +27,11 @@ _FROM_NODES = np.array([3.0, -3.0, 1.0])
 _FROM_HALVES = np.array([15.0, -10.0, 3.0]) / 8.0
 
 
-def _end(values: np.ndarray, weights: np.ndarray) -> float:
+def _end(values, weights: np.ndarray):
     """Extrapolate to the node before ``values[0]`` (fewer than 3 values: the nearest)."""
     if len(values) < 3:
-        return float(values[0])
-    return float(weights @ values[:3])
+        return values[0]
+    return weights @ values[:3]
 
 
 def waveforms(assembly, traj) -> dict[str, np.ndarray]:
@@ -38,13 +40,16 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
 
     ``assembly``: the :class:`~diracvi.components.Assembly` (or a
     :class:`~diracvi.spice.Netlist`); ``traj``: its trajectory (states saved, every step).
+    A traced trajectory (inside ``jax.grad``) gives JAX arrays, differentiable.
     """
+    display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
     assembly = getattr(assembly, "assembly", assembly)
     if traj.q is None or traj.save_every != 1:
         raise ValueError(
             "waveforms(...) needs every state: simulate with save_states=True, save_every=1."
         )
-    h = float(traj.dt)
+    xp = jnp if isinstance(traj.q, jax.core.Tracer) else np
+    h = traj.dt if xp is jnp else float(traj.dt)
     steps = traj.multipliers.shape[0]
     out: dict[str, np.ndarray] = {}
     midpoint = traj.discretization != "retraction"
@@ -53,24 +58,22 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         raise ModelError(
             f"waveforms(...) needs at least 2 steps to place the node voltages at t0 "
             f"under discretization={traj.discretization!r}, and this run has {steps} "
-            f"(dt={h:g}). Fix: a smaller dt (at most half the horizon)."
+            f"(dt={float(traj.dt):g}). Fix: a smaller dt (at most half the horizon)."
         )
     for node in assembly.nodes:
         lam = traj.multiplier(assembly.kcl_rows[node])
-        phi = np.empty(steps + 1)
-        phi[:steps] = -lam / h
-        if midpoint:
-            phi[0] = _end(phi[1:steps], _FROM_NODES)
-        phi[steps] = _end(phi[steps - 1 :: -1], _FROM_NODES)
-        out[f"v({node})"] = phi
+        inner = -lam / h  # φ at t_0 … t_{steps-1}
+        first = _end(inner[1:steps], _FROM_NODES) if midpoint else inner[0]
+        phi = xp.concatenate([xp.stack([first]), inner[1:steps]])
+        out[f"v({node})"] = xp.concatenate([phi, xp.stack([_end(phi[::-1], _FROM_NODES)])])
     index = {c: j for j, c in enumerate(traj.coords)}
     for label, coord in assembly.currents.items():
         q = traj.q[:, index[coord]]
-        vel = np.diff(q) / h  # at the half nodes
-        cur = np.empty(len(q))
-        cur[1:-1] = 0.5 * (vel[1:] + vel[:-1])
-        cur[0], cur[-1] = _end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES)
-        out[f"i({label})"] = cur
+        vel = xp.diff(q) / h  # at the half nodes
+        mid = 0.5 * (vel[1:] + vel[:-1])
+        ends = (_end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES))
+        cur = xp.concatenate([xp.stack([ends[0]]), mid, xp.stack([ends[1]])])
+        out[f"i({display.get(label, label)})"] = cur
     return out
 
 
@@ -78,6 +81,5 @@ def to_dataset(assembly, traj):
     """The trajectory's dataset (:meth:`~diracvi.Trajectory.to_xarray`) with the
     waveforms added as data variables ``v(<node>)`` and ``i(<element>)`` over ``time``."""
     ds = traj.to_xarray()
-    for key, values in waveforms(assembly, traj).items():
-        ds[key] = (("time",), values)
-    return ds
+    # all at once: one assignment per waveform copies the dataset each time (O(N²))
+    return ds.assign({key: (("time",), v) for key, v in waveforms(assembly, traj).items()})

@@ -1,59 +1,221 @@
-"""Simulate a netlist: :func:`run` reads, steps and names the results."""
+"""Simulate a netlist: :func:`run` reads, steps and names the results.
+
+By default a run has SPICE's time semantics: ``.tran``'s TSTEP is the output interval,
+the steps are chosen by an error estimate for ``.options``' tolerances, never longer than
+TMAX and ending exactly on every source corner, and the waveforms are reported on the
+TSTEP grid from TSTART. ``dt=`` forces a fixed step instead (the trajectory's own points
+are then the output).
+"""
 
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 
+import jax
 import numpy as np
 
-from .._errors import ModelError
-from .._simulate import simulate
+from ..driver.adaptive import Controls, adaptive
+from ..driver.simulate import simulate
+from ..errors import ModelError, StepFailure
+from ._operating_point import OperatingPoint
+from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
 from ._probe import to_dataset, waveforms
+from ._resample import Sampler, step_potentials
+from ._tran import TranSettings, breakpoints, tran_settings
 
 
 @dataclass(frozen=True)
-class Result:
+class Internal:
+    """A variable-step run's own points: nodes ``time``, step sizes ``h``, and the
+    waveforms sampled at the nodes (``internal["v(out)"]``)."""
+
+    time: np.ndarray
+    h: np.ndarray
+    waveforms: dict
+
+    def __getitem__(self, key: str) -> np.ndarray:
+        return _lookup(self.waveforms, key)
+
+
+@dataclass(frozen=True, eq=False)
+class Result(Mapping):
     """A netlist's transient: the trajectory and its SPICE-named waveforms.
 
-    ``result["v(out)"]``, ``result["i(R1)"]`` are arrays over ``result.time``.
+    A read-only mapping over the saved vectors (``netlist.vectors``: the ``.save``
+    lines, else node voltages and voltage-source and inductor currents), named as
+    ngspice names them: ``result["v(out)"]``, ``result["i(v1)"]`` over ``result.time``;
+    ``keys()``, ``items()``, ``len``. Any other waveform of the circuit can still be
+    asked for by name (``result["i(R1)"]``, ``"i(R1)" in result``); names are
+    case-insensitive.
+    ``result.time`` is the TSTEP grid from TSTART for a variable-step run, the steps of a
+    fixed-step one.
+    ``result.internal``: a variable-step run's own points (``None`` for a fixed step);
+    ``result.trajectory``: the :class:`~diracvi.Trajectory` of a fixed-step run, the
+    :class:`~diracvi.driver.adaptive.AdaptiveRun` of a variable-step one;
+    ``result.settings``: the :class:`~diracvi.spice._tran.TranSettings` used.
     """
 
     netlist: Netlist
     trajectory: object
     waveforms: dict
+    times: np.ndarray | None = None
+    internal: Internal | None = None
+    settings: TranSettings | None = None
 
     @property
     def time(self) -> np.ndarray:
-        """The time nodes ``t_k``."""
-        return self.trajectory.t
+        """The output times."""
+        return self.trajectory.t if self.times is None else self.times
+
+    def _saved(self) -> dict:
+        vectors = self.netlist.vectors or tuple((k, k) for k in self.waveforms)
+        return {name: key for name, key in vectors if key in self.waveforms}
 
     def __getitem__(self, key: str) -> np.ndarray:
         want = key.replace(" ", "").lower()
+        for name, wave in self._saved().items():
+            if name == want:
+                return self.waveforms[wave]
         for name, values in self.waveforms.items():
             if name.lower() == want:
                 return values
         raise KeyError(
-            f"{key!r} is not a waveform of this circuit; there are {sorted(self.waveforms)}"
+            f"{key!r} is not a waveform of this circuit; the saved ones are "
+            f"{list(self._saved())}, others {sorted(self.waveforms)}"
         )
 
+    def __contains__(self, key) -> bool:
+        if not isinstance(key, str):
+            return False
+        try:
+            self[key]
+        except KeyError:
+            return False
+        return True
+
+    def __iter__(self):
+        return iter(self._saved())
+
+    def __len__(self) -> int:
+        return len(self._saved())
+
+    def __repr__(self) -> str:
+        t = self.time
+        names = list(self._saved())
+        shown = ", ".join(names[:8]) + (f", … ({len(names)} in all)" if len(names) > 8 else "")
+        return (
+            f"<spice.Result {self.netlist.title!r}: t {t[0]:g} → {t[-1]:g} s, "
+            f"{self._steps()}; vectors {shown}>"
+        )
+
+    __str__ = __repr__
+
+    def _steps(self) -> str:
+        if self.internal is None:
+            return f"{len(self.time) - 1} steps of {float(self.trajectory.dt):g} s"
+        h = self.internal.h
+        return f"{len(h)} variable steps of {h.min():.3g} … {h.max():.3g} s"
+
     def to_xarray(self):
-        """The trajectory's dataset plus ``v(<node>)``/``i(<element>)`` over ``time``."""
-        return to_dataset(self.netlist, self.trajectory)
+        """The dataset of ``v(<node>)``/``i(<element>)`` over ``time`` (a fixed-step run:
+        the trajectory's dataset plus those)."""
+        if self.internal is None and self.times is None:
+            return to_dataset(self.netlist, self.trajectory)
+        import xarray as xr
+
+        data = {k: (("time",), v) for k, v in self.waveforms.items()}
+        ds = xr.Dataset(data, coords={"time": self.time})
+        march, settings = self.trajectory, self.settings
+        ds.attrs.update(
+            title=self.netlist.title,
+            scheme="plus",
+            discretization="midpoint",
+            steps="variable",
+            steps_taken=len(march.h),
+            tries=march.tries,
+            rejected=march.rejected,
+            h_min=float(march.h.min()),
+            h_max=float(march.h.max()),
+            tstep=settings.step,
+            tstop=settings.stop,
+            tstart=settings.start,
+            tmax=settings.max_step,
+            reltol=settings.reltol,
+            abstol=settings.abstol,
+            vntol=settings.vntol,
+            chgtol=settings.chgtol,
+        )
+        return ds
+
+    def save(self, path) -> Path:
+        """Write :meth:`to_xarray` as NetCDF (atomically: a temporary file, then a rename)."""
+        path = Path(path)
+        if self.internal is None and self.times is None:
+            return self.trajectory.save(path, dataset=self.to_xarray())
+        if not path.parent.exists():
+            raise ModelError(
+                f"path={str(path)!r}: folder {str(path.parent)!r} does not exist; create it first."
+            )
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        try:
+            self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
+            os.replace(tmp, path)
+        finally:
+            if tmp.exists():
+                tmp.unlink()
+        return path
+
+
+def _lookup(waves: dict, key: str) -> np.ndarray:
+    want = key.replace(" ", "").lower()
+    for name, values in waves.items():
+        if name.lower() == want:
+            return values
+    raise KeyError(f"{key!r} is not a waveform of this circuit; there are {sorted(waves)}")
 
 
 def run(
-    source, *, discretization: str = "midpoint", dt=None, steps=None, **simulate_kwargs
+    source,
+    *,
+    discretization: str = "midpoint",
+    dt=None,
+    steps=None,
+    internal: bool = False,
+    params=None,
+    **simulate_kwargs,
 ) -> Result:
     """Read a netlist (path, text or :class:`Netlist`) and simulate its ``.tran``.
 
-    ``dt`` overrides ``.tran``'s TSTEP (the run still ends at TSTOP unless ``steps`` is
-    given); further keywords go to :func:`diracvi.simulate`.
-    Midpoint is the default rule: the left-point rule cannot step a capacitor joined in a
-    loop with voltage sources or other capacitors (its step is singular).
+    Without ``dt``: SPICE's semantics (see the module doc), under the midpoint rule.
+    ``internal=True`` reports the waveforms at the run's own nodes instead of the TSTEP
+    grid (they are also in ``result.internal``).
+
+    ``dt``: a fixed step, to TSTOP (``⌈TSTOP/dt⌉`` steps) unless ``steps`` is given;
+    further keywords go to :func:`diracvi.simulate`. Midpoint is the default rule: the
+    left-point rule cannot step a capacitor joined in a loop with voltage sources or
+    other capacitors (its step is singular).
+
+    ``params`` overrides ``.param`` values (see :func:`read`; traced values make a
+    fixed-step run differentiable). Without ``UIC`` on ``.tran`` the run starts from the
+    DC operating point (SPICE's rule; ``.ic`` values hold their nodes while it is
+    solved), with ``UIC`` from the state the netlist gives (``.ic`` and ``IC=``, zero
+    otherwise).
     """
-    netlist = source if isinstance(source, Netlist) else read(source)
+    netlist = source if isinstance(source, Netlist) else read(source, params=params)
+    if dt is None and steps is None:
+        if any(isinstance(v, jax.core.Tracer) for v in (params or {}).values()):
+            raise ModelError(
+                "params=: traced values (jax.grad, jit, vmap) need a fixed step, because the "
+                "variable steps are chosen on the host; pass dt= (e.g. the netlist's TSTEP "
+                f"{netlist.dt:g})."
+            )
+        return _variable(netlist, discretization, internal, simulate_kwargs)
+    q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC
     h = dt if dt is not None else netlist.dt
     n = steps
     if n is None and netlist.stop is not None and h is not None:
@@ -64,11 +226,97 @@ def run(
         )
     traj = simulate(
         netlist.system,
-        netlist.q0,
-        netlist.p0,
+        q0,
+        p0,
         dt=h,
         steps=n,
         discretization=discretization,
         **simulate_kwargs,
     )
     return Result(netlist, traj, waveforms(netlist, traj))
+
+
+def operating_point(source) -> OperatingPoint:
+    """The DC operating point of a netlist (path, text or :class:`Netlist`): sources at
+    t = 0, capacitors open, inductors shorted; ``.ic`` values hold their nodes (as SPICE
+    does for a transient without UIC). ``op["v(out)"]``, ``op.q0``, ``op.p0``."""
+    netlist = source if isinstance(source, Netlist) else read(source)
+    try:
+        return _operating_point(netlist, hold=netlist.ic, off=netlist.off)
+    except ModelError as exc:
+        raise ModelError(f"netlist {netlist.title!r}: {exc}") from None
+
+
+def controls(netlist: Netlist, settings: TranSettings) -> Controls:
+    """Step control for a netlist: ``reltol`` on every signal; branch charges against
+    ``chgtol``, their currents against ``abstol``, node potentials (the KCL multipliers)
+    against ``vntol``; any other coordinate (a diode's flux linkage ∫V dt) against
+    ``vntol`` too (its velocity is a voltage)."""
+    system = netlist.system
+    charges = set(netlist.assembly.currents.values())
+    is_charge = np.array([c in charges for c in system.coords])
+    hmax = settings.max_step
+    atol_q = np.where(is_charge, settings.chgtol, settings.vntol * hmax)
+    atol_v = np.where(is_charge, settings.abstol, settings.vntol)
+    span = settings.stop
+    # SPICE's first step: a tenth of min(TSTEP, TSTOP/100) (the control then adapts it)
+    h_first = min(settings.step, span / 100.0, hmax) / 10.0
+    atol_m = np.full(system.m, settings.vntol)  # node potentials (and source voltages)
+    return Controls(settings.reltol, atol_q, atol_v, atol_m, hmax, 1e-13 * span, h_first)
+
+
+def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
+    if discretization != "midpoint":
+        raise ModelError(
+            f"discretization={discretization!r}: variable steps are built on the midpoint "
+            "rule; pass dt= for a fixed step under another rule."
+        )
+    if kwargs:
+        raise ModelError(
+            f"{sorted(kwargs)}: options of a fixed-step run (diracvi.simulate); pass dt= "
+            "with them, or leave them out for SPICE's variable steps."
+        )
+    settings = tran_settings(netlist)
+    breaks = breakpoints(netlist.system, 0.0, settings.stop)
+    march = adaptive(
+        netlist.system,
+        netlist.q0,
+        netlist.p0,
+        t0=0.0,
+        t_stop=settings.stop,
+        controls=controls(netlist, settings),
+        breakpoints=breaks,
+    )
+    if march.status != 0:
+        at = march.t[-1]
+        raise StepFailure(
+            f"netlist {netlist.title!r}: the variable-step run stopped at t = {at:g} after "
+            f"{len(march.h)} steps: {march.message}. Fix: a fixed step (dt=…), or looser "
+            ".options reltol/abstol.",
+            march,
+        )
+    bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
+    sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
+    signals = _step_signals(netlist, march)
+    nodes = {k: sampler(v, march.t) for k, v in signals.items()}
+    inner = Internal(march.t, march.h, nodes)
+    if internal:
+        return Result(netlist, march, nodes, march.t, inner, settings)
+    grid = settings.output_times()
+    return Result(
+        netlist, march, {k: sampler(v, grid) for k, v in signals.items()}, grid, inner, settings
+    )
+
+
+def _step_signals(netlist: Netlist, march) -> dict[str, np.ndarray]:
+    """``v(<node>)`` and ``i(<element>)`` at the step centres (see :mod:`._resample`)."""
+    assembly = netlist.assembly
+    names = netlist.system.constraint_names
+    rows = [names.index(assembly.kcl_rows[node]) for node in assembly.nodes]
+    phi = step_potentials(march.mu[:, rows], march.h)
+    out = {f"v({node})": phi[:, j] for j, node in enumerate(assembly.nodes)}
+    index = {c: j for j, c in enumerate(netlist.system.coords)}
+    display = netlist.display  # ngspice's names of parts inside subcircuit instances
+    for label, coord in assembly.currents.items():
+        out[f"i({display.get(label, label)})"] = np.diff(march.q[:, index[coord]]) / march.h
+    return out

@@ -13,6 +13,9 @@ import operator
 import re
 from decimal import Decimal
 
+import jax
+import jax.numpy as jnp
+
 SCALE = {
     "f": 1e-15,
     "p": 1e-12,
@@ -64,10 +67,15 @@ class ExpressionError(ValueError):
 def number(token: str) -> float | None:
     """``4.7k`` → 4700.0; trailing letters after a scale (``1kOhm``) are ignored as in
     SPICE (note ``1F`` is one femto-unit, as SPICE reads it). ``None`` if not a number."""
-    m = _NUMBER.match(token)
+    m = _NUMBER.match(_micro(token))
     if m is None:
         return None
     return _scaled(m.group(1), m.group(2))
+
+
+def _micro(text: str) -> str:
+    """ngspice reads the micro sign (µ U+00B5, μ U+03BC) as ``u``."""
+    return text.replace("\u00b5", "u").replace("\u03bc", "u")
 
 
 def _scaled(mantissa: str, suffix: str | None) -> float:
@@ -77,15 +85,25 @@ def _scaled(mantissa: str, suffix: str | None) -> float:
     return float(Decimal(mantissa) * Decimal(repr(SCALE[suffix.lower()])))
 
 
+#: jax.numpy names of FUNCTIONS that differ (a traced argument is evaluated by jax.numpy)
+_JNP = {"ln": "log", "pow": "power", "atan": "arctan", "min": "minimum", "max": "maximum"}
+
+
+def _traced(x) -> bool:
+    return isinstance(x, jax.core.Tracer)
+
+
 def evaluate(text: str, params: dict[str, float]) -> float:
     """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
-    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), text.strip())
+    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
     source = source.replace("^", "**")
     try:
         tree = ast.parse(source, mode="eval")
     except SyntaxError:
         raise ExpressionError(f"cannot parse expression {text!r}") from None
     value = _walk(tree.body, {k.lower(): v for k, v in params.items()}, text)
+    if _traced(value):  # a parameter being differentiated (read(..., params=)): unchecked
+        return value
     if not math.isfinite(value):
         raise ExpressionError(f"expression {text!r} is not finite ({value})")
     return float(value)
@@ -117,6 +135,8 @@ def _walk(node, params, text):
                 f"unknown function {node.func.id!r} in {text!r}; known: {sorted(FUNCTIONS)}"
             )
         args = [_walk(a, params, text) for a in node.args]
+        if any(_traced(a) for a in args):
+            return getattr(jnp, _JNP.get(node.func.id.lower(), node.func.id.lower()))(*args)
         try:
             return float(fn(*args))
         except (TypeError, ValueError, OverflowError) as exc:

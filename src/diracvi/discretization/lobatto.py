@@ -1,0 +1,190 @@
+r"""``"lobatto"`` (order 4): Lobatto IIID in Hamilton–Pontryagin form, with stage multipliers.
+
+Three stage velocities at ``t_k + (0, ½, 1) h``, stage positions ``Q_i = q_k + h Σ_j a_ij
+V_j``, and L, the forces, the inputs and the one-forms evaluated at the stages. Its stage
+positions ``Q₁, Q₂`` and one multiplier vector per stage are extra unknowns of the step
+(see :class:`Lobatto` and ``docs/discretizations.md``).
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+from ..errors import ModelError
+from .base import QuadratureRule
+from .midpoint import CentredNodes
+
+#: Lobatto nodes and weights (Simpson) of the step ``[t_k, t_k + h]``
+NODES = (0.0, 0.5, 1.0)
+WEIGHTS = (1.0 / 6.0, 4.0 / 6.0, 1.0 / 6.0)
+#: Lobatto IIID, ``a = (IIIC + IIIC*)/2``: its own symplectic partner
+#: (``b_i a_ij + b_j a_ji = b_i b_j``) and invertible, unlike IIIA (first row 0) and IIIB
+#: (last column 0)
+IIID = (
+    (1.0 / 12.0, -1.0 / 6.0, 1.0 / 12.0),
+    (5.0 / 24.0, 1.0 / 3.0, -1.0 / 24.0),
+    (1.0 / 12.0, 5.0 / 6.0, 1.0 / 12.0),
+)
+
+
+class Lobatto(CentredNodes, QuadratureRule):
+    r"""The order-4 rule: Lobatto IIID in Hamilton–Pontryagin form, with stage multipliers.
+
+    On ``[t_k, t_k + h]`` three stage velocities ``V_j`` at ``t_j = t_k + c_j h``,
+    ``c = (0, ½, 1)``, give the stage positions and the step::
+
+        Q_i = q_k + h Σ_j a_ij V_j,     q_{k+1} = q_k + h Σ_j b_j V_j
+
+    with the Lobatto IIID coefficients ``a`` (:data:`IIID`) and Simpson's weights ``b``.
+    ``L_d = h Σ_j b_j L(Q_j, V_j, t_j)``; forces and constraint reactions act at the
+    stages, ``h Σ_j b_j ⟨F_j + A(Q_j, t_j)ᵀλ_j, δQ_j⟩`` (Lagrange–d'Alembert), and every
+    stage satisfies the one-forms, ``c_j = A(Q_j, t_j) V_j + b(Q_j, t_j) = 0``. Because
+    ``a`` is its own symplectic partner the momenta are stepped with the same ``a``:
+    the variational partitioned Runge–Kutta method is the (symmetric, symplectic,
+    order 4) Runge–Kutta method Lobatto IIID applied to ``q̇ = v, ṗ = ∂L/∂q + F + Aᵀλ,
+    p = ∂L/∂v``. Its ``a`` is invertible, so a degenerate direction of ``L`` (where
+    ``p = ∂L/∂v`` does not involve ``v``) is collocated at all three stages and keeps
+    order 4 — Lobatto IIIA–IIIB leaves the last stage velocity of such a direction
+    undetermined (``docs/discretizations.md``).
+
+    The stages are ``stage = [Q₁ Q₂]`` (an ``(n, 2)`` array), with ``Q₃ = q_k + q_{k+1} −
+    Q₁`` (IIID's row 3 is row 1 mirrored); the step's unknowns besides ``q_other`` are the
+    stage at the known end and ``Q₂`` (:meth:`stage_from_unknowns`), and one multiplier
+    vector per stage, in impulse units ``μ_j = −h λ_j``
+    (the sign and scale of the paper's ``μ_k``). ``μ`` of the step is the one at the
+    unknown end's stage (``t_{k+1}`` for (+), ``t_k`` for (−)), ``ν`` the other two.
+    """
+
+    def __init__(self):
+        self.name = "lobatto"
+        self.order = 4
+
+    @property
+    def stages(self) -> int:
+        return 2
+
+    def force_weights(self):
+        return WEIGHTS[0], WEIGHTS[2]
+
+    def impulse_share(self):
+        # the reactions act at the stages and are integrated into p_{k+1}: p is nodal
+        return 0.0
+
+    def increment_stages(self):
+        # the stage at the known end, Q_near, is within O(h³) of it
+        return (0,)
+
+    @staticmethod
+    def stage_positions(qk, stage, qk1):
+        """``(Q₁, Q₂, Q₃)`` from ``stage = [Q₁ Q₂]`` (shape (n, 2)) and the two ends."""
+        q1, q2 = stage[..., 0], stage[..., 1]
+        return q1, q2, qk1 - (q1 - qk)
+
+    @classmethod
+    def nodes(cls, qk, stage, qk1, h, tk):
+        """``(Q_j, V_j, t_j)`` at the three stages: ``V = M⁻¹ (Q₁ − q_k, Q₂ − q_k,
+        q_{k+1} − q_k)/h`` with ``M`` = the rows ``a₁, a₂, b`` (inverted exactly)."""
+        q1, q2, q3 = cls.stage_positions(qk, stage, qk1)
+        # in increments from q_k: each is formed with little rounding (the stages are near
+        # q_k), where 4Q₁ + 4Q₂ − 7q_k − q_{k+1} would cancel terms 16 times |q|
+        d1, d2, d = q1 - qk, q2 - qk, qk1 - qk
+        v1 = (4.0 * d1 + 4.0 * d2 - d) / h
+        v2 = (d - 2.0 * d1) / h
+        v3 = (4.0 * d1 - 4.0 * d2 + 3.0 * d) / h
+        return ((q1, v1, tk), (q2, v2, tk + 0.5 * h), (q3, v3, tk + h))
+
+    @staticmethod
+    def pullback(covectors):
+        r"""``(φ₁, φ₂, φ₃)`` at the stage positions → their pull-back to ``(q_k, [Q₁ Q₂],
+        q_{k+1})``: ``Σ_j φ_j ∂Q_j/∂(·)``, with ``∂Q₃/∂(q_k, Q₁, q_{k+1}) = (1, −1, 1)``."""
+        f1, f2, f3 = covectors
+        return f3, jnp.stack([f1 - f3, f2], axis=-1), f3
+
+    @staticmethod
+    def rows_of(side: str):
+        """The stage index of the end rows and of the two stage rows: the end is the
+        unknown end of the step (``t_{k+1}`` for (+), ``t_k`` for (−))."""
+        return (2, (0, 1)) if side == "plus" else (0, (1, 2))
+
+    def _need_stage(self, what: str):
+        raise ModelError(
+            f"discretization='lobatto' cannot evaluate {what} from (q_k, q_(k+1)) alone: it "
+            "needs the step's internal stages. Fix: use the staged forms (pass stage=), "
+            "or discretization='midpoint' for this diagnostic."
+        )
+
+    def discrete_lagrangian(self, lagrangian, qk, qk1, h, tk=0.0, stage=None):
+        r"""``L_d = h Σ_j b_j L(Q_j, V_j, t_j)``."""
+        if stage is None:
+            self._need_stage("L_d")
+        nodes = self.nodes(qk, stage, qk1, h, tk)
+        return h * sum(w * lagrangian(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True))
+
+    def discrete_forces(self, force, qk, qk1, h, tk=0.0, stage=None):
+        r"""``(f_d^−, f_d^+, f_Q)``: the pull-back of ``h b_j F(Q_j, V_j, t_j)``."""
+        if stage is None:
+            self._need_stage("f_d")
+        nodes = self.nodes(qk, stage, qk1, h, tk)
+        left, mid, right = self.pullback(
+            [h * w * force(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True)]
+        )
+        return left, right, mid
+
+    def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu):
+        r"""``−b_j A(Q_j, t_j)ᵀ μ_j`` at each stage (``h b_j A_jᵀ λ_j`` with ``λ_j = −μ_j/h``);
+        ``multiplier_force(q, μ, t) = A(q, t)ᵀ μ``."""
+        end, mids = self.rows_of(side)
+        mus = [None] * 3
+        mus[end], mus[mids[0]], mus[mids[1]] = mu, nu[..., 0], nu[..., 1]
+        nodes = self.nodes(qk, stage, qk1, h, tk)
+        return [
+            -w * multiplier_force(q, m, t)
+            for w, (q, _, t), m in zip(WEIGHTS, nodes, mus, strict=True)
+        ]
+
+    def discrete_constraints(self, forms, side, qk, qk1, h, tk=0.0, offset=None, stage=None):
+        r"""``(c_end, [c_a c_b])`` with ``c_j = A(Q_j, t_j) V_j + b(Q_j, t_j)``: the row at the
+        unknown end's stage, shape (m,), and at the other two, shape (m, 2)."""
+        if stage is None:
+            self._need_stage("ω_d")
+        values = []
+        for q, v, t in self.nodes(qk, stage, qk1, h, tk):
+            c = forms(q, t) @ v
+            values.append(c if offset is None else c + offset(q, t))
+        end, (a, b) = self.rows_of(side)
+        return values[end], jnp.stack([values[a], values[b]], axis=-1)
+
+    def holonomic_points(self, side, qk, stage, qk1, h, tk):
+        """Where ``g(q, t) = 0`` is imposed: the unknown end itself (so every stored
+        configuration is on the constraint), and the two other stages."""
+        qs = self.stage_positions(qk, stage, qk1)
+        ts = (tk, tk + 0.5 * h, tk + h)
+        end, (a, b) = self.rows_of(side)
+        q_end = qk1 if side == "plus" else qk
+        return (q_end, ts[end]), ((qs[a], ts[a]), (qs[b], ts[b]))
+
+    def step_energy(self, energy, qk, qk1, h, tk=0.0, stage=None):
+        """The Simpson mean of ``E`` over the stages (``E`` at the chord midpoint when
+        the stages are not known)."""
+        if stage is None:
+            return super().step_energy(energy, qk, qk1, h, tk)
+        nodes = self.nodes(qk, stage, qk1, h, tk)
+        return sum(w * energy(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True))
+
+    @staticmethod
+    def stage_from_unknowns(side: str, qk, qk1, unknowns):
+        """``[Q₁ Q₂]`` from the step's stage unknowns ``[Q_near Q₂]``, where ``Q_near`` is the
+        stage at the known end (``Q₁`` for (+), ``Q₃ = q_k + q_{k+1} − Q₁`` for (−)): it is
+        within O(h³) of the known end whichever way the scheme runs, so one guess serves
+        both schemes and the affine map's increment ``Q_near − q`` is small."""
+        if side == "plus":
+            return unknowns
+        return jnp.stack([qk - (unknowns[..., 0] - qk1), unknowns[..., 1]], axis=-1)
+
+    def stage_guess(self, q, q_other_guess):
+        """Starting ``[Q_near Q₂]``: the known end and the midpoint (see
+        :meth:`stage_from_unknowns`)."""
+        return jnp.stack([q, 0.5 * (q + q_other_guess)], axis=-1)
+
+
+__all__ = ["IIID", "NODES", "WEIGHTS", "Lobatto"]

@@ -1,0 +1,340 @@
+r"""Variable steps: the (+) midpoint equations marched with a step chosen per step.
+
+Each step is an ordinary discrete Dirac step of its own size ``h_k`` — the same
+:class:`~diracvi.discretization.equations.StepEquations` a fixed-step run solves, here by Newton —
+so the constraints hold to round-off and the discrete power balance holds step by step,
+whatever the sequence of sizes. What a variable step gives up is the fixed step's
+symplectic long-time energy behaviour (a varying step is not one symplectic map).
+
+**Error control by step doubling.** From ``(q, p)`` at ``t`` one step of size ``H``
+gives ``q_c``, two steps of ``H/2`` give ``q_f``. For a rule of order 2 the local error
+of the fine result is ``≈ (q_f − q_c)/3`` (Richardson). It is judged per coordinate on
+the positions and on the mean velocity over the step,
+
+    e = max_j max( |q_f − q_c|_j / (3 (s·rtol·Q_j + atol_q,j)),
+                   |q_f − q_c|_j / (3 H (s·rtol·V_j + atol_v,j)) ),
+
+with ``Q_j``, ``V_j`` the largest ``|q_j|``, ``|v_j|`` met so far (the signal's running
+peak, so a waveform passing through zero is not stepped ever finer there) and ``s`` =
+:data:`SAFETY` (local errors add up over many steps); and per constraint on the
+step-centred multiplier ``φ = −c/h`` (a circuit's node potential; ``c_k = 2μ_k − c_{k−1}``
+is the step's own impulse, see :mod:`diracvi.spice._resample`), the coarse step's against
+the mean of the two fine ones, with ``atol_m``. ``e ≤ 1``
+accepts the two fine steps (they are what is recorded: every recorded step is a plain
+Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
+``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
+(so that no recorded step is longer than ``hmax``).
+
+**Breakpoints.** A step never crosses one of the given times: it is shortened to end
+exactly on it (and the last two steps before it share the remaining interval evenly, so
+no sliver step is left).
+
+The whole loop — tries, rejections, breakpoints, recording — is one compiled
+``lax.while_loop`` whose step sizes are data: a run at another tolerance, another
+``hmax``, other breakpoints (up to the padded count) or another state reuses the
+program. :data:`TRACES` counts its traces (one per system and buffer size).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..discretization.equations import StepEquations, first_guess, split
+from ..discretization.rules import get_rule
+from ..errors import ModelError
+from ..runtime.compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
+from ..runtime.config import ensure_float64
+from ..runtime.store import StoredJit
+from ..solvers.newton import NewtonSolver
+
+#: how many times the adaptive program has been traced (tests: a new step size, a new
+#: tolerance or a new start does not trace again)
+TRACES = {"count": 0}
+
+#: statuses of an adaptive run
+OK, TOO_SMALL, FAILED_SOLVE, TOO_MANY = 0, 1, 2, 3
+MESSAGES = {
+    OK: "ok",
+    TOO_SMALL: "the step fell below hmin: the error cannot be met (a discontinuity, or "
+    "tolerances below round-off)",
+    FAILED_SOLVE: "a step's equations could not be solved even at the smallest step",
+    TOO_MANY: "the run took more tries than max_tries",
+}
+
+#: the local error of a step is held at this share of the tolerance: errors accumulate
+#: over the steps (an oscillating circuit's phase error over many periods). Measured
+#: against fine ngspice runs at the decks' own settings (reltol 1e-3): with 1 a 1 ns-edge
+#: RLC was off by 2.4e-3 of its peak, with 0.1 the 3-stage ladder (2000 steps, 5
+#: periods) by 1.3e-3, with 0.03 every deck within 5.6e-4 for 1.1-1.7x the steps of 0.1
+#: (4.0e-4 once the node potentials were judged too).
+#: Passed to the program as data, like the tolerances (a change compiles nothing).
+SAFETY = 0.03
+
+#: the order this error control is written for (the midpoint rule's)
+_ORDER = 2
+
+
+class Controls(NamedTuple):
+    """Tolerances and limits of an adaptive run (all times in the model's units)."""
+
+    rtol: float
+    atol_q: np.ndarray  # per coordinate, on positions
+    atol_v: np.ndarray  # per coordinate, on the mean velocity over a step
+    atol_m: np.ndarray  # per constraint, on the step-centred multiplier (a node potential)
+    hmax: float
+    hmin: float
+    h_first: float
+
+
+class AdaptiveRun(NamedTuple):
+    """The recorded steps of an adaptive run: nodes ``t`` (N+1), sizes ``h`` (N),
+    states ``q``, ``p`` (N+1, n) — the scheme's momenta, as in ``Trajectory.p`` —
+    multipliers ``mu`` (N, m) of each step; ``tries``/``rejected`` counts; ``status``
+    (0 ok, see :data:`MESSAGES`)."""
+
+    t: np.ndarray
+    h: np.ndarray
+    q: np.ndarray
+    p: np.ndarray
+    mu: np.ndarray
+    tries: int
+    rejected: int
+    status: int
+
+    @property
+    def message(self) -> str:
+        return MESSAGES[self.status]
+
+
+def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
+    eqs = StepEquations(system, rule, "plus", h, q, p, t)
+    guess = first_guess(system, rule, q, q_guess, mu_guess)
+    res = solver.solve(eqs, guess, solver.init(eqs))
+    q1, mu = split(system, res.x)
+    p1 = solver.momentum(eqs, res.x, res.state)
+    ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
+    return q1, p1, mu[: system.m], ok
+
+
+def _march(system, rule, solver, capacity, x):
+    """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
+    TRACES["count"] += 1
+    n, m = system.n, system.m
+    dtype = x["q"].dtype
+    rtol, atol_q, atol_v = x["rtol"], x["atol_q"], x["atol_v"]
+    hmax, hmin, t_stop, breaks = x["hmax"], x["hmin"], x["t_stop"], x["breaks"]
+
+    def step(h, t, q, p, dq, mu):
+        return _one_step(system, rule, solver, h, t, q, p, q + dq, mu)
+
+    def cond(c):
+        return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
+
+    def body(c):
+        t, q, p, h = c["t"], c["q"], c["p"], c["h"]
+        target = jnp.minimum(breaks[c["ib"]], t_stop)
+        rem = target - t
+        # a try of H records two steps of H/2: each recorded step is at most hmax
+        h0 = jnp.minimum(h, 2.0 * hmax)
+        land = rem <= h0 * (1.0 + 1e-9)
+        h_try = jnp.where(land, rem, jnp.where(rem < 2.0 * h0, 0.5 * rem, h0))
+        # a first guess from the last velocity (linear models converge in one update)
+        vel = c["v_last"]
+        mu_g = c["mu_last"] * (h_try / c["h_last"])
+        qc, _, mu_c, ok_c = step(h_try, t, q, p, h_try * vel, mu_g)
+        half = 0.5 * h_try
+        q1, p1, mu1, ok1 = step(half, t, q, p, half * vel, 0.5 * mu_g)
+        q2, p2, mu2, ok2 = step(half, t + half, q1, p1, q1 - q, mu1)
+        ok = ok_c & ok1 & ok2
+        diff = jnp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
+        v1, v2 = (q1 - q) / half, (q2 - q1) / half
+        q_peak = jnp.maximum(c["q_peak"], jnp.maximum(jnp.abs(q1), jnp.abs(q2)))
+        v_peak = jnp.maximum(c["v_peak"], jnp.maximum(jnp.abs(v1), jnp.abs(v2)))
+        share = x["safety"]
+        e_q = diff / (share * rtol * q_peak + atol_q)
+        e_v = diff / h_try / (share * rtol * v_peak + atol_v)
+        # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
+        # (node potentials of a circuit), coarse against the mean of the two fine ones
+        c_prev = c["c_last"]
+        c1 = 2.0 * mu1 - c_prev
+        c2 = 2.0 * mu2 - c1
+        phi_c = -(2.0 * mu_c - c_prev) / h_try
+        phi1, phi2 = -c1 / half, -c2 / half
+        diff_m = jnp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
+        m_peak = jnp.maximum(c["m_peak"], jnp.maximum(jnp.abs(phi1), jnp.abs(phi2)))
+        e_m = diff_m / (share * rtol * m_peak + x["atol_m"])
+        err = jnp.max(jnp.concatenate([e_q, e_v, e_m]), initial=0.0)
+        ok = ok & jnp.isfinite(err)
+        accept = ok & (err <= 1.0)
+        grow = jnp.clip(0.9 * jnp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
+        h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
+        # a step shortened to land on a breakpoint says little about the next one
+        h_next = jnp.where(accept & (h_try < h0), jnp.maximum(h_next, h0), h_next)
+        i = c["i"]
+        t_new = jnp.where(land, target, t + h_try)
+
+        def put(buf, row, value):
+            return buf.at[row].set(jnp.where(accept, value, buf[row]))
+
+        new = dict(c)
+        new["T"] = put(put(c["T"], i + 1, t + half), i + 2, t_new)
+        new["H"] = put(put(c["H"], i, half), i + 1, half)
+        new["Q"] = put(put(c["Q"], i + 1, q1), i + 2, q2)
+        new["P"] = put(put(c["P"], i + 1, p1), i + 2, p2)
+        new["MU"] = put(put(c["MU"], i, mu1), i + 1, mu2)
+        new["i"] = jnp.where(accept, i + 2, i)
+        new["t"] = jnp.where(accept, t_new, t)
+        new["q"] = jnp.where(accept, q2, q)
+        new["p"] = jnp.where(accept, p2, p)
+        new["v_last"] = jnp.where(accept, v2, c["v_last"])
+        new["mu_last"] = jnp.where(accept, mu2, c["mu_last"])
+        new["h_last"] = jnp.where(accept, half, c["h_last"])
+        new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
+        new["v_peak"] = jnp.where(accept, v_peak, c["v_peak"])
+        new["m_peak"] = jnp.where(accept, m_peak, c["m_peak"])
+        new["c_last"] = jnp.where(accept, c2, c["c_last"])
+        passed = accept & land & (target == breaks[c["ib"]])
+        new["ib"] = jnp.where(passed, c["ib"] + 1, c["ib"])
+        new["h"] = jnp.minimum(h_next, 2.0 * hmax)
+        new["tries"] = c["tries"] + 1
+        new["rejected"] = c["rejected"] + jnp.where(accept, 0, 1)
+        small = ~accept & (h_next < hmin)
+        new["status"] = jnp.where(small, jnp.where(ok, TOO_SMALL, FAILED_SOLVE), OK)
+        return new
+
+    init = {
+        "t": x["t"],
+        "q": x["q"],
+        "p": x["p"],
+        "h": x["h"],
+        "ib": x["ib"],
+        "i": jnp.asarray(0),
+        "v_last": x["v_last"],
+        "mu_last": x["mu_last"],
+        "h_last": x["h_last"],
+        "q_peak": x["q_peak"],
+        "v_peak": x["v_peak"],
+        "m_peak": x["m_peak"],
+        "c_last": x["c_last"],
+        "tries": jnp.asarray(0),
+        "rejected": jnp.asarray(0),
+        "status": jnp.asarray(OK),
+        "T": jnp.zeros(capacity + 1, dtype).at[0].set(x["t"]),
+        "H": jnp.zeros(capacity, dtype),
+        "Q": jnp.zeros((capacity + 1, n), dtype).at[0].set(x["q"]),
+        "P": jnp.zeros((capacity + 1, n), dtype).at[0].set(x["p"]),
+        "MU": jnp.zeros((capacity, m), dtype),
+    }
+    return jax.lax.while_loop(cond, body, init)
+
+
+#: compiled like a marching chunk (XLA's default optimization, or the run-once options
+#: under DIRACVI_FAST_COMPILE=1) and kept in the program store: a later process loads it
+_program = StoredJit(
+    _march,
+    "diracvi.driver.adaptive._march",
+    run_once_options if fast_compile() else dict,
+    options_key=RUN_ONCE_REQUESTED if fast_compile() else {},
+)
+
+
+def buffer_size(n: int) -> int:
+    """Steps recorded per compiled call: ~2²⁰ numbers per state buffer, 256 to 8192."""
+    size = 1 << max(8, min(13, int(np.log2(max(1, (1 << 20) // max(n, 1))))))
+    return size
+
+
+def adaptive(
+    system,
+    q0,
+    p0,
+    *,
+    t0: float,
+    t_stop: float,
+    controls: Controls,
+    breakpoints=(),
+    solver=None,
+    max_tries: int = 1_000_000,
+) -> AdaptiveRun:
+    """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
+    rule with error-controlled steps, ending a step exactly on every breakpoint.
+
+    ``controls``: :class:`Controls`; ``solver``: a :class:`~diracvi.NewtonSolver`
+    (default: Newton with a fresh Jacobian every iteration, which a changing ``h``
+    needs anyway). Returns an :class:`AdaptiveRun`; a run that cannot meet the
+    tolerance stops with ``status != 0`` and what it recorded until then.
+    """
+    ensure_float64()
+    if not t_stop > t0:
+        raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
+    rule = get_rule("midpoint")
+    solver = NewtonSolver(reuse_jacobian=False) if solver is None else solver
+    n, m = system.n, system.m
+    q = np.asarray(q0, dtype=np.float64).reshape(n)
+    p = np.asarray(p0, dtype=np.float64).reshape(n)
+    breaks = sorted(float(b) for b in breakpoints if t0 < b < t_stop)
+    # padded to a power of two (at least 16): other breakpoint counts reuse the program
+    width = 1 << max(4, int(np.ceil(np.log2(len(breaks) + 1))))
+    padded = np.full(width, np.inf)
+    padded[: len(breaks)] = breaks
+    capacity = buffer_size(n)
+    state = {
+        "t": np.float64(t0),
+        "q": q,
+        "p": p,
+        "h": np.float64(min(controls.h_first, 2.0 * controls.hmax)),
+        "ib": np.asarray(0),
+        "v_last": np.zeros(n),
+        "mu_last": np.zeros(m),
+        "h_last": np.float64(1.0),
+        "q_peak": np.abs(q),
+        "v_peak": np.zeros(n),
+        "m_peak": np.zeros(m),
+        "c_last": np.zeros(m),  # the given p0 carries no lag: c_{−1} = 0
+    }
+    fixed = {
+        "rtol": np.float64(controls.rtol),
+        "safety": np.float64(SAFETY),
+        "atol_q": np.broadcast_to(np.asarray(controls.atol_q, np.float64), (n,)).copy(),
+        "atol_v": np.broadcast_to(np.asarray(controls.atol_v, np.float64), (n,)).copy(),
+        "atol_m": np.broadcast_to(np.asarray(controls.atol_m, np.float64), (m,)).copy(),
+        "hmax": np.float64(controls.hmax),
+        "hmin": np.float64(controls.hmin),
+        "t_stop": np.float64(t_stop),
+        "breaks": padded,
+    }
+    ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
+    tries = rejected = 0
+    status = OK
+    while True:
+        out = _program(system, rule, solver, capacity, {**state, **fixed})
+        out = jax.tree.map(np.asarray, out)
+        k = int(out["i"])
+        ts.append(out["T"][1 : k + 1])
+        hs.append(out["H"][:k])
+        qs.append(out["Q"][1 : k + 1])
+        ps.append(out["P"][1 : k + 1])
+        mus.append(out["MU"][:k])
+        tries += int(out["tries"])
+        rejected += int(out["rejected"])
+        status = int(out["status"])
+        if status != OK or not out["t"] < t_stop:
+            break
+        if tries >= max_tries:
+            status = TOO_MANY
+            break
+        state = {key: out[key] for key in state}
+    return AdaptiveRun(
+        np.concatenate(ts),
+        np.concatenate(hs),
+        np.concatenate(qs),
+        np.concatenate(ps),
+        np.concatenate(mus) if mus else np.zeros((0, m)),
+        tries,
+        rejected,
+        status,
+    )

@@ -1,0 +1,63 @@
+"""A run stepped by the circuit-scale sparse affine map (:mod:`..solvers.sparse_affine`):
+the host loop's arrays made into a :class:`~diracvi.Trajectory` as the chunked path
+makes them (saved states every ``save_every`` steps, diagnostics of each saved step)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..solvers.sparse_affine import NotSparseAffine
+from ..status import SolveStatus
+from .trajectory import Trajectory
+
+
+def run_sparse(plan, run, q0, p0, t0, save_states: bool):
+    """The trajectory, or ``None`` when the map's verification rejected a step (the
+    plan then drops the map, and the caller steps with the general solver, which says
+    so in ``traj.solver``)."""
+    scheme, discretization, h, steps, k, shape = run
+    nodal = save_states and plan.nodal_when_saved
+    share = plan.rule.impulse_share()
+    try:
+        out = plan.sparse.run(
+            np.asarray(q0), np.asarray(p0), float(t0), steps, k, save_states, nodal, share
+        )
+    except NotSparseAffine as exc:
+        plan.sparse = None
+        plan.affine_reason = f"the sparse affine map was rejected: {exc}"
+        return None
+    n = shape.n
+    z, y = out["z"], out["y"]
+    q_end, p_end = z[:n], z[n:]
+    sign = 1.0 if scheme == "plus" else -1.0
+    index = np.arange(0, steps + 1, k, dtype=np.int64)
+    q = p = node = None
+    if save_states:
+        q = np.concatenate([np.asarray(q0)[None], out["q"]])
+        p = np.concatenate([np.asarray(p0)[None], out["p"]])
+        if nodal:
+            node = np.concatenate([np.asarray(p0)[None], out["node"]])
+    return Trajectory(
+        t=t0 + sign * h * index,
+        q=q,
+        p=p,
+        p_nodal=node,
+        multipliers=out["mu"],
+        energy=out["energy"],
+        constraint_residual=out["con"],
+        newton_iterations=np.zeros(len(index) - 1, dtype=np.int64),
+        constraint_violation=out["violation"],
+        step_index=index,
+        save_every=k,
+        final_state=(q_end, p_end, q_end - y[:n], y[n:]),
+        coords=shape.coords,
+        constraint_names=shape.constraint_names,
+        dt=h,
+        scheme=scheme,
+        discretization=discretization,
+        system_name=shape.name,
+        status=0,
+        message=SolveStatus.SUCCESS.summary,
+        steps_requested=steps,
+        solver=plan.sparse.describe,
+    )

@@ -1,0 +1,384 @@
+r"""The affine fast path: for linear step equations, one matrix product per step.
+
+When ``L`` is quadratic with a constant mass matrix, the one-forms are constant and the
+forces are linear (spring networks, RLC networks, the paper's examples), the step
+residual ``r(q, p; x)`` is affine in all its arguments and the explicit momentum line is
+affine too. Then the whole step ``(q, p) ↦ (q_other, p_other, μ)`` is one affine map::
+
+    x      = −J_x⁻¹ (r₀ + J_z z),             z = (q, p)
+    p_other = P₀ + P_q q + P_x x
+
+i.e. ``(q_other, p_other, μ) = Φ z + b``, computed once and scanned over. It is stored
+and applied in increments, ``(q_other − q, p_other − p, μ) = Δ z + b``, for accuracy.
+
+A *driven* linear model (sources ``V(t)``, prescribed currents or motions) has the same
+constant ``Δ`` but an offset ``b(t_k)`` that changes every step: ``r₀(t_k)`` and ``P₀(t_k)``
+are the residual and momentum line at zero, evaluated for all steps of a block at once,
+and ``b(t_k) = (−J_x⁻¹ r₀, P₀ − P_x J_x⁻¹ r₀)``. Detection then also probes at different
+times: the Jacobians must not depend on t (a time-varying inductance is not affine).
+
+*Detection* is numerical (user callables are opaque): the Jacobians of ``r`` and of the
+momentum line must agree at three points (zero, the initial state, and a pseudo-random
+point) and the functions must equal their linearization there. *Verification* is done
+on every step of the run: one Newton correction ``J_x⁻¹ r`` of each computed step must be
+below ``verify_rtol`` relative to the step's size — the same test that stops Newton — so a
+nonlinearity that the three points missed is caught where it acts, and the driver falls
+back to the general solver from the start of that chunk.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..discretization.equations import StepEquations, new_momentum, residual, unknown_count
+from ..errors import ModelError
+from ..runtime.compile import run_once_jit
+from .base import StepSolver
+from .newton import NewtonSolver
+from .tiny import matvec
+
+#: Beyond this many unknowns a dense step map costs O(n²) per step and memory; large
+#: interconnections use the partitioned solver, which also factorizes only once when the
+#: equations are linear.
+AFFINE_DENSE_LIMIT = 1500
+
+
+class AffineSolver(eqx.Module):
+    """Step with a precomputed affine map when the step equations are linear.
+
+    Args:
+        fallback: the solver used when the equations are not affine, or when the
+            per-step verification fails (default ``NewtonSolver()``).
+        detect_rtol: relative tolerance of the affinity detection (default 1e-12).
+        verify_rtol: a computed step is accepted if one Newton correction of it is below
+            ``verify_rtol · max(‖x‖∞, ‖q‖∞)`` (default 1e-11, about 50 round-offs of a
+            well-conditioned step; a nonlinearity shows up orders of magnitude above).
+    """
+
+    fallback: StepSolver = eqx.field(default_factory=NewtonSolver)
+    detect_rtol: float = eqx.field(static=True, default=1e-12)
+    verify_rtol: float = eqx.field(static=True, default=1e-11)
+
+    def __check_init__(self):
+        if not isinstance(self.fallback, StepSolver):
+            raise ModelError(
+                f"AffineSolver(fallback={self.fallback!r}): the fallback must be a step "
+                "solver, e.g. dv.NewtonSolver() or dv.PartitionedSolver()."
+            )
+        for arg in ("detect_rtol", "verify_rtol"):
+            value = getattr(self, arg)
+            if not (isinstance(value, int | float) and 0.0 < float(value) < 1e-3):
+                raise ModelError(
+                    f"AffineSolver({arg}={value!r}): must be a small positive tolerance "
+                    "(below 1e-3), e.g. 1e-12 (detect) or 1e-11 (verify)."
+                )
+
+
+class AffineStepMap(eqx.Module):
+    """``(q_other, p_other) = (q, p) + Δ (q, p) + b`` and ``μ = C (q, p) + c``.
+
+    ``μ`` is not needed to advance, so the scan carries only ``z = (q, p)`` and the
+    multipliers of all steps are formed afterwards in one matrix product.
+    """
+
+    delta: jax.Array  # (2n, 2n)
+    offset: jax.Array  # (2n,)
+    mu_map: jax.Array  # (m, 2n)
+    mu_offset: jax.Array  # (m,)
+    inverse: jax.Array  # J_x⁻¹, to measure one Newton correction per step
+    jacobian: jax.Array  # J_x, for the solvability check
+    powers: jax.Array  # (B, 2n, 2n): z_{k+j} = z_k + powers[j-1] z_k + power_offsets[j-1]
+    power_offsets: jax.Array  # (B, 2n)
+    momentum_x: jax.Array  # P_x, for the offsets of a driven model
+    verify_rtol: float = eqx.field(static=True)
+    driven: bool = eqx.field(static=True, default=False)
+
+    def advance_blocks(self, starts, width: int, offsets=None):
+        """The ``width`` states after each row of ``starts`` (shape (blocks, 2n) ↦
+        (blocks, width, 2n)), each straight from its start: ``z_{k+j} = z_k + Δ_j z_k + b_j``.
+
+        A scan of single steps pays the loop's overhead per step; these ``B``-step maps
+        (formed once in extended precision) leave only the blocks' starts to a
+        sequential recursion (:meth:`next_start`), and every state of the run to one
+        matrix product. Each is an increment map rounded once, so the error per unit
+        time is that of single steps. ``offsets`` (blocks, width, 2n): each block's own
+        ``b_j`` (a driven model's, :meth:`block_offsets`) in place of the autonomous ones.
+        """
+        size = self.powers.shape[1]
+        powers = self.powers[:width].reshape(width * size, size)
+        # (width·2n, 2n) × (2n, blocks): one product for all blocks (one library call; as
+        # elementwise code XLA would recompute it inside each consumer)
+        steps = (powers @ starts.T).T.reshape(-1, width, size)
+        if offsets is None:
+            offsets = self.power_offsets[:width]
+        return starts[:, None, :] + (steps + offsets)
+
+    def next_start(self, z, width: int, offset=None):
+        """The state ``width`` steps after ``z`` (the last row of :meth:`advance_blocks`;
+        ``offset``: a driven block's ``b_width``)."""
+        if offset is None:
+            offset = self.power_offsets[width - 1]
+        return z + (matvec(self.powers[width - 1], z) + offset)
+
+    def block_offsets(self, offsets):
+        r"""A driven model's ``b_j = Σ_{i<j} (I + Δ)^{j−1−i} b(t_i)``, ``j = 1..B``, for
+        each block of one-step offsets ``b(t_i)`` (blocks, B, 2n): what the steps of a
+        block add to ``z_{k+j} = z_k + Δ_j z_k + b_j`` beyond its start's image. The
+        recursion ``b_{j+1} = b_j + Δ b_j + b(t_j)`` runs for all blocks at once, so a
+        run of ``k`` steps is ``B + k/B`` sequential steps instead of ``k``.
+
+        Measured on the driven RLC (1000 steps), a loop iteration's overhead is what a
+        driven run costs beyond an autonomous one, so the products are elementwise
+        (:func:`~diracvi.solvers.tiny.matvec`; a library call per iteration cost 40 % more).
+        Fewer iterations did not pay: recursive doubling (``⌈log₂ B⌉`` products, each
+        over the whole run) and sub-blocks of 8 (16 iterations instead of 64, and more
+        kernels) both measured slower.
+        """
+
+        def step(total, b):
+            after = self.next_start(total, 1, b)  # one step of the map, offset b(t_j)
+            return after, after
+
+        zero = jnp.zeros(offsets.shape[:1] + offsets.shape[2:], offsets.dtype)
+        _, sums = jax.lax.scan(step, zero, jnp.moveaxis(offsets, 1, 0))
+        return jnp.moveaxis(sums, 0, 1)
+
+    def multipliers(self, z_from):
+        """``μ`` of the steps taken from each row of ``z_from``."""
+        return matvec(self.mu_map, z_from) + self.mu_offset
+
+    def offsets_at(self, system, rule, scheme, h, times):
+        """``(b(t_k), μ offset(t_k))`` for each ``t_k`` of ``times``: the driven offsets,
+        ``b_x = −J_x⁻¹ r(t_k)`` and ``b = (b_x[:n], p(t_k) + P_x b_x)``, ``μ offset =
+        b_x[n:]``, where ``r`` and ``p`` are the residual and the new momentum at the zero
+        state.
+
+        ``r`` and ``p`` of all steps are formed first, and held (an optimization barrier)
+        before the two products. Otherwise XLA distributes a product over the parts of
+        ``r``, and a part that is the same at every step (terms in ``h``, an input of the
+        program) becomes a product of its own over all the steps: measured on the driven
+        RLC, 1000 steps, the program took 182 µs that way and 170–173 µs this way."""
+        n = system.n
+        zero_q, zero_x = jnp.zeros(n), jnp.zeros(unknown_count(system, rule))
+
+        def at_zero(tk):
+            r0 = residual(system, rule, scheme, h, zero_q, zero_q, zero_x, tk)
+            return r0, new_momentum(system, rule, scheme, h, zero_q, zero_x, tk)
+
+        r0, p0 = jax.lax.optimization_barrier(jax.vmap(at_zero)(times))
+        b_x = r0 @ -self.inverse.T
+        return jnp.concatenate([b_x[:, :n], p0 + b_x @ self.momentum_x.T], axis=1), b_x[:, n:]
+
+    def correction(self, eqs: StepEquations, x):
+        """One Newton correction ``−J_x⁻¹ r(x)`` of a computed step."""
+        return -matvec(self.inverse, eqs.residual(x))
+
+
+@run_once_jit
+def _linearizations(system, rule, scheme, h, points, times):
+    """Values and Jacobians of the residual and the momentum increment at each
+    ``(q, p, d, μ)`` and time ``t_k``, where ``q_other = q + d``.
+
+    Differentiating in increments keeps the map's large near-identity part out of
+    floating point: e.g. ``∂(q_other − q)/∂q`` is formed exactly by AD (``dq − dq = 0``)
+    instead of as a difference of two rounded ``M/h`` terms, so the map's entries are
+    accurate relative to the *change* per step, as Newton's per-step solve is."""
+    n, m = system.n, system.m
+
+    def parts(q, p, y, tk):
+        # in increments: x = (q + d, μ), and the momentum line as p_other − p (a staged
+        # rule's stage Q = q + d_Q is an increment too)
+        x = y.at[:n].add(q)
+        for j in rule.increment_stages():
+            x = x.at[n + m + j * n : n + m + (j + 1) * n].add(q)
+        return residual(system, rule, scheme, h, q, p, x, tk), new_momentum(
+            system, rule, scheme, h, q, x, tk
+        ) - p
+
+    def at(point, tk):
+        def f(y):
+            return parts(y[:n], y[n : 2 * n], y[2 * n :], tk)
+
+        def value_twice(y):
+            value = f(y)
+            return value, value
+
+        # the values at the point come with the Jacobian (one trace of f, not two)
+        (jr, jp), (r, pm) = jax.jacfwd(value_twice, has_aux=True)(point)
+        r0, pm0 = f(jnp.zeros_like(point))
+        return r, pm, r0, pm0, jr, jp
+
+    return jax.vmap(at)(points, times)
+
+
+@run_once_jit
+def _values(system, rule, scheme, h, points, tk):
+    """The residual and the momentum increment at each ``(q, p, d, μ)`` (no derivatives).
+
+    The cheap half of detection: compiling values costs a fraction of compiling their
+    Jacobians (:func:`_linearizations` differentiates ``∂L/∂v`` once more), so a clearly
+    nonlinear model is turned away before the Jacobians are ever built."""
+    n = system.n
+
+    def f(y):
+        q, p = y[:n], y[n : 2 * n]
+        x = y[2 * n :].at[:n].add(q)
+        return jnp.concatenate(
+            [
+                residual(system, rule, scheme, h, q, p, x, tk),
+                new_momentum(system, rule, scheme, h, q, x, tk) - p,
+            ]
+        )
+
+    return jax.vmap(f)(points)
+
+
+#: a midpoint defect above this (relative) is nonlinearity, far beyond round-off; smaller
+#: ones are left to the full test of the Jacobians, which is exact to ``detect_rtol``
+_SCREEN_RTOL = 1e-6
+
+
+def _clearly_nonlinear(system, rule, scheme, h, a, b, tk) -> bool:
+    """``f((a+b)/2) ≠ (f(a) + f(b))/2`` at two points: the step equations are not affine.
+
+    An affine ``f`` satisfies the midpoint identity exactly (up to round-off); any
+    curvature between two generic points breaks it. Only a defect far above round-off
+    counts, so an affine model is never turned away here."""
+    points = np.stack([a, b, 0.5 * (a + b)])
+    values = np.asarray(_values(system, rule, scheme, h, points, tk))
+    if not np.all(np.isfinite(values)):
+        return False  # left to the full test, which reports non-finite equations
+    defect = np.abs(values[2] - 0.5 * (values[0] + values[1]))
+    bound = np.abs(values[0]) + np.abs(values[1]) + np.abs(values[2])
+    return bool(np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0)))
+
+
+def _refined_solve(a, factors, b):
+    """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision.
+
+    The map is applied thousands of times, so an error in it is systematic: it adds up
+    linearly over the run, unlike the independent round-off of a per-step solve. One
+    refinement with an extended-precision residual makes ``Φ`` accurate to about one
+    rounding of its entries, whatever the conditioning of ``J_x`` (within reason).
+    (Host LAPACK through SciPy: the map is built once, and device solves would each
+    compile a program for this shape.)
+    """
+    import scipy.linalg as sla  # (lazily, as in build)
+
+    x = sla.lu_solve(factors, b, check_finite=False)
+    if a.shape[0] > _REFINE_LIMIT or not np.all(np.isfinite(x)):
+        return x  # a singular J_x is reported by the caller
+    wide = np.longdouble
+    resid = (b.astype(wide) - a.astype(wide) @ x.astype(wide)).astype(np.float64)
+    return x + sla.lu_solve(factors, resid, check_finite=False)
+
+
+#: the longest block of steps that one map takes from its start (a run of k steps is
+#: ⌈k / MAX_BLOCK⌉ blocks: the sequential part of an affine run)
+MAX_BLOCK = 64
+
+
+def _block_maps(delta, offset):
+    """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
+    precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
+    ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
+    size = delta.shape[0]
+    count = int(np.clip(2**18 // max(size * size, 1), 1, MAX_BLOCK))
+    wide = np.longdouble
+    d1, b1 = delta.astype(wide), offset.astype(wide)
+    d, b = d1.copy(), b1.copy()
+    powers, offsets = [d], [b]
+    for _ in range(count - 1):
+        d, b = d + d1 + d1 @ d, b + d1 @ b + b1
+        powers.append(d)
+        offsets.append(b)
+    return np.stack(powers).astype(np.float64), np.stack(offsets).astype(np.float64)
+
+
+#: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
+_REFINE_LIMIT = 400
+
+
+def build(
+    system, rule, scheme, h, q0, p0, solver: AffineSolver, t0: float = 0.0
+) -> tuple[AffineStepMap | None, str, np.ndarray | None]:
+    """``(step map, "affine", J)``, or ``(None, reason, J)`` when the equations are not
+    affine. ``J`` is the first step's Jacobian ``∂r/∂(q_other, μ)`` at ``(q0, p0)`` when the
+    probes computed it (an autonomous model, probed at ``t0``), else ``None``: the caller's
+    solvability check needs no compilation of its own then."""
+    n = system.n
+    unknowns = unknown_count(system, rule)
+    if unknowns > AFFINE_DENSE_LIMIT:
+        limit = AFFINE_DENSE_LIMIT
+        return None, f"{unknowns} unknowns exceed the dense step-map limit {limit}", None
+    rng = np.random.default_rng(20261121)
+    scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
+    size = 2 * n + unknowns
+    points = np.stack(
+        [
+            np.zeros(size),
+            np.concatenate([np.asarray(q0), np.asarray(p0), np.zeros(unknowns)]),
+            scale * rng.uniform(-1.0, 1.0, size),
+        ]
+    )
+    h, t0 = np.asarray(h, dtype=np.float64), np.asarray(t0, dtype=np.float64)
+    if _clearly_nonlinear(system, rule, scheme, h, points[1], points[2], t0):
+        return None, "the step equations are not affine", None
+    driven = bool(system.time_dependent)
+    # a driven model is probed at three different times (its Jacobians must not move)
+    times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
+    r, pm, r0, pm0, jr, jp = (
+        np.asarray(a) for a in _linearizations(system, rule, scheme, h, points, times)
+    )
+    # probe 1 is (q0, p0) with no increment: there, ∂r/∂(d, μ) is the first step's J
+    first = None if driven else jr[1][:, 2 * n :]
+    if not (np.all(np.isfinite(jr)) and np.all(np.isfinite(jp))):
+        return None, "the step equations are not finite at the probe points", None
+    tol = solver.detect_rtol
+    for name, val, val0, jac in (("residual", r, r0, jr), ("momentum line", pm, pm0, jp)):
+        ref = max(1.0, float(np.max(np.abs(jac))))
+        if np.max(np.abs(jac - jac[0])) > tol * ref:
+            return None, f"the {name} of the step equations has a non-constant Jacobian", first
+        linear = val0 + points @ jac[0].T
+        bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val0)
+        if np.any(np.abs(val - linear) > tol * np.maximum(bound, 1.0)):
+            return None, f"the {name} of the step equations is not affine", first
+    j_all, p_all = jr[0], jp[0]
+    j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
+    p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
+    rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
+    import scipy.linalg as sla  # 0.2 s: imported on the first affine build, not with diracvi
+
+    with warnings.catch_warnings():  # a singular J_x is reported below, by name
+        warnings.simplefilter("ignore", sla.LinAlgWarning)
+        factors = sla.lu_factor(j_x, check_finite=False)
+        sol = _refined_solve(j_x, factors, -rhs)
+    if not np.all(np.isfinite(sol)):
+        return None, "the step Jacobian is singular", first
+    phi_x, b_x = sol[:, :-1], sol[:, -1]
+    phi_p = p_z + p_x @ phi_x
+    b_p = pm[0] + p_x @ b_x
+    delta = np.concatenate([phi_x[:n], phi_p])
+    offset = np.concatenate([b_x[:n], b_p])
+    powers, power_offsets = _block_maps(delta, offset)
+    # device_put, not jnp.asarray: the latter compiles a small program per shape
+    arrays = jax.device_put(
+        dict(
+            delta=delta,
+            offset=offset,
+            powers=powers,
+            power_offsets=power_offsets,
+            mu_map=phi_x[n:],
+            mu_offset=b_x[n:],
+            inverse=np.linalg.inv(j_x),
+            jacobian=j_x,
+            momentum_x=p_x,
+        )
+    )
+    step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
+    return step_map, "affine", first

@@ -1,0 +1,92 @@
+r"""Junction-voltage limiting between Newton iterates (SPICE's ``pnjlim``).
+
+An exponential junction ``i = I_S e^{V/(N V_T)}`` turns Newton's linearization into a
+poor guide far from the solution: from an iterate where the diode is off, the tangent
+line asks for a voltage far beyond the knee, where the exponential is astronomically
+large, and the next iterates cycle. SPICE limits how far a junction voltage may move in
+one iterate (Nagel's ``pnjlim``): above ``V_crit = nV_T ln(nV_T/(√2 I_S))`` a forward
+step ``ΔV`` larger than ``2 nV_T`` is replaced by ``nV_T ln(1 + ΔV/nV_T)`` (the voltage
+at which the exponential has moved as much as its tangent asked for), and a reverse step
+may not go below ``−V_old − 1`` (``2V_old − 1`` from a reverse voltage). Limiting only
+changes the path of the iteration, never its fixed point: the converged step solves the
+same equations, and its derivative (implicit function theorem) does not see it.
+
+**How a part declares its junctions** (the solver knows no diode by name): a system may
+carry ``junctions`` — a static tuple of coordinate indices whose *velocity* is a junction
+voltage (the diode's flux linkage ``w``, whose velocity is ``V_j``) — and
+``junction_limits``, an array of shape ``(len(junctions), 3)`` with rows
+``(nV_T, V_crit, BV)`` (``BV = inf`` without breakdown). An interconnection gathers its
+members' junctions. The discrete velocity of a step is ``v_k = (q_{k+1} − q_k)/h`` under
+every rule here, so the junction voltage of an iterate is read from the unknown end
+``q_other`` as ``s (q_other − q)/h`` (``s = +1`` for the (+) scheme, ``−1`` for (−)).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def pnjlim(v_new, v_old, nvt, vcrit):
+    """SPICE's ``pnjlim``: the limited junction voltage of a Newton iterate."""
+    big = (v_new > vcrit) & (jnp.abs(v_new - v_old) > 2.0 * nvt)
+    arg = 1.0 + (v_new - v_old) / nvt
+    safe_arg = jnp.where(arg > 0.0, arg, 1.0)
+    from_on = jnp.where(arg > 0.0, v_old + nvt * jnp.log(safe_arg), vcrit)
+    from_off = nvt * jnp.log(jnp.maximum(v_new, nvt) / nvt)
+    forward = jnp.where(v_old > 0.0, from_on, from_off)
+    floor = jnp.where(v_old > 0.0, -v_old - 1.0, 2.0 * v_old - 1.0)
+    reverse = jnp.where(v_new < 0.0, jnp.maximum(v_new, floor), v_new)
+    return jnp.where(big, forward, reverse)
+
+
+def limit_junction(v_new, v_old, nvt, vcrit, bv):
+    """``pnjlim`` of the forward junction and, past ``−BV + 10 nV_T``, of the breakdown
+    junction (its voltage mirrored about ``−BV``), as ngspice's diode does."""
+    forward = pnjlim(v_new, v_old, nvt, vcrit)
+    finite_bv = jnp.isfinite(bv)
+    bv_ = jnp.where(finite_bv, bv, 0.0)
+    mirrored = -(pnjlim(-(v_new + bv_), -(v_old + bv_), nvt, vcrit) + bv_)
+    in_breakdown = finite_bv & (v_new < jnp.minimum(0.0, -bv_ + 10.0 * nvt))
+    return jnp.where(in_breakdown, mirrored, forward)
+
+
+def junctions(system):
+    """``(indices, limits)`` of every junction coordinate of ``system`` (an
+    interconnection gathers its members'), or ``None`` when it has none."""
+    members = getattr(system, "_members", None)
+    if members is None:
+        found = tuple(getattr(system, "junctions", ()) or ())
+        if not found:
+            return None
+        return np.asarray(found, dtype=np.int64), jnp.asarray(system.junction_limits)
+    kinds = system._kinds()
+    if not any(getattr(k, "junctions", ()) for k in kinds):
+        return None
+    index, limits = [], []
+    for offset, sub in zip(system._offsets[:-1], members(), strict=True):
+        own = getattr(sub, "junctions", ()) or ()
+        if own:
+            index += [int(offset) + int(j) for j in own]
+            limits.append(jnp.asarray(sub.junction_limits))
+    return np.asarray(index, dtype=np.int64), jnp.concatenate(limits, axis=0)
+
+
+def junction_limiter(eqs):
+    """``limit(x, x_new)`` for the step equations ``eqs``, or ``None`` without junctions."""
+    found = junctions(eqs.system)
+    if found is None:
+        return None
+    index, limits = found
+    limits = jax.lax.stop_gradient(limits)
+    sign = 1.0 if eqs.scheme == "plus" else -1.0
+    known = eqs.q[index]
+
+    def limit(x, x_new):
+        v_old = sign * (x[index] - known) / eqs.h
+        v_new = sign * (x_new[index] - known) / eqs.h
+        v = limit_junction(v_new, v_old, limits[:, 0], limits[:, 1], limits[:, 2])
+        return x_new.at[index].set(known + sign * eqs.h * v)
+
+    return limit

@@ -1,0 +1,207 @@
+r"""Newton's method on the step residual ``r(x) = 0`` with the JAX Jacobian.
+
+Iterate ``x ← x − J⁻¹ r(x)`` until the update is below ``rtol · max(‖x‖∞, ‖q‖∞)``
+(ordinary convergence), or until Newton's quadratic contraction stops while the update is
+already tiny (the round-off floor: further iterations cannot improve the answer).
+
+With ``reuse_jacobian=True`` (the default) the LU factors of ``J`` are kept from one
+iteration and one time step to the next — the simplified (chord) Newton method — and
+recomputed only when they stop paying: when an update contracts by less than
+``1/contraction`` against the previous one. A step whose extrapolated guess already
+satisfies the equations therefore costs one residual and one pair of triangular solves;
+a linear problem factorizes once per chunk. The contraction test is also the
+convergence safeguard: an update that grows with stale factors is discarded, and
+round-off stagnation is only accepted with fresh factors.
+
+Three safeguards make nonlinear steps (exponential junctions) robust.
+
+**A residual at round-off is success**: when every equation's residual is within
+``residual_rtol`` of the size of its terms,
+``|r_i| ≤ residual_rtol · (|p_i| + Σ_j |J_ij| |x_j − x_ref,j|)`` (``p`` the known
+momentum, ``x_ref`` the known state: the terms' size, linearized over the step), with a
+Jacobian freshly formed at the iterate, the iterate is accepted whatever the update does
+— an ill-conditioned Jacobian (a floating node held by ``G_min``) makes updates noisy
+long after the residual has reached round-off.
+
+**Junction limiting**: a system whose parts declare junction coordinates
+(:mod:`diracvi.solvers.limiting`) has each Newton iterate's junction voltages limited
+as SPICE's ``pnjlim`` does, so an exponential is never evaluated far beyond the last
+iterate (without it Newton cycles between two iterates on a diode turning on).
+
+**A fresh Jacobian before giving up**: the last quarter of the iteration budget
+recomputes the Jacobian every iteration (full Newton), so stale factors never cause a
+failure. ``NewtonSolver(reuse_jacobian=False)`` is full Newton throughout.
+
+The outcome is a :class:`SolveStatus` code, never an exception, so it can travel through
+``lax.scan`` and the driver can stop cleanly at the failing step.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import jax.scipy.linalg as jsl
+
+from ..discretization.equations import first_guess
+from .base import SolveStatus, StepResult, StepSolver, check_newton_options
+from .limiting import junction_limiter
+
+
+def _norm(tree):
+    """``‖·‖∞`` over every leaf of a PyTree of arrays."""
+    return jnp.max(jnp.stack([jnp.max(jnp.abs(a), initial=0.0) for a in jax.tree.leaves(tree)]))
+
+
+def _finite(tree):
+    return jnp.all(jnp.stack([jnp.all(jnp.isfinite(a)) for a in jax.tree.leaves(tree)]))
+
+
+def chord_newton(
+    options,
+    residual,
+    factorize,
+    correction,
+    x0,
+    factors,
+    valid,
+    scale,
+    *,
+    limit=None,
+    row_scale=None,
+):
+    """The (simplified) Newton iteration shared by the step solvers.
+
+    ``residual(x)`` is the step residual, ``factorize(x)`` the factors of its Jacobian
+    and ``correction(factors, r)`` the update ``−J⁻¹ r``; ``x`` may be any PyTree of
+    arrays. ``options`` carries ``rtol``, ``max_steps``, ``floor``, ``reuse_jacobian`` and
+    ``contraction`` (see :class:`NewtonSolver`). Returns ``(x, status, iterations,
+    ‖r‖∞, factors)`` with the residual of the last iterate evaluated.
+
+    ``limit(x, x_new)`` (optional) limits an iterate (junction voltages, see
+    :mod:`~diracvi.solvers.limiting`); ``row_scale(factors, x)`` (optional) gives each
+    equation's size at ``x``, which enables the round-off residual test.
+    """
+    full_from = (3 * options.max_steps) // 4  # from here on, a fresh Jacobian every time
+
+    def body(carry):
+        x, _, it, last_dx, _, factors, valid = carry
+        r = residual(x)
+        refactor = ~valid | (it >= full_from)
+        if not options.reuse_jacobian:
+            refactor = jnp.asarray(True)
+        factors = jax.lax.cond(refactor, factorize, lambda _: factors, x)
+        dx = correction(factors, r)
+        dx_norm = _norm(dx)
+        size = jnp.maximum(_norm(jax.tree.map(jnp.add, x, dx)), scale)
+        finite_r = _finite(r)
+        finite_dx = _finite(dx)
+        r_norm = _norm(r)
+        roundoff = jnp.asarray(False)
+        if row_scale is not None:
+            within = jnp.abs(r) <= options.residual_rtol * row_scale(factors, x)
+            roundoff = refactor & finite_r & jnp.all(within)
+        # Stale factors that fail to contract are replaced; a growing update is dropped.
+        slow = ~refactor & (dx_norm > options.contraction * last_dx)
+        diverging = ~refactor & ((dx_norm >= last_dx) | ~finite_dx)
+        small = dx_norm <= options.rtol * size
+        stalled = refactor & (dx_norm <= options.floor * size) & (dx_norm >= 0.5 * last_dx)
+        done = (small & ~diverging) | stalled | roundoff
+        status = jnp.where(
+            ~finite_r,
+            SolveStatus.NONFINITE,
+            jnp.where(
+                ~finite_dx & refactor,
+                SolveStatus.SINGULAR,
+                jnp.where(done & (finite_dx | roundoff), SolveStatus.SUCCESS, -1),
+            ),
+        )
+        keep = finite_dx & finite_r & ~diverging
+        x_new = jax.tree.map(lambda a, b: jnp.where(keep, a + b, a), x, dx)
+        if limit is not None:
+            x_new = limit(x, x_new)
+        last = jnp.where(keep, dx_norm, last_dx)
+        valid = ~(slow | diverging)
+        return x_new, status, it + 1, last, r_norm, factors, valid
+
+    def cond(carry):
+        _, status, it = carry[:3]
+        return (status == -1) & (it < options.max_steps)
+
+    inf = jnp.asarray(jnp.inf, dtype=scale.dtype)
+    init = (x0, jnp.asarray(-1), jnp.asarray(0), inf, inf, factors, valid)
+    # The residual reported is the one at the last Newton iterate evaluated (before its
+    # update): re-evaluating at the final x would cost a residual per time step, and it
+    # is only read when a step fails.
+    x, status, iterations, _, res_norm, factors, _ = jax.lax.while_loop(cond, body, init)
+    status = jnp.where(status == -1, SolveStatus.MAX_ITERATIONS, status)
+    return x, status, iterations, res_norm, factors
+
+
+class NewtonSolver(StepSolver):
+    """Newton's method with a dense LU solve.
+
+    Args:
+        rtol: relative tolerance on the Newton update (default 1e-13).
+        max_steps: iteration cap per time step (default 40).
+        floor: an update below ``floor · scale`` that fails to contract further (with a
+            freshly factorized Jacobian) is accepted as converged at round-off.
+        reuse_jacobian: keep the factorized Jacobian across iterations and time steps
+            while it still contracts (default True); False recomputes it every iteration.
+        contraction: with reused factors, an update must shrink at least this much
+            (``‖dx_j‖ ≤ contraction · ‖dx_{j−1}‖``) or the Jacobian is recomputed.
+        residual_rtol: a residual within this fraction of each equation's terms (see
+            above) is at round-off: the step has converged (default 1e-13).
+        limit_junctions: limit junction voltages between iterates as SPICE's
+            ``pnjlim`` (default True; see :mod:`diracvi.solvers.limiting`).
+    """
+
+    rtol: float = eqx.field(static=True, default=1e-13)
+    max_steps: int = eqx.field(static=True, default=40)
+    floor: float = eqx.field(static=True, default=1e-9)
+    reuse_jacobian: bool = eqx.field(static=True, default=True)
+    contraction: float = eqx.field(static=True, default=0.25)
+    residual_rtol: float = eqx.field(static=True, default=1e-13)
+    limit_junctions: bool = eqx.field(static=True, default=True)
+
+    def __check_init__(self):
+        check_newton_options(self)
+
+    def init(self, eqs):
+        size = eqs.size
+        return (
+            jnp.zeros((size, size), dtype=eqs.q.dtype),
+            jnp.zeros(size, dtype=jnp.int32),
+            jnp.zeros((size, size), dtype=eqs.q.dtype),  # |J| of the factorized Jacobian
+            jnp.asarray(False),
+        )
+
+    def solve(self, eqs, guess, state) -> StepResult:
+        """Solve ``eqs.residual(x) = 0`` from ``guess``."""
+        fn = eqs.residual
+
+        def factorize(x):
+            jac = jax.jacfwd(fn)(x)
+            return (*jsl.lu_factor(jac), jnp.abs(jac))
+
+        # each equation's size: the known momentum and the linearized change over the step
+        x_ref = first_guess(eqs.system, eqs.rule, eqs.q, eqs.q, jnp.zeros(eqs.system.m))
+        known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
+
+        def row_scale(factors, x):
+            return known + factors[2] @ jnp.abs(x - x_ref)
+
+        lu, piv, jnorm, valid = state
+        x, status, iterations, res_norm, (lu, piv, jnorm) = chord_newton(
+            self,
+            fn,
+            factorize,
+            lambda factors, r: jsl.lu_solve(factors[:2], -r),
+            guess,
+            (lu, piv, jnorm),
+            valid,
+            eqs.scale(),
+            limit=junction_limiter(eqs) if self.limit_junctions else None,
+            row_scale=row_scale,
+        )
+        return StepResult(x, status, iterations, res_norm, (lu, piv, jnorm, status == 0))

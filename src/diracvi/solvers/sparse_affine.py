@@ -1,0 +1,493 @@
+r"""The circuit-scale linear path: a sparse step matrix, factored once, stepped on the host.
+
+For an interconnection whose step equations are affine (the affine screen's test, done
+here on compressed Jacobians) the step from ``z = (q, p)`` is, in increments
+``y = (q_other − q, μ)`` as in :mod:`diracvi.solvers.affine`,
+
+    J_x y = −(r₀(t_k) + J_z z),        p_other − p = P₀(t_k) + P_z z + P_x y
+
+with ``J_x = ∂r/∂y`` the step Jacobian. For an interconnection of many small parts it
+is sparse: a part's equations involve its own unknowns and the multipliers of the
+interaction rows it is in, an interaction row (a node's KCL) the unknowns of the parts it
+joins — the structure of modified nodal analysis. The dense affine map ``Δ`` of
+:mod:`diracvi.solvers.affine` is full (O(n²) per step and memory); here ``J_x`` is
+assembled sparse, ordered by COLAMD and factored ONCE by SuperLU
+(``scipy.sparse.linalg.splu``), and every step is two sparse products and one pair of
+triangular solves: O(nnz(L + U)) per step, O(n) for a chain.
+
+**Assembly, compiled once per kind of part.** The Jacobians come from ``K`` compressed
+JVPs of the packed interconnection's residual (alike parts vmapped, so the program does
+not grow with their number). The pattern is structural: a column of part ``i``
+(its ``q``, ``p``, increment or own multiplier) can touch only part ``i``'s equations
+and the interaction rows ``i`` is in; a multiplier ``λ_b`` only the equations of the
+parts row ``b`` joins. Parts that share no interaction row get the same seed (a greedy
+colouring), so ``K`` is a few times the largest part's size, whatever their number.
+
+**Affinity** is checked as in the dense screen, on those products: the JVPs at zero and
+at a pseudo-random point (at another time, for a driven model) must agree, and the
+residual and momentum line at that point must equal ``f(0) + J w`` — which also checks
+the structural pattern (a missed entry would break the equality). ``detect_rtol``
+relative, as :class:`~diracvi.AffineSolver`.
+
+**Why SciPy on the host and not a compiled scan.** The factorization has data-dependent
+fill and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to
+form and would not serve general meshes. SuperLU's solve is a few library calls per
+step (measured in ``benchmarks/README.md``). A banded LAPACK solve in reverse
+Cuthill–McKee order was measured too and dropped: on the 1000-stage ladder (bandwidths
+(2, 2), 5002 unknowns) ``dgbtrs`` took 430 µs a call against SuperLU's 240 µs (it makes
+two BLAS calls per column). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the energies
+are evaluated by compiled JAX programs, a block of steps per call.
+
+**Verification.** A sample of steps (the last of every block) is re-evaluated with the
+model's own residual, and one Newton correction ``J_x⁻¹ r`` of it must be below
+``verify_rtol`` relative to the step's size, as the dense map's per-step test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..discretization.equations import new_momentum, reaction_impulse, residual, unknown_count
+from ..runtime.compile import run_once_jit
+from .affine import AffineSolver
+
+#: the initial-data check of a run on this path checks momenta (a dense O(n³)
+#: projector) up to this many coordinates; joined ports always
+SPARSE_MOMENTUM_CHECK_LIMIT = 256
+
+#: steps per block: the driven offsets and the energies are computed a block at a time
+#: (one compiled program for every block: the last is padded)
+BLOCK = 256
+
+
+class NotSparseAffine(Exception):
+    """The sparse path does not apply (the reason is the message)."""
+
+
+def _parts(system, rule, scheme, h, w, tk):
+    """``(r, p_other − p, A(q)ᵀμ)`` at ``w = (q, p, y)``, ``q_other = q + y[:n]``."""
+    n = system.n
+    q, p, y = w[:n], w[n : 2 * n], w[2 * n :]
+    x = y.at[:n].add(q)
+    r = residual(system, rule, scheme, h, q, p, x, tk)
+    pm = new_momentum(system, rule, scheme, h, q, x, tk) - p
+    impulse = reaction_impulse(system, scheme, h, q, x[n:], tk)
+    return r, pm, impulse
+
+
+def _probe_fn(system, rule, scheme, h, bases, times, seeds):
+    """Values at each base point and time, and the JVPs along every seed there."""
+    import jax
+
+    def at(w, tk):
+        def f(u):
+            return _parts(system, rule, scheme, h, u, tk)
+
+        value = f(w)
+        tangents = jax.vmap(lambda s: jax.jvp(f, (w,), (s,))[1])(seeds)
+        return value, tangents
+
+    return jax.vmap(at)(bases, times)
+
+
+def _own_offsets(sub, rule, scheme, h, tk):
+    """One part's own residual and momentum line at its zero state: its rows of the
+    interconnection's at the zero state (the interaction terms ``Bᵀλ``, ``B v`` vanish
+    there)."""
+    import jax.numpy as jnp
+
+    zero_q, zero_x = jnp.zeros(sub.n), jnp.zeros(sub.n + sub.m)
+    r = residual(sub, rule, scheme, h, zero_q, zero_q, zero_x, tk)
+    return r, new_momentum(sub, rule, scheme, h, zero_q, zero_x, tk)
+
+
+def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
+    """The offsets ``r₀(t)``, ``P₀(t)`` of each ``t`` of ``times_next`` (the next block's)
+    and ``E`` at the quadrature node of each step ``(q_k, q_{k+1}, t_k)`` of this block:
+    one program for both. ``drivers``: the time-dependent parts, whose rows are all that
+    move with ``t`` (each part's own rows, so the program does not evaluate the
+    interconnection's dense one-forms), or ``None``: the whole residual at zero."""
+    import jax
+    import jax.numpy as jnp
+
+    if drivers is None:
+        size = 2 * system.n + unknown_count(system, rule)
+
+        def offsets(tk):
+            r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), tk)
+            return r, pm
+
+    else:
+
+        def offsets(tk):
+            pieces = [_own_offsets(sub, rule, scheme, h, tk) for sub in drivers]
+            return (
+                jnp.concatenate([r for r, _ in pieces]),
+                jnp.concatenate([pm for _, pm in pieces]),
+            )
+
+    r0, pm0 = jax.vmap(offsets)(times_next)
+    # the energy alone (the step diagnostics' constraint rows would evaluate the
+    # interaction's dense one-forms: they are formed on the host, from the sparse rows)
+    energy = jax.vmap(lambda a, b, t: rule.step_energy(system.energy, a, b, h, t, None))(
+        qk, qk1, times
+    )
+    return r0, pm0, energy
+
+
+#: at most this many time-dependent parts are evaluated part by part for the offsets
+#: (more: the whole residual at zero, one program over the packed system)
+MAX_DRIVERS = 16
+
+
+_probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
+_block = run_once_jit(_block_fn, "diracvi.solvers.sparse_affine._block")
+
+
+# ----------------------------------------------------------------------- structure
+def _structure(system):
+    """Host-side index tables: per part its columns in ``w = (q, p, y)`` and rows, per
+    interaction row its multiplier's column and equation, and who touches whom."""
+    n = system.n
+    subs = system.subsystems
+    offsets = np.asarray(system._offsets)
+    mu_sizes = np.array([s.m for s in subs], dtype=np.int64)
+    mu_start = n + np.concatenate([[0], np.cumsum(mu_sizes)[:-1]]).astype(np.int64)
+    own = int(mu_sizes.sum())
+    rows_of_sub = [[] for _ in subs]
+    row_subs = [tuple(int(i) for i in r) for r in system.row_subsystems]
+    for b, involved in enumerate(row_subs):
+        for i in involved:
+            rows_of_sub[i].append(b)
+    return offsets, mu_start, mu_sizes, own, row_subs, rows_of_sub
+
+
+def _greedy(count, neighbours):
+    """A greedy colouring: ``color[i]`` differs from every neighbour's."""
+    color = np.full(count, -1, dtype=np.int64)
+    for i in range(count):
+        taken = {int(color[j]) for j in neighbours(i) if color[j] >= 0}
+        c = 0
+        while c in taken:
+            c += 1
+        color[i] = c
+    return color
+
+
+def _pattern(system, rule):
+    """Seeds ``(K, 2n + U)`` and the structural entries ``(seed, row, column)`` of the
+    residual (rows in ``[0, U)``) and of the momentum lines (rows ``U + [0, n)``)."""
+    if rule.stages:
+        raise NotSparseAffine("a staged rule (its stages are not in this path)")
+    n, size = system.n, unknown_count(system, rule)
+    offsets, mu_start, mu_sizes, own, row_subs, rows_of_sub = _structure(system)
+    count = len(system.subsystems)
+    sub_color = _greedy(count, lambda i: {j for b in rows_of_sub[i] for j in row_subs[b] if j != i})
+    row_color = _greedy(
+        len(row_subs), lambda b: {c for i in row_subs[b] for c in rows_of_sub[i] if c != b}
+    )
+    local = 3 * np.diff(offsets) + mu_sizes  # q, p, increment and own μ of each part
+    width = np.zeros(int(sub_color.max(initial=-1)) + 1, dtype=np.int64)
+    np.maximum.at(width, sub_color, local)
+    first_seed = np.concatenate([[0], np.cumsum(width)])
+    row_seed0 = int(first_seed[-1])
+    seeds_count = row_seed0 + int(row_color.max(initial=-1)) + 1
+    seeds = np.zeros((seeds_count, 2 * n + size))
+    entries = []  # arrays (seed, row, column)
+    lam0 = 2 * n + n + own  # column of λ_0 in w
+    for i in range(count):
+        a, b = int(offsets[i]), int(offsets[i + 1])
+        coords = np.arange(a, b)
+        mus = np.arange(mu_start[i], mu_start[i] + mu_sizes[i])
+        cols = np.concatenate([coords, n + coords, 2 * n + coords, 2 * n + mus])
+        seed = first_seed[sub_color[i]] + np.arange(cols.size)
+        seeds[seed, cols] = 1.0
+        rows = np.concatenate(
+            [coords, mus, n + own + np.asarray(rows_of_sub[i], dtype=np.int64), size + coords]
+        )
+        entries.append(
+            (np.repeat(seed, rows.size), np.tile(rows, cols.size), np.repeat(cols, rows.size))
+        )
+    for rb, involved in enumerate(row_subs):
+        seed = row_seed0 + int(row_color[rb])
+        col = lam0 + rb
+        seeds[seed, col] = 1.0
+        coords = np.concatenate(
+            [np.arange(offsets[i], offsets[i + 1]) for i in involved] or [np.zeros(0, np.int64)]
+        )
+        mus = np.concatenate(
+            [np.arange(mu_start[i], mu_start[i] + mu_sizes[i]) for i in involved]
+            or [np.zeros(0, np.int64)]
+        )
+        rows = np.concatenate([coords, mus, size + coords])
+        entries.append((np.full(rows.size, seed), rows, np.full(rows.size, col)))
+    seed_of, row_of, col_of = (
+        np.concatenate(e).astype(np.int64) for e in zip(*entries, strict=True)
+    )
+    return seeds, seed_of, row_of, col_of
+
+
+# ----------------------------------------------------------------------- the map
+class SparseAffineMap:
+    """The assembled, factored step of a linear interconnection (host side).
+
+    Built by :func:`build`; :meth:`run` steps it. ``describe`` names it in ``traj.solver``.
+    """
+
+    describe = "sparse affine step map (SuperLU, COLAMD)"
+
+    def __init__(self, system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds):
+        self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
+        self.jz, self.jx, self.pz, self.px, self.imp = mats
+        self.n, self.size = system.n, self.jx.shape[0]
+        # one product gives J_z z and P_z z
+        import scipy.sparse as sp
+
+        self._zmap = sp.vstack([self.jz, self.pz]).tocsr()
+        self._con = sp.hstack([self.jz[self.n :], self.jx[self.n :]]).tocsr()
+        self.lu, self.driven = lu, driven
+        self.r0, self.pm0 = r0, pm0  # the autonomous offsets (driven: at t0)
+        self.verify_rtol = verify_rtol
+        self.seeds = seeds
+        self.drivers = self.driver_rows = self.driver_coords = None
+
+    # ------------------------------------------------------------------ blocks
+    def _block(self, times_next, qk, qk1, times):
+        """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
+        one compiled program; every argument padded to ``BLOCK`` rows)."""
+
+        def padded(a):
+            return np.concatenate([a, np.repeat(a[-1:], BLOCK - len(a), axis=0)])
+
+        r0, pm0, energy = _block(
+            self.system, self.drivers, self.rule, self.scheme, np.float64(self.h),
+            padded(times_next), padded(qk), padded(qk1), padded(times),
+        )  # fmt: skip
+        count = len(times_next)
+        r0, pm0 = np.asarray(r0)[:count], np.asarray(pm0)[:count]
+        if self.drivers is not None:  # the drivers' rows into the constant offsets
+            full_r = np.repeat(self.r0[None], count, axis=0)
+            full_p = np.repeat(self.pm0[None], count, axis=0)
+            full_r[:, self.driver_rows] = r0
+            full_p[:, self.driver_coords] = pm0
+            r0, pm0 = full_r, full_p
+        return r0, pm0, np.asarray(energy)[: len(times)]
+
+    def _check_steps(self, z, y, times):
+        """The largest Newton correction ``J_x⁻¹ r`` (relative) of the steps ``z → y``,
+        with ``r`` the model's own residual: the probe program of :func:`build`, three
+        steps per call (its shapes: nothing new is compiled)."""
+        worst = 0.0
+        for a in range(0, len(times), 3):
+            w = np.concatenate([z[a : a + 3], y[a : a + 3]], axis=1)
+            tk = times[a : a + 3]
+            count = len(tk)
+            w = np.concatenate([w, np.repeat(w[-1:], 3 - count, axis=0)])
+            tk = np.concatenate([tk, np.repeat(tk[-1:], 3 - count)])
+            (r, _, _), _ = _probe(
+                self.system, self.rule, self.scheme, np.float64(self.h), w, tk, self.seeds
+            )
+            r = np.asarray(r)[:count]
+            dx = self.lu.solve(np.ascontiguousarray(r.T)).T
+            yy, zz = y[a : a + count], z[a : a + count, : self.n]
+            size = np.maximum(np.max(np.abs(yy), axis=1), np.max(np.abs(zz), axis=1))
+            worst = max(worst, float(np.max(np.max(np.abs(dx), axis=1) / np.maximum(size, 1e-300))))
+        return worst
+
+    # --------------------------------------------------------------------- run
+    def run(self, q0, p0, t0, steps, save_every, save_states, nodal, share):
+        """Step ``steps`` times from ``(q0, p0)`` at ``t0``; returns a dict of the
+        saved arrays (states every ``save_every`` steps) and the final state, or raises
+        :class:`NotSparseAffine` if the verification rejects a step."""
+        n, size, k = self.n, self.size, save_every
+        sign = 1.0 if self.scheme == "plus" else -1.0
+        z = np.concatenate([q0, p0]).astype(np.float64)
+        zmap, px, solve = self._zmap, self.px, self.lu.solve
+        keep_q, keep_p, keep_mu, keep_con, keep_node = [], [], [], [], []
+        energy, violation = np.empty(steps), np.empty(steps)
+        starts = list(range(0, steps, BLOCK))
+
+        def times_of(start):
+            index = start + np.arange(min(BLOCK, steps - start), dtype=np.float64)
+            return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+
+        times = times_of(0)
+        if self.driven:
+            zeros = np.zeros((1, n))
+            r0, pm0, _ = self._block(times, zeros, zeros, times[:1])
+        else:
+            r0 = np.broadcast_to(self.r0, (len(times), size))
+            pm0 = np.broadcast_to(self.pm0, (len(times), n))
+        checks = []  # (z, y, t) of the last step of every block, verified at the end
+        y = np.zeros(size)
+        for b, start in enumerate(starts):
+            count = len(times)
+            zs = np.empty((count + 1, 2 * n))
+            ys = np.empty((count, size))
+            zs[0] = z
+            for j in range(count):
+                g = zmap @ z
+                rhs = g[:size]
+                rhs += r0[j]
+                np.negative(rhs, out=rhs)
+                y = solve(rhs)
+                after = zs[j + 1]
+                np.add(z[:n], y[:n], out=after[:n])
+                after[n:] = z[n:] + pm0[j] + g[size:] + px @ y
+                ys[j] = y
+                z = after
+            z = z.copy()
+            # diagnostics of the block, vectorized over its steps; with them, the next
+            # block's offsets (one call)
+            con = (self._con @ np.concatenate([zs[:-1], ys], axis=1).T).T + r0[:count, n:]
+            q_from, q_to = zs[:-1, :n], zs[1:, :n]
+            qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
+            following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
+            r0_next, pm0_next, e = self._block(following, qk, qk1, times)
+            energy[start : start + count] = e
+            violation[start : start + count] = np.max(np.abs(con), axis=1, initial=0.0)
+            saved = (start + np.arange(count) + 1) % k == 0
+            if save_states:
+                keep_q.append(zs[1:, :n][saved])
+                keep_p.append(zs[1:, n:][saved])
+                keep_mu.append(ys[saved][:, n:])
+                keep_con.append(con[saved])
+                if nodal:
+                    impulse = (self.imp @ ys.T).T
+                    scale = np.full(count, share)
+                    if start == 0:
+                        scale[0] = share / (1.0 - share)
+                    keep_node.append((zs[1:, n:] - scale[:, None] * impulse)[saved])
+            checks.append((zs[-2], ys[-1], times[-1]))
+            times = following
+            if self.driven:
+                r0, pm0 = r0_next, pm0_next
+            else:
+                r0 = np.broadcast_to(self.r0, (len(times), size))
+                pm0 = np.broadcast_to(self.pm0, (len(times), n))
+        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
+        worst = self._check_steps(zc, yc, tc)
+        if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
+            raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+        return dict(
+            z=z,
+            y=y,
+            energy=energy[k - 1 :: k],
+            violation=violation.reshape(-1, k).max(axis=1),
+            q=np.concatenate(keep_q) if save_states else None,
+            p=np.concatenate(keep_p) if save_states else None,
+            mu=np.concatenate(keep_mu) if save_states else None,
+            con=np.concatenate(keep_con) if save_states else None,
+            node=np.concatenate(keep_node) if (save_states and nodal) else None,
+        )
+
+
+def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rtol=1e-11):
+    """The :class:`SparseAffineMap` of ``system`` (a packed interconnection), or raise
+    :class:`NotSparseAffine` saying why not (not an interconnection, a staged rule, not
+    affine, a singular step Jacobian)."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spla
+
+    if not hasattr(system, "row_subsystems"):
+        raise NotSparseAffine("not an interconnection")
+    n, size = system.n, unknown_count(system, rule)
+    seeds, seed_of, row_of, col_of = _pattern(system, rule)
+    rng = np.random.default_rng(20261125)
+    scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
+    w_rand = scale * rng.uniform(-1.0, 1.0, 2 * n + size)
+    driven = bool(system.time_dependent)
+    t1 = t0 + 0.37 * (1.0 + abs(t0)) if driven else t0
+    bases = np.stack([np.zeros_like(w_rand), w_rand, np.zeros_like(w_rand)])
+    times = np.array([t0, t1, t1], dtype=np.float64)
+    h64 = np.float64(h)
+    values, jvps = _probe(system, rule, scheme, h64, bases, times, seeds)
+    values = [np.asarray(v) for v in values]
+    jvps = [np.asarray(v) for v in jvps]
+    # stacked outputs: residual rows [0, U), momentum rows U + [0, n), impulse U + n + …
+    out = [np.concatenate([jvps[0][b], jvps[1][b]], axis=1) for b in range(3)]
+    imp = [jvps[2][b] for b in range(3)]
+    if not all(np.all(np.isfinite(o)) for o in out):
+        raise NotSparseAffine("the step equations are not finite at the probe points")
+    ref = max(1.0, float(np.max(np.abs(out[0]))))
+    if np.max(np.abs(out[1] - out[0])) > detect_rtol * ref or np.max(
+        np.abs(imp[1] - imp[0])
+    ) > detect_rtol * max(1.0, float(np.max(np.abs(imp[0])))):
+        raise NotSparseAffine("the step equations have a non-constant Jacobian")
+    vals = out[0][seed_of, row_of]
+    nz = vals != 0.0
+    shape = (size + n, 2 * n + size)
+    full = sp.csr_matrix((vals[nz], (row_of[nz], col_of[nz])), shape=shape)
+    # the pattern and affinity: f(w) − f(0) = J w at the random point, same time
+    f_w = np.concatenate([values[0][1], values[1][1]])
+    f_0 = np.concatenate([values[0][2], values[1][2]])
+    bound = ref * np.max(np.abs(w_rand)) + np.abs(f_0)
+    if np.any(np.abs(f_w - f_0 - full @ w_rand) > detect_rtol * np.maximum(bound, 1.0)):
+        raise NotSparseAffine("the step equations are not affine (or not of the parts' pattern)")
+    impulse_rows = row_of < size + n  # impulse: same columns as the momentum rows
+    mom = (row_of >= size) & impulse_rows
+    ivals = imp[0][seed_of[mom], row_of[mom] - size]
+    inz = ivals != 0.0
+    impulse = sp.csr_matrix(
+        (ivals[inz], (row_of[mom][inz] - size, col_of[mom][inz] - 2 * n)), shape=(n, size)
+    )
+    jz, jx = full[:size, : 2 * n], full[:size, 2 * n :].tocsc()
+    pz, px = full[size:, : 2 * n], full[size:, 2 * n :].tocsr()
+    try:
+        lu = spla.splu(jx, permc_spec="COLAMD")
+    except RuntimeError as exc:
+        raise NotSparseAffine(f"the step Jacobian is singular ({exc})") from None
+    r0 = np.asarray(values[0][0])
+    pm0 = np.asarray(values[1][0])
+    mats = (jz.tocsr(), jx, pz.tocsr(), px, impulse)
+    out = SparseAffineMap(system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds)
+    if driven:
+        _use_drivers(out, system, values, t1)
+    return out
+
+
+def _use_drivers(out, system, values, t1) -> None:
+    """Offsets from the time-dependent parts alone, if there are few and they give the
+    interconnection's offsets at ``t1`` exactly (checked here; else the whole residual)."""
+    subs = system.subsystems
+    driving = [i for i, s in enumerate(subs) if s.time_dependent]
+    if not driving or len(driving) > MAX_DRIVERS:
+        return
+    offsets, mu_start, mu_sizes, *_ = _structure(system)
+    coords = [np.arange(offsets[i], offsets[i + 1]) for i in driving]
+    rows = np.concatenate(
+        [np.concatenate([c, np.arange(mu_start[i], mu_start[i] + mu_sizes[i])])
+         for c, i in zip(coords, driving, strict=True)]
+    )  # fmt: skip
+    out.drivers = tuple(system._member(i) for i in driving)
+    out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
+    zeros = np.zeros((1, system.n))
+    r_t1, p_t1, _ = out._block(np.array([t1]), zeros, zeros, np.array([t1]))
+    same = np.array_equal(r_t1[0], np.asarray(values[0][2])) and np.array_equal(
+        p_t1[0], np.asarray(values[1][2])
+    )
+    if not same:
+        out.drivers = out.driver_rows = out.driver_coords = None
+
+
+class SparseAffineSolver(AffineSolver):
+    """Ask for the circuit-scale sparse affine path (chosen automatically for large
+    linear interconnections with ``solver=None``).
+
+    As :class:`~diracvi.AffineSolver` (``fallback``, ``detect_rtol``, ``verify_rtol``):
+    when the model is not an interconnection of linear parts, the rule has stages, or a
+    checkpoint is asked for, the run takes the dense affine map or the ``fallback``
+    instead, and ``traj.solver`` says which ran.
+    """
+
+
+def sparse_map(system, rule, scheme, h, q0, p0, t0, options):
+    """``(map, "sparse affine")`` or ``(None, why not)`` (see :func:`build`)."""
+    try:
+        found = build(
+            system, rule, scheme, h, np.asarray(q0), np.asarray(p0), float(t0),
+            options.detect_rtol, options.verify_rtol,
+        )  # fmt: skip
+    except NotSparseAffine as exc:
+        return None, f"the sparse affine path does not apply: {exc}"
+    return found, "sparse affine"

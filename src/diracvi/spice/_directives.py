@@ -1,0 +1,162 @@
+r"""Top-level directives (``.tran``, ``.ic``, ``.save``, …), one handler per card
+(:data:`DIRECTIVES`); ``.param``, ``.model`` and ``.subckt`` are read in every scope
+(:mod:`._scope`), ``.include``/``.lib``/``.control``/``.end`` with the lines
+(:mod:`._lines`).
+
+A handler is ``handler(reader, line, pos, kw)``; it sets the reader's fields or adds a
+note, and raises ``line.fail(…)`` for a line it cannot accept. What a transient run
+does not need is accepted with a note (``netlist.notes``).
+"""
+
+from __future__ import annotations
+
+import re
+
+from ._lines import card
+from ._values import number
+
+#: ngspice's nominal temperature, the only one diracvi's parts are written for
+NOMINAL_TEMPERATURE = 27.0
+
+
+def _tran(reader, line, pos, kw):
+    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``."""
+    args = [t for t in pos[1:] if t.lower() != "uic"]
+    uic = len(args) != len(pos) - 1
+    if len(args) < 2 or len(args) > 4 or kw:
+        raise line.fail("'.tran' expects TSTEP TSTOP [TSTART [TMAX]] [UIC]")
+    values = [reader.top.value(t, line, ".tran") for t in args]
+    step, stop, start, tmax = values + [0.0, None][len(values) - 2 :]
+    if not (step > 0 and stop > 0):
+        raise line.fail(f"'.tran' needs TSTEP > 0 and TSTOP > 0 (got {step:g}, {stop:g})")
+    if not 0.0 <= start < stop:
+        raise line.fail(f"'.tran' needs 0 ≤ TSTART < TSTOP (got TSTART={start:g}, TSTOP={stop:g})")
+    if tmax is not None and not tmax > 0:
+        raise line.fail(f"'.tran' needs TMAX > 0 (got {tmax:g})")
+    if reader.tran is not None:
+        raise line.fail(f"a second '.tran' (the first is {reader.tran_line.where}); keep one")
+    reader.tran, reader.tran_line, reader.uic = (step, stop), line, uic
+    reader.start, reader.tmax = start, tmax
+
+
+_IC_PAIR = re.compile(r"v\s*\(\s*([^)\s]+)\s*\)\s*=\s*(\{[^}]*\}|\S+)", re.IGNORECASE)
+
+
+def _ic(reader, line, pos, kw):
+    """``.ic V(node)=value …`` (node names as ngspice prints them: ``v(xa.n2)``)."""
+    body = line.text.split(None, 1)[1] if len(line.text.split(None, 1)) > 1 else ""
+    pairs = _IC_PAIR.findall(body)
+    if not pairs or _IC_PAIR.sub("", body).strip():
+        raise line.fail("'.ic' expects V(node)=value pairs")
+    for node, token in pairs:
+        reader.ic[node.lower()] = reader.top.value(token, line, f".ic v({node})")
+
+
+def _nodeset(reader, line, pos, kw):
+    reader.note(line, ".nodeset noted (an operating-point hint; the transient starts from .ic/IC=)")
+
+
+#: the ``.options`` tolerances a variable-step run meets (checked here, used by _tran)
+TOLERANCES = ("reltol", "abstol", "vntol", "chgtol", "trtol")
+
+
+def _options(reader, line, pos, kw):
+    for key, token in kw.items():
+        value = number(token)
+        if key in TOLERANCES:  # the variable-step control meets these (spice._tran)
+            value = reader.top.value(token, line, f".options {key}")
+            if not value > 0.0:
+                raise line.fail(f".options {key}={token} must be a positive number")
+        reader.options[key] = value if value is not None else token
+        if key == "temp":
+            _check_temperature(line, value)
+    reader.options.update({p.lower(): True for p in pos[1:]})
+    reader.note(
+        line,
+        f"{card(line)} read into netlist.options (reltol, abstol, vntol, chgtol, trtol are "
+        "used by variable-step runs; the rest tunes ngspice's solver)",
+    )
+
+
+def _temp(reader, line, pos, kw):
+    if len(pos) != 2 or kw:
+        raise line.fail("'.temp' expects one temperature in °C")
+    _check_temperature(line, reader.top.value(pos[1], line, ".temp"))
+
+
+def _check_temperature(line, value):
+    if value is None or value != NOMINAL_TEMPERATURE:
+        raise line.fail(
+            f"temperature {value} °C: diracvi's parts are written for 27 °C (ngspice's "
+            "default) and have no temperature dependence; remove it or set 27"
+        )
+
+
+def _save(reader, line, pos, kw):
+    if kw:
+        raise line.fail(f"'.save' takes vector names (v(node), i(Vname), @R1[i]), got {kw}")
+    reader.saves += [(token, line) for token in _vectors(line.text)]
+
+
+def _vectors(text: str) -> list[str]:
+    """The vector names of a ``.save`` line: ``v(a) i(v1) @r1[i] all a``."""
+    body = text.split(None, 1)[1] if len(text.split(None, 1)) > 1 else ""
+    return re.findall(r"[vi]\s*\([^)]*\)|@[^\s\[]+\[[^\]]*\]|[^\s,]+", body, re.IGNORECASE)
+
+
+def _global(reader, line, pos, kw):
+    reader.globals.update(p.lower() for p in pos[1:])
+
+
+def _title(reader, line, pos, kw):
+    reader.title = line.text.split(None, 1)[1] if len(line.text.split(None, 1)) > 1 else ""
+
+
+def _op(reader, line, pos, kw):
+    reader.op = True  # spice.operating_point() reports it; a transient starts from it
+    reader.note(
+        line,
+        ".op noted: spice.operating_point() gives the DC operating point; without UIC "
+        "the transient starts from it",
+    )
+
+
+def _noted(what):
+    def handler(reader, line, pos, kw):
+        reader.note(line, f"{card(line)} {what}")
+
+    return handler
+
+
+def _refused(why):
+    def handler(reader, line, pos, kw):
+        raise line.fail(f"directive {card(line)!r} is not supported: {why}")
+
+    return handler
+
+
+_OUTPUT = _noted("ignored (ngspice's printing/measuring; diracvi writes all saved vectors)")
+_ANALYSIS = _noted("ignored (another analysis; diracvi runs the transient)")
+
+#: card -> handler(reader, line, pos, kw)
+DIRECTIVES = {
+    ".tran": _tran,
+    ".ic": _ic,
+    ".nodeset": _nodeset,
+    ".options": _options,
+    ".option": _options,
+    ".opt": _options,
+    ".temp": _temp,
+    ".save": _save,
+    ".global": _global,
+    ".title": _title,
+    ".op": _op,
+    **dict.fromkeys((".four", ".print", ".plot", ".probe", ".meas", ".measure", ".width"), _OUTPUT),
+    **dict.fromkeys(
+        (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
+    ),
+    ".func": _refused("user functions; write the expression out in {…}"),
+    ".if": _refused("conditional netlists; keep one branch"),
+    ".csparam": _refused("control-language parameters; use .param"),
+    ".step": _refused("parameter steps; use `diracvi sweep`"),
+}

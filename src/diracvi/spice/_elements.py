@@ -1,0 +1,181 @@
+r"""Element lines, one handler per first letter (:data:`ELEMENTS`).
+
+Adding a netlist element means adding one handler here and one entry in the table.
+A handler has the shape
+
+    handler(ctx, name, pos, kw, line) -> (part, nodes)
+
+- ``ctx``: the :class:`~diracvi.spice._scope.Scope` the line is read in (the top level
+  or one subcircuit instance). It gives ``ctx.value(token, line, what)`` (a number or
+  ``{expression}`` over the visible ``.param``\ s), ``ctx.model(token, line)`` (a
+  visible ``.model``: ``(kind, params, its line)``), ``ctx.ref(element)`` (the part name
+  of another element of the same scope, for K, F, H), ``ctx.ic(node)`` (the ``.ic``
+  voltage of a node of the line), ``ctx.tran`` (``(TSTEP, TSTOP)`` or ``None``),
+  ``ctx.note(line, text)`` and ``ctx.circuit``.
+- ``name``: the part's name: the element's name at the top level; inside subcircuit
+  instances a dot-free unique name (``r:x1:x2:r1`` for ngspice's ``r.x1.x2.r1``).
+- ``pos``, ``kw``: the line's positional tokens (``pos[0]`` is the element's name as
+  written) and ``key=value`` pairs (keys lower-case), from :func:`~._lines.split`.
+- ``line``: the :class:`~._lines.Line`; ``raise line.fail("what is wrong; the fix")``.
+- returns the part and ``{pin: node}`` with the node names *as written on the line*
+  (the reader maps them into the instance's scope), or ``(None, {})`` for a line that
+  adds to ``ctx.circuit`` itself (K).
+"""
+
+from __future__ import annotations
+
+from .. import components as cp
+from ..components.diode import SPICE_ALIASES
+from ._controlled import cccs, ccvs, vccs, vcvs
+from ._devices import m_line, q_line
+from ._sources import source
+
+
+def _need(pos, count, line, form):
+    if len(pos) != count:
+        raise line.fail(f"expected '{form}', got {len(pos)} fields")
+
+
+def _two(ctx, pos, kw, line, form, extra=()):
+    """``Xname n+ n- value`` (or ``Xname n+ n- x=value``, ngspice's keyword form) with the
+    keywords ``extra``: the nodes and the value."""
+    letter = pos[0][0].lower()
+    if len(pos) == 3 and letter in kw:
+        kw = dict(kw)
+        pos = [*pos, kw.pop(letter)]
+    _need(pos, 4, line, form)
+    unknown = sorted(set(kw) - set(extra))
+    if unknown:
+        raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
+    return pos[1], pos[2], ctx.value(pos[3], line, f"{pos[0]} value")
+
+
+def _r(ctx, name, pos, kw, line):
+    a, b, r = _two(ctx, pos, kw, line, "Rname n+ n- value [ac=value]", ("ac",))
+    if "ac" in kw:  # ngspice: a resistance for the AC analysis only
+        ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
+    return cp.Resistor(r, name=name), {"p": a, "n": b}
+
+
+def _c(ctx, name, pos, kw, line):
+    a, b, c = _two(ctx, pos, kw, line, "Cname n+ n- value [IC=v]", ("ic",))
+    v0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else ctx.ic(a) - ctx.ic(b)
+    return cp.Capacitor(c, name=name, v0=v0), {"p": a, "n": b}
+
+
+def _l(ctx, name, pos, kw, line):
+    a, b, ell = _two(ctx, pos, kw, line, "Lname n+ n- value [IC=i]", ("ic",))
+    i0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
+    return cp.Inductor(ell, name=name, i0=i0), {"p": a, "n": b}
+
+
+def _k(ctx, name, pos, kw, line):
+    _need(pos, 4, line, "Kname Lname1 Lname2 k")
+    if kw:
+        raise line.fail(f"unsupported parameters {sorted(kw)} (form: 'Kname Lname1 Lname2 k')")
+    k = ctx.value(pos[3], line, "coupling")
+    ctx.circuit.add(cp.MutualInductance(ctx.ref(pos[1]), ctx.ref(pos[2]), k, name=name))
+    return None, {}
+
+
+def _v(ctx, name, pos, kw, line):
+    return cp.VoltageSource(source(ctx, pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
+
+
+def _i(ctx, name, pos, kw, line):
+    return cp.CurrentSource(source(ctx, pos, kw, line), name=name), {"p": pos[1], "n": pos[2]}
+
+
+def _d(ctx, name, pos, kw, line):
+    """``Dname anode cathode model [area] [OFF] [IC=v]`` with a ``.model NAME D(…)`` of
+    :data:`~diracvi.components.SPICE_PARAMETERS` (ngspice's names, aliases and defaults)."""
+    form = "Dname anode cathode model [area] [OFF] [IC=v]"
+    flags = [t for t in pos[4:] if t.lower() == "off"]
+    rest = [t for t in pos[4:] if t.lower() != "off"]
+    if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area"}:
+        raise line.fail(f"expected '{form}'")
+    kind, params, where = ctx.model(pos[3], line)
+    if kind != "D":
+        raise line.fail(f"model {pos[3]!r} ({where}) is a {kind} model, not a diode (D) model")
+    known = set(cp.SPICE_PARAMETERS) | set(SPICE_ALIASES)
+    refused = sorted(k for k in params if k not in known)
+    if refused:
+        raise line.fail(
+            f"diode model {pos[3]!r} ({where}) sets {refused}, which diracvi's diode does "
+            f"not have (it reads {', '.join(k.upper() for k in cp.SPICE_PARAMETERS)}); "
+            "remove them to run without"
+        )
+    area = ctx.value(rest[0] if rest else kw.get("area", "1"), line, "diode area")
+    ic = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
+    if flags:
+        ctx.note(line, f"{pos[0]} OFF: its junction starts the operating point at 0 V")
+        ctx.reader.off.add(name)
+    part = cp.spice_diode(params, name=name, area=area, ic=ic)
+    return part, {"p": pos[1], "n": pos[2]}
+
+
+def _x(ctx, name, pos, kw, line):
+    """A subcircuit instance: expanded into ``ctx.circuit`` by the scope itself."""
+    ctx.instance(pos, kw, line)
+    return None, {}
+
+
+#: first letter -> handler (see the module docstring for the handler's shape). A method
+#: written in the old ``_Reader`` style, ``def _e(self, name, pos, kw, line)``, is such a
+#: handler with ``self`` = ``ctx``: ``ctx`` has ``value``, ``_need``, ``_two``, ``tran``,
+#: ``circuit``; read a model with ``ctx.model(token, line)`` and a node's ``.ic`` with
+#: ``ctx.ic(node)`` (today's ``self.models[...]`` and ``self.ic[...]``).
+ELEMENTS = {
+    "R": _r,
+    "C": _c,
+    "L": _l,
+    "K": _k,
+    "V": _v,
+    "I": _i,
+    "D": _d,
+    "E": vcvs,
+    "F": cccs,
+    "G": vccs,
+    "H": ccvs,
+    "M": m_line,
+    "Q": q_line,
+    "X": _x,
+}
+
+#: letters read after the other elements of their scope, because their lines name other
+#: elements (K its inductors; the controlled sources F and H their controlling V)
+LATE = ("K", "F", "H")
+
+#: element letters ngspice knows and diracvi does not build yet: what each one is, and
+#: whether it names a model (refused at the element line, which names the model's line)
+UNSUPPORTED = {
+    "B": ("a behavioural source (B)", False),
+    "J": ("a JFET", True),
+    "Z": ("a MESFET", True),
+    "S": ("a voltage-controlled switch", True),
+    "W": ("a current-controlled switch", True),
+    "T": ("a lossless transmission line", False),
+    "O": ("a lossy transmission line", True),
+    "U": ("a uniform distributed RC line", True),
+    "Y": ("a single lossy transmission line (TXL)", True),
+    "P": ("a coupled multiconductor line", True),
+    "A": ("an XSPICE code model", True),
+    "N": ("an OSDI (Verilog-A) device", True),
+}
+
+SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, Q, M (level 1) and X (subcircuits)"
+
+
+def unsupported(ctx, pos, line):
+    """The error for an element letter diracvi does not build, naming what is missing."""
+    letter = pos[0][0].upper()
+    what, has_model = UNSUPPORTED[letter]
+    model = ""
+    if has_model:
+        found = ctx.find_model(pos[1:])
+        if found is not None:
+            token, kind, where = found
+            model = f", model {token!r} ({kind}, {where})"
+    return line.fail(
+        f"element {pos[0]!r}: {what}{model} is not supported yet; diracvi reads {SUPPORTED}"
+    )

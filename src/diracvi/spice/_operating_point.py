@@ -1,0 +1,292 @@
+r"""The DC operating point of a circuit: the static solution a transient starts from.
+
+At a static state every acceleration vanishes and every position that enters the
+equations stands still. With ``p = ∂L/∂v(q, v)`` the Euler–Lagrange equations of a
+circuit's Lagrange–Dirac system then read, at ``t = t₀`` (sources at their initial values),
+
+    (∂p/∂q) v − ∂L/∂q(q, v) − F(q, v, t₀) − C(q, t₀)ᵀ μ = 0      (n equations)
+    C(q, t₀) v + b(q, t₀) = 0                                    (every one-form: KCL, sources)
+    v_j = 0   for each coordinate j the equations depend on      (capacitor charges …)
+
+in the unknowns ``v`` (the branch currents), ``μ`` (the constraint multipliers: the KCL
+ones are the node potentials ``φ``) and the charges ``q_j`` of the position-dependent
+coordinates. This is SPICE's DC analysis: a capacitor (``∂L/∂q = −q/C``) carries no
+current and takes the charge ``C V``; an inductor (``L = ½ l v²``) has ``V = 0`` and any
+current; a resistor and a source are their forces; a diode's flux-linkage velocity is its
+junction voltage, its charge velocity the static current ``i_D(V_j)`` (its junction charge
+is constant). The coordinates the equations do not depend on (every branch charge but a
+capacitor's, a diode's flux) keep their values.
+
+Newton's method solves it, with the junction voltages limited as in a transient step
+(:mod:`diracvi.solvers.limiting`). When plain Newton fails, SPICE's homotopies follow:
+**gmin stepping** (a conductance ``G`` from every node to ground, ``G = 10⁻² … 10⁻¹²``,
+then 0, each solve starting from the last) and **source stepping** (the equations'
+source terms — their value at the zero state — scaled by ``s`` from 0 to 1).
+
+``.ic`` node values *hold* their nodes during the operating point (SPICE without UIC):
+each held node gets one more unknown, the current that holds it, and the equation
+``φ_n = V_ic``; the transient then starts free from that state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..errors import ModelError
+from ..solvers.limiting import junctions, limit_junction
+
+
+@dataclass(frozen=True)
+class OperatingPoint:
+    """A DC operating point.
+
+    Attributes:
+        q0, p0: the consistent initial state for a transient (capacitor charges at the
+            node voltages, inductor and junction currents, junction charges).
+        voltages: node -> potential ``φ`` (SPICE's ``v(node)``).
+        currents: element label -> branch current (SPICE's ``i(name)``).
+        method: ``"newton"``, ``"gmin stepping"`` or ``"source stepping"``.
+        iterations: Newton iterations in all.
+    """
+
+    q0: np.ndarray
+    p0: np.ndarray
+    voltages: dict
+    currents: dict
+    method: str
+    iterations: int
+
+    def __getitem__(self, key: str) -> float:
+        want = key.replace(" ", "").lower()
+        for table in (self.voltages, self.currents):
+            for name, value in table.items():
+                label = f"v({name})" if table is self.voltages else f"i({name})"
+                if label.lower() == want:
+                    return value
+        raise KeyError(f"{key!r} is not a node voltage or branch current of this circuit")
+
+
+class _Equations:
+    """The static equations of ``assembly.system`` at ``t₀`` as functions of ``x``."""
+
+    def __init__(self, assembly, t0: float, hold: dict):
+        system = assembly.system
+        if any(system.holonomic_mask):
+            raise ModelError(
+                "operating point: the system has holonomic (position) constraints; the DC "
+                "analysis handles circuits (one-forms only). Start it from a given state."
+            )
+        self.assembly, self.system, self.t0 = assembly, system, float(t0)
+        self.n, self.m = system.n, system.m
+        self.q0 = jnp.asarray(assembly.q0, dtype=jnp.float64)
+        rows = {name: j for j, name in enumerate(system.constraint_names)}
+        self.kcl = np.asarray(
+            [rows[assembly.kcl_rows[node]] for node in assembly.nodes], dtype=np.int64
+        )
+        unknown_nodes = sorted(set(hold) - set(assembly.nodes))
+        if unknown_nodes:
+            raise ModelError(
+                f"operating point: .ic names nodes {unknown_nodes} that are not in the circuit "
+                f"(nodes: {list(assembly.nodes)})."
+            )
+        self.held = np.asarray([rows[assembly.kcl_rows[node]] for node in hold], dtype=np.int64)
+        self.held_values = jnp.asarray(list(hold.values()), dtype=jnp.float64)
+        self.dep = self._dependent()
+        self.size = self.n + self.m + len(self.dep) + len(self.held)
+        found = junctions(system)
+        self.junction_index, self.junction_limits = (
+            (np.zeros(0, np.int64), jnp.zeros((0, 3))) if found is None else found
+        )
+
+    def split(self, x):
+        n, m, k = self.n, self.m, len(self.dep)
+        return x[:n], x[n : n + m], x[n + m : n + m + k], x[n + m + k :]
+
+    def _static(self, q, v, mu):
+        system, t = self.system, self.t0
+        dp_v = jax.jvp(lambda qq: system.momentum(qq, v, t), (q,), (v,))[1]
+        dl_dq = jax.grad(system.lagrangian, argnums=0)(q, v, t)
+        force = system.force(q, v, t) if system.has_force else 0.0 * v
+        balance = dp_v - dl_dq - force - system.multiplier_force(q, mu, t)
+        forms = system.constraint_forms(q, t)
+        offset = system.constraint_offset(q, t)
+        velocity = forms @ v + (0.0 if offset is None else offset)
+        return balance, velocity
+
+    def _dependent(self) -> np.ndarray:
+        """The coordinates whose value enters the static equations (a capacitor's charge):
+        nonzero columns of their Jacobian in ``q`` at a generic probe."""
+        rng = np.random.default_rng(0)
+        v = jnp.asarray(rng.standard_normal(self.n))
+        mu = jnp.asarray(rng.standard_normal(self.m))
+        q = self.q0 + jnp.asarray(rng.standard_normal(self.n)) * 1e-3
+
+        def stacked(qq):
+            return jnp.concatenate(self._static(qq, v, mu))
+
+        jac = np.asarray(jax.jacfwd(stacked)(q))
+        return np.nonzero(np.any(np.abs(jac) > 0.0, axis=0))[0]
+
+    def residual(self, x, source, gmin):
+        v, mu, qd, hold_i = self.split(x)
+        q = self.q0.at[self.dep].set(qd)
+        balance, velocity = self._static(q, v, mu)
+        velocity = velocity.at[self.kcl].add(gmin * mu[self.kcl])
+        velocity = velocity.at[self.held].add(hold_i)
+        held = mu[self.held] - source * self.held_values
+        return jnp.concatenate([balance, velocity, v[self.dep], held])
+
+    def start(self, off):
+        """The first iterate: every junction at ``V_crit`` as SPICE seeds it, except
+        those of the parts named in ``off`` (``True``: all), which start at 0 V."""
+        x = (
+            jnp.zeros(self.size)
+            .at[self.n + self.m : self.n + self.m + len(self.dep)]
+            .set(self.q0[self.dep])
+        )
+        if len(self.junction_index):
+            coords = self.system.coords
+            seeded = np.asarray(
+                [
+                    not (off is True or coords[j].rsplit(".", 1)[0] in (off or ()))
+                    for j in self.junction_index
+                ]
+            )
+            seed = jnp.where(seeded, self.junction_limits[:, 1], 0.0)
+            x = x.at[self.junction_index].set(seed)
+        return x
+
+    def limit(self, x_old, x_new):
+        if not len(self.junction_index):
+            return x_new
+        j, lim = self.junction_index, self.junction_limits
+        v = limit_junction(x_new[j], x_old[j], lim[:, 0], lim[:, 1], lim[:, 2])
+        return x_new.at[j].set(v)
+
+
+def _newton(eqs, residual, jacobian, x, max_iterations=100):
+    """Newton with junction limiting; ``(x, converged, iterations)``."""
+    polish = 0
+    for it in range(1, max_iterations + 1):
+        r = np.asarray(residual(x))
+        jac = np.asarray(jacobian(x))
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+            return x, False, it
+        try:
+            dx = np.linalg.solve(jac, -r)
+        except np.linalg.LinAlgError:
+            return x, False, it
+        if not np.all(np.isfinite(dx)):
+            return x, False, it
+        x_new = eqs.limit(x, x + dx)
+        small = np.max(np.abs(dx)) <= 1e-13 * max(np.max(np.abs(np.asarray(x_new))), 1e-300)
+        x = x_new
+        if small:  # then two more iterations: quadratic convergence takes every entry
+            polish += 1  # to round-off, whatever its size against the largest
+            if polish > 2:
+                return x, True, it
+    return x, False, max_iterations
+
+
+METHODS = ("newton", "gmin stepping", "source stepping")
+
+
+def operating_point(
+    assembly, *, t0: float = 0.0, hold=None, off=False, methods=METHODS
+) -> OperatingPoint:
+    """The DC operating point of a circuit (see the module docstring).
+
+    Args:
+        assembly: a built circuit (:class:`~diracvi.components.Assembly`, or a
+            :class:`~diracvi.spice.Netlist`).
+        t0: the time at which the sources are evaluated.
+        hold: ``{node: voltage}`` held during the solve (SPICE's ``.ic`` without UIC).
+        off: the names of parts whose junctions start off (0 V) instead of at
+            ``V_crit`` (SPICE's ``OFF``), or ``True`` for all.
+        methods: the methods tried, in order (default SPICE's: Newton, gmin stepping,
+            source stepping); a subset forces one (each reaches the same point).
+
+    Raises:
+        ModelError: when no method converges, or the static equations are singular (a
+            node reached only through capacitors, a loop of inductors and voltage sources).
+    """
+    assembly = getattr(assembly, "assembly", assembly)
+    if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(assembly.system)):
+        raise ModelError("operating point: not available under jax transformations; use UIC.")
+    eqs = _Equations(assembly, t0, dict(hold or {}))
+
+    @jax.jit
+    def residual(x, source, gmin):
+        return eqs.residual(x, source, gmin)
+
+    jacobian = jax.jit(jax.jacfwd(residual))
+    zero = np.asarray(residual(jnp.zeros(eqs.size), 1.0, 0.0))
+    x0 = eqs.start(off)
+    total = 0
+
+    def solve(x, source, gmin):
+        nonlocal total
+        shift = (1.0 - source) * zero  # source stepping: the source terms scaled by s
+
+        x, ok, it = _newton(
+            eqs,
+            lambda y: residual(y, source, gmin) - shift,
+            lambda y: jacobian(y, source, gmin),
+            x,
+        )
+        total += it
+        return x, ok
+
+    unknown = sorted(set(methods) - set(METHODS))
+    if unknown or not methods:
+        raise ModelError(f"operating point: methods={methods!r}; choose from {METHODS}.")
+    ok, method = False, None
+    if "newton" in methods:
+        x, ok = solve(x0, 1.0, 0.0)
+        method = "newton"
+    if not ok and "gmin stepping" in methods:
+        method = "gmin stepping"
+        x = x0
+        for gmin in [*(10.0**-k for k in range(2, 13)), 0.0]:
+            x, ok = solve(x, 1.0, gmin)
+            if not ok:
+                break
+    if not ok and "source stepping" in methods:  # the increment shrinks on failure
+        method = "source stepping"
+        x, s, step = jnp.zeros(eqs.size), 0.0, 0.1
+        ok = True
+        while s < 1.0:
+            trial = min(1.0, s + step)
+            x_try, good = solve(x, trial, 0.0)
+            if good:
+                x, s, step = x_try, trial, min(2.0 * step, 0.5)
+            else:
+                step /= 4.0
+                if step < 1e-6:
+                    ok = False
+                    break
+    if not ok:
+        jac = np.asarray(jacobian(x0, 1.0, 0.0))
+        singular = np.linalg.matrix_rank(jac) < jac.shape[0]
+        why = (
+            "its equations are singular: a node reached only through capacitors or current "
+            "sources, or a loop of inductors and voltage sources, has no DC solution"
+            if singular
+            else "Newton, gmin stepping and source stepping all failed"
+        )
+        raise ModelError(
+            f"operating point of {getattr(assembly.system, 'name', 'the circuit')!r}: {why}. "
+            "Fix: add a DC path (a large resistor to ground), or give the initial state "
+            "with UIC (.tran … uic) and .ic / IC=."
+        )
+    v, mu, qd, _ = eqs.split(x)
+    q0 = np.asarray(eqs.q0.at[eqs.dep].set(qd))
+    p0 = np.asarray(assembly.system.momentum(jnp.asarray(q0), v, eqs.t0))
+    voltages = {node: float(mu[j]) for node, j in zip(assembly.nodes, eqs.kcl, strict=True)}
+    index = {c: j for j, c in enumerate(assembly.system.coords)}
+    currents = {label: float(v[index[c]]) for label, c in assembly.currents.items()}
+    return OperatingPoint(q0, p0, voltages, currents, method, total)

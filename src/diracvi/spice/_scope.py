@@ -1,0 +1,287 @@
+r"""The scope a netlist line is read in: the top level, or one subcircuit instance.
+
+A :class:`Scope` is what element handlers see (``ctx`` in :mod:`._elements`): values
+over the visible parameters, the visible models and subcircuits, node names mapped into
+the instance (``m`` in ``XA.X1`` → ``xa.x1.m``), and the part names of its elements.
+:func:`read_body` reads a list of lines in a scope: its ``.subckt`` definitions, then
+its directives in order, then its elements (K lines last, after the inductors they
+couple); every problem is collected, each naming its line and, inside an instance, the
+instance chain (``in xa.x1: …``).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+
+from ..errors import ModelError
+from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
+from ._lines import Line, LineError, NetlistError, card, split
+from ._subckt import MAX_DEPTH, collect, instance_parts
+from ._values import ExpressionError, evaluate, number
+
+GROUNDS = ("0", "gnd")
+
+
+@dataclass
+class Model:
+    """A ``.model`` line: its type (upper-case), parameter tokens (evaluated on use)."""
+
+    name: str
+    kind: str
+    tokens: dict
+    line: Line
+    scope: Scope
+    used: bool = False
+
+    @property
+    def where(self) -> str:
+        return self.line.where
+
+
+@dataclass
+class Scope:
+    """Where a line is read (see the module docstring); ``path`` is the instance chain."""
+
+    reader: object
+    path: tuple = ()
+    pins: dict = field(default_factory=dict)
+    params: dict = field(default_factory=dict)
+    models: dict = field(default_factory=dict)
+    subckts: dict = field(default_factory=dict)
+    names: dict = field(default_factory=dict)  # element name (lower) -> part name
+
+    # ---------------------------------------------------------------- for handlers
+    @property
+    def circuit(self):
+        return self.reader.circuit
+
+    @property
+    def tran(self):
+        return self.reader.tran
+
+    def value(self, token: str, line: Line, what: str) -> float:
+        """A number (``4.7k``) or an expression (``{r*2}``, ``'r*2'``, ``r``)."""
+        x = number(token)
+        if x is not None:
+            return x
+        text = token[1:-1] if token[:1] in "{'" else token
+        try:
+            return evaluate(text, self.params)
+        except ExpressionError as exc:
+            raise line.fail(f"{what}: {exc}") from None
+
+    def _need(self, pos, count, line, form):
+        """``raise line.fail`` unless the line has ``count`` positional fields."""
+        _need(pos, count, line, form)
+
+    def _two(self, pos, kw, line, form, extra=()):
+        """``Xname n+ n- value [extra=…]``: ``(n+, n-, value)``."""
+        return _two(self, pos, kw, line, form, extra)
+
+    def model(self, token: str, line: Line):
+        """The visible ``.model`` named ``token``: ``(kind, {param: value}, where)``."""
+        model = self.models.get(token.lower())
+        if model is None:
+            known = sorted(self.models) or "none"
+            raise line.fail(
+                f"model {token!r} is not defined (models here: {known}); add a '.model "
+                f"{token} TYPE(…)' line"
+            )
+        model.used = True
+        params = {
+            key: model.scope.value(tok, model.line, f".model {model.name} {key}")
+            for key, tok in model.tokens.items()
+        }
+        return model.kind, params, model.where
+
+    def find_model(self, tokens):
+        """The first of ``tokens`` naming a visible model: ``(token, kind, where)``."""
+        for token in tokens:
+            model = self.models.get(token.lower())
+            if model is not None:
+                model.used = True
+                return token, model.kind, model.where
+        return None
+
+    def ref(self, element: str) -> str:
+        """The part name of element ``element`` of this scope (for K, F, H)."""
+        entry = self.names.get(element.lower())
+        return entry[0] if entry else self.part_name(element)
+
+    def node(self, local: str) -> str:
+        """A node of a line in this scope → its circuit-wide name (lower-case)."""
+        n = local.lower()
+        if n in GROUNDS or n in self.reader.globals:
+            return n
+        if n in self.pins:
+            return self.pins[n]
+        return ".".join((*self.path, n))
+
+    def ic(self, local: str) -> float:
+        """The ``.ic v(node)=…`` voltage of a node of this scope (0 if none)."""
+        return self.reader.ic.get(self.node(local), 0.0)
+
+    def note(self, line: Line, text: str) -> None:
+        chain = f" in {'.'.join(self.path)}" if self.path else ""
+        note = f"{line.where}{chain}: {text}"
+        if note not in self.reader.notes:
+            self.reader.notes.append(note)
+
+    # --------------------------------------------------------------- names
+    def display(self, element: str) -> str:
+        """ngspice's name of an element of this scope (``v.xa.x1.v1``)."""
+        if not self.path:
+            return element
+        return ".".join((element[0], *self.path, element)).lower()
+
+    def part_name(self, element: str) -> str:
+        """The part's name: the display name with ':' for '.' (parts' names have no dots)."""
+        return self.display(element).replace(".", ":")
+
+    # ------------------------------------------------------------ instances
+    def instance(self, pos, kw, line) -> None:
+        """Expand ``Xname n… SUB [params:] a=…`` into the circuit."""
+        nodes, name, overrides = instance_parts(pos, kw, line)
+        sub = self.subckts.get(name)
+        if sub is None:
+            known = sorted(self.subckts) or "none"
+            raise line.fail(
+                f"subcircuit {name!r} is not defined (subcircuits here: {known}); add "
+                f"'.subckt {name} pin… ' … '.ends'"
+            )
+        if len(nodes) != len(sub.pins):
+            raise line.fail(
+                f"subcircuit {name!r} ({sub.line.where}) has {len(sub.pins)} pins "
+                f"{list(sub.pins)}, the instance gives {len(nodes)} nodes {nodes}"
+            )
+        unknown = sorted(set(overrides) - set(sub.defaults))
+        if unknown:
+            raise line.fail(
+                f"subcircuit {name!r} has no parameters {unknown} (it has "
+                f"{sorted(sub.defaults) or 'none'}; declare them on its '.subckt' line "
+                "after 'params:')"
+            )
+        path = (*self.path, pos[0].lower())
+        if len(path) > MAX_DEPTH:
+            raise line.fail(f"instances nested {MAX_DEPTH} deep: does {name!r} contain itself?")
+        params = dict(self.params)
+        for key, token in sub.defaults.items():
+            if key in overrides:  # the instance's value, where the instance is
+                params[key] = self.value(overrides[key], line, f"parameter {key}")
+            else:  # the default, with the parameters before it
+                child = Scope(self.reader, path, params=params)
+                params[key] = child.value(token, sub.line, f"parameter {key}")
+        scope = Scope(
+            self.reader,
+            path,
+            pins={p: self.node(n) for p, n in zip(sub.pins, nodes, strict=True)},
+            params=params,
+            models=dict(self.models),
+            subckts=dict(self.subckts),
+        )
+        sub.used.append(line)
+        read_body(scope, sub.body)
+
+
+# ------------------------------------------------------------------- reading
+def read_body(scope: Scope, lines: list[Line]) -> None:
+    """Read ``lines`` in ``scope``: definitions, directives in order, then elements."""
+    reader = scope.reader
+    rest, defs = collect(lines, reader.problems)
+    scope.subckts.update(defs)
+    elements, couplings = [], []
+    for line in rest:
+        if line.text.startswith("."):
+            _guard(scope, line, lambda ln=line: _directive(scope, ln))
+        elif line.text[0].upper() in LATE:
+            couplings.append(line)
+        else:
+            elements.append(line)
+    for line in elements + couplings:
+        _guard(scope, line, lambda ln=line: _element(scope, ln))
+
+
+def _guard(scope: Scope, line: Line, action) -> None:
+    """Run ``action``; a problem is recorded (with the instance chain), not raised."""
+    try:
+        action()
+    except LineError as exc:  # the instance chain, for a line of this scope's body
+        chain = ".".join(scope.path) if exc.line is line else ""
+        scope.reader.problems.add(exc, chain)
+    except NetlistError as exc:
+        scope.reader.problems.add(exc)
+    except ModelError as exc:  # a part refusing its values: the line's problem
+        scope.reader.problems.add(line.fail(str(exc)), ".".join(scope.path))
+
+
+def _directive(scope: Scope, line: Line) -> None:
+    word = card(line)
+    if word == ".param":
+        pos, kw = split(line)
+        if pos[1:]:
+            raise line.fail(f"'.param' expects name=value pairs, got {pos[1:]}")
+        for key, token in kw.items():
+            if not scope.path and key in scope.reader.overrides:
+                continue  # read(..., params=) wins over the netlist's own value
+            scope.params[key] = scope.value(token, line, f".param {key}")
+        return
+    if word == ".model":
+        _model(scope, line)
+        return
+    if word == ".ic" and scope.path:  # the instance's nodes, by their scoped names
+        body = line.text.split(None, 1)[1] if len(line.text.split()) > 1 else ""
+        pairs = re.findall(r"v\s*\(\s*([^)\s]+)\s*\)\s*=\s*(\{[^}]*\}|\S+)", body, re.I)
+        if not pairs:
+            raise line.fail("'.ic' expects V(node)=value pairs")
+        for node, token in pairs:  # a top-level .ic of the same node wins, as in ngspice
+            value = scope.value(token, line, f".ic v({node})")
+            scope.reader.ic.setdefault(scope.node(node), value)
+        return
+    if scope.path:
+        raise line.fail(
+            f"directive {word!r} inside a subcircuit (only .param, .model, .ic and .subckt "
+            "may be there); move it outside the '.subckt … .ends'"
+        )
+    scope.reader.directive(line)
+
+
+def _model(scope: Scope, line: Line) -> None:
+    m = re.match(r"\.model\s+(\S+)\s+([A-Za-z_]\w*)\s*\(?(.*?)\)?\s*$", line.text, re.I | re.S)
+    if m is None:
+        raise line.fail("'.model' expects NAME TYPE(param=value …)")
+    name, kind = m.group(1).lower(), m.group(2).upper()
+    pos, kw = split(line.with_text(m.group(3)))
+    kw.update({flag.lower(): "1" for flag in pos})  # flags such as ltra's 'steplimit'
+    first = scope.models.get(name)
+    if first is not None and first.scope is scope:
+        raise line.fail(f"model {m.group(1)!r} is defined twice (first {first.where})")
+    model = Model(name, kind, kw, line, scope)
+    scope.models[name] = model
+    scope.reader.all_models.append(model)
+
+
+def _element(scope: Scope, line: Line) -> None:
+    pos, kw = split(line)
+    if not pos:
+        raise line.fail("no element name (an element line starts with its name, e.g. R1)")
+    letter = pos[0][0].upper()
+    handler = ELEMENTS.get(letter)
+    if handler is None:
+        if letter in UNSUPPORTED:
+            raise unsupported(scope, pos, line)
+        raise line.fail(
+            f"element {pos[0]!r}: type {letter!r} is not a SPICE element (diracvi reads "
+            f"{SUPPORTED}; directives start with '.')"
+        )
+    key = pos[0].lower()
+    if key in scope.names:
+        raise line.fail(f"element {pos[0]!r} is defined twice (first {scope.names[key][1]})")
+    name = scope.part_name(pos[0])
+    scope.names[key] = (name, line.where)
+    part, nodes = handler(scope, name, pos, kw, line)
+    scope.reader.circuit.origin[name] = f"{line.where} ({scope.display(pos[0])})"
+    if part is None:
+        return
+    scope.reader.circuit.add(part, **{pin: scope.node(n) for pin, n in nodes.items()})
+    scope.reader.display[name] = scope.display(pos[0])

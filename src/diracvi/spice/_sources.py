@@ -1,0 +1,115 @@
+r"""Independent source specifications: ``[DC] value``, ``AC mag [phase]`` and a transient
+function ``SIN``/``PULSE``/``PWL``, in any order, as ngspice reads them.
+
+``V1 1 0 PULSE(0 1) AC 1`` and ``V1 1 0 DC 0 AC 1 SIN(0 1 1k)`` are both fine: the AC
+specification belongs to a small-signal analysis, so it is noted and left out; with a
+transient function, the DC value is the operating-point value, which ngspice replaces by
+the function's value at t = 0 in a transient, so the function alone drives the run.
+Defaults that ngspice takes from ``.tran`` (SIN's FREQ = 1/TSTOP; PULSE's TR, TF = TSTEP,
+PW, PER = TSTOP) are taken from it here too.
+"""
+
+from __future__ import annotations
+
+from .. import components as cp
+from ..errors import ModelError
+from ._lines import NetlistError
+
+FUNCTIONS = ("sin", "pulse", "pwl")
+#: transient functions ngspice knows and diracvi does not build (refused by name)
+OTHER_FUNCTIONS = ("exp", "sffm", "am", "trnoise", "trrandom", "external")
+_KEYWORDS = ("dc", "ac", "distof1", "distof2")
+#: other spellings ngspice accepts for a function (KiCad and eSim write SINE)
+ALIASES = {"sine": "sin"}
+
+
+def source(ctx, pos, kw, line):
+    """The waveform of a ``V``/``I`` line (``pos[3:]`` is the specification)."""
+    form = f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] [SIN(…) | PULSE(…) | PWL(…)]"
+    if len(pos) < 3:
+        raise line.fail(f"expected '{form}' (a source has two nodes)")
+    unknown = sorted(set(kw) - {"dc"})
+    if unknown:
+        raise line.fail(
+            f"unsupported parameters {unknown} on a source (form: '{form}'; PWL's "
+            "r=/td= options are not supported)"
+        )
+    rest = pos[3:]
+    fn = None
+    dc = ctx.value(kw["dc"], line, "DC value") if "dc" in kw else None  # ngspice's DC=3
+    args: list[str] = []
+    k = 0
+    while k < len(rest):
+        word = ALIASES.get(rest[k].lower(), rest[k].lower())
+        if word == "dc":
+            if k + 1 >= len(rest) or _keyword(rest[k + 1]):
+                raise line.fail("'DC' without a value (write DC 1.5)")
+            dc, k = ctx.value(rest[k + 1], line, "DC value"), k + 2
+        elif word in ("ac", "distof1", "distof2"):
+            k += 1
+            taken = 0
+            while k < len(rest) and taken < 2 and not _keyword(rest[k]):
+                k, taken = k + 1, taken + 1
+            ctx.note(line, f"{word.upper()} specification ignored (a transient does not use it)")
+        elif word in FUNCTIONS or word in OTHER_FUNCTIONS:
+            if fn is not None:
+                raise line.fail(f"two transient functions ({fn.upper()} and {word.upper()})")
+            if word in OTHER_FUNCTIONS:
+                raise line.fail(
+                    f"source function {rest[k]!r} is not supported (diracvi builds DC, SIN, "
+                    "PULSE and PWL sources); rewrite it as a PWL"
+                )
+            fn, k = word, k + 1
+            while k < len(rest) and not _keyword(rest[k]):
+                args.append(rest[k])
+                k += 1
+        elif dc is None and k == 0:
+            dc, k = ctx.value(rest[0], line, "value"), 1
+        else:
+            raise line.fail(f"unexpected {rest[k]!r} in a source specification (form: '{form}')")
+    if fn is None:
+        if dc is None:
+            dc = 0.0  # ngspice: a source with only an AC spec is 0 in a transient
+        return cp.DC(dc)
+    values = [ctx.value(t, line, fn.upper()) for t in args]
+    try:
+        return _function(ctx, fn, values, line)
+    except NetlistError:
+        raise
+    except ModelError as exc:
+        raise line.fail(str(exc)) from None
+
+
+def _keyword(token: str) -> bool:
+    word = ALIASES.get(token.lower(), token.lower())
+    return word in _KEYWORDS or word in FUNCTIONS or word in OTHER_FUNCTIONS
+
+
+def _function(ctx, fn, args, line):
+    step, stop = ctx.tran or (None, None)
+    if fn == "sin":
+        if not 2 <= len(args) <= 6:
+            raise line.fail("SIN(VO VA [FREQ [TD [THETA [PHASE]]]]) takes 2 to 6 values")
+        if len(args) < 3 or args[2] == 0.0:  # ngspice: FREQ 0 or absent → 1/TSTOP
+            if stop is None:
+                raise line.fail("SIN FREQ defaults to 1/TSTOP, but there is no '.tran'; give it")
+            args[2:3] = [1.0 / stop]
+        return cp.Sine(*args)
+    if fn == "pulse":
+        if not 2 <= len(args) <= 8:
+            raise line.fail("PULSE(V1 V2 [TD [TR [TF [PW [PER [NP]]]]]]) takes 2 to 8 values")
+        defaults = [0.0, step, step, stop, stop]
+        full = (
+            args[:2]
+            + [
+                args[2 + j] if 2 + j < len(args) and (j == 0 or args[2 + j] > 0) else d
+                for j, d in enumerate(defaults)
+            ]
+            + args[7:]
+        )
+        if any(x is None for x in full):
+            raise line.fail("PULSE defaults TR, TF, PW, PER come from '.tran'; add one")
+        return cp.Pulse(*full)
+    if len(args) < 2 or len(args) % 2:
+        raise line.fail("PWL(T1 V1 T2 V2 …) takes pairs of values")
+    return cp.PWL(args[0::2], args[1::2])

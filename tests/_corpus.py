@@ -1,0 +1,401 @@
+"""The public-netlist corpus: decks, their fine ngspice references, and the comparison.
+
+``tests/data/netlists/`` holds public SPICE decks written by others, unedited (sources in
+``SOURCES.md``), and ``reference/<deck>.csv.gz``: ngspice 39 at the deck's own ``.tran``
+but with ``reltol=1e-7`` and ``TMAX = TSTEP/50``, linearly interpolated onto the TSTEP
+grid ``TSTART + k·TSTEP`` (long runs keep every m-th grid point, at most ``MAX_POINTS``).
+``EXPECTED.toml`` says what diracvi does with each deck today.
+
+Names: ngspice's raw file calls a node voltage ``v(n)`` and a branch current ``i(name)``,
+as diracvi does; they are matched case-insensitively. Kept are the node voltages and the
+currents of voltage sources and inductors (:func:`kept`). An element inside a subcircuit,
+which ngspice 39 calls ``<letter>.<instance>.<name>`` (``i(v.x1.vm)``), is also looked up
+as ``i(<instance>.<name>)``.
+
+Agreement: for each reference signal ``s``, ``max_k |diracvi(t_k) − s(t_k)| ≤ TOL · max_k
+|s(t_k)|`` over the grid (diracvi's waveform interpolated linearly onto the grid times).
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import re
+import shutil
+import subprocess
+import tempfile
+import time
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+DATA = Path(__file__).parent / "data" / "netlists"
+REFERENCES = DATA / "reference"
+EXPECTED = DATA / "EXPECTED.toml"
+TOL = 1e-3
+MAX_POINTS = 2001
+RELTOL = 1e-7
+TMAX_DIVISOR = 50
+
+
+# ------------------------------------------------------------------ the deck's .tran
+
+
+@dataclass(frozen=True)
+class Tran:
+    """A transient request: ``tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``."""
+
+    step: float
+    stop: float
+    start: float = 0.0
+    tmax: float | None = None
+    uic: bool = False
+
+    def grid(self) -> np.ndarray:
+        """The output times ``TSTART + k·TSTEP`` up to TSTOP, at most ``MAX_POINTS``."""
+        n = int(np.floor((self.stop - self.start) / self.step * (1 + 1e-12))) + 1
+        every = max(1, int(np.ceil((n - 1) / (MAX_POINTS - 1))))
+        k = np.arange(0, n, every)
+        if k[-1] != n - 1:
+            k = np.append(k, n - 1)
+        return self.start + k * self.step
+
+
+_SCALE = {"t": 1e12, "g": 1e9, "meg": 1e6, "k": 1e3, "mil": 25.4e-6, "m": 1e-3, "u": 1e-6,
+          "µ": 1e-6, "n": 1e-9, "p": 1e-12, "f": 1e-15}  # fmt: skip
+_NUMBER = re.compile(r"^([+-]?(?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)(meg|mil|[tgkmuµnpf])?", re.I)
+
+
+def spice_number(token: str) -> float:
+    """A SPICE number with its scale suffix (letters after it ignored): ``2ns`` → 2e-9."""
+    m = _NUMBER.match(token.strip())
+    if not m:
+        raise ValueError(f"not a SPICE number: {token!r}")
+    return float(m.group(1)) * _SCALE.get((m.group(2) or "").lower(), 1.0)
+
+
+def logical_lines(text: str) -> list[str]:
+    """The deck's lines after the title, continuations joined, comments dropped."""
+    lines: list[str] = []
+    for raw in text.splitlines()[1:]:
+        body = re.split(r";| \$ |\t\$ ", raw, maxsplit=1)[0].strip()
+        if not body or body.startswith("*"):
+            continue
+        if body.startswith("+") and lines:
+            lines[-1] += " " + body[1:].strip()
+        else:
+            lines.append(body)
+    return lines
+
+
+def find_tran(text: str) -> Tran:
+    """The deck's ``.tran`` line, else the first ``tran`` command in its ``.control`` block."""
+    control = False
+    found = None
+    for line in logical_lines(text):
+        low = line.lower()
+        if low.startswith(".control"):
+            control = True
+            continue
+        if low.startswith(".endc"):
+            control = False
+            continue
+        words = low.replace(",", " ").split()
+        if not control and words[0] == ".tran":
+            return _tran(words[1:])
+        if control and words[0] == "tran" and found is None:
+            found = _tran(words[1:])
+    if found is None:
+        raise ValueError("the deck has no .tran and no tran command in .control")
+    return found
+
+
+def _tran(words: list[str]) -> Tran:
+    uic = "uic" in words
+    nums = [spice_number(w) for w in words if w != "uic"]
+    step, stop = nums[0], nums[1]
+    start = nums[2] if len(nums) > 2 else 0.0
+    tmax = nums[3] if len(nums) > 3 else None
+    return Tran(step, stop, start, tmax, uic)
+
+
+# ------------------------------------------------------------------ ngspice
+
+
+def strip_control(text: str) -> list[str]:
+    """The deck's physical lines up to ``.end``, without ``.control … .endc`` blocks."""
+    out, control = [], False
+    for raw in text.splitlines():
+        low = raw.strip().lower()
+        if low.startswith(".control"):
+            control = True
+            continue
+        if control:
+            control = not low.startswith(".endc")
+            continue
+        if re.fullmatch(r"\.end\b.*", low) and not low.startswith(".ends"):
+            break  # SPICE reads nothing after .end
+        out.append(raw)
+    return out
+
+
+def wrapper(text: str, tran: Tran, raw_out: Path, *, fine: bool = True) -> str:
+    """A deck that runs ``text``'s circuit at its own ``.tran``, refined when ``fine``
+    (``reltol=RELTOL``, ``TMAX = min(TSTEP/TMAX_DIVISOR, deck's TMAX)``), and writes every
+    vector to an ASCII raw file. The deck's own ``.control`` blocks are left out."""
+    if fine:
+        tmax = tran.step / TMAX_DIVISOR
+        if tran.tmax:
+            tmax = min(tmax, tran.tmax)
+        options = f"option reltol={RELTOL!r}"
+    else:
+        tmax = tran.tmax
+        options = ""
+    args = f"{tran.step!r} {tran.stop!r}"
+    if tmax is not None:
+        args += f" {tran.start!r} {tmax!r}"
+    elif tran.start:
+        args += f" {tran.start!r}"
+    if tran.uic:
+        args += " uic"
+    return "\n".join(
+        [
+            *strip_control(text),
+            ".control",
+            "set filetype=ascii",
+            options,
+            "save all",
+            f"tran {args}",
+            f"write {raw_out}",
+            ".endc",
+            ".end",
+            "",
+        ]
+    )
+
+
+def read_raw(path: Path) -> tuple[list[str], np.ndarray]:
+    """An ngspice ASCII raw file (one real plot): vector names and a (points, vectors) array."""
+    lines = path.read_text(errors="replace").splitlines()
+    nvars = int(next(x for x in lines if x.lower().startswith("no. variables:")).split(":")[1])
+    npts = int(next(x for x in lines if x.lower().startswith("no. points:")).split(":")[1])
+    i = next(k for k, x in enumerate(lines) if x.lower().startswith("variables:"))
+    names = [lines[i + 1 + j].split()[1] for j in range(nvars)]
+    j = next(k for k, x in enumerate(lines) if x.lower().startswith("values:"))
+    vals = " ".join(lines[j + 1 :]).split()
+    data = np.empty((npts, nvars))
+    pos = 0
+    for p in range(npts):
+        pos += 1  # the point index
+        data[p] = [float(v) for v in vals[pos : pos + nvars]]
+        pos += nvars
+    return names, data
+
+
+def run_ngspice(deck: Path, *, fine: bool = True, timeout: float = 900):
+    """Run ngspice 39 on ``deck`` (see :func:`wrapper`): ``(names, data, seconds)``."""
+    text = deck.read_text(errors="replace")
+    tran = find_tran(text)
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = Path(tmp) / "out.raw"
+        cir = Path(tmp) / "wrapper.cir"
+        cir.write_text(wrapper(text, tran, raw, fine=fine))
+        t0 = time.perf_counter()
+        # run beside the deck, so that its relative .include files are found
+        proc = subprocess.run(
+            [shutil.which("ngspice") or "/usr/bin/ngspice", "-b", str(cir)],
+            cwd=deck.parent,
+            capture_output=True,
+            text=True,
+            timeout=timeout,
+        )
+        seconds = time.perf_counter() - t0
+        if not raw.exists():
+            tail = (proc.stdout[-1500:] + "\n" + proc.stderr[-1500:]).strip()
+            raise RuntimeError(f"ngspice wrote no results for {deck.name}:\n{tail}")
+        names, data = read_raw(raw)
+    return names, data, seconds
+
+
+def kept(name: str) -> bool:
+    """Node voltages ``v(n)`` and the branch currents ``i(name)`` of voltage sources and
+    inductors (ngspice's raw-file names). Left out: the currents of other branch
+    elements (E, H, B, XSPICE ports), device-internal nodes (``#``) and the helper nodes
+    ngspice makes for ``par('…')`` expressions in ``.measure`` (``pa_00``, …)."""
+    m = re.fullmatch(r"([vi])\((.+)\)", name.lower())
+    if not m or "#" in m.group(2):
+        return False
+    kind, what = m.groups()
+    if kind == "i":
+        return what[0] in "vl"
+    return not re.fullmatch(r"pa_\d+", what)
+
+
+def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
+    """The fine ngspice run of ``deck`` on its TSTEP grid: ``(t, {vector: values}, s)``."""
+    names, data, seconds = run_ngspice(deck)
+    tran = find_tran(deck.read_text(errors="replace"))
+    t = data[:, 0]
+    grid = tran.grid()
+    return (
+        grid,
+        {n: np.interp(grid, t, data[:, j]) for j, n in enumerate(names) if kept(n)},
+        seconds,
+    )
+
+
+def write_reference(path: Path, grid: np.ndarray, signals: dict[str, np.ndarray]) -> None:
+    buf = io.StringIO()
+    buf.write(",".join(["time", *signals]) + "\n")
+    np.savetxt(buf, np.column_stack([grid, *signals.values()]), delimiter=",", fmt="%.10g")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with gzip.open(path, "wt", compresslevel=9) as f:
+        f.write(buf.getvalue())
+
+
+def load_reference(name: str) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The committed reference of deck ``name``: ``(t, {ngspice vector: values})``."""
+    with gzip.open(REFERENCES / f"{name}.csv.gz", "rt") as f:
+        header = f.readline().strip().split(",")
+        data = np.loadtxt(f, delimiter=",", ndmin=2)
+    return data[:, 0], {h: data[:, j] for j, h in enumerate(header) if j}
+
+
+# ------------------------------------------------------------------ the comparison
+
+
+def load_expected() -> dict[str, dict]:
+    """``EXPECTED.toml``: deck name → ``{file, status, match?, slow?}``."""
+    with open(EXPECTED, "rb") as f:
+        return tomllib.load(f)
+
+
+def diracvi_keys(vector: str) -> list[str]:
+    """diracvi's candidate names for an ngspice vector (see the module docstring)."""
+    low = vector.lower()
+    keys = [low]
+    m = re.fullmatch(r"i\([a-z]\.(.+)\)", low)
+    if m:
+        keys.append(f"i({m.group(1)})")
+    return keys
+
+
+def compare(result, t: np.ndarray, ref: dict[str, np.ndarray]):
+    """Worst relative error over the reference signals: ``(worst, {vector: error}, missing)``.
+
+    ``error = max |diracvi − ngspice| / peak |ngspice|`` on the grid ``t``; ``missing``
+    lists the reference vectors diracvi does not report."""
+    have = {k.lower(): v for k, v in result.waveforms.items()}
+    rt = np.asarray(result.time, dtype=float)
+    errors, missing = {}, []
+    for vector, values in ref.items():
+        key = next((k for k in diracvi_keys(vector) if k in have), None)
+        if key is None:
+            missing.append(vector)
+            continue
+        mine = np.interp(t, rt, np.asarray(have[key], dtype=float))
+        if t[-1] > rt[-1] * (1 + 1e-9) or t[0] < rt[0] * (1 - 1e-9) - 1e-300:
+            errors[vector] = np.inf  # diracvi's run does not cover the grid
+            continue
+        peak = float(np.max(np.abs(values)))
+        err = float(np.max(np.abs(mine - values)))
+        errors[vector] = err / peak if peak > 0 else (0.0 if err <= 1e-12 else np.inf)
+    worst = max(errors.values(), default=np.inf)
+    return worst, errors, missing
+
+
+def elements(deck: Path) -> str:
+    """The element letters a deck uses (``X`` for subcircuit instances), e.g. ``CDRV``."""
+    letters = set()
+    text = "\n".join(strip_control(deck.read_text(errors="replace")))
+    for line in logical_lines(text):
+        c = line[0].upper()
+        if c.isalpha():
+            letters.add(c)
+    return "".join(sorted(letters))
+
+
+# ------------------------------------------------------------------ what a deck needs
+
+_BASIC = set("RCLKVID")
+_KNOWN_DIRECTIVES = {".tran", ".ic", ".param", ".model", ".options", ".option", ".opt", ".end",
+                     ".print", ".plot", ".save", ".ends"}  # fmt: skip
+_DIODE_BASIC = {"is", "n"}
+
+
+def needs(deck: Path) -> list[str]:
+    """What a deck uses beyond today's reader (R C L K V I D, ``.tran``, ``.ic``, ``.param``,
+    diode ``.model`` with IS and N, ``.options``): a deck-level survey for the table, found
+    by scanning its lines (the reader itself stops at the first problem)."""
+    text = deck.read_text(errors="replace")
+    out: list[str] = []
+
+    def add(item: str) -> None:
+        if item not in out:
+            out.append(item)
+
+    if re.search(r"^\s*\.control\b", text, re.I | re.M):
+        add(".control")
+    lines = _with_includes(logical_lines("\n".join(strip_control(text))), deck.parent)
+    tran = None
+    for line in lines:
+        low = line.lower()
+        head = low.split()[0]
+        if head.startswith("."):
+            if head == ".model":
+                words = re.findall(r"[a-z_0-9.#+-]+", low)
+                mtype = words[2] if len(words) > 2 else "?"
+                if mtype == "d":
+                    params = set(re.findall(r"([a-z_]\w*)\s*=", low)) - _DIODE_BASIC
+                    if params:
+                        add("diode " + "/".join(sorted(p.upper() for p in params)))
+                else:
+                    add(f".model {mtype.upper()}")
+            elif head == ".tran":
+                tran = _tran(low.replace(",", " ").split()[1:])
+            elif head not in _KNOWN_DIRECTIVES:
+                add({".meas": ".measure", ".inc": ".include"}.get(head, head))
+            continue
+        letter = head[0].upper()
+        if not letter.isalpha():
+            add(f"a line starting with {head[0]!r}")
+        elif letter not in _BASIC:
+            add(letter)
+        if letter in "VI":
+            if re.search(r"\bac\b", low):
+                add("AC spec")
+            for form in ("exp", "sffm", "am", "trnoise", "trrandom", "file"):
+                if re.search(rf"\b{form}\s*\(|\b{form}\s", low):
+                    add(form.upper())
+            if re.search(r"\b(pulse|sin|pwl)\s+[^(\s]", low):
+                add("source without ( )")
+            if re.search(r"\bpwl\b.*\b(td|r)\s*=", low):
+                add("PWL TD=/R=")
+            if re.search(r"\bsin\s*\(?\s*\S+\s+\S+\s+\S+\s+-", low):
+                add("SIN with TD < 0")
+    if tran is None:
+        add("tran in .control only")
+    elif tran.start:
+        add("TSTART")
+    if tran is not None and not tran.uic:
+        add("DC OP (no UIC)")
+    return out
+
+
+def _with_includes(lines: list[str], folder: Path, depth: int = 0) -> list[str]:
+    """``lines`` with each ``.include``/``.inc``/``.lib <file>`` of a local file spliced in
+    (an included file has no title line)."""
+    out: list[str] = []
+    for line in lines:
+        words = line.split()
+        if words[0].lower() in (".include", ".inc", ".lib") and len(words) == 2 and depth < 5:
+            path = folder / words[1].strip("'\"")
+            if path.is_file():
+                text = "* included\n" + path.read_text(errors="replace")
+                out.append(line)
+                out += _with_includes(logical_lines(text), path.parent, depth + 1)
+                continue
+        out.append(line)
+    return out

@@ -1,0 +1,151 @@
+"""The public-netlist corpus: decks written by others, run unedited, against fine ngspice.
+
+Each deck of ``tests/data/netlists/EXPECTED.toml`` goes through ``diracvi.spice.run(path)``
+at its own settings and is compared with its committed ngspice reference
+(``reference/<deck>.csv.gz``: reltol 1e-7, TMAX = TSTEP/50, on the TSTEP grid) to 1e-3 of
+each signal's peak; names and the comparison are described in ``tests/_corpus.py``.
+EXPECTED says what happens today, and the test fails on any change, either way:
+
+- ``agrees``: every reference signal is reported and within 1e-3 of its peak;
+- ``disagrees``: it runs and is off (a known accuracy gap): once it agrees, mark it so;
+- ``refused``: the run raises and the message contains ``match`` (the line and what is
+  missing); once the deck runs, the test fails and asks for EXPECTED to be updated.
+
+``python benchmarks/corpus.py`` prints the whole table; ``--write-expected`` rewrites
+EXPECTED from a run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import numpy as np
+import pytest
+
+import _corpus as corpus
+
+EXPECTED = corpus.load_expected()
+
+
+def _cases():
+    return [
+        pytest.param(name, marks=[pytest.mark.slow] if entry.get("slow") else [])
+        for name, entry in EXPECTED.items()
+    ]
+
+
+def _blob(data: bytes) -> str:
+    """Git's blob id of ``data`` (what ``git hash-object`` prints)."""
+    return hashlib.sha1(b"blob %d\0" % len(data) + data).hexdigest()
+
+
+def test_the_corpus_is_large_enough_and_every_deck_is_recorded():
+    sources = (corpus.DATA / "SOURCES.md").read_text()
+    assert len(EXPECTED) >= 30
+    for name, entry in EXPECTED.items():
+        assert (corpus.DATA / entry["file"]).is_file(), name
+        assert (corpus.REFERENCES / f"{name}.csv.gz").is_file(), name
+        assert f"`{name}`" in sources, f"{name} has no entry in SOURCES.md"
+        assert entry["status"] in ("agrees", "disagrees", "refused"), name
+        if entry["status"] == "refused":
+            assert entry.get("match"), f"{name}: a refused deck needs the message's substring"
+
+
+@pytest.mark.parametrize("name", list(EXPECTED))
+def test_decks_are_byte_for_byte_the_published_files(name):
+    # the blob ids are those of the files in their source repositories (SOURCES.md)
+    entry = EXPECTED[name]
+    assert _blob((corpus.DATA / entry["file"]).read_bytes()) == entry["blob"]
+
+
+@pytest.mark.parametrize("name", _cases())
+def test_deck_against_fine_ngspice(name):
+    from diracvi import spice
+
+    entry = EXPECTED[name]
+    t, ref = corpus.load_reference(name)
+    assert ref, f"{name}: the reference holds no signal"
+    update = "update tests/data/netlists/EXPECTED.toml (benchmarks/corpus.py --write-expected)"
+    try:
+        result = spice.run(corpus.DATA / entry["file"])
+    except Exception as exc:
+        message = f"{type(exc).__name__}: {exc}"
+        assert entry["status"] == "refused", (
+            f"{name} is expected to run ({entry['status']}) but raised: {message}"
+        )
+        assert entry["match"] in message, (
+            f"{name}: the error no longer says {entry['match']!r}; it says:\n{message}\n"
+            f"If the new message names the line and what is missing, {update}."
+        )
+        return
+    worst, errors, missing = corpus.compare(result, t, ref)
+    agrees = worst <= corpus.TOL and not missing
+    detail = (
+        f"worst {worst:.3g} of peak; per signal "
+        + ", ".join(f"{k} {v:.2g}" for k, v in errors.items())
+        + (f"; not reported by diracvi: {missing}" if missing else "")
+    )
+    if entry["status"] == "refused":
+        pytest.fail(
+            f"{name} now runs ({'agrees' if agrees else 'disagrees'}: {detail}); support has "
+            f"landed: {update}."
+        )
+    if entry["status"] == "disagrees":
+        assert not agrees, f"{name} now agrees with ngspice ({detail}): mark it 'agrees'."
+        assert np.isfinite(worst) or missing, detail
+        return
+    assert agrees, f"{name} no longer agrees with ngspice: {detail}"
+
+
+_QUICK_FRESH = {"ng_rc", "xy_rlc", "es_halfwave"}
+
+
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+@pytest.mark.parametrize(
+    "name",
+    [n if n in _QUICK_FRESH else pytest.param(n, marks=pytest.mark.slow) for n in EXPECTED],
+)
+def test_a_fresh_ngspice_run_reproduces_the_committed_reference(name):
+    # the references cannot go stale or be edited by hand unnoticed
+    t, committed = corpus.load_reference(name)
+    grid, fresh, _ = corpus.reference_from_run(corpus.DATA / EXPECTED[name]["file"])
+    np.testing.assert_allclose(grid, t, rtol=1e-9, atol=0)
+    assert set(fresh) == set(committed)
+    for vector, values in committed.items():
+        peak = max(float(np.max(np.abs(values))), 1e-300)
+        assert np.max(np.abs(fresh[vector] - values)) <= 1e-8 * peak, vector
+
+
+def test_the_rc_reference_is_the_exact_response():
+    # guards the harness end to end: ngspice's tests/general/rc.cir (R = 1, C = 1, PULSE(0 1)
+    # with TR = TSTEP = 0.1 by default) against the exact response to that ramp-and-hold
+    t, ref = corpus.load_reference("ng_rc")
+    tr = 0.1
+    ramp = (t - 1 + np.exp(-t)) / tr
+    v_tr = (tr - 1 + np.exp(-tr)) / tr
+    exact = np.where(t <= tr, ramp, 1 + (v_tr - 1) * np.exp(-(t - tr)))
+    assert np.max(np.abs(ref["v(2)"] - exact)) < 1e-6
+    np.testing.assert_allclose(t, np.arange(71) * 0.1, rtol=0, atol=1e-12)
+
+
+def test_tran_lines_and_the_output_grid():
+    tran = corpus.find_tran("t\n.TRAN .2U 3M 0.50M\n")
+    assert (tran.step, tran.stop, tran.start) == pytest.approx((2e-7, 3e-3, 5e-4), rel=1e-12)
+    assert not tran.uic
+    grid = tran.grid()  # 12 501 TSTEP points, subsampled, ending at TSTOP
+    assert len(grid) <= corpus.MAX_POINTS
+    assert grid[0] == pytest.approx(5e-4) and grid[-1] == pytest.approx(3e-3, rel=1e-12)
+    assert np.allclose(np.diff(grid[:-1]), 7 * 2e-7)
+    # a tran command inside .control when there is no .tran line; UIC kept
+    only = corpus.find_tran("t\nv1 1 0 1\n.control\ntran 10u 10m uic\n.endc\n.end\n")
+    assert (only.step, only.stop) == pytest.approx((1e-5, 1e-2), rel=1e-12) and only.uic
+    assert corpus.spice_number("2ns") == pytest.approx(2e-9) and corpus.spice_number("1MEG") == 1e6
+
+
+def test_which_vectors_are_compared_and_their_diracvi_names():
+    assert corpus.kept("v(out)") and corpus.kept("i(vin)") and corpus.kept("i(l1)")
+    assert corpus.kept("v(x1.net-_m1-pad1_)") and corpus.kept("i(v.x1.v1)")
+    assert not corpus.kept("i(e1)") and not corpus.kept("i(a.xtr2.a1)")
+    assert not corpus.kept("v(pa_00)") and not corpus.kept("time")
+    assert corpus.diracvi_keys("i(v.x1.vm)") == ["i(v.x1.vm)", "i(x1.vm)"]
+    assert corpus.diracvi_keys("V(Out)") == ["v(out)"]

@@ -1,0 +1,412 @@
+"""SPICE's time semantics: TSTEP is the output interval, the steps are chosen for the
+tolerances, never longer than TMAX and ending on every source corner.
+
+Each deck below is run at its OWN ``.tran`` settings (default ``.options``) and compared
+with a fine ngspice run (reltol 1e-7, TMAX = TSTEP/50) to 1e-3 of each signal's peak;
+variable steps keep KCL and the discrete power balance to round-off per step.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+import _ngspice as ng
+from _ngspice import available, ngspice
+from diracvi import components as cp
+from diracvi import spice
+from diracvi.cli import app
+from diracvi.discretization.maps import discrete_constraints
+from diracvi.discretization.rules import get_rule
+from diracvi.driver import adaptive as _adaptive
+from diracvi.spice._resample import Sampler
+from diracvi.spice._tran import breakpoints, tran_settings
+
+FINE = ".options reltol=1e-7 abstol=1e-15 vntol=1e-12 chgtol=1e-18 trtol=1"
+needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
+
+# name -> (netlist, probes); every deck starts from a consistent state (UIC, sources 0)
+DECKS = {
+    "rc-charge": (
+        """RC charging from a DC source
+V1 in 0 DC 1
+R1 in out 1k
+C1 out 0 1u
+.tran 0.1m 5m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
+    # PW and PER default to TSTOP (not TSTEP): one 1 ns edge up, no fall within the run
+    "rlc-pulse": (
+        """Series RLC driven by a 1 ns-edge pulse
+V1 in 0 PULSE(0 1 10n 1n 1n)
+R1 in a 10
+L1 a b 1u
+C1 b 0 1n
+.tran 2n 1u uic
+.end
+""",
+        ("v(b)", "v(a)", "i(V1)"),
+    ),
+    "square-rc": (
+        """Square wave into an RC
+V1 in 0 PULSE(0 5 0 1u 1u 0.5m 1m)
+R1 in out 1k
+C1 out 0 0.1u
+.tran 10u 3m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
+    "delayed-sin": (
+        """A sine that starts after its delay, into an RC
+V1 in 0 SIN(0 1 1k 0.5m)
+R1 in out 100
+C1 out 0 1u
+.tran 10u 3m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
+    "pwl-rl": (
+        """A piecewise-linear source into an RL
+V1 in 0 PWL(0 0 0.1m 1 0.5m 1 0.6m -0.5 1m 0)
+R1 in a 10
+L1 a 0 1m
+.tran 5u 1.5m uic
+.end
+""",
+        ("v(a)", "i(V1)"),
+    ),
+}
+
+
+def _errors(name: str):
+    """Worst error over the output grid relative to each probe's peak, per probe."""
+    netlist, probes = DECKS[name]
+    result = spice.run(netlist)
+    settings = result.settings
+    t_ref, ref = ngspice(netlist, probes, tmax=settings.step / 50, options=FINE)
+    # ngspice's first written point is a little after 0 (its UIC point is not written):
+    # the grid's t = 0 is checked against the initial state in the other tests
+    keep = result.time >= t_ref[0]
+    assert np.count_nonzero(keep) >= len(result.time) - 1
+    out = {}
+    for probe in probes:
+        peak = np.max(np.abs(ref[probe]))
+        want = np.interp(result.time[keep], t_ref, ref[probe])
+        out[probe] = np.max(np.abs(result[probe][keep] - want)) / peak
+    return result, out
+
+
+@needs_ngspice
+@pytest.mark.parametrize("name", list(DECKS))
+def test_decks_agree_with_a_fine_ngspice_at_their_own_settings(name):
+    result, errors = _errors(name)
+    settings = result.settings
+    # output on the TSTEP grid, TSTOP included
+    np.testing.assert_allclose(np.diff(result.time), settings.step, rtol=1e-9)
+    assert result.time[0] == 0.0 and result.time[-1] == pytest.approx(settings.stop)
+    # the steps were the run's own: ≤ TMAX, and not all equal
+    march = result.trajectory
+    assert np.max(march.h) <= settings.max_step * (1 + 1e-12)
+    assert np.min(march.h) < 0.5 * np.max(march.h)
+    for probe, err in errors.items():
+        assert err <= 1e-3, (probe, err)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "rc",
+        "rlc",
+        "ladder",
+        pytest.param("coupled", marks=pytest.mark.slow),
+        pytest.param("rectifier", marks=pytest.mark.slow),
+    ],
+)
+def test_validation_circuits_agree_at_their_own_settings(name):
+    """The committed fine-ngspice references (tests/data/ngspice; no ngspice needed), at
+    each netlist's own .tran and default tolerances, on its TSTEP grid."""
+    netlist, probes, _ = ng.CIRCUITS[name]
+    t_ref, ref = ng.load(name)
+    result = spice.run(netlist)
+    assert result.trajectory.status == 0
+    # the reference's 101 times are points of the TSTEP grid
+    at = np.searchsorted(result.time, t_ref - 1e-9 * t_ref[-1])
+    np.testing.assert_allclose(result.time[at], t_ref, rtol=0, atol=1e-9 * t_ref[-1])
+    for probe in probes:
+        # t = 0 is not an independent check (SPICE's UIC point is the given state)
+        err = np.max(np.abs(result[probe][at] - ref[probe])[1:]) / np.max(np.abs(ref[probe]))
+        assert err <= 1e-3, (probe, err)
+
+
+def test_every_breakpoint_is_a_node_of_the_run():
+    netlist, _ = DECKS["square-rc"]
+    result = spice.run(netlist)
+    corners = breakpoints(result.netlist.system, 0.0, result.settings.stop)
+    # PULSE(0 5 0 1u 1u 0.5m 1m) over 3 ms: four corners a period, three periods, and
+    # the fourth period's start at TSTOP
+    expected = [k * 1e-3 + c for k in range(3) for c in (0.0, 1e-6, 0.501e-3, 0.502e-3)]
+    expected.append(3e-3)
+    np.testing.assert_allclose(corners, expected, rtol=0, atol=1e-18)
+    nodes = result.internal.time
+    for corner in corners:
+        assert np.min(np.abs(nodes - corner)) <= 1e-15 * result.settings.stop, corner
+
+
+def test_waveform_breakpoints():
+    pulse = cp.Pulse(0, 1, 1.0, 0.1, 0.2, 0.5, 2.0)
+    assert pulse.breakpoints(0.0, 4.0) == (1.0, 1.1, 1.6, 1.8, 3.0, 3.1, 3.6, 3.8)
+    assert pulse.breakpoints(3.05, 3.7) == (3.1, 3.6)
+    counted = cp.Pulse(0, 1, 1.0, 0.1, 0.2, 0.5, 2.0, count=1)
+    assert counted.breakpoints(0.0, 10.0) == (1.0, 1.1, 1.6, 1.8)
+    assert cp.PWL([0, 1, 3], [0, 2, 2]).breakpoints(0.5, 3.0) == (1.0, 3.0)
+    assert cp.Sine(0, 1, 50, 0.25).breakpoints(0.0, 1.0) == (0.25,)
+    assert cp.Sine(0, 1, 50).breakpoints(0.0, 1.0) == ()
+    assert cp.DC(1.0).breakpoints(0.0, 1.0) == ()
+
+
+def test_sampler_is_exact_for_quadratics_at_the_ends_and_at_corners():
+    """Step-centred values of a quadratic on each interval are reproduced everywhere,
+    including the run's ends and the breakpoints half a step beyond the last centre (a
+    linear extrapolation there would be off by (3/8) h² f'')."""
+    rng = np.random.default_rng(3)
+    bounds = np.array([0.0, 0.3, 1.0])
+    t = np.unique(np.concatenate([bounds, rng.uniform(0, 1, 40)]))
+    h = np.diff(t)
+    sampler = Sampler(t, h, bounds)
+    centres = t[:-1] + h / 2
+
+    def f(x):  # a kink at 0.3 (the breakpoint), smooth on either side
+        return np.where(x <= 0.3, 2.0 * x**2 - x, -3.0 * (x - 0.3) ** 2 + 0.5 * (x - 0.3) - 0.12)
+
+    query = np.concatenate([t, np.linspace(0, 1, 37)])
+    np.testing.assert_allclose(sampler(f(centres), query), f(query), rtol=0, atol=1e-12)
+
+
+RAMP = """A current ramp into a capacitor: v(out) = t²/2 exactly
+I1 0 out PWL(0 0 1 1)
+C1 out 0 1
+R1 out 0 1e9
+.tran 0.05 1 uic
+.end
+"""
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_node_voltages_at_the_ends_are_second_order(fixed):
+    """At the run's ends the node voltages are extrapolated from inside the run; their
+    error must be of the order of the interior error (second order), which a linear
+    extrapolation (error h² f'') is not."""
+    result = spice.run(RAMP, dt=0.05) if fixed else spice.run(RAMP, internal=True)
+    t = result.time
+    exact = 0.5 * t**2 - 0.5 * t**4 * 1e-9 / 12  # the leak is negligible; kept honest
+    err = np.abs(result["v(out)"] - exact)
+    interior = np.max(err[1:-1])
+    assert interior > 0.0
+    assert err[0] <= 1.5 * interior and err[-1] <= 1.5 * interior, (err[0], err[-1], interior)
+
+
+def _lc_and_ladder():
+    tank = """LC tank, charged capacitor
+L1 a 0 1m
+C1 a 0 1u IC=1
+.tran 2u 1m uic
+.end
+"""
+    ladder = """RLC ladder driven by a pulse
+V1 in 0 PULSE(0 1 10u 1u 1u 100u 300u)
+R1 in a 5
+L1 a b 100u
+C1 b 0 1u
+L2 b c 100u
+C2 c 0 1u
+R2 c 0 20
+.tran 1u 600u uic
+.end
+"""
+    return {"tank": tank, "ladder": ladder}
+
+
+@pytest.mark.parametrize("name", ["tank", "ladder"])
+def test_variable_steps_keep_kcl_and_the_power_balance_per_step(name):
+    r"""Each variable step is a Dirac step: KCL ``B v_k = 0`` to round-off, and
+    ``E_{k+1} − E_k = h_k F(q̄_k, v_k, t_{k+½})·v_k`` with the stored energy
+    ``E = ½ p̂_Lᵀ M_L⁻¹ p̂_L + V(q)`` at the nodes (``p̂_k = p_k − ½Bᵀc_{k−1}``, the
+    momentum the two steps at node k agree on, with ``c`` the step impulses)."""
+    result = spice.run(_lc_and_ladder()[name])
+    march, system = result.trajectory, result.netlist.system
+    t, h, q, p, mu = march.t, march.h, march.q, march.p, march.mu
+    assert np.max(h) / np.min(h) > 5.0  # the steps did vary
+    rule = get_rule("midpoint")
+    con = jax.vmap(lambda a, b, hh, tt: discrete_constraints(rule, system, "plus", a, b, hh, tt))(
+        q[:-1], q[1:], h, t[:-1]
+    )
+    v = np.diff(q, axis=0) / h[:, None]
+    assert np.max(np.abs(con)) <= 1e-12 * max(1.0, np.max(np.abs(v)))
+    # impulses c_k from μ_k = ½(c_{k−1} + c_k), c_{−1} = 0
+    c = np.empty_like(mu)
+    prev = np.zeros(mu.shape[1])
+    for k in range(len(h)):
+        prev = 2.0 * mu[k] - prev
+        c[k] = prev
+    reaction = np.asarray(jax.vmap(lambda a, m: system.multiplier_force(a, m, 0.0))(q[:-1], c))
+    p_hat = p.copy()
+    p_hat[1:] -= 0.5 * reaction  # p̂_{k+1} = p_{k+1} − ½ Bᵀ c_k
+    zero = jnp.zeros(system.n)
+    mass = np.asarray(jax.hessian(lambda vv: system.lagrangian(q[0], vv, 0.0))(zero))
+    inductive = np.flatnonzero(np.abs(np.diag(mass)) > 0)
+    m_inv = np.linalg.inv(mass[np.ix_(inductive, inductive)])
+    kinetic = 0.5 * np.einsum("ki,ij,kj->k", p_hat[:, inductive], m_inv, p_hat[:, inductive])
+    potential = np.asarray(jax.vmap(lambda a, tt: -system.lagrangian(a, zero, tt))(q, t))
+    energy = kinetic + potential
+    mid = 0.5 * (q[:-1] + q[1:])
+    force = np.asarray(jax.vmap(system.force)(mid, v, t[:-1] + h / 2))
+    work = h * np.sum(force * v, axis=1)
+    scale = np.max(np.abs(energy)) + np.max(np.abs(work))
+    assert np.max(np.abs(np.diff(energy) - work)) <= 1e-12 * scale
+    # non-inductive coordinates carry no nodal momentum (consistent data stay consistent)
+    others = np.setdiff1d(np.arange(system.n), inductive)
+    assert np.max(np.abs(p_hat[:, others])) <= 1e-12 * max(1.0, np.max(np.abs(p_hat)))
+    if name == "tank":  # lossless: the energy is conserved to round-off over the run
+        assert np.max(np.abs(energy - energy[0])) <= 1e-12 * energy[0]
+
+
+def test_a_new_step_size_or_tolerance_does_not_compile_again():
+    deck, _ = DECKS["square-rc"]
+    first = spice.run(deck)
+    traces = _adaptive.TRACES["count"]
+    tighter = deck.replace(".tran 10u 3m uic", ".tran 10u 3m 0 3u uic\n.options reltol=1e-5")
+    second = spice.run(tighter)
+    assert _adaptive.TRACES["count"] == traces
+    assert second.settings.reltol == 1e-5 and second.settings.max_step == 3e-6
+    assert len(second.trajectory.h) > len(first.trajectory.h)
+    assert np.max(second.trajectory.h) <= 3e-6 * (1 + 1e-12)
+
+
+def test_tran_settings_and_options():
+    text = """t
+V1 in 0 DC 1
+R1 in 0 1k
+.param tm=2u
+.tran 1u 10u 4u {tm} uic
+.options reltol=1e-4 abstol=1p method=gear
+.end
+"""
+    settings = tran_settings(spice.read(text))
+    assert (settings.step, settings.stop, settings.start, settings.tmax) == (1e-6, 1e-5, 4e-6, 2e-6)
+    assert settings.reltol == 1e-4 and settings.abstol == 1e-12 and settings.vntol == 1e-6
+    np.testing.assert_allclose(settings.output_times(), np.arange(4, 11) * 1e-6, rtol=1e-12)
+    default = tran_settings(spice.read(text.replace(" 4u {tm}", "").replace("reltol", "x")))
+    assert default.max_step == min(1e-6, 1e-5 / 50) and default.reltol == 1e-3
+
+
+@needs_ngspice
+def test_output_from_tstart():
+    netlist, probes = DECKS["delayed-sin"]
+    late = netlist.replace(".tran 10u 3m uic", ".tran 10u 3m 1m uic")
+    result = spice.run(late)
+    assert result.time[0] == pytest.approx(1e-3) and len(result.time) == 201
+    t_ref, ref = ngspice(netlist, probes, tmax=10e-6 / 50, options=FINE)
+    for probe in probes:
+        peak = np.max(np.abs(ref[probe]))
+        assert np.max(np.abs(result[probe] - np.interp(result.time, t_ref, ref[probe]))) <= (
+            1e-3 * peak
+        )
+
+
+def test_cli_dt_keeps_a_fixed_step_to_tstop(tmp_path):
+    deck = tmp_path / "rc.cir"
+    deck.write_text(DECKS["rc-charge"][0])
+    runner = CliRunner()
+    fixed = runner.invoke(app, ["run", str(deck), "--dt", "20u", "--out", str(tmp_path / "f.nc")])
+    assert fixed.exit_code == 0, fixed.output
+    assert re.search(r"steps\s+250 of 250, dt = 2e-05", fixed.output), fixed.output
+    assert re.search(r"time\s+0 → 0\.005", fixed.output), fixed.output
+    adaptive = runner.invoke(app, ["run", str(deck), "--out", str(tmp_path / "v.nc")])
+    assert adaptive.exit_code == 0, adaptive.output
+    assert "variable steps" in adaptive.output and "51 points every 0.0001" in adaptive.output
+    import xarray as xr
+
+    with xr.open_dataset(tmp_path / "v.nc", engine="h5netcdf") as ds:
+        np.testing.assert_allclose(ds["time"].values, np.linspace(0, 5e-3, 51), rtol=1e-12)
+        exact = 1.0 - np.exp(-ds["time"].values / 1e-3)
+        assert np.max(np.abs(ds["v(out)"].values - exact)) <= 1e-3
+    with xr.open_dataset(tmp_path / "f.nc", engine="h5netcdf") as ds:
+        assert ds["time"].values[-1] == pytest.approx(5e-3) and ds.sizes["time"] == 251
+
+
+def test_fixed_dt_is_the_simulate_run_bitwise():
+    import diracvi as dv
+
+    netlist = spice.read(DECKS["rc-charge"][0])
+    result = spice.run(netlist, dt=1e-4)
+    traj = dv.simulate(
+        netlist.system, netlist.q0, netlist.p0, dt=1e-4, steps=50, discretization="midpoint"
+    )
+    np.testing.assert_array_equal(result.time, traj.t)
+    np.testing.assert_array_equal(result["v(out)"], spice.waveforms(netlist, traj)["v(out)"])
+    assert math.isclose(result.time[-1], 5e-3)
+
+
+def test_bad_tran_or_options_name_the_line_and_the_fix():
+    base = DECKS["rc-charge"][0]
+    # the reader checks .tran and .options, each problem naming its line
+    with pytest.raises(spice.NetlistError, match=r"line 5: '\.tran' needs 0 ≤ TSTART < TSTOP"):
+        spice.read(base.replace(".tran 0.1m 5m uic", ".tran 0.1m 5m 6m uic"))
+    with pytest.raises(spice.NetlistError, match=r"line 6: \.options reltol=-1 must be a positive"):
+        spice.read(base.replace(".end", ".options reltol=-1\n.end"))
+    with pytest.raises(spice.NetlistError, match=r"line 5: '\.tran' needs TMAX > 0"):
+        spice.read(base.replace(".tran 0.1m 5m uic", ".tran 0.1m 5m 0 -1u uic"))
+
+
+def test_a_tolerance_below_round_off_stops_with_the_fix():
+    from diracvi import StepFailure
+
+    deck = DECKS["rc-charge"][0].replace(
+        ".end", ".options reltol=1e-17 abstol=1e-30 chgtol=1e-40\n.end"
+    )
+    with pytest.raises(StepFailure, match=r"stopped at t = .* below hmin.*Fix: a fixed step"):
+        spice.run(deck)
+    # the fix it names works
+    assert spice.run(deck, dt=1e-4).trajectory.status == 0
+
+
+def _source(netlist, name):
+    (part,) = [s for s in netlist.system.subsystems if s.name == name]
+    (wave,) = part.waveforms
+    return wave
+
+
+def test_pulse_and_sin_defaults_without_ngspice():
+    """ngspice's defaults, checked on the read waveforms (the decks above check them
+    against ngspice itself): PULSE's PW and PER are TSTOP, TR and TF are TSTEP; SIN
+    holds VO + VA sin(PHASE) until TD, then runs from TD."""
+    text = """defaults
+V1 a 0 PULSE(0 1 1u)
+V2 b 0 SIN(0.5 2 1k 0.2m 0 30)
+R1 a b 1k
+R2 b 0 1k
+.tran 1u 1m
+.end
+"""
+    netlist = spice.read(text)
+    pulse, sine = _source(netlist, "V1"), _source(netlist, "V2")
+    # rises over TSTEP = 1 µs from TD = 1 µs, then stays up to TSTOP (PW = TSTOP)
+    assert float(pulse(1.5e-6)) == pytest.approx(0.5)
+    assert float(pulse(2e-6)) == 1.0 and float(pulse(0.9e-3)) == 1.0
+    assert pulse.breakpoints(0.0, 1e-3) == (1e-6, 2e-6)
+    held = 0.5 + 2 * math.sin(math.radians(30))
+    assert float(sine(0.1e-3)) == pytest.approx(held, rel=1e-15)
+    t = 0.45e-3
+    running = 0.5 + 2 * math.sin(2 * math.pi * 1e3 * (t - 0.2e-3) + math.radians(30))
+    assert float(sine(t)) == pytest.approx(running, rel=1e-12)
+    assert sine.breakpoints(0.0, 1e-3) == (0.2e-3,)
