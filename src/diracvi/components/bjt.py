@@ -36,7 +36,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._junction import depletion_coenergy, diffusion_coenergy, pn_current
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient

@@ -31,7 +31,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from .._errors import ModelError
+from ..errors import ModelError
 from ._junction import pn_current
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
