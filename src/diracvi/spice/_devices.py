@@ -192,7 +192,10 @@ def _card(ctx, token, line, kinds):
         raise line.fail(
             f"model {token!r} ({where}) is a {kind} model; this element needs {'/'.join(kinds)}"
         )
-    model = read_model(kind, params, lambda x, what: x, line.fail, where)
+    def fail(why):  # a problem of the card, reported at the element line that uses it
+        return line.fail(f"model {token!r} ({where}): {why}")
+
+    model = read_model(kind, params, lambda x, what: x, fail, where)
     for note in model.notes:
         ctx.note(line, note)
     return model
