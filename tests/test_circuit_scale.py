@@ -58,6 +58,7 @@ def test_sparse_equals_dense_affine_and_newton(ladder50):
         np.testing.assert_allclose(a, b, rtol=0, atol=1e-10 * max(np.max(np.abs(b)), 1e-300))
 
 
+@pytest.mark.slow  # ~13 s
 def test_autonomous_minus_and_saving():
     """No source (constant offsets), the backward scheme, ``save_every`` and a run that
     keeps only diagnostics: each as the general solver computes it."""
@@ -120,6 +121,7 @@ def test_ladder_against_ngspice(ladder50):
         assert np.max(np.abs(got - ref[p])) <= 1e-3 * peak, p
 
 
+@pytest.mark.slow  # ~19 s
 def test_gradient_central_differences():
     """A gradient through ``simulate`` of a ladder (the traced JAX path) equals central
     differences of host runs, which take the sparse map."""

@@ -402,3 +402,13 @@ def test_readme_model_file_runs_without_options(tmp_path):
     result = invoke("run", path, "--out", out)
     assert result.exit_code == 0, result.output
     assert dv.load(out).steps == 1000
+
+
+def test_a_problems_notes_print_as_whole_lines():
+    """A problem's ``notes`` is one string: it prints as one line, not one character a
+    line (it used to be iterated as a list)."""
+    result = invoke("run", "rlc", "--discretization", "midpoint", "--steps", 20)
+    assert result.exit_code == 0, result.output
+    notes = [line for line in result.output.splitlines() if line.startswith("note:")]
+    assert notes and all(len(line) > len("note: x") for line in notes)
+    assert any("resistor sign" in line for line in notes)

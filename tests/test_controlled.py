@@ -301,6 +301,7 @@ def test_gradient_flows_to_a_transconductance():
 
 
 # ------------------------------------------------------------------ the rules
+@pytest.mark.slow  # ~16 s
 def test_retraction_steps_e_and_h_and_refuses_f_and_g_by_name():
     """The left-point rule: E and H step (first order); F and G are singular (their
     output flux never enters its equations), which the solvability check says before

@@ -240,12 +240,19 @@ def test_ensemble_input_errors_name_the_shape():
         dv.simulate_ensemble(problem.system, bad, bad, dt=0.1, steps=10)
 
 
-def test_large_interconnections_are_stepped_by_the_partitioned_solver():
+def test_large_interconnections_are_stepped_by_the_sparse_map_or_the_partitioned_solver():
+    """Above the dense limit a linear interconnection is stepped by the sparse affine map
+    (factored once), and the partitioned solver, asked for, gives the same run."""
     problem = problems.chain_torn(300, 3)  # 302 coordinates: above the dense limit
     kwargs = {"dt": problem.dt, "steps": 60, "save_every": 6}
     auto = dv.simulate(problem.system, problem.q0, problem.p0, **kwargs)
+    parted = dv.simulate(
+        problem.system, problem.q0, problem.p0, **kwargs, solver=dv.PartitionedSolver()
+    )
     plain = dv.simulate(problem.system, problem.q0, problem.p0, **kwargs, solver=PLAIN)
-    assert auto.solver == repr(dv.PartitionedSolver())
+    assert auto.solver.startswith("sparse affine step map")
+    assert parted.solver == repr(dv.PartitionedSolver())
+    assert_same_run(parted, plain)
     assert_same_run(auto, plain)
     np.testing.assert_allclose(auto.energy, plain.energy, rtol=1e-12)
     np.testing.assert_allclose(auto.constraint_violation, plain.constraint_violation, atol=1e-13)

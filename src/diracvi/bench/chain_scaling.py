@@ -89,7 +89,7 @@ def factor_values(problem) -> int:
 
     That is the cached plan's affine step map (its one-step and block maps, the step
     Jacobian and its inverse) or, on the solver path, the solver's state (e.g. Newton's
-    LU factors), counted from shapes (``jax.eval_shape``: nothing is allocated).
+    LU factors and |J|), counted from shapes (``jax.eval_shape``: nothing is allocated).
     """
     import jax
     import jax.numpy as jnp

@@ -137,7 +137,10 @@ def check_solvable(system, rule, scheme, q0, p0, h, t0=0.0, jacobian=None) -> No
         jacobian = _step_jacobian(system, rule, scheme, q0, p0, h, tk)
     jac = np.asarray(jacobian)
     tk = np.float64(t0 if scheme == "plus" else t0 - float(h))
-    x0 = first_guess(system, rule, q0, q0, jnp.zeros(system.m))
+
+    def x0():  # the Jacobian's point, formed only if it looks singular (eager JAX ops
+        # compile small programs: a warm process must trace nothing on a regular step)
+        return first_guess(system, rule, q0, q0, jnp.zeros(system.m))
 
     def jacobian_at(x):  # a near-singularity may be state-dependent (junctions all off)
         return jax.jacfwd(lambda y: residual(system, rule, scheme, h, q0, p0, y, tk))(x)

@@ -107,7 +107,8 @@ def check_step_jacobian(
     x0=None,
 ) -> None:
     """Raise :class:`UnsolvableStepError` if the step Jacobian is rank-deficient (and,
-    given ``jacobian_at(x)`` and the point ``x0`` of ``jac``, stays so when the unknowns
+    given ``jacobian_at(x)`` and the point ``x0`` of ``jac`` (or a function forming it),
+    stays so when the unknowns
     move along the null direction: see :func:`regular_nearby`)."""
     if not np.all(np.isfinite(jac)):
         bad = [equation_names[i] for i in np.nonzero(~np.all(np.isfinite(jac), axis=1))[0]]
@@ -122,7 +123,8 @@ def check_step_jacobian(
     right, left = null_directions(jac)
     if right.shape[1] == 0:
         return
-    if jacobian_at is not None and regular_nearby(jacobian_at, np.asarray(x0), jac):
+    start = x0() if callable(x0) else x0  # (a callable: formed only when needed)
+    if jacobian_at is not None and regular_nearby(jacobian_at, np.asarray(start), jac):
         return
     undetermined = _involved(right, unknown_names)
     clashing = _involved(left, equation_names)

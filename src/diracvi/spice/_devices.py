@@ -192,6 +192,7 @@ def _card(ctx, token, line, kinds):
         raise line.fail(
             f"model {token!r} ({where}) is a {kind} model; this element needs {'/'.join(kinds)}"
         )
+
     def fail(why):  # a problem of the card, reported at the element line that uses it
         return line.fail(f"model {token!r} ({where}): {why}")
 
