@@ -18,6 +18,8 @@ errors, ``cov = σ² (JᵀJ)⁻¹``.
 
 from __future__ import annotations
 
+import sys
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -64,8 +66,33 @@ def fit(seed: int = 0):
     return np.exp(np.asarray(log_theta)), errors, data, np.asarray(observe(log_theta))
 
 
-if __name__ == "__main__":
+def main(out="fit_netlist.png"):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
     estimate, errors, data, fitted = fit()
     for name, true, value, error in zip(NAMES, TRUE, estimate, errors, strict=True):
         print(f"{name:6s} true {true:.4g}  fitted {value:.4g} ± {error:.2g}")
     print(f"residual rms / σ = {np.std(data - fitted) / SIGMA:.3f}")
+    t_ms = 20e-3 * np.arange(1, len(data) + 1)  # the fixed 20 µs step, in ms
+    fig, ax = plt.subplots(figsize=(7, 3.5))
+    ax.plot(t_ms, data, ".", ms=3, alpha=0.5, label="v(out), noisy data")
+    ax.plot(t_ms, fitted, "-", label="v(out), fit")
+    ax.set_xlabel("t (ms)")
+    ax.set_ylabel("v(out) (V)")
+    ax.set_title(
+        "Netlist fit: "
+        + ", ".join(
+            f"{n} = {e:.4g} ± {s:.2g}" for n, e, s in zip(NAMES, estimate, errors, strict=True)
+        )
+    )
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+    print(f"wrote {out}")
+
+
+if __name__ == "__main__":
+    main(*sys.argv[1:])

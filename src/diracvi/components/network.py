@@ -349,23 +349,20 @@ def _packed_momentum(system, q, v):
     return system.momentum(q, v, 0.0)
 
 
-def _momenta(system, parts, q0, v0, offsets) -> np.ndarray:
-    """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``)."""
-    if traced(q0) or traced(v0):  # inside jax.jit (a traced fit): kept as JAX's
-        return jnp.concatenate(
+def _momenta(system, parts, q0, v0, offsets):
+    """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``); NumPy,
+    or JAX's where a part's parameter or the state is traced (a netlist read inside a
+    traced fit)."""
+    if len(parts) >= _BATCH_MOMENTA and hasattr(system, "_packed"):
+        p0 = _packed_momentum(system._packed(), q0, v0)
+    else:
+        p0 = jnp.concatenate(
             [
-                jnp.asarray(p.momentum(q0[a:b], v0[a:b]))
+                jnp.atleast_1d(jnp.asarray(p.momentum(q0[a:b], v0[a:b])))
                 for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
             ]
         )
-    if len(parts) >= _BATCH_MOMENTA and hasattr(system, "_packed"):
-        return np.asarray(_packed_momentum(system._packed(), q0, v0))
-    return np.concatenate(
-        [
-            np.asarray(p.momentum(q0[a:b], v0[a:b]))
-            for (p, _), a, b in zip(parts, offsets[:-1], offsets[1:], strict=True)
-        ]
-    )
+    return p0 if traced(p0) else np.asarray(p0)
 
 
 def _kind(part: Part, coord: str) -> str:
