@@ -88,7 +88,9 @@ def table(rows: list[dict], markdown: bool) -> str:
             r["elements"],
             ", ".join(r["needs"]) or "—",
             r["status"],
-            reason(r).replace("|", "\\|") if markdown else reason(r),
+            reason(r).replace("|", "\\|").replace("[", "\\[").replace("]", "\\]")
+            if markdown
+            else reason(r),
             f"{r['seconds']:.2f}",
             f"{r['ngspice_seconds']:.2f}",
         ]
