@@ -177,7 +177,10 @@ def _long_energy(long, path: Path) -> Path:
     top.set_ylabel("energy E(q_k, v_k)")
     # short enough for the full run's 100,000 steps at this width (a longer title is cut)
     top.set_title(f"Spring chain, interconnected: {long.steps:,} steps, h = {long.dt}")
-    top.legend(fontsize=8)
+    # headroom above the band for the legend, which would otherwise cover the data
+    span = float(high.max() - low.min()) or 1.0
+    top.set_ylim(float(low.min()) - 0.05 * span, float(high.max()) + 0.35 * span)
+    top.legend(fontsize=8, loc="upper left", ncol=2)
     top.grid(alpha=0.3)
     zoom = slice(max(len(energy) - 1000, 0), len(energy))
     bottom.plot(t[zoom], energy[zoom], "-", color="C0", lw=1.0)
