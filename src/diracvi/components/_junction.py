@@ -6,16 +6,16 @@ junctions with the constant ``−I_S``. Above ``V = 40 N V_T`` the exponential i
 by its tangent (C¹) so that a Newton iterate cannot overflow; currents there exceed
 ``I_S e^{40}`` (2·10¹⁷ ``I_S``), far outside any solution the models are used for.
 
-Shared by the transistor models (:mod:`~diracvi.components.bjt`,
-:mod:`~diracvi.components.mosfet`); ``components/diode.py`` has its own
-``shockley_current`` (the same forward branch), which the two can be unified onto.
+Shared by the diode (:mod:`~diracvi.components.diode`) and the transistor models
+(:mod:`~diracvi.components.bjt`, :mod:`~diracvi.components.mosfet`).
 """
 
 from __future__ import annotations
 
 import jax.numpy as jnp
 
-from .diode import THERMAL_VOLTAGE
+#: kT/q at ngspice's nominal 27 °C (CONSTboltz, CHARGE of ngspice's const.h)
+THERMAL_VOLTAGE = 1.38064852e-23 * 300.15 / 1.6021766208e-19
 
 _LIMIT = 40.0
 _E = 2.718281828459045
@@ -25,6 +25,13 @@ def exp_capped(x):
     """``e^x``, continued by its tangent above ``x = 40``."""
     capped = jnp.minimum(x, _LIMIT)
     return jnp.exp(capped) * (1.0 + (x - capped))
+
+
+def exp_capped_integral(x):
+    """``∫₀^x`` of :func:`exp_capped` (the tangent continuation integrated too)."""
+    capped = jnp.minimum(x, _LIMIT)
+    over = x - capped
+    return jnp.exp(capped) * (1.0 + over + 0.5 * over * over) - 1.0
 
 
 def pn_current(v, saturation_current, emission=1.0, reverse="cubic"):
@@ -77,7 +84,4 @@ def diffusion_coenergy(v, transit_time, saturation_current, emission=1.0):
     ``τ I(V)``. (ngspice's reverse branch below ``−3 N V_T`` is not reproduced here: the
     charge differs there by less than ``τ I_S``.)"""
     nvt = emission * THERMAL_VOLTAGE
-    x = jnp.minimum(v / nvt, _LIMIT)
-    over = v / nvt - x
-    integral = nvt * (jnp.exp(x) * (1.0 + over + 0.5 * over * over) - 1.0)
-    return transit_time * saturation_current * (integral - v)
+    return transit_time * saturation_current * (nvt * exp_capped_integral(v / nvt) - v)

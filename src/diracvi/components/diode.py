@@ -53,11 +53,8 @@ import math
 import jax.numpy as jnp
 
 from ..errors import ModelError
+from ._junction import THERMAL_VOLTAGE, depletion_coenergy, exp_capped, exp_capped_integral
 from ._part import Part, finite, positive, traced
-
-#: kT/q at ngspice's nominal 27 °C (CONSTboltz, CHARGE of ngspice's const.h)
-THERMAL_VOLTAGE = 1.38064852e-23 * 300.15 / 1.6021766208e-19
-_LIMIT = 40.0
 
 #: ngspice's diode model parameters that diracvi accepts (``.model NAME D(...)``):
 #: name -> (default, unit, meaning). ``None``: not given (no breakdown; NBV = N).
@@ -84,18 +81,6 @@ SPICE_PARAMETERS = {
 }
 #: other spellings ngspice accepts -> the name above
 SPICE_ALIASES = {"cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "rs0": "rs"}
-
-
-def _exp_capped(x):
-    capped = jnp.minimum(x, _LIMIT)
-    return jnp.exp(capped) * (1.0 + (x - capped))  # e^x, continued by its tangent
-
-
-def _exp_capped_integral(x):
-    """``∫₀^x`` of :func:`_exp_capped` (the tangent continuation integrated too)."""
-    capped = jnp.minimum(x, _LIMIT)
-    over = x - capped
-    return jnp.exp(capped) - 1.0 + jnp.exp(_LIMIT) * (over + 0.5 * over**2)
 
 
 def breakdown_knee(i_s, bv, ibv, nbv_vt):
@@ -126,7 +111,7 @@ class _Junction:
     def current(self, v):
         """``i_D(V)`` without G_min (the diffusion charge is ``TT`` times this)."""
         knee, forward, broken = self._regions(v)
-        f = self.i_s * (_exp_capped(v / self.nvt) - 1.0)
+        f = self.i_s * (exp_capped(v / self.nvt) - 1.0)
         vr = jnp.minimum(v, knee)
         arg = (3.0 * self.nvt / (math.e * vr)) ** 3
         r = -self.i_s * (1.0 + arg)
@@ -142,7 +127,7 @@ class _Junction:
         i_s, nvt = self.i_s, self.nvt
 
         def fwd(x):
-            return i_s * (nvt * _exp_capped_integral(x / nvt) - x)
+            return i_s * (nvt * exp_capped_integral(x / nvt) - x)
 
         c = (3.0 * nvt / math.e) ** 3
 
@@ -161,21 +146,7 @@ class _Junction:
 
     # --- depletion charge and its integral
     def _depletion_integral(self, v):
-        cj, vj, m, fc = self.cj, self.vj, self.m, self.fc
-        vd = fc * vj
-        vlow = jnp.minimum(v, vd)
-
-        def low(x):  # ∫₀^x C_J VJ (1 − (1 − u/VJ)^{1−M})/(1−M) du
-            return cj * vj / (1.0 - m) * (x - vj / (2.0 - m) * (1.0 - (1.0 - x / vj) ** (2.0 - m)))
-
-        f1 = vj * (1.0 - (1.0 - fc) ** (1.0 - m)) / (1.0 - m)
-        f2 = (1.0 - fc) ** (1.0 + m)
-        f3 = 1.0 - fc * (1.0 + m)
-        x = jnp.maximum(v, vd) - vd
-        high = cj * f1 * x + cj / f2 * (
-            0.5 * f3 * x**2 + m / (2.0 * vj) * ((x + vd) ** 3 / 3.0 - vd**3 / 3.0 - vd**2 * x)
-        )
-        return low(vlow) + jnp.where(v > vd, high, 0.0)
+        return depletion_coenergy(v, self.cj, self.vj, self.m, self.fc)
 
     def coenergy(self, v):
         """``Φ(V) = ∫₀^V Q_j``; ``Φ′ = Q_j`` (JAX differentiates it)."""
@@ -190,7 +161,7 @@ class _Junction:
 def shockley_current(v, saturation_current, emission, gmin):
     """``I_S (e^{V/(N V_T)} − 1) + G_min V`` with the linear continuation above 40 N V_T."""
     nvt = emission * THERMAL_VOLTAGE
-    return saturation_current * (_exp_capped(v / nvt) - 1.0) + gmin * v
+    return saturation_current * (exp_capped(v / nvt) - 1.0) + gmin * v
 
 
 def Diode(

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..solvers.sparse_affine import NotSparseAffine
-from ..status import SolveStatus
+from .record import run_fields
 from .trajectory import Trajectory
 
 
@@ -15,7 +15,7 @@ def run_sparse(plan, run, q0, p0, t0, save_states: bool):
     """The trajectory, or ``None`` when the map's verification rejected a step (the
     plan then drops the map, and the caller steps with the general solver, which says
     so in ``traj.solver``)."""
-    scheme, discretization, h, steps, k, shape = run
+    scheme, _, h, steps, k, shape = run
     nodal = save_states and plan.nodal_when_saved
     share = plan.rule.impulse_share()
     try:
@@ -48,16 +48,6 @@ def run_sparse(plan, run, q0, p0, t0, save_states: bool):
         newton_iterations=np.zeros(len(index) - 1, dtype=np.int64),
         constraint_violation=out["violation"],
         step_index=index,
-        save_every=k,
         final_state=(q_end, p_end, q_end - y[:n], y[n:]),
-        coords=shape.coords,
-        constraint_names=shape.constraint_names,
-        dt=h,
-        scheme=scheme,
-        discretization=discretization,
-        system_name=shape.name,
-        status=0,
-        message=SolveStatus.SUCCESS.summary,
-        steps_requested=steps,
-        solver=plan.sparse.describe,
+        **{**run_fields(plan, run), "solver": plan.sparse.describe},
     )
