@@ -371,3 +371,50 @@ def test_a_linear_sweep_is_stepped_by_the_affine_map_and_equals_simulate():
                       solver=dv.NewtonSolver())  # fmt: skip
     assert set(newton.solver.values.ravel()) == {repr(dv.NewtonSolver())}
     np.testing.assert_allclose(newton["q"].values, ds["q"].values, rtol=0, atol=1e-11)
+
+
+def test_a_linear_sweep_builds_all_its_maps_in_one_call_per_batch(monkeypatch):
+    # the maps of a batch's members are formed together (one vmapped probe program, the
+    # solves and block maps stacked): one assembly per batch, never one per member; and
+    # simulate's single-model builder is not called at all
+    from diracvi.driver import plan
+    from diracvi.solvers import affine
+
+    def per_member(*args, **kwargs):
+        raise AssertionError("a sweep built one member's affine map on its own")
+
+    monkeypatch.setattr(plan, "build", per_member)
+    grid = {"R": [0.1, 0.5, 2.0], "C": [0.5, 2.0]}  # 6 members: batches of 4 and 2
+    before = affine.ASSEMBLY_COUNT
+    ds = dv.sweep(series_rlc, grid, dt=DT, steps=STEPS, batch_size=BATCH)
+    assert affine.ASSEMBLY_COUNT - before == 2
+    assert set(ds.solver.values.ravel()) == {"affine step map"}
+    assert ds.attrs["solver"] == "auto"
+
+
+class _Duffing(eqx.Module):
+    """``L = ½ q̇² − ½ q² − a q⁴/4``: linear (affine steps) only at ``a = 0``."""
+
+    a: jax.Array
+
+    def __call__(self, q, v):
+        return 0.5 * v[0] ** 2 - 0.5 * q[0] ** 2 - 0.25 * self.a * q[0] ** 4
+
+
+def duffing(a):
+    system = dv.LagrangeDiracSystem(("q",), _Duffing(jnp.asarray(a)), name="duffing")
+    return system, np.array([1.0]), np.array([0.0])
+
+
+def test_members_of_one_structure_take_each_its_own_plan():
+    # one structure, but only the a = 0 member is affine: it is stepped by its map, the
+    # others by Newton, each as its own simulate call would be (not the first member's
+    # choice for all)
+    ds = dv.sweep(duffing, {"a": [0.0, 2.0]}, dt=DT, steps=STEPS, batch_size=BATCH)
+    assert ds.solver.values.tolist() == ["affine step map", "NewtonSolver()"]
+    for a in (0.0, 2.0):
+        traj = dv.simulate(*duffing(a), dt=DT, steps=STEPS)
+        assert traj.solver == str(ds.solver.sel(a=a).values)
+        member = ds.sel(a=a)
+        np.testing.assert_allclose(member["q"].values, traj.q[:, 0], rtol=0, atol=1e-12)
+        np.testing.assert_allclose(member["p(q)"].values, traj.p[:, 0], rtol=0, atol=1e-12)

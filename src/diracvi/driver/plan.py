@@ -24,15 +24,15 @@ import numpy as np
 
 from ..discretization.diagnostics import GROUPED_MIN_SUBSYSTEMS
 from ..discretization.equations import first_guess, residual, unknown_count
-from ..errors import ModelError
+from ..errors import ModelError, UnsolvableStepError
 from ..model.consistency import Checker
 from ..model.interconnect import InterconnectedSystem
 from ..runtime.compile import run_once_jit
-from ..solvers.affine import AffineSolver, AffineStepMap, build
+from ..solvers.affine import SINGULAR, AffineSolver, AffineStepMap, build, build_stacked
 from ..solvers.base import StepSolver
 from ..solvers.newton import NewtonSolver
 from ..solvers.partitioned import PartitionedSolver
-from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian, singular_members
 from ..solvers.sparse_affine import SPARSE_MOMENTUM_CHECK_LIMIT, SparseAffineSolver, sparse_map
 from .stepping import CompiledChunk, keeps_nodal
 
@@ -267,3 +267,74 @@ def get_plan(system, rule, scheme, h, solver, q0, p0, t0=0.0) -> Plan:
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.popitem(last=False)
     return plan
+
+
+class MemberPlan(NamedTuple):
+    """How members of one structure are stepped, each as :class:`Plan` would step it.
+
+    ``affine[i]``: member ``i`` is stepped by row ``i`` of ``step_map`` (an
+    :class:`AffineStepMap` whose leaves are stacked over the members); the others by
+    ``solver``. ``refused[i]``: the :class:`UnsolvableStepError` of a member whose affine
+    step Jacobian is singular (its row of ``step_map`` is a placeholder; it is not to be
+    stepped).
+    """
+
+    solver: StepSolver
+    step_map: AffineStepMap | None
+    affine: np.ndarray
+    refused: dict
+
+
+def plan_members(system, static, dynamic, rule, scheme, h, solver, q0s, p0s, t0=0.0):
+    """The stepping method of every member of a sweep's group: :class:`Plan`'s choice,
+    made for all members together.
+
+    The members share ``static`` (their systems' non-array part, of which ``system`` is
+    one instance) and differ in ``dynamic``, their array leaves stacked
+    (``equinox.partition``); ``q0s``, ``p0s`` are (members, n). The affine step maps
+    are built together (:func:`~diracvi.solvers.affine.build_stacked`: one vmapped
+    program probes every member, the solves and block maps are stacked), and their
+    Jacobians checked together (:func:`~diracvi.solvers.solvability.singular_members`,
+    then :func:`check_step_jacobian` for a flagged member, as ``Plan`` does). The
+    circuit-scale sparse map is ``simulate``'s alone: where ``Plan`` would form it, the
+    members are stepped by the fallback solver.
+    """
+    count = len(q0s)
+    nothing = np.zeros(count, bool)
+    if isinstance(solver, StepSolver):
+        return MemberPlan(solver, None, nothing, {})
+    options = AffineSolver() if solver is None else solver
+    fallback = default_solver(system, rule, scheme) if solver is None else options.fallback
+    fallback.check(system, rule, scheme)  # a solver that cannot apply says why
+    if isinstance(solver, SparseAffineSolver) or (
+        solver is None and isinstance(fallback, PartitionedSolver)
+    ):
+        return MemberPlan(fallback, None, nothing, {})
+    maps = build_stacked(system, static, dynamic, rule, scheme, h, q0s, p0s, options, t0)
+    if maps.step_map is None:
+        return MemberPlan(fallback, None, nothing, {})
+    affine, refused = maps.affine, {}
+
+    def refuse(i, jac, where) -> None:
+        try:
+            check_step_jacobian(
+                np.asarray(jac),
+                unknown_names=unknown_names(system, scheme, rule),
+                equation_names=equation_names(system, rule),
+                where=where,
+            )
+        except UnsolvableStepError as exc:
+            refused[int(i)] = exc
+
+    jacobians = np.asarray(maps.step_map.jacobian)
+    for i in np.nonzero(affine & singular_members(jacobians))[0]:
+        refuse(i, jacobians[i], f"the ({scheme}) step")
+    if maps.first is not None:  # J_x could not be solved: Plan's check of the first step
+        for i, reason in enumerate(maps.reasons):
+            if reason == SINGULAR:
+                refuse(i, maps.first[i], f"the first ({scheme}) step")
+    for i in refused:
+        affine[i] = False
+    if not affine.any():  # every member refused: none is stepped by a map
+        return MemberPlan(fallback, None, nothing, refused)
+    return MemberPlan(fallback, maps.step_map, affine, refused)

@@ -28,7 +28,7 @@ back to the general solver from the start of that chunk.
 
 from __future__ import annotations
 
-import warnings
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -179,8 +179,7 @@ class AffineStepMap(eqx.Module):
         return -matvec(self.inverse, eqs.residual(x))
 
 
-@run_once_jit
-def _linearizations(system, rule, scheme, h, points, times):
+def _linearize(system, rule, scheme, h, points, times):
     """Values and Jacobians of the residual and the momentum increment at each
     ``(q, p, d, μ)`` and time ``t_k``, where ``q_other = q + d``.
 
@@ -216,12 +215,11 @@ def _linearizations(system, rule, scheme, h, points, times):
     return jax.vmap(at)(points, times)
 
 
-@run_once_jit
-def _values(system, rule, scheme, h, points, tk):
+def _evaluate(system, rule, scheme, h, points, tk):
     """The residual and the momentum increment at each ``(q, p, d, μ)`` (no derivatives).
 
     The cheap half of detection: compiling values costs a fraction of compiling their
-    Jacobians (:func:`_linearizations` differentiates ``∂L/∂v`` once more), so a clearly
+    Jacobians (:func:`_linearize` differentiates ``∂L/∂v`` once more), so a clearly
     nonlinear model is turned away before the Jacobians are ever built."""
     n = system.n
 
@@ -238,44 +236,89 @@ def _values(system, rule, scheme, h, points, tk):
     return jax.vmap(f)(points)
 
 
+# one model (simulate's plan); the identities are the store's names of these programs
+_linearizations = run_once_jit(_linearize, "diracvi.solvers.affine._linearizations")
+_values = run_once_jit(_evaluate, "diracvi.solvers.affine._values")
+
+
+def _each_member(probe):
+    """``probe`` of one system, vmapped over members of one structure: the system's
+    static part, then its array leaves stacked over the members (``equinox.partition``),
+    each member with its own probe points."""
+
+    def stacked(static, dynamic, rule, scheme, h, points, times):
+        def one(leaves, member_points):
+            system = eqx.combine(leaves, static)
+            return probe(system, rule, scheme, h, member_points, times)
+
+        return jax.vmap(one)(dynamic, points)
+
+    return stacked
+
+
+# members of a sweep: one program for all of them (traced once per structure and count)
+_member_linearizations = run_once_jit(
+    _each_member(_linearize), "diracvi.solvers.affine._member_linearizations"
+)
+_member_values = run_once_jit(_each_member(_evaluate), "diracvi.solvers.affine._member_values")
+
 #: a midpoint defect above this (relative) is nonlinearity, far beyond round-off; smaller
 #: ones are left to the full test of the Jacobians, which is exact to ``detect_rtol``
 _SCREEN_RTOL = 1e-6
 
 
-def _clearly_nonlinear(system, rule, scheme, h, a, b, tk) -> bool:
-    """``f((a+b)/2) ≠ (f(a) + f(b))/2`` at two points: the step equations are not affine.
+def _clearly_nonlinear(values) -> np.ndarray:
+    """Per member, ``f((a+b)/2) ≠ (f(a) + f(b))/2`` at two points ``a``, ``b``: the step
+    equations are not affine. ``values`` (members, 3, rows): ``f`` at ``a``, ``b``, their
+    midpoint.
 
     An affine ``f`` satisfies the midpoint identity exactly (up to round-off); any
     curvature between two generic points breaks it. Only a defect far above round-off
-    counts, so an affine model is never turned away here."""
-    points = np.stack([a, b, 0.5 * (a + b)])
-    values = np.asarray(_values(system, rule, scheme, h, points, tk))
-    if not np.all(np.isfinite(values)):
-        return False  # left to the full test, which reports non-finite equations
-    defect = np.abs(values[2] - 0.5 * (values[0] + values[1]))
-    bound = np.abs(values[0]) + np.abs(values[1]) + np.abs(values[2])
-    return bool(np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0)))
+    counts, so an affine model is never turned away here; nor is a member whose values
+    are not finite (left to the full test, which reports non-finite equations)."""
+    values = np.asarray(values)
+    finite = np.all(np.isfinite(values), axis=(1, 2))
+    defect = np.abs(values[:, 2] - 0.5 * (values[:, 0] + values[:, 1]))
+    bound = np.abs(values[:, 0]) + np.abs(values[:, 1]) + np.abs(values[:, 2])
+    return finite & np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0), axis=1)
 
 
-def _refined_solve(a, factors, b):
-    """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision.
+def _solve(a, b):
+    """``a⁻¹ b`` for stacks (members, N, N) and (members, N, k); a member whose ``a`` is
+    exactly singular gets NaN (LAPACK's LU, as ``numpy.linalg.solve``; it refuses a whole
+    stack for one singular member, so those are then solved one by one)."""
+    try:
+        return np.linalg.solve(a, b)
+    except np.linalg.LinAlgError:
+        out = np.full(b.shape, np.nan)
+        for i in range(len(a)):
+            try:
+                out[i] = np.linalg.solve(a[i], b[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
+def _refined_solve(a, b):
+    """``a⁻¹ b`` with one step of iterative refinement, the residual in extended precision
+    (stacks over members, as :func:`_solve`).
 
     The map is applied thousands of times, so an error in it is systematic: it adds up
     linearly over the run, unlike the independent round-off of a per-step solve. One
     refinement with an extended-precision residual makes ``Φ`` accurate to about one
     rounding of its entries, whatever the conditioning of ``J_x`` (within reason).
-    (Host LAPACK through SciPy: the map is built once, and device solves would each
-    compile a program for this shape.)
+    (Host LAPACK through NumPy: the map is built once per plan, and device solves would
+    each compile a program for this shape. Not SciPy's ``lu_solve``: on a busy machine
+    its threaded triangular solves took ~20 ms for a 4 × 4 system, against 5 µs here.)
     """
-    import scipy.linalg as sla  # (lazily, as in build)
-
-    x = sla.lu_solve(factors, b, check_finite=False)
-    if a.shape[0] > _REFINE_LIMIT or not np.all(np.isfinite(x)):
-        return x  # a singular J_x is reported by the caller
+    x = _solve(a, b)
+    if a.shape[-1] > _REFINE_LIMIT:
+        return x
     wide = np.longdouble
     resid = (b.astype(wide) - a.astype(wide) @ x.astype(wide)).astype(np.float64)
-    return x + sla.lu_solve(factors, resid, check_finite=False)
+    finite = np.all(np.isfinite(x), axis=(1, 2))  # a singular J_x is reported by the caller
+    resid[~finite] = 0.0
+    return np.where(finite[:, None, None], x + _solve(a, resid), x)
 
 
 #: the longest block of steps that one map takes from its start (a run of k steps is
@@ -286,22 +329,155 @@ MAX_BLOCK = 64
 def _block_maps(delta, offset):
     """``Δ_j, b_j`` with ``z_{k+j} = z_k + Δ_j z_k + b_j`` for ``j = 1..B``, in extended
     precision from the one-step ``Δ, b``: ``Δ_{j+1} = Δ_j + Δ (I + Δ_j)``,
-    ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps the stack near 2¹⁸ numbers."""
-    size = delta.shape[0]
+    ``b_{j+1} = b_j + Δ b_j + b``. ``B`` keeps each member's stack near 2¹⁸ numbers.
+    Stacks over members: ``delta`` (members, 2n, 2n), ``offset`` (members, 2n) ↦
+    (members, B, 2n, 2n), (members, B, 2n)."""
+    size = delta.shape[-1]
     count = int(np.clip(2**18 // max(size * size, 1), 1, MAX_BLOCK))
     wide = np.longdouble
-    d1, b1 = delta.astype(wide), offset.astype(wide)
+    d1, b1 = delta.astype(wide), offset.astype(wide)[..., None]
     d, b = d1.copy(), b1.copy()
     powers, offsets = [d], [b]
     for _ in range(count - 1):
         d, b = d + d1 + d1 @ d, b + d1 @ b + b1
         powers.append(d)
         offsets.append(b)
-    return np.stack(powers).astype(np.float64), np.stack(offsets).astype(np.float64)
+    return (
+        np.stack(powers, axis=1).astype(np.float64),
+        np.stack(offsets, axis=1)[..., 0].astype(np.float64),
+    )
 
 
 #: extended-precision refinement costs O(n³) in slow generic loops; skip it beyond this
 _REFINE_LIMIT = 400
+
+
+def _probe_points(q0s, p0s, unknowns: int) -> np.ndarray:
+    """(members, 3, 2n + N): zero, the member's initial state ``(q0, p0, 0)``, and one
+    pseudo-random direction (the same for all members) at the member's scale."""
+    count, n = q0s.shape
+    size = 2 * n + unknowns
+    direction = np.random.default_rng(20261121).uniform(-1.0, 1.0, size)
+    scale = (
+        1.0 + np.max(np.abs(q0s), axis=1, initial=0.0) + np.max(np.abs(p0s), axis=1, initial=0.0)
+    )
+    points = np.zeros((count, 3, size))
+    points[:, 1, :n], points[:, 1, n : 2 * n] = q0s, p0s
+    points[:, 2] = scale[:, None] * direction
+    return points
+
+
+def _screen_points(points) -> np.ndarray:
+    """(members, 3, 2n + N): the initial state ``a``, the pseudo-random point ``b`` and
+    their midpoint, where :func:`_clearly_nonlinear` compares ``f``."""
+    a, b = points[:, 1], points[:, 2]
+    return np.stack([a, b, 0.5 * (a + b)], axis=1)
+
+
+def _probe_times(t0, driven: bool) -> np.ndarray:
+    """A driven model is probed at three different times (its Jacobians must not move)."""
+    t0 = np.asarray(t0, dtype=np.float64)
+    return t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
+
+
+#: a member's reason when it has a map, and when its ``J_x`` could not be solved
+AFFINE, SINGULAR = "affine", "the step Jacobian is singular"
+
+
+class StackedMaps(NamedTuple):
+    """The affine step maps of members that share one structure.
+
+    ``step_map``: an :class:`AffineStepMap` whose leaves are NumPy stacks over the
+    members (a member without a map holds a copy of the first good member's), or ``None``
+    when no member is affine. ``reasons[i]``: ``"affine"``, or why member ``i`` has no
+    map. ``first``: the first step's Jacobians ``∂r/∂(q_other, μ)`` at each member's
+    ``(q0, p0)`` (members, N, N) when the probes formed them (an autonomous model whose
+    Jacobians were formed), else ``None``.
+    """
+
+    step_map: AffineStepMap | None
+    reasons: list
+    first: np.ndarray | None
+
+    @property
+    def affine(self) -> np.ndarray:
+        return np.array([r == AFFINE for r in self.reasons], dtype=bool)
+
+
+#: how many times affine maps were assembled (one call forms every member's map; the
+#: tests count it to show that a sweep builds its maps together, not member by member)
+ASSEMBLY_COUNT = 0
+
+
+def _assemble(linearizations, points, n: int, solver: AffineSolver, driven: bool):
+    """The step maps of every member from its probes (stacks over members, host arrays):
+    ``(arrays, reasons, first)`` as :class:`StackedMaps` holds them, ``arrays`` the
+    :class:`AffineStepMap` fields (``None`` when no member is affine)."""
+    global ASSEMBLY_COUNT
+    ASSEMBLY_COUNT += 1
+    r, pm, r0, pm0, jr, jp = (np.asarray(a) for a in linearizations)
+    count = len(points)
+    reasons = [AFFINE] * count
+    # probe 1 is (q0, p0) with no increment: there, ∂r/∂(d, μ) is the first step's J
+    first = None if driven else jr[:, 1, :, 2 * n :]
+
+    def refuse(mask, reason):
+        for i in np.nonzero(mask)[0]:
+            if reasons[i] == AFFINE:
+                reasons[i] = reason
+
+    finite = np.all(np.isfinite(jr), axis=(1, 2, 3)) & np.all(np.isfinite(jp), axis=(1, 2, 3))
+    refuse(~finite, "the step equations are not finite at the probe points")
+    tol = solver.detect_rtol
+    extent = np.max(np.abs(points), axis=2, keepdims=True)  # (members, 3, 1)
+    for name, val, val0, jac in (("residual", r, r0, jr), ("momentum line", pm, pm0, jp)):
+        with np.errstate(invalid="ignore"):  # non-finite members are refused above
+            ref = np.maximum(1.0, np.max(np.abs(jac), axis=(1, 2, 3), initial=0.0))
+            moved = np.max(np.abs(jac - jac[:, :1]), axis=(1, 2, 3), initial=0.0)
+            refuse(
+                moved > tol * ref, f"the {name} of the step equations has a non-constant Jacobian"
+            )
+            linear = val0 + points @ np.swapaxes(jac[:, 0], 1, 2)
+            bound = ref[:, None, None] * extent + np.abs(val0)
+            off = np.abs(val - linear) > tol * np.maximum(bound, 1.0)
+            refuse(np.any(off, axis=(1, 2)), f"the {name} of the step equations is not affine")
+    good = np.array([reason == AFFINE for reason in reasons])
+    if not good.any():
+        return None, reasons, first
+    # the members without a map carry a copy of a good one's (a stack of one form)
+    rows = np.where(good, np.arange(count), np.argmax(good))
+    j_all, p_all = jr[rows, 0], jp[rows, 0]
+    j_z, j_x = j_all[:, :, : 2 * n], j_all[:, :, 2 * n :]
+    p_z, p_x = p_all[:, :, : 2 * n], p_all[:, :, 2 * n :]
+    rhs = np.concatenate([j_z, r[rows, 0][:, :, None]], axis=2)
+    sol = _refined_solve(j_x, -rhs)
+    singular = ~np.all(np.isfinite(sol), axis=(1, 2))
+    refuse(singular, SINGULAR)
+    if singular.all():
+        return None, reasons, first
+    if singular.any():  # the same copy again, now of a member whose J_x is regular
+        good &= ~singular
+        keep = np.where(good, np.arange(count), np.argmax(good))
+        j_x, p_z, p_x, sol = j_x[keep], p_z[keep], p_x[keep], sol[keep]
+        rows = rows[keep]
+    phi_x, b_x = sol[:, :, :-1], sol[:, :, -1]
+    phi_p = p_z + p_x @ phi_x
+    b_p = pm[rows, 0] + (p_x @ b_x[:, :, None])[:, :, 0]
+    delta = np.concatenate([phi_x[:, :n], phi_p], axis=1)
+    offset = np.concatenate([b_x[:, :n], b_p], axis=1)
+    powers, power_offsets = _block_maps(delta, offset)
+    arrays = dict(
+        delta=delta,
+        offset=offset,
+        powers=powers,
+        power_offsets=power_offsets,
+        mu_map=phi_x[:, n:],
+        mu_offset=b_x[:, n:],
+        inverse=np.linalg.inv(j_x),
+        jacobian=j_x,
+        momentum_x=p_x,
+    )
+    return arrays, reasons, first
 
 
 def build(
@@ -311,74 +487,60 @@ def build(
     affine. ``J`` is the first step's Jacobian ``∂r/∂(q_other, μ)`` at ``(q0, p0)`` when the
     probes computed it (an autonomous model, probed at ``t0``), else ``None``: the caller's
     solvability check needs no compilation of its own then."""
-    n = system.n
     unknowns = unknown_count(system, rule)
     if unknowns > AFFINE_DENSE_LIMIT:
         limit = AFFINE_DENSE_LIMIT
         return None, f"{unknowns} unknowns exceed the dense step-map limit {limit}", None
-    rng = np.random.default_rng(20261121)
-    scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
-    size = 2 * n + unknowns
-    points = np.stack(
-        [
-            np.zeros(size),
-            np.concatenate([np.asarray(q0), np.asarray(p0), np.zeros(unknowns)]),
-            scale * rng.uniform(-1.0, 1.0, size),
-        ]
-    )
+    points = _probe_points(np.asarray(q0)[None], np.asarray(p0)[None], unknowns)
     h, t0 = np.asarray(h, dtype=np.float64), np.asarray(t0, dtype=np.float64)
-    if _clearly_nonlinear(system, rule, scheme, h, points[1], points[2], t0):
+    screen = _values(system, rule, scheme, h, _screen_points(points)[0], t0)
+    if _clearly_nonlinear(np.asarray(screen)[None])[0]:
         return None, "the step equations are not affine", None
     driven = bool(system.time_dependent)
-    # a driven model is probed at three different times (its Jacobians must not move)
-    times = t0 + (np.array([0.0, 0.37, -1.91]) * (1.0 + abs(t0)) if driven else np.zeros(3))
-    r, pm, r0, pm0, jr, jp = (
-        np.asarray(a) for a in _linearizations(system, rule, scheme, h, points, times)
+    found = _linearizations(system, rule, scheme, h, points[0], _probe_times(t0, driven))
+    arrays, reasons, first = _assemble(
+        [np.asarray(a)[None] for a in found], points, system.n, solver, driven
     )
-    # probe 1 is (q0, p0) with no increment: there, ∂r/∂(d, μ) is the first step's J
-    first = None if driven else jr[1][:, 2 * n :]
-    if not (np.all(np.isfinite(jr)) and np.all(np.isfinite(jp))):
-        return None, "the step equations are not finite at the probe points", None
-    tol = solver.detect_rtol
-    for name, val, val0, jac in (("residual", r, r0, jr), ("momentum line", pm, pm0, jp)):
-        ref = max(1.0, float(np.max(np.abs(jac))))
-        if np.max(np.abs(jac - jac[0])) > tol * ref:
-            return None, f"the {name} of the step equations has a non-constant Jacobian", first
-        linear = val0 + points @ jac[0].T
-        bound = ref * np.max(np.abs(points), axis=1, keepdims=True) + np.abs(val0)
-        if np.any(np.abs(val - linear) > tol * np.maximum(bound, 1.0)):
-            return None, f"the {name} of the step equations is not affine", first
-    j_all, p_all = jr[0], jp[0]
-    j_z, j_x = j_all[:, : 2 * n], j_all[:, 2 * n :]
-    p_z, p_x = p_all[:, : 2 * n], p_all[:, 2 * n :]
-    rhs = np.concatenate([j_z, r[0][:, None]], axis=1)
-    import scipy.linalg as sla  # 0.2 s: imported on the first affine build, not with diracvi
-
-    with warnings.catch_warnings():  # a singular J_x is reported below, by name
-        warnings.simplefilter("ignore", sla.LinAlgWarning)
-        factors = sla.lu_factor(j_x, check_finite=False)
-        sol = _refined_solve(j_x, factors, -rhs)
-    if not np.all(np.isfinite(sol)):
-        return None, "the step Jacobian is singular", first
-    phi_x, b_x = sol[:, :-1], sol[:, -1]
-    phi_p = p_z + p_x @ phi_x
-    b_p = pm[0] + p_x @ b_x
-    delta = np.concatenate([phi_x[:n], phi_p])
-    offset = np.concatenate([b_x[:n], b_p])
-    powers, power_offsets = _block_maps(delta, offset)
+    first = None if first is None else first[0]
+    if arrays is None:
+        return None, reasons[0], first
     # device_put, not jnp.asarray: the latter compiles a small program per shape
-    arrays = jax.device_put(
-        dict(
-            delta=delta,
-            offset=offset,
-            powers=powers,
-            power_offsets=power_offsets,
-            mu_map=phi_x[n:],
-            mu_offset=b_x[n:],
-            inverse=np.linalg.inv(j_x),
-            jacobian=j_x,
-            momentum_x=p_x,
-        )
-    )
+    arrays = jax.device_put({name: a[0] for name, a in arrays.items()})
     step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
     return step_map, "affine", first
+
+
+def build_stacked(
+    system, static, dynamic, rule, scheme, h, q0s, p0s, solver: AffineSolver, t0: float = 0.0
+) -> StackedMaps:
+    """The affine step maps of members of one structure, built together: ``dynamic`` is
+    the members' array leaves stacked (``equinox.partition(member, equinox.is_array)``),
+    ``static`` their shared rest, ``system`` any one member (for its sizes), ``q0s``,
+    ``p0s`` (members, n). Each member's map is the one :func:`build` forms for it (the
+    same probes, tests, solves and block maps); here the probes of all members are one
+    vmapped program (traced once per structure and member count) and the solves and
+    block maps are stacked host operations, not a loop over members."""
+    count = len(q0s)
+    unknowns = unknown_count(system, rule)
+    if unknowns > AFFINE_DENSE_LIMIT:
+        reason = f"{unknowns} unknowns exceed the dense step-map limit {AFFINE_DENSE_LIMIT}"
+        return StackedMaps(None, [reason] * count, None)
+    points = _probe_points(np.asarray(q0s), np.asarray(p0s), unknowns)
+    h, t0 = np.asarray(h, dtype=np.float64), np.asarray(t0, dtype=np.float64)
+    screen = _member_values(static, dynamic, rule, scheme, h, _screen_points(points), t0)
+    nonlinear = _clearly_nonlinear(screen)
+    if nonlinear.all():
+        return StackedMaps(None, ["the step equations are not affine"] * count, None)
+    driven = bool(system.time_dependent)
+    found = _member_linearizations(
+        static, dynamic, rule, scheme, h, points, _probe_times(t0, driven)
+    )
+    arrays, reasons, first = _assemble(found, points, system.n, solver, driven)
+    reasons = [
+        "the step equations are not affine" if bad else reason
+        for bad, reason in zip(nonlinear, reasons, strict=True)
+    ]
+    if arrays is None or AFFINE not in reasons:
+        return StackedMaps(None, reasons, first)
+    step_map = AffineStepMap(**arrays, verify_rtol=solver.verify_rtol, driven=driven)
+    return StackedMaps(step_map, reasons, first)

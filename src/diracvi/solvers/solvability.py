@@ -41,6 +41,23 @@ def null_directions(jac: np.ndarray, rtol: float = 1e-11):
     return vt[rank:].T, u[:, rank:]
 
 
+def singular_members(jacs: np.ndarray, rtol: float = 1e-11) -> np.ndarray:
+    """Which Jacobians of a stack (members, N, N) are rank-deficient or not finite: the
+    rank test of :func:`null_directions`, batched (one stacked SVD). A screen: a flagged
+    member is then checked by :func:`check_step_jacobian`, which names what is wrong."""
+    jacs = np.asarray(jacs, dtype=np.float64)
+    finite = np.all(np.isfinite(jacs), axis=(1, 2))
+    safe = np.where(finite[:, None, None], jacs, 0.0)
+    rows = np.max(np.abs(safe), axis=2, keepdims=True)
+    scaled = safe / np.where(rows > 0, rows, 1.0)
+    cols = np.max(np.abs(scaled), axis=1, keepdims=True)
+    scaled = scaled / np.where(cols > 0, cols, 1.0)
+    s = np.linalg.svd(scaled, compute_uv=False)
+    tol = rtol * max(scaled.shape[1:]) * np.where(s[:, :1] > 0, s[:, :1], 1.0)
+    rank = np.sum(s > tol, axis=1)
+    return ~finite | (rank < min(scaled.shape[1:]))
+
+
 #: from this many unknowns on, a clearly regular Jacobian is recognised by a sparse LU
 _LU_FROM = 200
 #: every pivot of the equilibrated Jacobian's LU at least this large: clearly regular

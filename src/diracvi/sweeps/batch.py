@@ -4,14 +4,16 @@ does, and step each group of alike members with one compiled, vmapped program.
 A batch is a pure function of its members' parameter values (:func:`run_batch`), so a
 retried Dask task gives bitwise the same numbers. Each group's stepping method is the
 one :class:`~diracvi.driver.plan.Plan` chooses for a ``simulate`` call of its members:
-the affine step map when their step equations are linear (one map per member, stacked
-and vmapped), the given or default solver otherwise.
+the affine step map when their step equations are linear (one map per member, all of
+them built together by :func:`~diracvi.driver.plan.plan_members` and stepped vmapped),
+the given or default solver otherwise.
 """
 
 from __future__ import annotations
 
 import warnings
 from collections import OrderedDict
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -20,15 +22,14 @@ import numpy as np
 
 from ..discretization.equations import first_guess, residual
 from ..discretization.rules import get_rule
-from ..driver.plan import Plan, default_solver, equation_names, unknown_names
+from ..driver.plan import MemberPlan, equation_names, plan_members, unknown_names
 from ..driver.simulate import check_run
 from ..driver.stepping import chunk_runner
 from ..errors import DiracviError, ModelError, UnsolvableStepError
 from ..model.consistency import Checker
 from ..runtime.compile import run_once_jit, stored_chunk_jit
 from ..runtime.config import ensure_float64
-from ..solvers.base import StepSolver
-from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian
+from ..solvers.solvability import DENSE_CHECK_LIMIT, check_step_jacobian, singular_members
 from ..status import SolveStatus
 from .points import SweepSettings, _described, _unpack
 
@@ -167,21 +168,6 @@ def _step_jacobians(static, rule, scheme, h, t0, dynamic, q0, p0):
     return np.asarray(fn(dynamic, q0, p0, np.float64(h), np.float64(t0)))
 
 
-def _singular_members(jacs) -> np.ndarray:
-    """Which of the Jacobians ``(B, N, N)`` are rank-deficient or not finite (batched
-    version of :func:`~diracvi.solvers.solvability.null_directions`)."""
-    finite = np.all(np.isfinite(jacs), axis=(1, 2))
-    safe = np.where(finite[:, None, None], jacs, 0.0)
-    rows = np.max(np.abs(safe), axis=2, keepdims=True)
-    scaled = safe / np.where(rows > 0, rows, 1.0)
-    cols = np.max(np.abs(scaled), axis=1, keepdims=True)
-    scaled = scaled / np.where(cols > 0, cols, 1.0)
-    s = np.linalg.svd(scaled, compute_uv=False)
-    tol = 1e-11 * max(scaled.shape[1:]) * np.where(s[:, :1] > 0, s[:, :1], 1.0)
-    rank = np.sum(s > tol, axis=1)
-    return ~finite | (rank < scaled.shape[1])
-
-
 def _legendre_batch(static, t0, dynamic, q0):
     """``∂L/∂v(q, 0)``, ``∂²L/∂v²(q, 0)`` and ``A(q)`` of every member at ``t0``."""
 
@@ -241,44 +227,6 @@ def _pad(a, size):
     return np.concatenate([a, np.repeat(a[-1:], size - len(a), axis=0)])
 
 
-def _group_plans(group, rule, settings: SweepSettings, size: int):
-    """The stepping method of a group of alike members, chosen by simulate's
-    :class:`~diracvi.driver.plan.Plan` (solver choice, affine map, solvability checks).
-
-    Returns ``(solver, None)`` when the members share a solver, or ``(plans, (static,
-    dynamic))`` when the plan is the affine step map: one plan per member (the
-    :class:`UnsolvableStepError` of a member it refused in its place) and their maps'
-    array leaves stacked and padded to ``size``.
-    """
-    solver, scheme = settings.solver, settings.scheme
-    if isinstance(solver, StepSolver):
-        return solver, None
-    plans: list = []
-    for system, q0, p0, _ in group:
-        try:
-            plan = Plan(system, rule, scheme, settings.dt, solver, q0, p0, settings.t0)
-        except UnsolvableStepError as exc:
-            plans.append(exc)
-            continue
-        if plan.step_map is None:  # not linear (alike members: none is): the plan's solver
-            return plan.fallback, None
-        plans.append(plan)
-    good = [p for p in plans if isinstance(p, Plan)]
-    parts = [eqx.partition(p.step_map, eqx.is_array) for p in good]
-    shapes = {
-        (jax.tree.structure(d), tuple(np.shape(a) for a in jax.tree.leaves(d))) for d, _ in parts
-    }
-    if not good or len(shapes) > 1 or any(st != parts[0][1] for _, st in parts):
-        # every member refused (their checks report it), or maps of different forms
-        system0 = group[0][0]
-        return (default_solver(system0, rule, scheme) if solver is None else solver.fallback), None
-    dynamic = [parts[0][0] if isinstance(p, UnsolvableStepError) else None for p in plans]
-    it = iter(d for d, _ in parts)
-    dynamic = [d if d is not None else next(it) for d in dynamic]
-    stacked = jax.tree.map(lambda a, s=size: _pad(a, s), _stack(dynamic))
-    return plans, (parts[0][1], stacked)
-
-
 def _rerun(out: dict, i: int, member, settings: SweepSettings) -> None:
     """Member ``i`` run by :func:`~diracvi.simulate` itself, into row ``i`` of ``out``."""
     from ..driver.simulate import simulate
@@ -310,6 +258,132 @@ def _rerun(out: dict, i: int, member, settings: SweepSettings) -> None:
     out["message"][i], out["solver"][i] = traj.message, traj.solver
 
 
+def _take(tree, rows, size: int):
+    """The rows ``rows`` of every (stacked) array leaf of ``tree``, padded to ``size``."""
+    return jax.tree.map(lambda a: _pad(np.asarray(a)[rows], size), tree)
+
+
+class _Group(NamedTuple):
+    """Members of one structure, their array leaves and initial data stacked and padded."""
+
+    index: np.ndarray  # the members' rows in the batch
+    static: object  # their systems' shared non-array part
+    system: object  # one of them
+    dynamic: object  # their array leaves, (size, ...)
+    q0: np.ndarray  # (size, n)
+    p0: np.ndarray
+
+    def rows(self, rows: np.ndarray, size: int) -> _Group:
+        """The members ``rows`` (positions in this group), padded to ``size``."""
+        dynamic, q0, p0 = _take((self.dynamic, self.q0, self.p0), rows, size)
+        return _Group(self.index[rows], self.static, self.system, dynamic, q0, p0)
+
+
+def _plan(group: _Group, rule, settings: SweepSettings) -> MemberPlan:
+    """The stepping method :func:`~diracvi.simulate` would choose for each member."""
+    return plan_members(
+        group.system,
+        group.static,
+        group.dynamic,
+        rule,
+        settings.scheme,
+        settings.dt,
+        settings.solver,
+        group.q0,
+        group.p0,
+        settings.t0,
+    )
+
+
+def _refuse(out: dict, i: int, member, message: str, described: str) -> None:
+    """Member ``i`` is not stepped: its first step is not solvable (``message``)."""
+    _, q0, p0, _ = member
+    out["q"][i, 0], out["p"][i, 0] = q0, p0
+    out["status"][i], out["steps_taken"][i] = int(SolveStatus.SINGULAR), 0
+    out["message"][i], out["solver"][i] = message, described
+
+
+def _run_rows(out: dict, group: _Group, method, per_member: bool, members, names, values, rule,
+              settings: SweepSettings) -> None:  # fmt: skip
+    """Step the members of ``group`` by ``method`` (a solver shared by all, or with
+    ``per_member`` an affine step map whose leaves are stacked over them) in one
+    compiled, vmapped program, and write their rows of ``out``."""
+    scheme, h, k = settings.scheme, settings.dt, settings.save_every
+    blocks = settings.steps // k
+    index, size, system0 = group.index, len(group.q0), group.system
+    count = len(index)
+    coords = system0.coords
+    method_dynamic, method_static = eqx.partition(method, eqx.is_array)
+    singular = np.zeros(count, bool)
+    if per_member:  # the plan checked each member's step Jacobian already
+        described = "affine step map"
+    else:  # as simulate does before stepping: the first step must be solvable
+        described = repr(method)
+        if system0.n + system0.m <= DENSE_CHECK_LIMIT:
+            jacs = _step_jacobians(
+                group.static, rule, scheme, h, settings.t0, group.dynamic, group.q0, group.p0
+            )
+            singular = singular_members(jacs)[:count]
+
+    carry = (group.q0, group.p0, group.q0, np.zeros((size, system0.m)))
+    clock = np.array([settings.t0, 0.0])
+    fn = _program(group.static, rule, scheme, method_static, per_member, k, blocks)
+    res = fn(group.dynamic, method_dynamic, np.float64(h), clock, carry)
+    res = {key: np.asarray(value)[:count] for key, value in res.items()}
+    out["solver"][index] = described
+
+    n_good = res["n_good"]
+    full = n_good == k
+    whole = np.where(full.all(axis=1), blocks, np.argmin(full, axis=1))
+    rows = np.arange(count)
+    partial = np.where(whole < blocks, n_good[rows, np.minimum(whole, blocks - 1)], 0)
+    taken = whole * k + partial
+    kept = np.arange(blocks)[None, :] < whole[:, None]
+    status = np.where(whole < blocks, res["code"], 0)
+
+    q0, p0 = group.q0[:count], group.p0[:count]
+    q = np.concatenate([q0[:, None], res["q"]], axis=1)
+    p = np.concatenate([p0[:, None], res["p"]], axis=1)
+    keep_state = np.concatenate([np.ones((count, 1), bool), kept], axis=1)
+    out["q"][index] = np.where(keep_state[..., None], q, np.nan)
+    out["p"][index] = np.where(keep_state[..., None], p, np.nan)
+    out["energy"][index] = np.where(kept, res["energy"], np.nan)
+    out["violation"][index] = np.where(kept, res["violation"], np.nan)
+    out["status"][index] = status
+    out["steps_taken"][index] = taken
+    sign = 1.0 if scheme == "plus" else -1.0
+    for j in np.nonzero(status)[0]:
+        out["message"][index[j]] = SolveStatus(int(status[j])).explain(
+            step=int(taken[j]),
+            t=settings.t0 + sign * h * int(taken[j]),
+            iterations=int(res["iterations"][j]),
+            res_norm=float(res["residual"][j]),
+            coords=coords,
+            q=res["q_bad"][j],
+        )
+    for j in np.nonzero(singular)[0]:
+        i = index[j]
+        tk = settings.t0 if scheme == "plus" else settings.t0 - h
+        try:
+            check_step_jacobian(
+                jacs[j],
+                unknown_names=unknown_names(system0, scheme, rule),
+                equation_names=equation_names(system0, rule),
+                where=f"the first ({scheme}) step of member "
+                f"{_described(names, values[i])} at t = {tk:g}",
+            )
+        except UnsolvableStepError as exc:
+            _refuse(out, i, members[i], str(exc), described)
+            out["q"][i, 1:] = out["p"][i, 1:] = np.nan
+            out["energy"][i] = out["violation"][i] = np.nan
+        # (else: the batched test is slightly stricter; the exact one has the say)
+
+    # a step the affine map's verification rejected: simulate goes on with Newton
+    # from there; here the member is run by simulate itself (rare: not batched)
+    for j in np.nonzero((status == SolveStatus.AFFINE_REJECTED) & ~singular)[0]:
+        _rerun(out, index[j], members[index[j]], settings)
+
+
 def run_batch(build, names, values, settings: SweepSettings, cap: int | None = None) -> dict:
     """Run the members ``values`` (rows of parameter values) of a sweep.
 
@@ -320,8 +394,7 @@ def run_batch(build, names, values, settings: SweepSettings, cap: int | None = N
     ensure_float64()
     values = np.asarray(values, dtype=np.float64)
     rule = get_rule(settings.discretization)
-    scheme, h, k = settings.scheme, settings.dt, settings.save_every
-    blocks = settings.steps // k
+    blocks = settings.steps // settings.save_every
     cap = len(values) if cap is None else max(cap, len(values))
 
     members = [_build_member(build, names, v, settings) for v in values]
@@ -353,100 +426,50 @@ def run_batch(build, names, values, settings: SweepSettings, cap: int | None = N
             (i, dynamic, static)
         )
 
-    sign = 1.0 if scheme == "plus" else -1.0
-    clock = np.array([settings.t0, 0.0])
-    for group in groups.values():
-        index = np.array([i for i, _, _ in group])
-        static = group[0][2]
-        system0 = members[index[0]][0]
-        q0 = np.stack([members[i][1] for i in index])
-        p0 = np.stack([members[i][2] for i in index])
+    for alike in groups.values():
+        index = np.array([i for i, _, _ in alike])
         # one structure: padded to the batch size (every batch one program); several:
         # each group to a power of two
         size = cap if len(groups) == 1 else _bucket(len(index), cap)
-        dynamic = jax.tree.map(lambda a, s=size: _pad(a, s), _stack([d for _, d, _ in group]))
-        q0s, p0s = _pad(q0, size), _pad(p0, size)
-
-        # the stepping method simulate would choose for these members (one plan each
-        # when it is the affine map: its matrices depend on the parameters)
-        plans, maps = _group_plans([members[i] for i in index], rule, settings, size)
-        singular = np.zeros(len(index), bool)
-        if maps is not None:  # the plans checked each member's step Jacobian already
-            method_static, method_dynamic = maps
-            singular = np.array([isinstance(p, UnsolvableStepError) for p in plans])
-            described = "affine step map"
-        else:  # as simulate does before stepping: the first step must be solvable ...
-            method_dynamic, method_static = eqx.partition(plans, eqx.is_array)
-            described = repr(plans)
-            if system0.n + system0.m <= DENSE_CHECK_LIMIT:
-                jacs = _step_jacobians(static, rule, scheme, h, settings.t0, dynamic, q0s, p0s)
-                singular = _singular_members(jacs)[: len(index)]
-        # ... and the initial data consistent (a warning, as in simulate)
-        bad = _inconsistent_members(system0, static, settings.t0, dynamic, q0s, p0s)
+        group = _Group(
+            index,
+            alike[0][2],
+            members[index[0]][0],
+            jax.tree.map(lambda a, s=size: _pad(a, s), _stack([d for _, d, _ in alike])),
+            _pad(np.stack([members[i][1] for i in index]), size),
+            _pad(np.stack([members[i][2] for i in index]), size),
+        )
+        # the initial data consistent (a warning, as in simulate)
+        bad = _inconsistent_members(
+            group.system, group.static, settings.t0, group.dynamic, group.q0, group.p0
+        )
         inconsistent.extend(int(i) for i in index[bad[: len(index)]])
 
-        carry = (q0s, p0s, q0s, np.zeros((size, system0.m)))
-        fn = _program(static, rule, scheme, method_static, maps is not None, k, blocks)
-        res = fn(dynamic, method_dynamic, np.float64(h), clock, carry)
-        res = {key: np.asarray(value)[: len(index)] for key, value in res.items()}
-        out["solver"][index] = described
-
-        n_good = res["n_good"]
-        full = n_good == k
-        whole = np.where(full.all(axis=1), blocks, np.argmin(full, axis=1))
-        rows = np.arange(len(index))
-        partial = np.where(whole < blocks, n_good[rows, np.minimum(whole, blocks - 1)], 0)
-        taken = whole * k + partial
-        kept = np.arange(blocks)[None, :] < whole[:, None]
-        status = np.where(whole < blocks, res["code"], 0)
-
-        q = np.concatenate([q0[:, None], res["q"]], axis=1)
-        p = np.concatenate([p0[:, None], res["p"]], axis=1)
-        keep_state = np.concatenate([np.ones((len(index), 1), bool), kept], axis=1)
-        out["q"][index] = np.where(keep_state[..., None], q, np.nan)
-        out["p"][index] = np.where(keep_state[..., None], p, np.nan)
-        out["energy"][index] = np.where(kept, res["energy"], np.nan)
-        out["violation"][index] = np.where(kept, res["violation"], np.nan)
-        out["status"][index] = status
-        out["steps_taken"][index] = taken
-        for j in np.nonzero(status)[0]:
-            out["message"][index[j]] = SolveStatus(int(status[j])).explain(
-                step=int(taken[j]),
-                t=settings.t0 + sign * h * int(taken[j]),
-                iterations=int(res["iterations"][j]),
-                res_norm=float(res["residual"][j]),
-                coords=coords,
-                q=res["q_bad"][j],
-            )
-        for j in np.nonzero(singular)[0]:
-            i = index[j]
-            system, q0_i, p0_i, _ = members[i]
-            tk = settings.t0 if scheme == "plus" else settings.t0 - h
-            if maps is not None:  # the member's plan refused it
-                message = f"member {_described(names, values[i])}: {plans[j]}"
-            else:
-                try:
-                    check_step_jacobian(
-                        jacs[j],
-                        unknown_names=unknown_names(system, scheme, rule),
-                        equation_names=equation_names(system, rule),
-                        where=f"the first ({scheme}) step of member "
-                        f"{_described(names, values[i])} at t = {tk:g}",
-                    )
-                except UnsolvableStepError as exc:
-                    message = str(exc)
-                else:  # the batched test is slightly stricter; the exact one has the say
-                    continue
-            out["status"][i] = int(SolveStatus.SINGULAR)
-            out["message"][i] = message
-            out["steps_taken"][i] = 0
-            out["q"][i, 1:] = out["p"][i, 1:] = np.nan
-            out["energy"][i] = out["violation"][i] = np.nan
-
-        # a step the affine map's verification rejected: simulate goes on with Newton
-        # from there; here the member is run by simulate itself (rare: not batched)
-        for j in np.nonzero((status == SolveStatus.AFFINE_REJECTED) & ~singular)[0]:
-            _rerun(out, index[j], members[index[j]], settings)
+        # the stepping method simulate would choose for each member: the affine maps
+        # (their matrices depend on the parameters) are built for all of them at once
+        plan = _plan(group, rule, settings)
+        affine = plan.affine[: len(index)]
+        refused = np.zeros(len(index), bool)
+        for j, exc in plan.refused.items():
+            if j < len(index):
+                refused[j] = True
+                message = f"member {_described(names, values[index[j]])}: {exc}"
+                _refuse(out, index[j], members[index[j]], message, "affine step map")
+        if plan.step_map is not None:
+            parts = [(affine, plan.step_map, True), (~affine & ~refused, plan.solver, False)]
+        else:
+            parts = [(~refused, plan.solver, False)]
+        for chosen, method, per_member in parts:
+            rows = np.nonzero(chosen)[0]
+            if len(rows) == 0:
+                continue
+            if len(rows) == len(index):
+                part = group
+            else:  # some members of the group: their own (smaller) padded batch
+                part = group.rows(rows, _bucket(len(rows), cap))
+            if per_member and part is not group:  # their rows of the stacked maps
+                method = _take(method, rows, len(part.q0))
+            _run_rows(out, part, method, per_member, members, names, values, rule, settings)
 
     messages = []
     if inconsistent:
