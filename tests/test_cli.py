@@ -108,6 +108,42 @@ def test_run_options_reach_simulate(tmp_path):
     assert traj.t[-1] == pytest.approx(-0.6)
 
 
+RLC_SWEEP = """
+    from diracvi import problems
+
+    def build(R=1.0, C=3.0):
+        return problems.build_rlc(R=R, C=C)
+"""
+
+
+def test_sweep_solver_option_reaches_sweep(tmp_path):
+    # --solver is run's option, with run's names: automatic (the affine maps of a linear
+    # circuit) or a solver for every member; the dataset and the summary say which ran
+    import xarray as xr
+
+    model = write_model(tmp_path, "rlc.py", RLC_SWEEP)
+    base = ["sweep", model, "--param", "R=0.5,2", "--param", "C=1,3", "--dt", "0.1"]
+    base += ["--steps", 60, "--batch-size", 4]
+    q = {}
+    for option, solver in (((), "affine step map"), (("--solver", "newton"), "NewtonSolver()")):
+        out = tmp_path / f"{solver.split()[0]}.nc"
+        result = invoke(*base, *option, "--out", out)
+        assert result.exit_code == 0, result.output
+        assert solver in result.output
+        with xr.open_dataset(out, engine="h5netcdf") as ds:
+            assert set(ds.solver.values.ravel()) == {solver} and (ds.status == 0).all()
+            q[solver] = ds["qC"].values
+    np.testing.assert_allclose(q["NewtonSolver()"], q["affine step map"], rtol=0, atol=1e-11)
+    bad = invoke(*base, "--solver", "lu")
+    assert bad.exit_code == EXIT_USAGE
+    flat = " ".join(bad.output.replace("│", " ").split())  # (rich boxes and wraps it)
+    assert "--solver" in flat and "'lu' is not one of newton, newton-full, affine," in flat
+    refused = invoke(*base, "--solver", "partitioned")  # the library's reason, plainly
+    assert refused.exit_code == EXIT_FAILURE
+    assert "needs an interconnected system" in " ".join(refused.output.split())
+    assert "Traceback" not in refused.output
+
+
 def test_run_plot_without_out_writes_next_to_cwd(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     result = invoke("run", "damped-oscillator", "--steps", 10, "--plot")

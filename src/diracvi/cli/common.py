@@ -116,6 +116,25 @@ def _choice(options):
     return check
 
 
+#: ``--solver`` choices of ``run`` and ``sweep`` (the solvers are imported when a run
+#: needs one)
+SOLVERS = ("newton", "newton-full", "affine", "partitioned")
+
+
+def _solver_option(name: str | None):
+    """The solver ``--solver NAME`` asks for (None: automatic, as ``solver=None``)."""
+    if name is None:
+        return None
+    from .. import AffineSolver, NewtonSolver, PartitionedSolver
+
+    return {
+        "newton": NewtonSolver,
+        "newton-full": lambda: NewtonSolver(reuse_jacobian=False),
+        "affine": AffineSolver,
+        "partitioned": PartitionedSolver,
+    }[name]()
+
+
 NETLIST_SUFFIXES = (".cir", ".sp", ".spice", ".net", ".ckt")
 
 

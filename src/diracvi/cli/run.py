@@ -11,6 +11,7 @@ from rich.table import Table
 from ..discretization.rules import rule_names
 from .common import (
     EXIT_USAGE,
+    SOLVERS,
     _choice,
     _fail,
     _library_errors,
@@ -19,6 +20,7 @@ from .common import (
     _positive_float,
     _positive_int,
     _resolve_model,
+    _solver_option,
 )
 
 
@@ -32,24 +34,6 @@ def list_problems() -> None:
     for name, description in problems.available().items():
         table.add_row(name, description)
     _out().print(table)
-
-
-#: ``run --solver`` choices (the solvers are imported when a run needs one)
-SOLVERS = ("newton", "newton-full", "affine", "partitioned")
-
-
-def _make_solver(name: str | None):
-    """The solver ``--solver NAME`` asks for (None: automatic)."""
-    if name is None:
-        return None
-    from .. import AffineSolver, NewtonSolver, PartitionedSolver
-
-    return {
-        "newton": NewtonSolver,
-        "newton-full": lambda: NewtonSolver(reuse_jacobian=False),
-        "affine": AffineSolver,
-        "partitioned": PartitionedSolver,
-    }[name]()
 
 
 def run(
@@ -153,7 +137,7 @@ def run(
             scheme=scheme,
             discretization=rule,
             t0=getattr(model, "t0", 0.0),
-            solver=_make_solver(solver),
+            solver=_solver_option(solver),
         )
     _print_summary(model.name, traj)
     notes = getattr(model, "notes", ())
@@ -185,7 +169,7 @@ def _run_netlist(netlist, dt, steps, scheme, discretization, out, plot, raw, sol
             "--dt STEP for a fixed-step run with this solver.",
             EXIT_USAGE,
         )
-    options = {} if solver is None else {"solver": _make_solver(solver)}
+    options = {} if solver is None else {"solver": _solver_option(solver)}
     with _library_errors(partial_out=out if fixed else None):
         result = spice.run(
             netlist,

@@ -11,12 +11,14 @@ from rich.table import Table
 from ..discretization.rules import rule_names
 from .common import (
     EXIT_USAGE,
+    SOLVERS,
     _choice,
     _fail,
     _library_errors,
     _out,
     _positive_float,
     _positive_int,
+    _solver_option,
 )
 
 
@@ -111,6 +113,16 @@ def sweep_command(
         Path | None,
         typer.Option(help="NetCDF file written batch by batch; rerun to resume."),
     ] = None,
+    solver: Annotated[
+        str | None,
+        typer.Option(
+            callback=_choice(SOLVERS),
+            metavar="|".join(SOLVERS),
+            help="Step solver of every member (default: automatic — the affine map for "
+            "linear models, one per member, else Newton reusing its Jacobian), as for "
+            "`diracvi run`. The dataset's solver variable says which ran.",
+        ),
+    ] = None,
 ) -> None:
     """Run a model file over a grid of parameter values (embedded, or on a Dask cluster)."""
     if not model.is_file():
@@ -160,6 +172,7 @@ def sweep_command(
                 batch_size=batch_size,
                 client=client,
                 out=out,
+                solver=_solver_option(solver),
             )
     finally:
         if client is not None:
@@ -174,6 +187,8 @@ def sweep_command(
     table.add_row("model", model.name)
     table.add_row("members", f"{status.size:,} = {shape}")
     table.add_row("steps", f"{n_steps}, dt = {h:g}, {scheme}, {discretization}")
+    solvers = sorted(set(np.asarray(ds["solver"].values).ravel().astype(str)) - {""})
+    table.add_row("solver", ", ".join(solvers))
     table.add_row("failed", f"{int(np.sum(status != 0))}")
     _out().print(table)
     if out is not None:
