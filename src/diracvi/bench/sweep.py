@@ -16,9 +16,9 @@ shares one compiled program), over a grid of R × C: 100 × 100 values in batche
 
 Each sweep side is timed once after a warm-up sweep of two batches (which compiles the
 batch program, on each worker for the cluster). Before timing, the sweep's members must
-equal the loop's single runs to 1e-11 relative (the loop takes ``simulate``'s affine fast
-path; the sweep steps by Newton) and the cluster's sweep must equal the embedded one
-bitwise.
+equal the loop's single runs to 1e-11 relative (both take the affine step map: the loop
+one ``simulate`` plan per circuit, the sweep every member's map built in one call per
+batch) and the cluster's sweep must equal the embedded one bitwise.
 """
 
 from __future__ import annotations
@@ -119,6 +119,7 @@ def run(settings: Settings) -> Result:
         "cluster": members / t_cluster,
     }
     label = label_of(members)
+    ran = ", ".join(sorted(set(np.asarray(embedded.solver.values).ravel().astype(str))))
     note = (
         f"members/s: loop {rate['loop']:.3g} (timed over {loop_runs}, extrapolated), "
         f"embedded {rate['embedded']:.3g}, cluster {rate['cluster']:.3g}; "
@@ -131,7 +132,7 @@ def run(settings: Settings) -> Result:
             t_embedded,
             t_loop_all,
             t_loop_all / t_embedded,
-            solver=f"sweep: Newton, vmapped; loop: {singles[0].solver}",
+            solver=f"sweep: {ran}, vmapped; loop: {singles[0].solver}",
             notes=note,
         ),
         Row(
@@ -140,7 +141,7 @@ def run(settings: Settings) -> Result:
             t_cluster,
             t_loop_all,
             t_loop_all / t_cluster,
-            solver="sweep: Newton, vmapped, Dask tasks",
+            solver=f"sweep: {ran}, vmapped, Dask tasks",
             notes="one timed call after a warm-up sweep; cluster startup not timed",
         ),
     ]
