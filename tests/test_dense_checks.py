@@ -17,7 +17,7 @@ import pytest
 import diracvi as dv
 from diracvi import problems
 from diracvi.model.consistency import _complement, _port_groups
-from diracvi.solvers.solvability import check_step_jacobian, null_directions
+from diracvi.solvers.solvability import check_step_jacobian, null_directions, singular_members
 
 
 def _dense_complement(w, forms):
@@ -96,6 +96,20 @@ def test_a_nearly_singular_but_regular_jacobian_is_decided_by_the_svd():
     jac = (q * s) @ q.T
     unknowns, equations = _names(n)
     check_step_jacobian(jac, unknown_names=unknowns, equation_names=equations, where="test")
+
+
+@pytest.mark.parametrize("n", [6, 210])  # a stacked SVD; the sparse LU first, then SVDs
+def test_the_batched_screen_of_a_sweep_flags_exactly_the_singular_jacobians(n):
+    # a sweep screens its members' step Jacobians together: the verdict of the rank test
+    # of each one alone (null_directions), a non-finite one flagged too
+    rng = np.random.default_rng(n)
+    jacs = np.stack([_block_mass_matrix(rng, n, massless=0) + np.eye(n) for _ in range(4)])
+    jacs[1, 3] = 2.0 * jacs[1, 4]  # two equations that clash
+    jacs[2, :, 0] = 0.0  # an unknown no equation fixes
+    jacs[3, 2, 2] = np.nan
+    assert singular_members(jacs).tolist() == [False, True, True, True]
+    if n < 200:  # (large: singular_members calls null_directions itself)
+        assert [null_directions(j)[0].shape[1] > 0 for j in jacs[:3]] == [False, True, True]
 
 
 def _named_port_groups(system):

@@ -390,6 +390,13 @@ def test_a_linear_sweep_builds_all_its_maps_in_one_call_per_batch(monkeypatch):
     assert affine.ASSEMBLY_COUNT - before == 2
     assert set(ds.solver.values.ravel()) == {"affine step map"}
     assert ds.attrs["solver"] == "auto"
+    # large members are probed in slices (bounded memory): the same maps, still one
+    # assembly per batch (here 2 members per slice: 3 · (1 + 1) · 3 numbers each)
+    monkeypatch.setattr(affine, "PROBE_NUMBERS", 36)
+    before = affine.ASSEMBLY_COUNT
+    sliced = dv.sweep(series_rlc, grid, dt=DT, steps=STEPS, batch_size=BATCH)
+    assert affine.ASSEMBLY_COUNT - before == 2
+    np.testing.assert_allclose(sliced["q"].values, ds["q"].values, rtol=0, atol=1e-12)
 
 
 class _Duffing(eqx.Module):

@@ -278,9 +278,11 @@ def _clearly_nonlinear(values) -> np.ndarray:
     are not finite (left to the full test, which reports non-finite equations)."""
     values = np.asarray(values)
     finite = np.all(np.isfinite(values), axis=(1, 2))
-    defect = np.abs(values[:, 2] - 0.5 * (values[:, 0] + values[:, 1]))
-    bound = np.abs(values[:, 0]) + np.abs(values[:, 1]) + np.abs(values[:, 2])
-    return finite & np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0), axis=1)
+    with np.errstate(invalid="ignore", over="ignore"):  # (non-finite members: False)
+        defect = np.abs(values[:, 2] - 0.5 * (values[:, 0] + values[:, 1]))
+        bound = np.abs(values[:, 0]) + np.abs(values[:, 1]) + np.abs(values[:, 2])
+        clearly = np.any(defect > _SCREEN_RTOL * np.maximum(bound, 1.0), axis=1)
+    return finite & clearly
 
 
 def _solve(a, b):
@@ -382,6 +384,11 @@ def _probe_times(t0, driven: bool) -> np.ndarray:
 
 #: a member's reason when it has a map, and when its ``J_x`` could not be solved
 AFFINE, SINGULAR = "affine", "the step Jacobian is singular"
+
+
+#: the most numbers one vmapped probe call returns (Jacobians at 3 points per member):
+#: 2²⁵ float64, 256 MB. A batch of members is probed in one call up to that size.
+PROBE_NUMBERS = 2**25
 
 
 class StackedMaps(NamedTuple):
@@ -532,9 +539,22 @@ def build_stacked(
     if nonlinear.all():
         return StackedMaps(None, ["the step equations are not affine"] * count, None)
     driven = bool(system.time_dependent)
-    found = _member_linearizations(
-        static, dynamic, rule, scheme, h, points, _probe_times(t0, driven)
-    )
+    times = _probe_times(t0, driven)
+    # the Jacobians at 3 points per member: for large members, slices of a fixed size
+    # (one program, the last slice padded) keep the probes' output bounded
+    per_member = 3 * (unknowns + system.n) * points.shape[2]
+    size = max(1, PROBE_NUMBERS // per_member)
+    size = count if size >= count else 1 << (size.bit_length() - 1)
+    found = []
+    for start in range(0, count, size):
+
+        def part(a, start=start):
+            a = np.asarray(a)[start : start + size]
+            return np.concatenate([a, np.repeat(a[-1:], size - len(a), axis=0)])
+
+        sliced = jax.tree.map(part, dynamic)
+        found.append(_member_linearizations(static, sliced, rule, scheme, h, part(points), times))
+    found = [np.concatenate(parts)[:count] for parts in zip(*found, strict=True)]
     arrays, reasons, first = _assemble(found, points, system.n, solver, driven)
     reasons = [
         "the step equations are not affine" if bad else reason

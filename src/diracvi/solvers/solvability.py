@@ -47,6 +47,14 @@ def singular_members(jacs: np.ndarray, rtol: float = 1e-11) -> np.ndarray:
     member is then checked by :func:`check_step_jacobian`, which names what is wrong."""
     jacs = np.asarray(jacs, dtype=np.float64)
     finite = np.all(np.isfinite(jacs), axis=(1, 2))
+    if jacs.shape[1] >= _LU_FROM and jacs.shape[1] == jacs.shape[2]:
+        # large: a stacked SVD is O(members · N³); a sparse LU recognises the clearly
+        # regular ones first (as check_step_jacobian does), the SVD decides the rest
+        flagged = ~finite
+        for i in np.nonzero(finite)[0]:
+            if not _clearly_regular(_equilibrate(jacs[i])):
+                flagged[i] = null_directions(jacs[i], rtol)[0].shape[1] > 0
+        return flagged
     safe = np.where(finite[:, None, None], jacs, 0.0)
     rows = np.max(np.abs(safe), axis=2, keepdims=True)
     scaled = safe / np.where(rows > 0, rows, 1.0)
