@@ -20,6 +20,14 @@ if "DIRACVI_CACHE_DIR" not in os.environ:
 # (diracvi bench) measure it.
 os.environ.setdefault("DIRACVI_FAST_COMPILE", "1")
 
+# One BLAS thread per process: xdist already runs one worker per core, and OpenBLAS's
+# own threads on top of that oversubscribe the cores. Its threads spin while they wait,
+# so a small dense solve or SVD then takes milliseconds instead of microseconds (the
+# dense-check tests: 33 s with the default threads vs 1.2 s with one, on a loaded
+# 2-core machine). Set before NumPy is imported, which is when OpenBLAS reads it.
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, settings
