@@ -38,7 +38,7 @@ from .mechanical import (
 )
 from .mosfet import MOSFET
 from .network import Assembly, Circuit
-from .waveforms import DC, PWL, Pulse, Sine, Waveform
+from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
     "BJT",
@@ -58,6 +58,7 @@ __all__ = [
     "CurrentSource",
     "Damper",
     "Diode",
+    "Exp",
     "Fixed",
     "ForceSource",
     "Ground",
