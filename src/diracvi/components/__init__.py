@@ -38,6 +38,7 @@ from .mechanical import (
 )
 from .mosfet import MOSFET
 from .network import Assembly, Circuit
+from .switch import CurrentSwitch, Relay, VoltageSwitch
 from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
@@ -56,6 +57,7 @@ __all__ = [
     "Circuit",
     "CoupledInductors",
     "CurrentSource",
+    "CurrentSwitch",
     "Damper",
     "Diode",
     "Exp",
@@ -70,6 +72,7 @@ __all__ = [
     "Part",
     "Pendulum",
     "Pulse",
+    "Relay",
     "Resistor",
     "RotationalDamper",
     "Sine",
@@ -78,6 +81,7 @@ __all__ = [
     "TorsionSpring",
     "VoiceCoil",
     "VoltageSource",
+    "VoltageSwitch",
     "Waveform",
     "spice_diode",
 ]

@@ -71,6 +71,7 @@ class Netlist:
     op: bool = False
     off: frozenset = frozenset()
     _start: tuple | None = field(default=None, repr=False)
+    _modes: object = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -101,7 +102,19 @@ class Netlist:
             except ModelError as exc:
                 raise NetlistError(f"netlist {self.title!r}: {exc}") from None
             self._start = (op.q0, op.p0)
+            self._modes = op.modes
         return self._start
+
+    def initial_modes(self):
+        """The switches' states the transient starts with: the operating point's without
+        ``UIC``, else as given (``ON``/``OFF``), in the order of
+        :func:`diracvi.driver.events.relays` (empty without switches)."""
+        from ..driver.events import initial_modes
+
+        if self.uic:
+            return initial_modes(self.system)
+        self.initial_state()
+        return self._modes
 
     @property
     def discretizations(self) -> tuple[str, ...]:
