@@ -4,9 +4,10 @@ A part may hold a discrete state — a :class:`~diracvi.components.switch.Relay`
 ``closed`` of its force — that is constant within a step and changes between steps by
 a law ``σ⁺ = next(σ, u)`` of a control value ``u`` (a step-centred velocity of one of
 the part's coordinates, or a step's impulse on its momentum line divided by the step:
-:mod:`diracvi.components.switch` says why a voltage control is read that way). The driver carries the vector ``σ`` of all of them, builds each step with
-its current values (:func:`with_modes`: the same system with those leaves replaced, so
-one compiled program serves every state) and decides ``σ`` anew after each step.
+:mod:`diracvi.components.switch` says why a voltage control is read that way). The
+driver carries the vector ``σ`` of all of them, builds each step with its current
+values (:func:`with_modes`: the same system with those leaves replaced, so one compiled
+program serves every state) and decides ``σ`` anew after each step.
 
 **Events are located.** A step over which a relay's law would flip ``σ`` does not simply
 flip it at its end (the flip would be late by up to a step). With the step's two halves
@@ -15,9 +16,12 @@ at ``t + H/4``, ``t + 3H/4`` give its line ``u(τ)`` over the try and the crossi
 ``τ*`` of the level crossed (``VT + VH`` going up, ``VT − VH`` going down). The try is
 accepted with the flip only if its end value ``u(H)`` is past the level by at most the
 event tolerance (:func:`tolerances`); otherwise it is retried with ``H = τ*`` (plus half
-the tolerance's worth of time, to land just past the level). Each retry is a secant
-step on the crossing, exact for a control that is linear over the try, so a flip is
-placed within the tolerance of its instant in a few tries.
+the tolerance's worth of time, to land just past the level), but never below ``H/4``
+(a sharp drop of the step size excites the midpoint rule's alternating mode — the lag
+of the multipliers — which the step control then chases down to ``hmin``; the crossing
+is approached over a few steps instead). Each retry is a secant step on the crossing,
+exact for a control that is linear over the try, so a flip is placed within the
+tolerance of its instant in a few tries.
 
 **What an event does to the power balance.** Nothing discontinuous: every recorded step
 is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for which the
