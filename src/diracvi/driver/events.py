@@ -70,6 +70,17 @@ def relays(system) -> tuple[tuple[int, Relay], ...]:
     return tuple(found)
 
 
+def static_controls(system, v) -> np.ndarray:
+    """Per relay, its control at a static state with velocities ``v`` (an operating
+    point): the velocity of its coordinate, or for an impulse-read (voltage) control the
+    sensing flux's velocity ``ẇ = φ_cp − φ_cn`` (no step, so no lag)."""
+    flux = iter(sensing(system))
+    return np.asarray(
+        [v[next(flux)] if relay.impulse else v[i] for i, relay in relays(system)],
+        dtype=np.float64,
+    )
+
+
 def sensing(system) -> np.ndarray:
     """The coordinates whose values are impulses in disguise (a voltage switch's sensing
     flux: it alternates about its momentum under the midpoint rule, see

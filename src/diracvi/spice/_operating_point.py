@@ -35,6 +35,7 @@ changes (a control inside a hysteresis window keeps the given state).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 from dataclasses import dataclass
 
@@ -111,6 +112,14 @@ class _Equations:
         self.junction_index, self.junction_limits = (
             (np.zeros(0, np.int64), jnp.zeros((0, 3))) if found is None else found
         )
+
+    def with_modes(self, modes):
+        """These equations with the switches in the states ``modes`` (traceable)."""
+        if not len(modes):
+            return self
+        out = copy.copy(self)
+        out.system = events.with_modes(self.system, modes)
+        return out
 
     def split(self, x):
         n, m, k = self.n, self.m, len(self.dep)
@@ -229,31 +238,38 @@ def operating_point(
         raise ModelError("operating point: not available under jax transformations; use UIC.")
     found = events.relays(assembly.system)
     modes = events.initial_modes(assembly.system)
+    eqs = _Equations(assembly, t0, dict(hold or {}))
+
+    # the switch states are an argument: one compilation serves every state tried
+    @jax.jit
+    def residual(x, source, gmin, modes):
+        return eqs.with_modes(modes).residual(x, source, gmin)
+
+    jacobian = jax.jit(jax.jacfwd(residual))
     iterations = 0
     for _ in range(2 * len(found) + 2):  # each switch flips at most twice on the way
-        op, v = _solve(assembly, t0, hold, off, methods)
+        op, v = _solve(
+            eqs,
+            lambda x, s, g, m=modes: residual(x, s, g, m),
+            lambda x, s, g, m=modes: jacobian(x, s, g, m),
+            off,
+            methods,
+        )
         iterations += op.iterations
-        new = np.array([float(r.next(modes[j], v[i])) for j, (i, r) in enumerate(found)])
+        u = events.static_controls(assembly.system, v)
+        new = np.array([float(r.next(modes[j], u[j])) for j, (_, r) in enumerate(found)])
         if np.array_equal(new, modes):
             return dataclasses.replace(op, iterations=iterations, modes=modes)
         modes = new
-        system = events.with_modes(assembly.system, modes)
-        assembly = dataclasses.replace(assembly, system=system)
     raise ModelError(
         "operating point: the switches do not settle (each state found makes another "
         "switch flip); give the initial state with UIC (.tran … uic) and ON/OFF flags."
     )
 
 
-def _solve(assembly, t0, hold, off, methods):
-    """The point with the switches as they are: ``(OperatingPoint, branch velocities)``."""
-    eqs = _Equations(assembly, t0, dict(hold or {}))
-
-    @jax.jit
-    def residual(x, source, gmin):
-        return eqs.residual(x, source, gmin)
-
-    jacobian = jax.jit(jax.jacfwd(residual))
+def _solve(eqs, residual, jacobian, off, methods):
+    """The point with the switches in one state: ``(OperatingPoint, branch velocities)``."""
+    assembly = eqs.assembly
     zero = np.asarray(residual(jnp.zeros(eqs.size), 1.0, 0.0))
     x0 = eqs.start(off)
     total = 0
