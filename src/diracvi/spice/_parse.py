@@ -18,6 +18,7 @@ from pathlib import Path
 from .. import components as cp
 from ..errors import ModelError
 from ._directives import DIRECTIVES
+from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._save import select
 from ._scope import Scope, read_body
@@ -194,6 +195,8 @@ class _Reader:
         if not self.circuit._parts and not self.problems.found:
             raise NetlistError("the netlist has no elements (only a title and directives).")
         self.problems.check()
+        gmin = self.options.get("gmin", GMIN)
+        add_shunts(self.circuit, gmin if isinstance(gmin, float) else GMIN, self.notes.append)
         try:
             assembly = self.circuit.build()
         except NetlistError:
