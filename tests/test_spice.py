@@ -123,6 +123,7 @@ def test_topology_errors_name_elements_and_nodes(body, match):
         spice.read("title\n" + body)
 
 
+@pytest.mark.slow
 def test_a_node_with_one_connection_carries_no_current_as_in_spice():
     """A voltage source alone at a node sets it and carries 0 A; a resistor alone passes
     its other end's voltage; a capacitor alone keeps its charge, and its node, which has

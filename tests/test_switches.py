@@ -112,6 +112,7 @@ def test_the_discrete_power_balance_holds_on_every_step_across_the_events(ramp):
     assert np.max(np.abs(held) / sources) > 1e-3  # measured: worst step 1.8e-10, run 1.5e-15
 
 
+@pytest.mark.slow
 def test_on_and_off_flags_decide_a_control_inside_the_window():
     # v(c) starts at 1 V, inside S's window (0.8, 1.2): the flags decide, as in ngspice
     deck = """flags
