@@ -85,6 +85,41 @@ L1 a 0 1m
 """,
         ("v(a)", "i(V1)"),
     ),
+    # EXP with TD2 inside the run (a rise, then the fall back), into an RC
+    "exp-rc": (
+        """An exponential pulse into an RC
+V1 in 0 EXP(0 2 0.2m 0.1m 0.8m 0.3m)
+R1 in out 100
+C1 out 0 1u
+.tran 10u 2m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
+    # PWL delayed by TD= and repeated from its second point by R= (a sawtooth after the
+    # first ramp, with a jump back at each repeat; the corners are off the TSTEP grid,
+    # where ngspice, which puts no breakpoint at a delayed corner, is exact too)
+    "pwl-repeat-rc": (
+        """A delayed, repeating PWL into an RC
+V1 in 0 PWL(0 0 0.1m 1 0.3m -1 0.4m 0.5) TD=0.153m R=0.1m
+R1 in out 100
+C1 out 0 1u
+.tran 10u 2m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
+    # a negative TD starts the sine before t = 0: SIN(0 1 1k -0.25m) is a cosine
+    "cosine-rc": (
+        """A cosine from a sine with a negative delay, into an RC
+V1 in 0 SIN(0 1 1k -0.25m)
+R1 in out 100
+C1 out 0 1u
+.tran 10u 3m uic
+.end
+""",
+        ("v(out)", "i(V1)"),
+    ),
 }
 
 
@@ -410,3 +445,49 @@ R2 b 0 1k
     running = 0.5 + 2 * math.sin(2 * math.pi * 1e3 * (t - 0.2e-3) + math.radians(30))
     assert float(sine(t)) == pytest.approx(running, rel=1e-12)
     assert sine.breakpoints(0.0, 1e-3) == (0.2e-3,)
+
+
+def test_exp_pwl_options_and_negative_sin_delay_without_ngspice():
+    """Values ngspice 39 prints for these lines (``print`` in a .control run): EXP's TD1,
+    TAU1, TAU2 default to TSTEP and TD2 to TD1 + TSTEP (0 counts as not given); PWL's TD=
+    shifts the list and R= repeats it from that point, jumping back after the last value;
+    a negative SIN delay starts the wave before t = 0."""
+    netlist = spice.read(
+        """sources
+V1 a 0 EXP(0 1)
+V2 b 0 EXP(0 1 0 2u)
+V3 c 0 SIN(0 5 100k -2.5u)
+R1 a 0 1
+R2 b 0 1
+R3 c 0 1
+.tran 1u 10u
+.end
+"""
+    )
+    exp1, exp2, cosine = (_source(netlist, n) for n in ("V1", "V2", "V3"))
+    assert float(exp1(1e-6)) == 0.0 and float(exp2(0.9e-6)) == 0.0
+    assert float(exp1(2.056e-6)) == pytest.approx(5.976947e-01, rel=1e-6)
+    assert float(exp2(2.056e-6)) == pytest.approx(3.557558e-01, rel=1e-6)
+    assert exp1.breakpoints(0.0, 10e-6) == (1e-6, 2e-6)
+    for t in (0.0, 1e-6, 3.3e-6):
+        assert float(cosine(t)) == pytest.approx(5 * math.cos(2 * math.pi * 1e5 * t), abs=1e-12)
+    assert cosine.breakpoints(0.0, 10e-6) == ()
+
+    pwl = _source(
+        spice.read("pwl\nV1 a 0 PWL(0 0 1 1 2 0) r=1 td=0.5\nR1 a 0 1\n.tran 0.1 5\n.end\n"),
+        "V1",
+    )
+    printed = {0.328: 0.0, 1.15: 0.65, 2.45: 0.05, 2.55: 0.95, 3.05: 0.45, 4.45: 0.05, 4.55: 0.95}
+    for t, value in printed.items():
+        assert float(pwl(t)) == pytest.approx(value, abs=1e-12), t
+    assert float(pwl(2.5)) == pytest.approx(0.0, abs=1e-15)  # the last value, then the jump
+    assert pwl.breakpoints(0.0, 5.0) == (0.5, 1.5, 2.5, 3.5, 4.5)
+
+
+def test_source_option_mistakes_name_the_line_and_the_fix():
+    with pytest.raises(spice.NetlistError, match=r"line 2: .*R=0\.5 must be one of the times"):
+        spice.read("x\nV1 a 0 PWL(0 0 1 1 2 0) R=0.5\nR1 a 0 1\n.tran 0.1 5\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: TD= belongs to a PWL source"):
+        spice.read("x\nV1 a 0 SIN(0 1 1k) TD=1m\nR1 a 0 1\n.tran 0.1m 5m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: EXP\(V1 V2 \[TD1"):
+        spice.read("x\nV1 a 0 EXP(0)\nR1 a 0 1\n.tran 0.1m 5m\n.end\n")

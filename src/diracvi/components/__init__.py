@@ -38,7 +38,8 @@ from .mechanical import (
 )
 from .mosfet import MOSFET
 from .network import Assembly, Circuit
-from .waveforms import DC, PWL, Pulse, Sine, Waveform
+from .switch import CurrentSwitch, Relay, VoltageSwitch
+from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
     "BJT",
@@ -56,8 +57,10 @@ __all__ = [
     "Circuit",
     "CoupledInductors",
     "CurrentSource",
+    "CurrentSwitch",
     "Damper",
     "Diode",
+    "Exp",
     "Fixed",
     "ForceSource",
     "Ground",
@@ -69,6 +72,7 @@ __all__ = [
     "Part",
     "Pendulum",
     "Pulse",
+    "Relay",
     "Resistor",
     "RotationalDamper",
     "Sine",
@@ -77,6 +81,7 @@ __all__ = [
     "TorsionSpring",
     "VoiceCoil",
     "VoltageSource",
+    "VoltageSwitch",
     "Waveform",
     "spice_diode",
 ]

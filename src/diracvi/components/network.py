@@ -287,13 +287,9 @@ class Circuit:
                 f"circuit {self.name!r} has no ground node: name one node '0' or 'gnd' "
                 "(SPICE's reference, potential 0)."
             )
-        for node in node_list:
-            if len(incidence[node]) < 2:
-                touching = sorted({self._where(b[0]) for b in branches if node in (b[2], b[3])})
-                raise ModelError(
-                    f"node {node!r} is floating: only {touching[0]} connects to it (a node "
-                    "needs at least two connections; KCL would force that current to 0)."
-                )
+        # a node with a single connection is allowed (as in SPICE): KCL holds that
+        # branch's current at 0 — a voltage source's node follows the source, a
+        # capacitor's keeps its charge; a lone current source is a cut-set (below)
         gnd = "\0ground"
 
         def canon(node):

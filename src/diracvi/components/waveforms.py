@@ -60,7 +60,8 @@ class Sine(Waveform):
 
     ``u = VO + VA sin(φ)`` for ``t ≤ TD``, else
     ``u = VO + VA e^{−θ (t−TD)} sin(2π f (t − TD) + φ)``, ``φ = PHASE·π/180``
-    (ngspice holds the phase's value before the delay).
+    (ngspice holds the phase's value before the delay). ``TD`` may be negative, as in
+    ngspice: the wave is then already running at ``t = 0``.
     """
 
     offset: float = eqx.field(static=True)
@@ -74,7 +75,9 @@ class Sine(Waveform):
         self.offset = _num("SIN", "VO", offset)
         self.amplitude = _num("SIN", "VA", amplitude)
         self.frequency = _num("SIN", "FREQ", frequency, nonneg=True)
-        self.delay = _num("SIN", "TD", delay, nonneg=True)
+        # a negative TD (ngspice accepts it) starts the sine before t = 0: a cosine is
+        # SIN(0 A f −1/(4f))
+        self.delay = _num("SIN", "TD", delay)
         self.damping = _num("SIN", "THETA", damping)
         self.phase = _num("SIN", "PHASE", phase)
 
@@ -140,12 +143,22 @@ class Pulse(Waveform):
 
 
 class PWL(Waveform):
-    """SPICE ``PWL(T1 V1 T2 V2 …)``: linear between the points, constant outside."""
+    r"""SPICE ``PWL(T1 V1 T2 V2 …) [TD=td] [R=r]``: linear between the points, constant
+    outside, shifted by ``TD``; with ``R``, the part from the point ``r`` to the last
+    point ``Tn`` repeats for ever after ``Tn`` (period ``P = Tn − r``).
+
+    With ``τ = t − TD``: ``u = V1`` for ``τ < T1``; the interpolant for ``τ ≤ Tn``; and,
+    when ``R`` is given, for ``τ > Tn`` the interpolant at
+    ``r + (τ − Tn) − (⌈(τ − Tn)/P⌉ − 1) P ∈ (r, Tn]``, so that each repeat ends on the
+    last value and the jump back to ``u(r)`` is taken just after it (as ngspice does).
+    """
 
     times: tuple[float, ...] = eqx.field(static=True)
     values: tuple[float, ...] = eqx.field(static=True)
+    delay: float = eqx.field(static=True)
+    repeat: float | None = eqx.field(static=True)
 
-    def __init__(self, times, values):
+    def __init__(self, times, values, delay=0.0, repeat=None):
         ts = tuple(_num("PWL", f"T{i + 1}", x) for i, x in enumerate(times))
         vs = tuple(_num("PWL", f"V{i + 1}", x) for i, x in enumerate(values))
         if len(ts) != len(vs) or len(ts) < 1:
@@ -155,12 +168,74 @@ class PWL(Waveform):
         if np.any(np.diff(ts) <= 0.0):
             raise ModelError(f"PWL: times {ts} must increase strictly.")
         self.times, self.values = ts, vs
+        self.delay = _num("PWL", "TD", delay)
+        if repeat is not None:
+            repeat = _num("PWL", "R", repeat)
+            if repeat not in ts[:-1]:
+                raise ModelError(
+                    f"PWL: R={repeat:g} must be one of the times before the last "
+                    f"{ts[:-1]} (the repeat runs from that point to the last)."
+                )
+        self.repeat = repeat
 
     def __call__(self, t):
-        return jnp.interp(t, jnp.asarray(self.times), jnp.asarray(self.values))
+        tau = t - self.delay
+        if self.repeat is not None:
+            end = self.times[-1]
+            period = end - self.repeat
+            past = jnp.maximum(tau - end, 0.0)
+            cycles = jnp.maximum(jnp.ceil(past / period) - 1.0, 0.0)
+            tau = jnp.where(tau > end, self.repeat + past - cycles * period, tau)
+        return jnp.interp(tau, jnp.asarray(self.times), jnp.asarray(self.values))
 
     def breakpoints(self, t_start, t_stop):
-        return _within(self.times, t_start, t_stop)
+        times = [self.delay + x for x in self.times]
+        if self.repeat is not None:
+            # each repeat's points: TD + Tn + k·P + (Tj − r) for the points Tj ≥ r
+            end = self.times[-1]
+            period = end - self.repeat
+            tail = [x - self.repeat for x in self.times if x > self.repeat]
+            first = max(0, math.floor((t_start - self.delay - end) / period) - 1)
+            last = math.floor((t_stop - self.delay - end) / period)
+            times += [
+                self.delay + end + k * period + d for k in range(first, last + 1) for d in tail
+            ]
+        return _within(times, t_start, t_stop)
+
+
+class Exp(Waveform):
+    r"""SPICE ``EXP(V1 V2 TD1 TAU1 TD2 TAU2)``: a rise towards ``V2`` from ``TD1``, a
+    fall back towards ``V1`` from ``TD2``.
+
+    ``u = V1`` for ``t ≤ TD1``; ``u = V1 + (V2 − V1)(1 − e^{−(t−TD1)/TAU1})`` up to
+    ``TD2``; after it ``(V1 − V2)(1 − e^{−(t−TD2)/TAU2})`` is added. The corners are
+    ``TD1`` and ``TD2`` (the slope jumps there).
+    """
+
+    v1: float = eqx.field(static=True)
+    v2: float = eqx.field(static=True)
+    delay_rise: float = eqx.field(static=True)
+    tau_rise: float = eqx.field(static=True)
+    delay_fall: float = eqx.field(static=True)
+    tau_fall: float = eqx.field(static=True)
+
+    def __init__(self, v1, v2, delay_rise, tau_rise, delay_fall, tau_fall):
+        self.v1, self.v2 = _num("EXP", "V1", v1), _num("EXP", "V2", v2)
+        self.delay_rise = _num("EXP", "TD1", delay_rise)
+        self.tau_rise = _num("EXP", "TAU1", tau_rise, positive=True)
+        self.delay_fall = _num("EXP", "TD2", delay_fall)
+        self.tau_fall = _num("EXP", "TAU2", tau_fall, positive=True)
+
+    def __call__(self, t):
+        span = self.v2 - self.v1
+        # clamped arguments: the branch not taken stays finite (no inf·0 in a gradient)
+        rise = -jnp.expm1(-jnp.maximum(t - self.delay_rise, 0.0) / self.tau_rise)
+        fall = -jnp.expm1(-jnp.maximum(t - self.delay_fall, 0.0) / self.tau_fall)
+        value = self.v1 + span * rise - span * fall
+        return jnp.where(t <= self.delay_rise, self.v1 + 0.0 * t, value)
+
+    def breakpoints(self, t_start, t_stop):
+        return _within((self.delay_rise, self.delay_fall), t_start, t_stop)
 
 
 def _within(times, t_start: float, t_stop: float) -> tuple[float, ...]:

@@ -29,6 +29,11 @@ Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a
 exactly on it (and the last two steps before it share the remaining interval evenly, so
 no sliver step is left).
 
+**Events.** A circuit with switches carries their discrete states ``σ`` from step to
+step; a try over which a switch would flip is accepted only once its end lies within
+the event tolerance of the switching instant, and retried at the estimated instant
+otherwise (:mod:`diracvi.driver.events`). Each recorded step's ``σ`` is kept.
+
 The whole loop — tries, rejections, breakpoints, recording — is one compiled
 ``lax.while_loop`` whose step sizes are data: a run at another tolerance, another
 ``hmax``, other breakpoints (up to the padded count) or another state reuses the
@@ -50,6 +55,7 @@ from ..runtime.compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
 from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
+from . import events
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -104,6 +110,8 @@ class AdaptiveRun(NamedTuple):
     tries: int
     rejected: int
     status: int
+    #: (N, number of switches): the switch states each step was taken with
+    modes: np.ndarray | None = None
 
     @property
     def message(self) -> str:
@@ -127,9 +135,11 @@ def _march(system, rule, solver, capacity, x):
     dtype = x["q"].dtype
     rtol, atol_q, atol_v = x["rtol"], x["atol_q"], x["atol_v"]
     hmax, hmin, t_stop, breaks = x["hmax"], x["hmin"], x["t_stop"], x["breaks"]
+    found = events.relays(system)
 
-    def step(h, t, q, p, dq, mu):
-        return _one_step(system, rule, solver, h, t, q, p, q + dq, mu)
+    def step(modes, h, t, q, p, dq, mu):
+        stepped = events.with_modes(system, modes)
+        return _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
 
     def cond(c):
         return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
@@ -142,13 +152,17 @@ def _march(system, rule, solver, capacity, x):
         h0 = jnp.minimum(h, 2.0 * hmax)
         land = rem <= h0 * (1.0 + 1e-9)
         h_try = jnp.where(land, rem, jnp.where(rem < 2.0 * h0, 0.5 * rem, h0))
+        # a retry aimed at a switching instant is taken as aimed (unless a breakpoint
+        # comes first)
+        h_try = jnp.where(c["aimed"] & ~land, h0, h_try)
+        modes = c["modes"]
         # a first guess from the last velocity (linear models converge in one update)
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
-        qc, _, mu_c, ok_c = step(h_try, t, q, p, h_try * vel, mu_g)
+        qc, _, mu_c, ok_c = step(modes, h_try, t, q, p, h_try * vel, mu_g)
         half = 0.5 * h_try
-        q1, p1, mu1, ok1 = step(half, t, q, p, half * vel, 0.5 * mu_g)
-        q2, p2, mu2, ok2 = step(half, t + half, q1, p1, q1 - q, mu1)
+        q1, p1, mu1, ok1 = step(modes, half, t, q, p, half * vel, 0.5 * mu_g)
+        q2, p2, mu2, ok2 = step(modes, half, t + half, q1, p1, q1 - q, mu1)
         ok = ok_c & ok1 & ok2
         diff = jnp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
         v1, v2 = (q1 - q) / half, (q2 - q1) / half
@@ -169,11 +183,16 @@ def _march(system, rule, solver, capacity, x):
         e_m = diff_m / (share * rtol * m_peak + x["atol_m"])
         err = jnp.max(jnp.concatenate([e_q, e_v, e_m]), initial=0.0)
         ok = ok & jnp.isfinite(err)
-        accept = ok & (err <= 1.0)
+        modes_new, located, h_event, e_new = events.decide(
+            found, modes, (q, q1, q2), (p, p1, p2), c["e_last"], h_try, x["event_tol"], hmin
+        )
+        aim = ok & (err <= 1.0) & ~located  # retried at the switching instant
+        accept = ok & (err <= 1.0) & located
         grow = jnp.clip(0.9 * jnp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
         h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
         # a step shortened to land on a breakpoint says little about the next one
         h_next = jnp.where(accept & (h_try < h0), jnp.maximum(h_next, h0), h_next)
+        h_next = jnp.where(aim, h_event, h_next)
         i = c["i"]
         t_new = jnp.where(land, target, t + h_try)
 
@@ -186,6 +205,10 @@ def _march(system, rule, solver, capacity, x):
         new["Q"] = put(put(c["Q"], i + 1, q1), i + 2, q2)
         new["P"] = put(put(c["P"], i + 1, p1), i + 2, p2)
         new["MU"] = put(put(c["MU"], i, mu1), i + 1, mu2)
+        new["S"] = put(put(c["S"], i, modes), i + 1, modes)
+        new["modes"] = jnp.where(accept, modes_new, modes)
+        new["e_last"] = jnp.where(accept, e_new, c["e_last"])
+        new["aimed"] = aim
         new["i"] = jnp.where(accept, i + 2, i)
         new["t"] = jnp.where(accept, t_new, t)
         new["q"] = jnp.where(accept, q2, q)
@@ -223,11 +246,15 @@ def _march(system, rule, solver, capacity, x):
         "tries": jnp.asarray(0),
         "rejected": jnp.asarray(0),
         "status": jnp.asarray(OK),
+        "modes": x["modes"],
+        "e_last": x["e_last"],
+        "aimed": jnp.asarray(False),
         "T": jnp.zeros(capacity + 1, dtype).at[0].set(x["t"]),
         "H": jnp.zeros(capacity, dtype),
         "Q": jnp.zeros((capacity + 1, n), dtype).at[0].set(x["q"]),
         "P": jnp.zeros((capacity + 1, n), dtype).at[0].set(x["p"]),
         "MU": jnp.zeros((capacity, m), dtype),
+        "S": jnp.zeros((capacity, len(found)), dtype),
     }
     return jax.lax.while_loop(cond, body, init)
 
@@ -259,14 +286,19 @@ def adaptive(
     breakpoints=(),
     solver=None,
     max_tries: int = 1_000_000,
+    event_atol=1e-6,
+    modes=None,
 ) -> AdaptiveRun:
     """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
     rule with error-controlled steps, ending a step exactly on every breakpoint.
 
     ``controls``: :class:`Controls`; ``solver``: a :class:`~diracvi.NewtonSolver`
     (default: Newton with a fresh Jacobian every iteration, which a changing ``h``
-    needs anyway). Returns an :class:`AdaptiveRun`; a run that cannot meet the
-    tolerance stops with ``status != 0`` and what it recorded until then.
+    needs anyway). ``event_atol``: the absolute tolerance of each switch's control
+    (:func:`~diracvi.driver.events.tolerances`), one number or one per switch;
+    ``modes``: the switches' states at ``t0`` (default: as the system holds them). Returns an
+    :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
+    ``status != 0`` and what it recorded until then.
     """
     ensure_float64()
     if not t_stop > t0:
@@ -295,6 +327,9 @@ def adaptive(
         "v_peak": np.zeros(n),
         "m_peak": np.zeros(m),
         "c_last": np.zeros(m),  # the given p0 carries no lag: c_{−1} = 0
+        "modes": events.initial_modes(system) if modes is None else np.asarray(modes, float),
+        "e_last": np.zeros(len(events.relays(system))),  # as c_last: no lag in p0
+        "aimed": np.asarray(False),
     }
     fixed = {
         "rtol": np.float64(controls.rtol),
@@ -306,8 +341,10 @@ def adaptive(
         "hmin": np.float64(controls.hmin),
         "t_stop": np.float64(t_stop),
         "breaks": padded,
+        "event_tol": events.tolerances(system, controls.rtol, event_atol),
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
+    modes = []
     tries = rejected = 0
     status = OK
     while True:
@@ -319,6 +356,7 @@ def adaptive(
         qs.append(out["Q"][1 : k + 1])
         ps.append(out["P"][1 : k + 1])
         mus.append(out["MU"][:k])
+        modes.append(out["S"][:k])
         tries += int(out["tries"])
         rejected += int(out["rejected"])
         status = int(out["status"])
@@ -337,4 +375,5 @@ def adaptive(
         tries,
         rejected,
         status,
+        np.concatenate(modes) if modes else None,
     )

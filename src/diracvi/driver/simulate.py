@@ -34,6 +34,7 @@ from ..solvers import StepSolver
 from ..solvers.affine import AffineSolver
 from ..status import SolveStatus
 from . import checkpoint as _checkpoint
+from . import events
 from .plan import Layout, get_plan, layout
 from .record import March, run_fields, whole_run
 from .sparse_run import run_sparse
@@ -373,6 +374,14 @@ def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> 
         )
     scheme = check_choice("scheme", scheme, SCHEMES)
     discretization = check_choice("discretization", discretization, tuple(RULES))
+    if events.relays(system):
+        raise ModelError(
+            "the system has switches (discrete states, "
+            f"{len(events.relays(system))}): a fixed-step run would hold each switch in "
+            "its initial state; run it with variable steps, which carry the states and "
+            "locate the switching instants (diracvi.spice.run without dt, or "
+            "diracvi.driver.adaptive.adaptive)."
+        )
     h = check_positive_float("dt", dt)
     steps = check_positive_int("steps", steps)
     k = check_save_every(steps, save_every)

@@ -29,6 +29,7 @@ from ..components.diode import SPICE_ALIASES
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import m_line, q_line
 from ._sources import source
+from ._switches import s_line, w_line
 
 
 def _need(pos, count, line, form):
@@ -139,12 +140,15 @@ ELEMENTS = {
     "H": ccvs,
     "M": m_line,
     "Q": q_line,
+    "S": s_line,
+    "W": w_line,
     "X": _x,
 }
 
 #: letters read after the other elements of their scope, because their lines name other
-#: elements (K its inductors; the controlled sources F and H their controlling V)
-LATE = ("K", "F", "H")
+#: elements (K its inductors; the controlled sources F and H and the switch W their
+#: controlling V)
+LATE = ("K", "F", "H", "W")
 
 #: element letters ngspice knows and diracvi does not build yet: what each one is, and
 #: whether it names a model (refused at the element line, which names the model's line)
@@ -152,8 +156,6 @@ UNSUPPORTED = {
     "B": ("a behavioural source (B)", False),
     "J": ("a JFET", True),
     "Z": ("a MESFET", True),
-    "S": ("a voltage-controlled switch", True),
-    "W": ("a current-controlled switch", True),
     "T": ("a lossless transmission line", False),
     "O": ("a lossy transmission line", True),
     "U": ("a uniform distributed RC line", True),
@@ -163,7 +165,7 @@ UNSUPPORTED = {
     "N": ("an OSDI (Verilog-A) device", True),
 }
 
-SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, Q, M (level 1) and X (subcircuits)"
+SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, S, W, Q, M (level 1) and X (subcircuits)"
 
 
 def unsupported(ctx, pos, line):

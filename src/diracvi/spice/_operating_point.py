@@ -26,16 +26,24 @@ source terms — their value at the zero state — scaled by ``s`` from 0 to 1).
 ``.ic`` node values *hold* their nodes during the operating point (SPICE without UIC):
 each held node gets one more unknown, the current that holds it, and the equation
 ``φ_n = V_ic``; the transient then starts free from that state.
+
+**Switches** (S, W) are resistors whose value is a discrete state. As in ngspice, each
+starts in its given state (``ON``, else open); the point is solved, each switch's law is
+applied to its control value there, and the point is solved again until no switch
+changes (a control inside a hysteresis window keeps the given state).
 """
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 from dataclasses import dataclass
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..driver import events
 from ..errors import ModelError
 from ..solvers.limiting import junctions, limit_junction
 
@@ -59,6 +67,9 @@ class OperatingPoint:
     currents: dict
     method: str
     iterations: int
+    #: the switches' states at the point (1.0 closed), in the order of
+    #: :func:`diracvi.driver.events.relays`; empty without switches
+    modes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
     def __getitem__(self, key: str) -> float:
         want = key.replace(" ", "").lower()
@@ -101,6 +112,14 @@ class _Equations:
         self.junction_index, self.junction_limits = (
             (np.zeros(0, np.int64), jnp.zeros((0, 3))) if found is None else found
         )
+
+    def with_modes(self, modes):
+        """These equations with the switches in the states ``modes`` (traceable)."""
+        if not len(modes):
+            return self
+        out = copy.copy(self)
+        out.system = events.with_modes(self.system, modes)
+        return out
 
     def split(self, x):
         n, m, k = self.n, self.m, len(self.dep)
@@ -217,13 +236,40 @@ def operating_point(
     assembly = getattr(assembly, "assembly", assembly)
     if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(assembly.system)):
         raise ModelError("operating point: not available under jax transformations; use UIC.")
+    found = events.relays(assembly.system)
+    modes = events.initial_modes(assembly.system)
     eqs = _Equations(assembly, t0, dict(hold or {}))
 
+    # the switch states are an argument: one compilation serves every state tried
     @jax.jit
-    def residual(x, source, gmin):
-        return eqs.residual(x, source, gmin)
+    def residual(x, source, gmin, modes):
+        return eqs.with_modes(modes).residual(x, source, gmin)
 
     jacobian = jax.jit(jax.jacfwd(residual))
+    iterations = 0
+    for _ in range(2 * len(found) + 2):  # each switch flips at most twice on the way
+        op, v = _solve(
+            eqs,
+            lambda x, s, g, m=modes: residual(x, s, g, m),
+            lambda x, s, g, m=modes: jacobian(x, s, g, m),
+            off,
+            methods,
+        )
+        iterations += op.iterations
+        u = events.static_controls(assembly.system, v)
+        new = np.array([float(r.next(modes[j], u[j])) for j, (_, r) in enumerate(found)])
+        if np.array_equal(new, modes):
+            return dataclasses.replace(op, iterations=iterations, modes=modes)
+        modes = new
+    raise ModelError(
+        "operating point: the switches do not settle (each state found makes another "
+        "switch flip); give the initial state with UIC (.tran … uic) and ON/OFF flags."
+    )
+
+
+def _solve(eqs, residual, jacobian, off, methods):
+    """The point with the switches in one state: ``(OperatingPoint, branch velocities)``."""
+    assembly = eqs.assembly
     zero = np.asarray(residual(jnp.zeros(eqs.size), 1.0, 0.0))
     x0 = eqs.start(off)
     total = 0
@@ -289,4 +335,4 @@ def operating_point(
     voltages = {node: float(mu[j]) for node, j in zip(assembly.nodes, eqs.kcl, strict=True)}
     index = {c: j for j, c in enumerate(assembly.system.coords)}
     currents = {label: float(v[index[c]]) for label, c in assembly.currents.items()}
-    return OperatingPoint(q0, p0, voltages, currents, method, total)
+    return OperatingPoint(q0, p0, voltages, currents, method, total), np.asarray(v)

@@ -18,6 +18,7 @@ from pathlib import Path
 from .. import components as cp
 from ..errors import ModelError
 from ._directives import DIRECTIVES
+from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._save import select
 from ._scope import Scope, read_body
@@ -71,6 +72,7 @@ class Netlist:
     op: bool = False
     off: frozenset = frozenset()
     _start: tuple | None = field(default=None, repr=False)
+    _modes: object = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -101,7 +103,19 @@ class Netlist:
             except ModelError as exc:
                 raise NetlistError(f"netlist {self.title!r}: {exc}") from None
             self._start = (op.q0, op.p0)
+            self._modes = op.modes
         return self._start
+
+    def initial_modes(self):
+        """The switches' states the transient starts with: the operating point's without
+        ``UIC``, else as given (``ON``/``OFF``), in the order of
+        :func:`diracvi.driver.events.relays` (empty without switches)."""
+        from ..driver.events import initial_modes
+
+        if self.uic:
+            return initial_modes(self.system)
+        self.initial_state()
+        return self._modes
 
     @property
     def discretizations(self) -> tuple[str, ...]:
@@ -181,6 +195,8 @@ class _Reader:
         if not self.circuit._parts and not self.problems.found:
             raise NetlistError("the netlist has no elements (only a title and directives).")
         self.problems.check()
+        gmin = self.options.get("gmin", GMIN)
+        add_shunts(self.circuit, gmin if isinstance(gmin, float) else GMIN, self.notes.append)
         try:
             assembly = self.circuit.build()
         except NetlistError:

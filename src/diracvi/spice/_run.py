@@ -18,7 +18,9 @@ from pathlib import Path
 import jax
 import numpy as np
 
+from ..driver import events
 from ..driver.adaptive import Controls, adaptive
+from ..driver.events import relays
 from ..driver.simulate import simulate
 from ..errors import ModelError, StepFailure
 from ._operating_point import OperatingPoint
@@ -258,11 +260,27 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     hmax = settings.max_step
     atol_q = np.where(is_charge, settings.chgtol, settings.vntol * hmax)
     atol_v = np.where(is_charge, settings.abstol, settings.vntol)
+    # a voltage switch's sensing flux is an impulse in disguise (it alternates about its
+    # momentum after a change of step size): its control is judged as the node
+    # potentials it reads (atol_m), not as a coordinate
+    sensing = events.sensing(system)
+    atol_q[sensing], atol_v[sensing] = np.inf, np.inf
     span = settings.stop
     # SPICE's first step: a tenth of min(TSTEP, TSTOP/100) (the control then adapts it)
     h_first = min(settings.step, span / 100.0, hmax) / 10.0
     atol_m = np.full(system.m, settings.vntol)  # node potentials (and source voltages)
     return Controls(settings.reltol, atol_q, atol_v, atol_m, hmax, 1e-13 * span, h_first)
+
+
+def _event_atol(netlist: Netlist, settings: TranSettings) -> np.ndarray:
+    """Per switch, the absolute tolerance of its control: ``vntol`` for a voltage (S),
+    ``abstol`` for a current (W)."""
+    return np.asarray(
+        [
+            settings.vntol if relay.impulse else settings.abstol
+            for _, relay in relays(netlist.system)
+        ]
+    )
 
 
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
@@ -286,6 +304,8 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         t_stop=settings.stop,
         controls=controls(netlist, settings),
         breakpoints=breaks,
+        event_atol=_event_atol(netlist, settings),
+        modes=netlist.initial_modes(),
     )
     if march.status != 0:
         at = march.t[-1]
@@ -296,6 +316,10 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
             march,
         )
     bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
+    if march.modes is not None and march.modes.shape[1]:
+        # a switching instant is a corner too: the nodes where a switch's state changes
+        changed = np.any(np.diff(march.modes, axis=0) != 0.0, axis=1)
+        bounds = np.unique(np.concatenate([bounds, march.t[1:-1][changed]]))
     sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
     signals = _step_signals(netlist, march)
     nodes = {k: sampler(v, march.t) for k, v in signals.items()}

@@ -1,12 +1,14 @@
 r"""Independent source specifications: ``[DC] value``, ``AC mag [phase]`` and a transient
-function ``SIN``/``PULSE``/``PWL``, in any order, as ngspice reads them.
+function ``SIN``/``PULSE``/``PWL``/``EXP``, in any order, as ngspice reads them.
 
 ``V1 1 0 PULSE(0 1) AC 1`` and ``V1 1 0 DC 0 AC 1 SIN(0 1 1k)`` are both fine: the AC
 specification belongs to a small-signal analysis, so it is noted and left out; with a
 transient function, the DC value is the operating-point value, which ngspice replaces by
 the function's value at t = 0 in a transient, so the function alone drives the run.
 Defaults that ngspice takes from ``.tran`` (SIN's FREQ = 1/TSTOP; PULSE's TR, TF = TSTEP,
-PW, PER = TSTOP) are taken from it here too.
+PW, PER = TSTOP; EXP's TD1, TAU1, TAU2 = TSTEP and TD2 = TD1 + TSTEP, each also when given
+as 0 — ngspice's code, where its manual says TD1 = 0) are taken from it here too. PWL's
+``TD=`` and ``R=`` (delay, repeat from a point) follow it after the list.
 """
 
 from __future__ import annotations
@@ -15,9 +17,9 @@ from .. import components as cp
 from ..errors import ModelError
 from ._lines import NetlistError
 
-FUNCTIONS = ("sin", "pulse", "pwl")
+FUNCTIONS = ("sin", "pulse", "pwl", "exp")
 #: transient functions ngspice knows and diracvi does not build (refused by name)
-OTHER_FUNCTIONS = ("exp", "sffm", "am", "trnoise", "trrandom", "external")
+OTHER_FUNCTIONS = ("sffm", "am", "trnoise", "trrandom", "external")
 _KEYWORDS = ("dc", "ac", "distof1", "distof2")
 #: other spellings ngspice accepts for a function (KiCad and eSim write SINE)
 ALIASES = {"sine": "sin"}
@@ -25,15 +27,15 @@ ALIASES = {"sine": "sin"}
 
 def source(ctx, pos, kw, line):
     """The waveform of a ``V``/``I`` line (``pos[3:]`` is the specification)."""
-    form = f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] [SIN(…) | PULSE(…) | PWL(…)]"
+    form = (
+        f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] "
+        "[SIN(…) | PULSE(…) | EXP(…) | PWL(…) [TD=t] [R=t]]"
+    )
     if len(pos) < 3:
         raise line.fail(f"expected '{form}' (a source has two nodes)")
-    unknown = sorted(set(kw) - {"dc"})
+    unknown = sorted(set(kw) - {"dc", "td", "r"})
     if unknown:
-        raise line.fail(
-            f"unsupported parameters {unknown} on a source (form: '{form}'; PWL's "
-            "r=/td= options are not supported)"
-        )
+        raise line.fail(f"unsupported parameters {unknown} on a source (form: '{form}')")
     rest = pos[3:]
     fn = None
     dc = ctx.value(kw["dc"], line, "DC value") if "dc" in kw else None  # ngspice's DC=3
@@ -57,7 +59,7 @@ def source(ctx, pos, kw, line):
             if word in OTHER_FUNCTIONS:
                 raise line.fail(
                     f"source function {rest[k]!r} is not supported (diracvi builds DC, SIN, "
-                    "PULSE and PWL sources); rewrite it as a PWL"
+                    "PULSE, EXP and PWL sources); rewrite it as a PWL"
                 )
             fn, k = word, k + 1
             while k < len(rest) and not _keyword(rest[k]):
@@ -67,13 +69,21 @@ def source(ctx, pos, kw, line):
             dc, k = ctx.value(rest[0], line, "value"), 1
         else:
             raise line.fail(f"unexpected {rest[k]!r} in a source specification (form: '{form}')")
+    pwl_options = {k: kw[k] for k in ("td", "r") if k in kw}
+    if pwl_options and fn != "pwl":
+        raise line.fail(
+            f"{' and '.join(k.upper() + '=' for k in pwl_options)} "
+            f"{'belong' if len(pwl_options) > 1 else 'belongs'} to a PWL source "
+            f"(form: '{form}'); remove them or write the waveform as a PWL"
+        )
     if fn is None:
         if dc is None:
             dc = 0.0  # ngspice: a source with only an AC spec is 0 in a transient
         return cp.DC(dc)
     values = [ctx.value(t, line, fn.upper()) for t in args]
+    options = {k: ctx.value(v, line, f"PWL {k.upper()}") for k, v in pwl_options.items()}
     try:
-        return _function(ctx, fn, values, line)
+        return _function(ctx, fn, values, line, options)
     except NetlistError:
         raise
     except ModelError as exc:
@@ -85,7 +95,7 @@ def _keyword(token: str) -> bool:
     return word in _KEYWORDS or word in FUNCTIONS or word in OTHER_FUNCTIONS
 
 
-def _function(ctx, fn, args, line):
+def _function(ctx, fn, args, line, options):
     step, stop = ctx.tran or (None, None)
     if fn == "sin":
         if not 2 <= len(args) <= 6:
@@ -110,6 +120,17 @@ def _function(ctx, fn, args, line):
         if any(x is None for x in full):
             raise line.fail("PULSE defaults TR, TF, PW, PER come from '.tran'; add one")
         return cp.Pulse(*full)
+    if fn == "exp":
+        if not 2 <= len(args) <= 6:
+            raise line.fail("EXP(V1 V2 [TD1 [TAU1 [TD2 [TAU2]]]]) takes 2 to 6 values")
+        if step is None and not (len(args) == 6 and all(args[2:])):
+            raise line.fail("EXP defaults TD1, TAU1, TD2, TAU2 come from '.tran'; add one")
+        given = [args[j] if j < len(args) and args[j] != 0.0 else None for j in range(2, 6)]
+        td1 = given[0] if given[0] is not None else step
+        tau1 = given[1] if given[1] is not None else step
+        td2 = given[2] if given[2] is not None else td1 + step
+        tau2 = given[3] if given[3] is not None else step
+        return cp.Exp(args[0], args[1], td1, tau1, td2, tau2)
     if len(args) < 2 or len(args) % 2:
         raise line.fail("PWL(T1 V1 T2 V2 …) takes pairs of values")
-    return cp.PWL(args[0::2], args[1::2])
+    return cp.PWL(args[0::2], args[1::2], options.get("td", 0.0), options.get("r"))

@@ -1,0 +1,160 @@
+r"""Discrete states and their events: the switches' relays, carried through a run.
+
+A part may hold a discrete state — a :class:`~diracvi.components.switch.Relay`, a leaf
+``closed`` of its force — that is constant within a step and changes between steps by
+a law ``σ⁺ = next(σ, u)`` of a control value ``u`` (a step-centred velocity of one of
+the part's coordinates, or a step's impulse on its momentum line divided by the step:
+:mod:`diracvi.components.switch` says why a voltage control is read that way). The
+driver carries the vector ``σ`` of all of them, builds each step with its current
+values (:func:`with_modes`: the same system with those leaves replaced, so one compiled
+program serves every state) and decides ``σ`` anew after each step.
+
+**Events are located.** A step over which a relay's law would flip ``σ`` does not simply
+flip it at its end (the flip would be late by up to a step). With the step's two halves
+(the adaptive driver's step doubling), the control's step-centred values ``u₁``, ``u₂``
+at ``t + H/4``, ``t + 3H/4`` give its line ``u(τ)`` over the try and the crossing time
+``τ*`` of the level crossed (``VT + VH`` going up, ``VT − VH`` going down). The try is
+accepted with the flip only if its end value ``u(H)`` is past the level by at most the
+event tolerance (:func:`tolerances`); otherwise it is retried with ``H = τ*`` (plus half
+the tolerance's worth of time, to land just past the level), but never below ``H/4``
+(a sharp drop of the step size excites the midpoint rule's alternating mode — the lag
+of the multipliers — which the step control then chases down to ``hmin``; the crossing
+is approached over a few steps instead). Each retry is a secant step on the crossing,
+exact for a control that is linear over the try, so a flip is placed within the
+tolerance of its instant in a few tries.
+
+**What an event does to the power balance.** Nothing discontinuous: every recorded step
+is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for which the
+discrete power balance holds to round-off; the state ``(q, p)`` is continuous across the
+event (a resistive switch stores nothing), so the balance over a run is the sum of its
+steps' balances, the steps on either side of each event included. Only the dissipation
+law changes at the event.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..components.switch import Relay
+from ..errors import ModelError
+
+
+def _is_relay(x) -> bool:
+    return isinstance(x, Relay)
+
+
+def _nodes(system) -> list[Relay]:
+    """The relays of ``system``, in PyTree order."""
+    return [x for x in jax.tree.leaves(system, is_leaf=_is_relay) if _is_relay(x)]
+
+
+def relays(system) -> tuple[tuple[int, Relay], ...]:
+    """``(index of the control coordinate in system.coords, relay)`` for every relay, in
+    the order :func:`with_modes` takes the states."""
+    every = _nodes(system)
+    if not every:
+        return ()
+    if getattr(system, "_packing", None) is not None:
+        raise ModelError("a packed interconnection cannot carry switch states; pass it unpacked")
+    found = []
+    subsystems = getattr(system, "subsystems", None)
+    for sub in subsystems if subsystems is not None else (system,):
+        prefix = f"{sub.name}." if subsystems is not None else ""
+        for relay in _nodes(sub):
+            found.append((system.coords.index(prefix + relay.coordinate), relay))
+    if len(found) != len(every):
+        raise ModelError("switch states found outside the subsystems of the interconnection")
+    return tuple(found)
+
+
+def static_controls(system, v) -> np.ndarray:
+    """Per relay, its control at a static state with velocities ``v`` (an operating
+    point): the velocity of its coordinate, or for an impulse-read (voltage) control the
+    sensing flux's velocity ``ẇ = φ_cp − φ_cn`` (no step, so no lag)."""
+    flux = iter(sensing(system))
+    return np.asarray(
+        [v[next(flux)] if relay.impulse else v[i] for i, relay in relays(system)],
+        dtype=np.float64,
+    )
+
+
+def sensing(system) -> np.ndarray:
+    """The coordinates whose values are impulses in disguise (a voltage switch's sensing
+    flux: it alternates about its momentum under the midpoint rule, see
+    :mod:`diracvi.components.switch`): a step control should not judge them."""
+    out = []
+    for i, relay in relays(system):
+        if relay.impulse:
+            name = system.coords[i]
+            out.append(system.coords.index(name[: -len(relay.coordinate)] + "w"))
+    return np.asarray(out, dtype=np.int64)
+
+
+def initial_modes(system) -> np.ndarray:
+    """The relays' states as built (1.0 closed, 0.0 open)."""
+    return np.array([float(r.closed) for r in _nodes(system)], dtype=np.float64)
+
+
+def with_modes(system, modes):
+    """``system`` with its relays' states set to ``modes`` (traceable)."""
+    nodes = _nodes(system)
+    if not nodes:
+        return system
+    return eqx.tree_at(
+        lambda s: [r.closed for r in _nodes(s)],
+        system,
+        [jnp.asarray(modes[j], dtype=jnp.float64) for j in range(len(nodes))],
+    )
+
+
+def tolerances(system, rtol: float, atol) -> np.ndarray:
+    """Per relay, how far past its level the control may be when the flip is taken:
+    ``0.03 · rtol · |level| + atol`` (the share of ``rtol`` the step control holds a
+    local error to), ``atol`` per relay (a voltage's or a current's absolute tolerance)."""
+    out = []
+    for j, (_, relay) in enumerate(relays(system)):
+        level = max(abs(relay.on), abs(relay.off))
+        a = atol[j] if np.ndim(atol) else atol
+        out.append(0.03 * rtol * level + float(a))
+    return np.asarray(out, dtype=np.float64)
+
+
+def decide(found, modes, q, p, e_prev, h, tol, hmin):
+    """After a try of size ``h`` (half steps ``q = (q0, q1, q2)``, ``p`` likewise) with
+    the states ``modes``; ``e_prev``: per relay, the last recorded step's impulse.
+
+    ``(new modes, located, h_event, e2)``: the states the law gives at the try's end;
+    whether the try may be accepted with them (no flip, or every flip within its
+    tolerance of its level); when it may not, the size of the try that ends just past
+    the first crossing; and the second half step's impulses (to carry if accepted).
+    """
+    if not found:
+        return modes, jnp.asarray(True), h, e_prev
+    index = jnp.asarray([i for i, _ in found])
+    impulse = jnp.asarray([r.impulse for _, r in found])
+    half = 0.5 * h
+    # an impulse-read control: e_k = 2 Δp_k − e_{k−1}, u = e_k / h_k
+    e1 = 2.0 * (p[1][index] - p[0][index]) - e_prev
+    e2 = 2.0 * (p[2][index] - p[1][index]) - e1
+    u1 = jnp.where(impulse, e1, q[1][index] - q[0][index]) / half
+    u2 = jnp.where(impulse, e2, q[2][index] - q[1][index]) / half
+    u_end = u2 + 0.5 * (u2 - u1)
+    new = jnp.stack([r.next(modes[j], u_end[j]) for j, (_, r) in enumerate(found)])
+    level = jnp.stack([jnp.where(new[j] > modes[j], r.on, r.off) for j, (_, r) in enumerate(found)])
+    flips = new != modes
+    slope = (u2 - u1) / half
+    safe = jnp.where(slope == 0.0, 1.0, slope)
+    # the line through (h/4, u1), (3h/4, u2) meets the level at τ*; aim half a tolerance
+    # past it (in time: tolerance / slope) so that the retry ends beyond the level
+    tau = 0.25 * h + (level - u1) / safe + 0.5 * tol / jnp.abs(safe)
+    # at most a quarter of the try at once: a sharp drop of the step size excites the
+    # midpoint rule's alternating mode (the lag of the multipliers), which the step
+    # control would then chase; the crossing is approached in a few steps instead
+    tau = jnp.where(slope == 0.0, h, jnp.clip(tau, jnp.maximum(0.25 * h, hmin), h))
+    within = (jnp.abs(u_end - level) <= tol) | (tau >= h) | (h <= 2.0 * hmin)
+    located = jnp.all(~flips | within)
+    h_event = jnp.min(jnp.where(flips & ~within, tau, h), initial=h)
+    return new, located, h_event, e2
