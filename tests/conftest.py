@@ -25,8 +25,9 @@ os.environ.setdefault("DIRACVI_FAST_COMPILE", "1")
 # so a small dense solve or SVD then takes milliseconds instead of microseconds (the
 # dense-check tests: 33 s with the default threads vs 1.2 s with one, on a loaded
 # 2-core machine). Set before NumPy is imported, which is when OpenBLAS reads it.
-for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-    os.environ.setdefault(_var, "1")
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+os.environ.setdefault("MKL_NUM_THREADS", "1")
 
 import numpy as np
 import pytest
