@@ -174,3 +174,42 @@ def test_waveforms_error_suggests_a_step_that_works():
         discretization="midpoint",
     )  # fmt: skip
     assert np.all(np.isfinite(waveforms(built, traj)["v(out)"]))
+
+
+def test_plot_refusal_suggests_options_that_work(tmp_path):
+    traj = dv.simulate(_oscillator(), [1.0], [0.0], dt=0.1, steps=10)
+    saved = tmp_path / "osc.nc"
+    traj.save(saved)
+    assert invoke("plot", saved).exit_code == 0
+    refused = invoke("plot", saved)
+    assert refused.exit_code != 0
+    message = " ".join(refused.output.split())
+    flag = suggestion(message, r"pass (--\w+) to overwrite")
+    out_option, new_png = suggestion(message, r"or (--\w+ \S+\.png)").split()
+    assert invoke("plot", saved, flag).exit_code == 0
+    new_png = tmp_path / new_png
+    assert invoke("plot", saved, out_option, new_png).exit_code == 0 and new_png.is_file()
+
+
+@pytest.mark.slow  # a gradient through a netlist run: about 7 s of compilation
+def test_traced_netlist_parameters_suggest_a_step_that_runs():
+    import jax
+
+    from diracvi import spice
+
+    netlist = """RC step
+.param rval=1k
+V1 in 0 DC 1
+R1 in out {rval}
+C1 out 0 1u
+.tran 0.1m 1m
+.end
+"""
+    with pytest.raises(ModelError, match="need a fixed step") as err:
+        jax.grad(lambda r: spice.run(netlist, params={"rval": r})["v(out)"][-1])(1e3)
+    message = str(err.value)
+    dt = float(suggestion(message, r"TSTEP (\S+?)\)"))
+    if "add UIC to the .tran line" in message:
+        netlist = netlist.replace(".tran 0.1m 1m", ".tran 0.1m 1m UIC")
+    grad = jax.grad(lambda r: spice.run(netlist, dt=dt, params={"rval": r})["v(out)"][-1])(1e3)
+    assert np.isfinite(grad) and grad < 0  # a larger R charges the capacitor more slowly
