@@ -218,24 +218,49 @@ def _pages_with_steps():
     return [p for p in PAGES if any(not _skipped(p, s) for s in page_steps(p))]
 
 
+def run_page(page: Path, tmp: Path) -> None:
+    """Run ``page``'s steps in order in a fresh directory under ``tmp``: commands by bash
+    there, Python blocks in this process with it as the working directory."""
+    work = _workdir(tmp)
+    env = _env(_bin(tmp))
+    previous = Path.cwd()
+    os.chdir(work)
+    try:
+        namespace: dict = {"__name__": f"docs_{page.stem}"}
+        for step in page_steps(page):
+            where = f"{page.name}:{step.line}"
+            if _skipped(page, step):
+                continue
+            if step.kind == "file":
+                (work / step.name).write_text(step.text, encoding="utf-8")
+            elif step.kind == "shell":
+                _run_shell(step.text, work, env, where)
+            else:
+                exec(compile(step.text, where, "exec"), namespace)
+    finally:
+        os.chdir(previous)
+
+
 @pytest.mark.docs
 @pytest.mark.parametrize("page", _pages_with_steps(), ids=lambda p: p.name)
 def test_page_runs_top_to_bottom(page, tmp_path, monkeypatch):
-    work = _workdir(tmp_path)
-    env = _env(_bin(tmp_path))
-    monkeypatch.chdir(work)
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    namespace: dict = {"__name__": f"docs_{page.stem}"}
-    for step in page_steps(page):
-        where = f"{page.name}:{step.line}"
-        if _skipped(page, step):
-            continue
-        if step.kind == "file":
-            (work / step.name).write_text(step.text, encoding="utf-8")
-        elif step.kind == "shell":
-            _run_shell(step.text, work, env, where)
-        else:
-            exec(compile(step.text, where, "exec"), namespace)
+    run_page(page, tmp_path)
+
+
+def test_a_page_whose_command_fails_fails(tmp_path):
+    """The runner itself: files from titled blocks reach the commands after them, and a
+    failing command fails the page, naming its line."""
+    page = tmp_path / "page.md"
+    page.write_text(
+        '```text title="data.txt"\nhello\n```\n\n'
+        "```bash\ngrep -q hello data.txt   # the file is there\n```\n\n"
+        "```python\nassert open('data.txt').read() == 'hello\\n'\n```\n\n"
+        "```bash\ngrep -q goodbye data.txt\n```\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(AssertionError, match=r"page\.md:13: `grep -q goodbye data\.txt` failed"):
+        run_page(page, tmp_path)
 
 
 @pytest.mark.slow
