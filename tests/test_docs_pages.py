@@ -69,9 +69,10 @@ SKIPPED_PYTHON = {
     ("sweeps.md", "from dask_kubernetes.operator import KubeCluster"): "needs Kubernetes",
 }
 #: commands too long for a page run: each runs alone in ``test_slow_command`` (-m slow)
+FULL_REPRODUCE = "the paper's experiments in full: 30 s of CPU, minutes on a busy machine"
 SLOW = {
-    "diracvi reproduce --out reproduce-out": "the paper's experiments in full (about a minute)",
-    "diracvi reproduce --out repro": "the paper's experiments in full (about a minute)",
+    "diracvi reproduce --out reproduce-out": FULL_REPRODUCE,
+    "diracvi reproduce --out repro": FULL_REPRODUCE,
     "python benchmarks/corpus.py --markdown": "every public deck against ngspice (minutes)",
 }
 
