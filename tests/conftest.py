@@ -99,7 +99,7 @@ _DESELECTED: dict[str, int] = {}
 
 def _marker_label(item) -> str:
     marks = [m for m in ("slow", "docs") if item.get_closest_marker(m)]
-    return " + ".join(marks) or "by -k"
+    return " + ".join(marks) or "unmarked"
 
 
 def pytest_deselected(items):
@@ -126,7 +126,7 @@ def pytest_terminal_summary(terminalreporter, config):
     total = sum(_DESELECTED.values())
     counts = ", ".join(f"{n} {label}" for label, n in sorted(_DESELECTED.items()))
     rest = ""
-    if set(_DESELECTED) - {"by -k"}:
+    if set(_DESELECTED) - {"unmarked"}:
         rest = (
             f" (-m {config.option.markexpr!r}); run the rest with pytest -m slow, "
             "pytest -m docs (needs the docs extra), or pytest -m 'slow or docs'"
