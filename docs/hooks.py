@@ -8,6 +8,11 @@
 - **Gallery** — every ``examples/*.py`` with a ``# gallery: TITLE`` line is run (two at a
   time) with the figure's path as its argument; its page shows the docstring, the figure
   and the code. A failing example fails the build.
+- **Equations as MathML** — every ``\\( … \\)`` / ``\\[ … \\]`` that
+  ``pymdownx.arithmatex`` (generic mode) marks is converted to MathML by ``latex2mathml``
+  when the page is built, so the site shows its equations without a network and without a
+  script (browsers render MathML Core natively). An equation that does not convert fails
+  the build.
 
 The nav sections "API reference" and "Gallery" of ``mkdocs.yml`` are filled here.
 """
@@ -15,6 +20,7 @@ The nav sections "API reference" and "Gallery" of ``mkdocs.yml`` are filled here
 from __future__ import annotations
 
 import ast
+import html
 import importlib
 import importlib.util
 import inspect
@@ -25,6 +31,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import xml.etree.ElementTree as ET
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -131,6 +138,39 @@ def _cli_page() -> str:
     return body
 
 
+def cli_command_tree() -> dict[str, list[str]]:
+    """``{"diracvi run": ["--out", ...], ...}``: every command and subcommand of the typer
+    app, with the option strings of each (what the generated CLI page must show)."""
+    import typer
+
+    from diracvi.cli import app
+
+    tree: dict[str, list[str]] = {}
+
+    def walk(command, path: str) -> None:  # typer's (vendored) click Command / Group
+        tree[path] = sorted(
+            opt
+            for p in command.params
+            if p.param_type_name == "option"
+            for opt in [*p.opts, *p.secondary_opts]
+        )
+        for name, sub in sorted(getattr(command, "commands", {}).items()):
+            if not sub.hidden:
+                walk(sub, f"{path} {name}")
+
+    walk(typer.main.get_command(app), "diracvi")
+    return tree
+
+
+def cli_commands() -> list[str]:
+    """The top-level commands, in the app's order."""
+    import typer
+
+    from diracvi.cli import app
+
+    return [n for n, c in typer.main.get_command(app).commands.items() if not c.hidden]
+
+
 def _env() -> dict[str, str]:
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
@@ -213,6 +253,59 @@ def _gallery_index(scripts) -> str:
     return "\n".join(lines)
 
 
+# ---------------------------------------------------------------- equations
+
+#: what ``pymdownx.arithmatex`` (generic mode) writes: ``\\(…\\)`` in a span, ``\\[…\\]`` in a div
+ARITHMATEX = re.compile(
+    r'<(?P<tag>span|div) class="arithmatex">\\(?P<open>[(\[])(?P<tex>.*?)\\[)\]]</(?P=tag)>', re.S
+)
+MATHML = "{http://www.w3.org/1998/Math/MathML}"
+#: MathML elements with a fixed number of children (a TeX argument lost in conversion shows
+#: up as a missing child, e.g. ``\\frac{a}`` → an ``mfrac`` with one)
+ARITY = {"mfrac": 2, "msub": 2, "msup": 2, "msubsup": 3, "mover": 2, "munder": 2,
+         "munderover": 3, "mroot": 2}  # fmt: skip
+
+
+def tex_to_mathml(tex: str, display: bool) -> str:
+    """The MathML of one TeX equation; ``ValueError`` naming the equation when latex2mathml
+    cannot convert it: it raises, leaves a TeX command (``\\foo``) or an ``&`` of an
+    environment it does not know as text, writes malformed XML, or loses an argument."""
+    from latex2mathml.converter import convert
+
+    try:
+        out = convert(tex, display="block" if display else "inline")
+        root = ET.fromstring(out)
+    except Exception as exc:  # latex2mathml's own errors, or XML it wrote malformed
+        raise ValueError(f"equation {tex.strip()!r} does not convert to MathML: {exc}") from exc
+    for node in root.iter():
+        name = node.tag.removeprefix(MATHML)
+        text = node.text or ""
+        if name in {"mi", "mo", "mtext"} and ("\\" in text or text == "&"):
+            raise ValueError(
+                f"equation {tex.strip()!r}: {text!r} was not understood by latex2mathml "
+                "(an unsupported command or environment; aligned → split, for instance)"
+            )
+        if name in ARITY and len(node) != ARITY[name]:
+            raise ValueError(
+                f"equation {tex.strip()!r}: <{name}> has {len(node)} parts, not {ARITY[name]} "
+                "(a missing argument or brace)"
+            )
+    return out
+
+
+def page_mathml(page_html: str, where: str) -> str:
+    """``page_html`` with every arithmatex equation replaced by its MathML."""
+
+    def one(m: re.Match) -> str:
+        tex = html.unescape(m.group("tex"))
+        try:
+            return tex_to_mathml(tex, display=m.group("open") == "[")
+        except ValueError as exc:
+            raise PluginError(f"{where}: {exc}") from exc
+
+    return ARITHMATEX.sub(one, page_html)
+
+
 # ---------------------------------------------------------------- MkDocs events
 
 
@@ -251,7 +344,7 @@ def on_files(files, config):
     for module, names in modules.items():
         add(f"reference/{module}.md", _api_page(module, names))
         index.append(f"- [`{module}`]({module}.md) — {len(names)} names")
-    index.append("- [Command line](cli.md) — `diracvi list | run | plot | reproduce | bench`")
+    index.append(f"- [Command line](cli.md) — `diracvi {' | '.join(cli_commands())}`")
     add("reference/index.md", "\n".join(index) + "\n")
     add("reference/cli.md", _cli_page())
 
@@ -268,3 +361,7 @@ def on_files(files, config):
             add(f"gallery/{script.stem}.png", figures[script].read_bytes())
     add("gallery/index.md", _gallery_index(scripts))
     return files
+
+
+def on_page_content(html_text, page, config, files):
+    return page_mathml(html_text, page.file.src_uri)

@@ -97,3 +97,47 @@ def one_rule_each(names, rules=("retraction", "midpoint")):
             slow = j != i % len(own)
             cases.append(pytest.param(name, rule, marks=[pytest.mark.slow] if slow else []))
     return cases
+
+
+# ---------------------------------------------------------------- what the run left out
+# A default run deselects the slow and docs tests (pyproject's addopts); the summary says
+# how many and how to run them, also under pytest-xdist, whose controller collects nothing:
+# each worker reports its counts (all workers collect, and deselect, the same tests).
+_DESELECTED: dict[str, int] = {}
+
+
+def _marker_label(item) -> str:
+    marks = [m for m in ("slow", "docs") if item.get_closest_marker(m)]
+    return " + ".join(marks) or "unmarked"
+
+
+def pytest_deselected(items):
+    for item in items:
+        label = _marker_label(item)
+        _DESELECTED[label] = _DESELECTED.get(label, 0) + 1
+
+
+def pytest_sessionfinish(session):
+    if hasattr(session.config, "workeroutput"):
+        session.config.workeroutput["diracvi_deselected"] = dict(_DESELECTED)
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    reported = getattr(node, "workeroutput", {}).get("diracvi_deselected")
+    if reported and not _DESELECTED:
+        _DESELECTED.update(reported)
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    if hasattr(config, "workerinput") or not _DESELECTED:
+        return
+    total = sum(_DESELECTED.values())
+    counts = ", ".join(f"{n} {label}" for label, n in sorted(_DESELECTED.items()))
+    rest = ""
+    if set(_DESELECTED) - {"unmarked"}:
+        rest = (
+            f" (-m {config.option.markexpr!r}); run the rest with pytest -m slow, "
+            "pytest -m docs (needs the docs extra), or pytest -m 'slow or docs'"
+        )
+    terminalreporter.write_sep("-", f"not run: {total} deselected tests ({counts}){rest}")

@@ -430,7 +430,7 @@ def test_readme_model_file_runs_without_options(tmp_path):
     from pathlib import Path
 
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    block = re.search(r"```python\n(# model\.py\n.*?)```", readme, re.S)
+    block = re.search(r"```python[^\n]*\n(# model\.py\n.*?)```", readme, re.S)
     assert block, "the README shows a model file"
     path = tmp_path / "model.py"
     path.write_text(block.group(1))
@@ -438,6 +438,14 @@ def test_readme_model_file_runs_without_options(tmp_path):
     result = invoke("run", path, "--out", out)
     assert result.exit_code == 0, result.output
     assert dv.load(out).steps == 1000
+    # the same file swept: its (system, q0, p0, {dt, steps}) gives the sweep's defaults
+    swept = tmp_path / "s.nc"
+    result = invoke("sweep", path, "--param", "k=1,4", "--out", swept)
+    assert result.exit_code == 0, result.output
+    import xarray as xr
+
+    with xr.open_dataset(swept) as ds:
+        assert ds.sizes["k"] == 2 and ds.sizes["time"] == 1001 and (ds.status == 0).all()
 
 
 def test_a_problems_notes_print_as_whole_lines():

@@ -55,3 +55,11 @@ def test_every_public_name_has_a_docstring():
             if not (inspect.isclass(obj) or inspect.isroutine(obj)):
                 continue  # data (e.g. problems.REGISTRY) carries an attribute docstring
             assert (obj.__doc__ or "").strip(), f"{module_name}.{name} has no docstring"
+
+
+def test_walk_lists_every_figure_reproduce_writes():
+    from diracvi.reproduce import FIGURES
+
+    text = DOC.read_text(encoding="utf-8")
+    missing = [name for name in FIGURES if f"`{name}`" not in text]
+    assert not missing, f"docs/getting-started.md does not list {missing}"

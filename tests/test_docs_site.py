@@ -6,6 +6,7 @@ Needs the ``docs`` extra; marked ``docs`` (deselected by default; ``pytest -m do
 
 from __future__ import annotations
 
+import html
 import importlib
 import inspect
 import os
@@ -67,10 +68,31 @@ def test_every_public_name_has_a_rendered_api_entry(site):
                 assert "doc-signature" in after, f"no signature rendered for {anchor}"
 
 
-def test_cli_reference_and_gallery_are_rendered(site):
+def _headed_sections(page_html: str) -> dict[str, str]:
+    """``{heading text: the HTML up to the next heading}`` of a rendered page."""
+    parts = re.split(r"<h[1-6][^>]*>(.*?)</h[1-6]>", page_html, flags=re.S)
+    text = [html.unescape(re.sub(r"<[^>]+>", "", h)).replace("¶", "") for h in parts[1::2]]
+    text = [t.removeprefix("Command line:").strip() for t in text]
+    return dict(zip(text, parts[2::2], strict=True))
+
+
+def test_cli_reference_shows_every_command_and_option(site):
+    """The CLI page is generated from the typer app: every command and subcommand has its
+    section, and each section shows every option of that command."""
+    hooks = _hooks()
+    tree = hooks.cli_command_tree()
+    assert {"diracvi sweep", "diracvi cache info", "diracvi cache clear"} <= set(tree)
     cli = (site / "reference" / "cli" / "index.html").read_text(encoding="utf-8")
-    for command in ("list", "run", "plot", "reproduce", "bench"):
-        assert f"diracvi {command}" in cli
+    sections = _headed_sections(cli)
+    for command, options in tree.items():
+        assert command in sections, f"the CLI page has no section for {command}"
+        for option in options:
+            assert f"<code>{option}" in sections[command], f"{command} {option} is not shown"
+    overview = (site / "reference" / "index.html").read_text(encoding="utf-8")
+    assert " | ".join(hooks.cli_commands()) in overview
+
+
+def test_gallery_is_rendered(site):
     scripts = _hooks().gallery_scripts()
     assert len(scripts) >= 6
     for script, _ in scripts:
@@ -83,3 +105,50 @@ def test_cli_reference_and_gallery_are_rendered(site):
         assert f"{script.stem}.png" in page.read_text(encoding="utf-8")
     home = (site / "index.html").read_text(encoding="utf-8")
     assert "spring_chain.png" in home
+
+
+def _doc_equations() -> list[tuple[str, str, bool]]:
+    """``(page, tex, display)`` of every equation in docs/*.md, as arithmatex marks them."""
+    import markdown
+
+    hooks = _hooks()
+    found = []
+    for page in sorted((ROOT / "docs").glob("*.md")):
+        md = markdown.Markdown(
+            extensions=["pymdownx.arithmatex", "pymdownx.superfences"],
+            extension_configs={"pymdownx.arithmatex": {"generic": True}},
+        )
+        for m in hooks.ARITHMATEX.finditer(md.convert(page.read_text(encoding="utf-8"))):
+            found.append((page.name, html.unescape(m.group("tex")), m.group("open") == "["))
+    return found
+
+
+def test_every_equation_of_the_docs_converts_to_mathml():
+    equations = _doc_equations()
+    assert len(equations) >= 8  # docs/index.md alone has eight
+    hooks = _hooks()
+    for page, tex, display in equations:
+        out = hooks.tex_to_mathml(tex, display)  # raises on an equation it cannot convert
+        assert out.startswith("<math") and "\\" not in out, (page, tex)
+
+
+@pytest.mark.parametrize(
+    "tex",
+    [r"\frac{a}", r"\unknowncommand x", r"\begin{aligned} a &= b \end{aligned}"],
+)
+def test_an_unconvertible_equation_is_refused(tex):
+    with pytest.raises(ValueError, match="equation"):
+        _hooks().tex_to_mathml(tex, display=True)
+
+
+def test_the_site_shows_equations_as_mathml_and_loads_nothing_from_another_host(site):
+    pages = sorted(site.rglob("*.html"))
+    assert len(pages) > 20
+    external = re.compile(r"""<(?:script|link|img|iframe)\b[^>]*(?:src|href)=["']?(?:https?:)?//""")
+    for page in pages:
+        text = page.read_text(encoding="utf-8")
+        where = page.relative_to(site)
+        assert not external.search(text), f"{where} loads {external.search(text)[0]}"
+        assert 'class="arithmatex"' not in text, f"{where} has unconverted TeX"
+    home = (site / "index.html").read_text(encoding="utf-8")
+    assert home.count("<math") >= 8 and 'display="block"' in home

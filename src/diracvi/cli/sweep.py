@@ -53,6 +53,8 @@ def _defaults(build) -> tuple[float | None, int | None]:
         built = build()
     except Exception:  # a build without defaults: --dt and --steps are required
         return None, None
+    if isinstance(built, tuple | list) and len(built) == 4 and isinstance(built[3], dict):
+        built = built[3]  # (system, q0, p0, {"dt": ..., "steps": ...}), as `diracvi run` reads
     if isinstance(built, dict):
         return built.get("dt"), built.get("steps")
     return getattr(built, "dt", None), getattr(built, "steps", None)

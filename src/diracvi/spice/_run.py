@@ -211,10 +211,15 @@ def run(
     netlist = source if isinstance(source, Netlist) else read(source, params=params)
     if dt is None and steps is None:
         if any(isinstance(v, jax.core.Tracer) for v in (params or {}).values()):
+            fixes = [f"pass dt= (e.g. the netlist's TSTEP {netlist.dt:g})"]
+            if not netlist.uic:  # the operating point is refused under a transformation too
+                fixes.append(
+                    "add UIC to the .tran line (the DC operating point is not solved under "
+                    "a transformation; the run starts from .ic and IC= values, else zero)"
+                )
             raise ModelError(
                 "params=: traced values (jax.grad, jit, vmap) need a fixed step, because the "
-                "variable steps are chosen on the host; pass dt= (e.g. the netlist's TSTEP "
-                f"{netlist.dt:g})."
+                f"variable steps are chosen on the host. Fix: {' and '.join(fixes)}."
             )
         return _variable(netlist, discretization, internal, simulate_kwargs)
     q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC

@@ -160,14 +160,17 @@ def _described(names, values) -> str:
 def _unpack(built, where: str):
     if isinstance(built, tuple | list) and len(built) == 3:
         system, q0, p0 = built
+    elif isinstance(built, tuple | list) and len(built) == 4 and isinstance(built[3], Mapping):
+        system, q0, p0 = built[:3]  # a model file's (system, q0, p0, {dt, steps}): the
+        # sweep's own dt and steps are its arguments
     elif isinstance(built, Mapping) and {"system", "q0", "p0"} <= set(built):
         system, q0, p0 = built["system"], built["q0"], built["p0"]
     elif all(hasattr(built, k) for k in ("system", "q0", "p0")):
         system, q0, p0 = built.system, built.q0, built.p0
     else:
         raise ModelError(
-            f"{where} returned {type(built).__name__}; build must return (system, q0, p0) "
-            "(or a dict/object with system, q0, p0)."
+            f"{where} returned {type(built).__name__}; build must return (system, q0, p0), "
+            "(system, q0, p0, {'dt': ..., 'steps': ...}) or a dict/object with system, q0, p0."
         )
     if not isinstance(system, DiracSystem):
         raise ModelError(
