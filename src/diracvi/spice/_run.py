@@ -258,6 +258,10 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     hmax = settings.max_step
     atol_q = np.where(is_charge, settings.chgtol, settings.vntol * hmax)
     atol_v = np.where(is_charge, settings.abstol, settings.vntol)
+    # coordinates copying another's velocity are controlled through it (ControlledPart)
+    mirrors = {f"{p.name}.{c}" for p in netlist.circuit.parts for c in getattr(p, "mirrors", ())}
+    skip = np.array([c in mirrors for c in system.coords])
+    atol_q, atol_v = np.where(skip, np.inf, atol_q), np.where(skip, np.inf, atol_v)
     span = settings.stop
     # SPICE's first step: a tenth of min(TSTEP, TSTOP/100) (the control then adapts it)
     h_first = min(settings.step, span / 100.0, hmax) / 10.0
