@@ -87,37 +87,48 @@ def process_parameters(sign: float, given: dict, where: str) -> dict:
     return values | {"cox": cox}
 
 
+#: half-width of the C¹ rounding of Meyer's region corners (in the normalized arguments
+#: below: V_GST/Φ, V_DS/V_dsat); the capacitances move by at most a quarter of it there
+CORNER = 1e-3
+
+
+def _smooth_max0(x, d=CORNER):
+    """``max(x, 0)`` with its corner rounded over ``|x| < d`` (C¹, quadratic)."""
+    mid = (x + d) ** 2 / (4.0 * d)
+    return jnp.where(x >= d, x, jnp.where(x <= -d, 0.0 * x, mid))
+
+
+def _smooth_clip01(x, d=CORNER):
+    """``clip(x, 0, 1)`` with both corners rounded as :func:`_smooth_max0`."""
+    return _smooth_max0(x, d) - _smooth_max0(x - 1.0, d)
+
+
 def meyer_half(vgs, vgd, von, vdsat, phi, cox):
     r"""ngspice's ``DEVqmeyer``: half of Meyer's ``(C_GS, C_GD, C_GB)`` for NMOS-oriented
-    forward-mode voltages (module docstring); ``cox`` is ``C'_ox W L_eff``. Written with
-    guarded denominators so that the branches JAX evaluates but does not select stay
-    finite (their derivatives too)."""
+    forward-mode voltages (module docstring); ``cox`` is ``C'_ox W L_eff``.
+
+    The regions are written as clipped ramps, ``C_GB = (C_ox/2) clip(−V_GST/Φ, 0, 1)``,
+    ``C_GS + C_GD = (C_ox/3) clip(1 + 2V_GST/Φ, 0, 1)`` before the linear-region shaping,
+    with every corner where a capacitance starts or stops changing rounded (C¹) over
+    :data:`CORNER`: a capacitance with a corner in the voltage makes a Newton iterate at
+    the corner alternate between its two slopes (the step converges only linearly). The
+    branches JAX evaluates but does not select are kept finite (derivatives too)."""
     vgst = vgs - von
-    vdsat = jnp.maximum(vdsat, MAGIC_VDS)
+    vdsat = MAGIC_VDS + _smooth_max0(vdsat - MAGIC_VDS, CORNER * MAGIC_VDS)
     vds = vgs - vgd
-    reduce = vds < vdsat  # the linear-region shaping of C_GS and C_GD
-    vddif = jnp.where(reduce, 2.0 * vdsat - vds, 1.0)
-    shape_s = 1.0 - (vdsat - vds) ** 2 / vddif**2
-    shape_d = 1.0 - vdsat**2 / vddif**2
-    cgb = jnp.where(vgst <= -phi, 0.5 * cox, -vgst * cox / (2.0 * phi))
-    cgb = jnp.where(vgst > 0.0, 0.0 * cox, cgb)
-    # −Φ/2 < V_GST ≤ 0 (C_GS rising to C_ox/3) and V_GST > 0 (C_GS = C_ox/3)
-    base = jnp.where(vgst > 0.0, cox / 3.0, vgst * cox / (1.5 * phi) + cox / 3.0)
-    cgs = jnp.where(reduce, base * shape_s, base)
-    cgd = jnp.where(reduce, base * shape_d, 0.0 * base)
-    off = vgst <= -0.5 * phi
-    return jnp.where(off, 0.0 * cgs, cgs), jnp.where(off, 0.0 * cgd, cgd), cgb
+    u = jnp.minimum(vds / vdsat, 1.5)  # past 1 only the rounding of shape_d reads it
+    shape_s = jnp.where(u < 1.0, 1.0 - (1.0 - u) ** 2 / (2.0 - u) ** 2, 1.0)
+    shape_d = _smooth_max0(1.0 - 1.0 / (2.0 - u) ** 2)
+    cgb = 0.5 * cox * _smooth_clip01(-vgst / phi)
+    base = cox / 3.0 * _smooth_clip01(1.0 + 2.0 * vgst / phi)
+    return base * shape_s, base * shape_d, cgb
 
 
-def meyer(vgs, vgd, vgb, von, vdsat, phi, cox):
-    """Meyer's ``(C_GS, C_GD, C_GB)`` for NMOS-oriented terminal voltages, either mode:
-    twice :func:`meyer_half` (``von``, ``vdsat`` as the drain current computes them in
-    the mode that ``V_DS = V_GS − V_GD`` selects)."""
-    del vgb  # Meyer's capacitances do not depend on it (but for von, computed outside)
-    forward = vgs >= vgd
-    a = jnp.where(forward, vgs, vgd)
-    b = jnp.where(forward, vgd, vgs)
-    c_a, c_b, cgb = meyer_half(a, b, von, vdsat, phi, cox)
-    cgs = jnp.where(forward, c_a, c_b)
-    cgd = jnp.where(forward, c_b, c_a)
-    return 2.0 * cgs, 2.0 * cgd, 2.0 * cgb
+def mode_weight(vds, band=1e-6):
+    """The weight of the forward mode (``V_DS > 0``) in Meyer's capacitances: 1 above
+    ``band`` volts, 0 below ``−band``, a C¹ smoothstep between. At ``V_DS = 0`` both modes
+    give the same capacitances, so the blend only removes the corner that choosing a mode
+    by the sign of ``V_DS`` puts along ``V_GS = V_GD`` (where an off or idle transistor
+    sits), on which Newton converges only linearly."""
+    t = jnp.clip((vds + band) / (2.0 * band), 0.0, 1.0)
+    return t * t * (3.0 - 2.0 * t)

@@ -33,11 +33,14 @@ import numpy as np
 
 from ..errors import ModelError
 from ._junction import depletion_coenergy, pn_current
-from ._mos1 import meyer
+from ._mos1 import meyer_half, mode_weight
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
+#: the gate-voltage coordinates hold ``τ·V`` (V·s, like the fluxes beside them): Newton
+#: judges all positions by one norm, and ``V = Δw/h`` is only known to ``ε‖w‖/h``
+TAU = 1e-12
 
 
 def threshold(vbs, vto, gamma, phi):
@@ -81,13 +84,23 @@ def drain_current(vgs, vds, vbs, *, kind, vto, beta, gamma, phi, lambda_):
 
 def meyer_capacitances(vgs, vgd, vgb, *, kind, vto, gamma, phi, cox):
     """Meyer's ``(C_GS, C_GD, C_GB)`` at the true terminal voltages (``cox`` = ``C'_ox W
-    L_eff``): :func:`~diracvi.components._mos1.meyer` with ngspice's ``von`` and
-    ``vdsat = max(V_GST, 0)`` of the mode."""
+    L_eff``): twice :func:`~diracvi.components._mos1.meyer_half` of the mode, with
+    ngspice's ``von`` and ``vdsat = max(V_GST, 0)`` of that mode (the inverse mode swaps
+    the roles of source and drain), the two modes blended across ``V_DS = 0`` by
+    :func:`~diracvi.components._mos1.mode_weight`."""
     sign = KINDS[kind]
-    g, _, b, _ = _oriented(vgs, vgs - vgd, vgs - vgb, sign)
-    von = threshold(b, sign * vto, gamma, phi)
-    vdsat = jnp.maximum(g - von, 0.0)
-    return meyer(sign * vgs, sign * vgd, sign * vgb, von, vdsat, phi, cox)
+    gs, gd, gb = sign * vgs, sign * vgd, sign * vgb
+
+    def half(g_source, g_drain):  # a mode: the source is the side at g_source
+        von = threshold(g_source - gb, sign * vto, gamma, phi)
+        return meyer_half(g_source, g_drain, von, jnp.maximum(g_source - von, 0.0), phi, cox)
+
+    f_gs, f_gd, f_gb = half(gs, gd)
+    i_gd, i_gs, i_gb = half(gd, gs)
+    a = mode_weight(gs - gd)
+    return tuple(
+        2.0 * (a * f + (1.0 - a) * i) for f, i in ((f_gs, i_gs), (f_gd, i_gd), (f_gb, i_gb))
+    )
 
 
 def MOSFET(
@@ -195,8 +208,8 @@ def MOSFET(
             branches[f"r{k}"] = ((f"qr{k}",), k, inner[k])
     coords = [c for names, _, _ in branches.values() for c in names]
     meyer_branches = ("gs", "gd", "gb") if meyer_on else ()
-    for k in meyer_branches:  # Hamilton–Pontryagin pairs: y = V (position), z its multiplier
-        coords += [f"y{k}", f"z{k}"]
+    for k in meyer_branches:  # the gate voltages as positions: y = ẇ (see lagrangian)
+        coords.append(f"y{k}")
     idx = {c: j for j, c in enumerate(coords)}
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
     pins, rows = [], []
@@ -229,8 +242,8 @@ def MOSFET(
         out = out + sum(0.5 * c * v[idx[a]] ** 2 for a, c in flux_caps)
         for k in junction_caps:
             out = out + stored(sign * v[idx[flux[k]]], k)
-        for k in meyer_branches:  # z (ẇ − y): the HP constraint ẇ = y, variationally
-            out = out + q[idx[f"z{k}"]] * (v[idx[flux[k]]] - q[idx[f"y{k}"]])
+        for k in meyer_branches:  # −½ C_ox (ẇ − y/τ)²: its y-line is y = τ ẇ, where it is 0
+            out = out - 0.5 * c_ox * (v[idx[flux[k]]] - q[idx[f"y{k}"]] / TAU) ** 2
         return out + 0.0 * v[0]
 
     def force(q, v):
@@ -247,10 +260,10 @@ def MOSFET(
             if res[k] > 0.0:
                 f = f.at[idx[f"qr{k}"]].set(-res[k] * v[idx[f"qr{k}"]])
         if meyer_on:  # i_x = C_x(y) ẏ_x: Meyer's currents, a port on each gate flux
-            y = [q[idx[f"y{k}"]] for k in meyer_branches]
+            y = [q[idx[f"y{k}"]] / TAU for k in meyer_branches]
             cs = meyer_capacitances(*y, kind=kind, vto=vto, gamma=gamma, phi=phi, cox=c_ox)
             for k, c in zip(meyer_branches, cs, strict=True):
-                f = f.at[idx[flux[k]]].add(-c * v[idx[f"y{k}"]])
+                f = f.at[idx[flux[k]]].add(-c * v[idx[f"y{k}"]] / TAU)
         return f
 
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
@@ -262,7 +275,7 @@ def MOSFET(
     for k in ("gs", *gate):
         initial_v[idx[flux[k]]] = start[k]
     for k in meyer_branches:
-        initial_q[idx[f"y{k}"]] = start[k]
+        initial_q[idx[f"y{k}"]] = TAU * start[k]
     params = {"kp": kp, "vto": vto, "lambda": lambda_, "gamma": gamma, "phi": phi}
     return ControlledPart(
         tuple(coords),
@@ -277,6 +290,6 @@ def MOSFET(
         initial_v=initial_v,
         role="transistor",
         branch_roles=tuple(roles),
-        mirrors=tuple(f"{a}{k}" for k in meyer_branches for a in "yz"),
+        mirrors=tuple(f"y{k}" for k in meyer_branches),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
     )
