@@ -23,7 +23,17 @@ source, ``L = w_g ṡ_g``, no force: it draws no current); the junctions are dio
 ``⟨F, q̇⟩ = −I_D V_DS − I_BS V_BS − I_BD V_BD``, is minus the power the device dissipates.
 Optional overlap capacitances ``CGSO·W``, ``CGDO·W``, ``CGBO·L_eff`` are linear capacitors
 in the flux form, ``L += ½ C ẇ²`` on the gate–source sense branch and on gate–drain and
-gate–bulk branches; Meyer's bias-dependent gate capacitances are not modelled.
+gate–bulk branches; the bulk junctions' depletion charges (bottom and sidewall, ngspice's
+``FC`` continuation) are co-energies of ``ẇ_bs``, ``ẇ_bd``. ``RD``, ``RS`` > 0 are resistor
+branches (``F = −R q̇``) to internal nodes ``d′``, ``s′`` (the part's own KCL rows), which
+the channel, the junctions and the gate branches then join, as in ngspice.
+
+**Meyer's gate capacitances** (``cox`` > 0; :mod:`~diracvi.components._mos1`) have no
+co-energy (``∂C_GS/∂V_GD ≠ ∂C_GD/∂V_GS``): each gate branch ``x`` gets a position
+``y_x = τ V_x`` tied to its flux velocity by ``−½ C_ox (ẇ_x − y_x/τ)²`` in ``L`` (the
+``y``-line is ``ẇ_x = y_x/τ``, where the term vanishes) and the force ``F_w = −C_x(y/τ)
+ẏ_x/τ``: a port whose current is ``C_x(V) dV_x/dt``, its work ``Σ_x V_x i_x`` neither
+stored nor dissipated (docs/circuits.md, "Transistors").
 """
 
 from __future__ import annotations
