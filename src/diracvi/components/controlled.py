@@ -54,14 +54,21 @@ class ControlledPart(Part):
         senses: ``(coordinate, element)`` pairs: the circuit adds the row
             ``d coordinate − d q_element = 0`` tying the pin-less ``coordinate`` to the
             branch charge of the element whose current is reported as ``i(element)``.
+        mirrors: pin-less coordinates whose values copy another coordinate's velocity
+            (the MOSFET's Meyer voltages ``y = ẇ`` and their multipliers ``z``): a
+            variable step's error control leaves them out, as it controls the velocity
+            they copy (their node values carry the midpoint rule's ±alternation, like
+            node potentials, which step doubling would read as an error).
     """
 
     branch_roles: tuple[tuple[str, str], ...] = eqx.field(static=True)
     senses: tuple[tuple[str, str], ...] = eqx.field(static=True)
+    mirrors: tuple[str, ...] = eqx.field(static=True)
 
-    def __init__(self, *args, branch_roles=(), senses=(), **kwargs):
+    def __init__(self, *args, branch_roles=(), senses=(), mirrors=(), **kwargs):
         self.branch_roles = tuple((str(c), str(r)) for c, r in branch_roles)
         self.senses = tuple((str(c), str(e)) for c, e in senses)
+        self.mirrors = tuple(str(c) for c in mirrors)
         super().__init__(*args, **kwargs)
 
 

@@ -1,10 +1,11 @@
-"""``.model`` cards for transistors (NPN, PNP, NMOS, PMOS) and the ``Q`` and ``M`` lines.
+"""``.model`` cards for bipolar transistors (NPN, PNP) and the ``Q`` line (the ``M`` line
+and NMOS/PMOS cards are :mod:`._mos`).
 
-Parameter names, aliases and defaults are ngspice's (BJT: Gummel–Poon level 1; MOSFET:
-level 1, Shichman–Hodges). A parameter is either used, or accepted with a note because
-at its value it cannot change the answer (noise coefficients, the grading of a
-capacitance that is zero, temperature coefficients at the nominal 27 °C), or refused
-with the reason. Other levels are refused at the element line, naming the model's line.
+Parameter names, aliases and defaults are ngspice's (Gummel–Poon level 1). A parameter is
+either used, or accepted with a note because at its value it cannot change the answer
+(noise coefficients, the grading of a capacitance that is zero, temperature coefficients
+at the nominal 27 °C), or refused with the reason. Other levels are refused at the element
+line, naming the model's line.
 """
 
 from __future__ import annotations
@@ -15,22 +16,6 @@ from dataclasses import dataclass, field
 from .. import components as cp
 
 KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
-
-_MOS = {
-    "vto": 0.0, "kp": 2e-5, "gamma": 0.0, "phi": 0.6, "lambda": 0.0, "is": 1e-14, "ld": 0.0,
-    "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
-}  # fmt: skip
-_MOS_ALIAS = {"vt0": "vto", "uo": "u0"}
-# parameters that must keep ngspice's default: any other value changes the answer
-_MOS_FIXED = {
-    "rd": (0.0, "drain resistance"), "rs": (0.0, "source resistance"),
-    "rsh": (0.0, "sheet resistance"), "cbd": (0.0, "bulk-drain capacitance"),
-    "cbs": (0.0, "bulk-source capacitance"), "cj": (0.0, "bulk junction capacitance"),
-    "cjsw": (0.0, "sidewall junction capacitance"), "js": (0.0, "junction current density"),
-    "tnom": (27.0, "nominal temperature"),
-}  # fmt: skip
-_MOS_INERT = ("pb", "mj", "mjsw", "fc", "kf", "af")  # shape zero capacitances / noise only
-_MOS_PROCESS = ("tox", "u0", "nsub", "nss", "tpg")
 
 _BJT = {
     "is": 1e-16, "bf": 100.0, "nf": 1.0, "vaf": 0.0, "ikf": 0.0, "ise": 0.0, "ne": 1.5,
@@ -69,9 +54,8 @@ class DeviceModel:
 def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     """Check a transistor ``.model`` card's parameters; ``value(token, what)`` evaluates,
     ``fail(why)`` builds the line's error."""
-    mos = kind in ("NMOS", "PMOS")
-    table, alias = (_MOS, _MOS_ALIAS) if mos else (_BJT, _BJT_ALIAS)
-    fixed, inert = (_MOS_FIXED, _MOS_INERT) if mos else (_BJT_FIXED, _BJT_INERT)
+    table, alias = _BJT, _BJT_ALIAS
+    fixed, inert = _BJT_FIXED, _BJT_INERT
     values, notes, level = dict(table), [], 1.0
     for key, token in kw.items():
         key = alias.get(key, key)
@@ -89,17 +73,11 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
                 )
         elif key in inert or _TEMPCO.match(key):
             notes.append(f"{number}: {kind} {key.upper()} ignored (no effect here)")
-        elif mos and key in _MOS_PROCESS:
-            raise fail(
-                f"NMOS/PMOS parameter {key.upper()} is not supported: process parameters "
-                "(TOX, U0, NSUB, NSS, TPG) derive KP, GAMMA, PHI and Meyer's gate "
-                "capacitances, which are not modelled; give KP, GAMMA, PHI and drop them"
-            )
-        elif key == "rbm" and not mos:
+        elif key == "rbm":
             values["rbm"] = x
         else:
             raise fail(f"{kind} parameter {key.upper()!r} is not known or not supported")
-    if not mos and values.get("rbm", values["rb"]) != values["rb"]:
+    if values.get("rbm", values["rb"]) != values["rb"]:
         raise fail("BJT RBM ≠ RB (a bias-dependent base resistance) is not supported")
     values.pop("rbm", None)
     return DeviceModel(KINDS[kind], level, values, number, notes)
@@ -111,39 +89,6 @@ def _level(name, model: DeviceModel, fail):
             f"element {name!r}: model ({model.line}) is LEVEL={model.level:g}; only "
             "level 1 is supported (Shichman–Hodges MOSFET, Gummel–Poon BJT)"
         )
-
-
-def mosfet(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number):
-    """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)."""
-    _level(name, model, fail)
-    if model.kind not in ("nmos", "pmos"):
-        raise fail(f"element {name!r}: model is {model.kind.upper()}, an M line needs NMOS/PMOS")
-    extra = [t for t in pos[6:] if t.lower() != "off"]
-    if len(pos) < 6 or extra:
-        raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
-    geometry = {"l": 100e-6, "w": 100e-6, "m": 1.0}
-    for key, token in kw.items():
-        x = value(token, f"{name} {key.upper()}")
-        if key in geometry:
-            geometry[key] = x
-        elif key in ("ad", "as", "pd", "ps", "nrd", "nrs"):
-            # they scale CJ, CJSW, JS and RSH, all refused unless zero
-            notes.append(f"{number}: {name} {key.upper()} ignored (CJ, JS, RSH are 0)")
-        else:
-            raise fail(f"element {name!r}: parameter {key.upper()} is not supported on M lines")
-    if any(t.lower() == "off" for t in pos[6:]):
-        notes.append(f"{number}: {name} OFF ignored (it only seeds ngspice's DC solve)")
-    v = model.values
-    d, g, s, b = pos[1:5]
-    caps = (v["cgso"], v["cgdo"], v["cgbo"])
-    vg = ic.get(g, 0.0)
-    v0 = (vg - ic.get(s, 0.0), vg - ic.get(d, 0.0), vg - ic.get(b, 0.0))  # ngspice's getic
-    part = cp.MOSFET(
-        model.kind, v["vto"], v["kp"], v["lambda"], geometry["w"], geometry["l"], v["gamma"],
-        v["phi"], ld=v["ld"], is_=v["is"], m=geometry["m"], cgso=caps[0], cgdo=caps[1],
-        cgbo=caps[2], v0=v0, name=name,
-    )  # fmt: skip
-    return part, {"d": d, "g": g, "s": s, "b": b}
 
 
 def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, models):
@@ -200,19 +145,6 @@ def _card(ctx, token, line, kinds):
     for note in model.notes:
         ctx.note(line, note)
     return model
-
-
-def m_line(ctx, name, pos, kw, line):
-    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (level 1)."""
-    if len(pos) < 6:
-        raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
-    model = _card(ctx, pos[5], line, ("NMOS", "PMOS"))
-    notes: list[str] = []
-    value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
-    part, nodes = mosfet(name, pos, kw, model, value, line.fail, _IC(ctx), notes, line.where)
-    for note in notes:
-        ctx.note(line, note.split(": ", 1)[1])
-    return part, nodes
 
 
 def q_line(ctx, name, pos, kw, line):

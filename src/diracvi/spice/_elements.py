@@ -27,7 +27,8 @@ from __future__ import annotations
 from .. import components as cp
 from ..components.diode import SPICE_ALIASES
 from ._controlled import cccs, ccvs, vccs, vcvs
-from ._devices import m_line, q_line
+from ._devices import q_line
+from ._mos import m_line
 from ._sources import source
 from ._switches import s_line, w_line
 

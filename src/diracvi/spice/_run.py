@@ -270,6 +270,10 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     # potentials it reads (atol_m), not as a coordinate
     sensing = events.sensing(system)
     atol_q[sensing], atol_v[sensing] = np.inf, np.inf
+    # coordinates copying another's velocity are controlled through it (ControlledPart)
+    mirrors = {f"{p.name}.{c}" for p in netlist.circuit.parts for c in getattr(p, "mirrors", ())}
+    skip = np.array([c in mirrors for c in system.coords])
+    atol_q, atol_v = np.where(skip, np.inf, atol_q), np.where(skip, np.inf, atol_v)
     span = settings.stop
     # SPICE's first step: a tenth of min(TSTEP, TSTOP/100) (the control then adapts it)
     h_first = min(settings.step, span / 100.0, hmax) / 10.0

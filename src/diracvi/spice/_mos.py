@@ -1,0 +1,157 @@
+"""NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges).
+
+Parameter names, aliases, units and defaults are ngspice's ``mos1``: the process
+parameters (``TOX`` m, ``U0`` cm²/V·s, ``NSUB`` cm⁻³, ``NSS`` cm⁻², ``TPG``) derive KP,
+PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's gate
+capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
+line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
+``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
+``MJ``, ``MJSW``, ``FC``. Other levels (MOS2, MOS3, BSIM …) and ngspice's VDMOS are
+refused at the element line, by name, naming the model's line.
+"""
+
+from __future__ import annotations
+
+from .. import components as cp
+from ..components._mos1 import process_parameters
+from ..errors import ModelError
+
+_DEFAULTS = {
+    "lambda": 0.0, "is": 1e-14, "ld": 0.0, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
+    "rsh": 0.0, "cj": 0.0, "cjsw": 0.0, "js": 0.0, "pb": 0.8, "mj": 0.5, "mjsw": 0.5,
+    "fc": 0.5,
+}  # fmt: skip
+# given or not changes the answer (derived from the process, or RD over RSH·NRD …)
+_OPTIONAL = ("vto", "kp", "gamma", "phi", "rd", "rs", "cbd", "cbs")
+_PROCESS = ("tox", "u0", "nsub", "nss", "tpg")
+_ALIAS = {"vt0": "vto", "uo": "u0"}
+_NOISE = ("kf", "af", "nlev", "gdsnoi")
+# ngspice's MOSFET levels, for refusals that name the model a card asks for
+LEVELS = {
+    2: "MOS2, Grove–Frohman", 3: "MOS3, semi-empirical", 4: "BSIM1", 5: "BSIM2",
+    6: "MOS6, Sakurai–Newton", 8: "BSIM3", 9: "MOS9", 10: "B4SOI", 14: "BSIM4",
+    44: "EKV", 49: "BSIM3", 54: "BSIM4", 68: "HiSIM2", 73: "HiSIM_HV",
+}  # fmt: skip
+
+
+def level_name(level: float, version=None) -> str:
+    """``"level 8 (BSIM3v3.2)"``: the level and the model ngspice runs at it."""
+    name = LEVELS.get(int(level), "") if level == int(level) else ""
+    if name.startswith("BSIM") and version is not None:
+        name += f"v{version:g}"
+    return f"level {level:g}" + (f" ({name})" if name else "")
+
+
+def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
+    """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
+    ``_DEFAULTS``, the ``_OPTIONAL`` and ``_PROCESS`` ones only where given, and
+    ``"level"``. Raises ``fail(why)`` naming the level of a card that is not level 1."""
+    kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
+    level = kw.get("level", 1.0)
+    if level != 1.0:
+        raise fail(
+            f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
+            "has level 1 (Shichman–Hodges) only"
+        )
+    values = dict(_DEFAULTS)
+    for key, x in kw.items():
+        if key == "level":
+            continue
+        if key in values or key in _OPTIONAL or key in _PROCESS:
+            values[key] = x
+        elif key in _NOISE:
+            notes.append(f"{kind} {key.upper()} ignored (noise only)")
+        elif key in ("l", "w"):
+            notes.append(f"{kind} {key.upper()} on the .model card ignored (ngspice's level "
+                         "1 reads L and W from the M line)")  # fmt: skip
+        elif key == "tnom":
+            if x != 27.0:
+                raise fail(f"{kind} TNOM={x:g} is not supported; only 27 °C (drop it)")
+        else:
+            raise fail(f"{kind} parameter {key.upper()!r} is not a level-1 (Shichman–Hodges) "
+                       "parameter of ngspice")  # fmt: skip
+    return values
+
+
+_INSTANCE = {"l": 100e-6, "w": 100e-6, "m": 1.0, "ad": 0.0, "as": 0.0, "pd": 0.0, "ps": 0.0,
+             "nrd": 1.0, "nrs": 1.0}  # fmt: skip
+
+
+def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
+    """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)
+    for the card values ``v`` (:func:`read_mos_model`)."""
+    extra = [t for t in pos[6:] if t.lower() != "off"]
+    if len(pos) < 6 or extra:
+        raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
+    geo = dict(_INSTANCE)
+    for key, token in kw.items():
+        if key not in geo:
+            raise fail(f"element {name!r}: parameter {key.upper()} is not supported on M lines")
+        geo[key] = value(token, f"{name} {key.upper()}")
+    if any(t.lower() == "off" for t in pos[6:]):
+        notes.append(f"{name} OFF ignored (it only seeds ngspice's DC solve)")
+    sign = 1.0 if kind == "nmos" else -1.0
+    try:
+        process = process_parameters(sign, v, f"model of {name!r}")
+    except ModelError as exc:
+        raise fail(str(exc)) from None
+
+    def resistance(r, squares):  # RD over RSH·NRD, as mos1temp
+        return v[r] if r in v else v["rsh"] * geo[squares]
+
+    def bottom(c, area):  # CBD over CJ·AD
+        return v[c] if c in v else v["cj"] * geo[area]
+
+    with_js = v["js"] != 0.0 and geo["ad"] != 0.0 and geo["as"] != 0.0
+    i_s = (v["js"] * geo["ad"], v["js"] * geo["as"]) if with_js else (v["is"], v["is"])
+    d, g, s, b = pos[1:5]
+    vg = ic.get(g, 0.0)
+    v0 = (vg - ic.get(s, 0.0), vg - ic.get(d, 0.0), vg - ic.get(b, 0.0))  # ngspice's getic
+    part = cp.MOSFET(
+        kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
+        process["gamma"], process["phi"], ld=v["ld"], is_=i_s, m=geo["m"], cgso=v["cgso"],
+        cgdo=v["cgdo"], cgbo=v["cgbo"], cox=process["cox"], rd=resistance("rd", "nrd"),
+        rs=resistance("rs", "nrs"), cbd=bottom("cbd", "ad"), cbs=bottom("cbs", "as"),
+        cbdsw=v["cjsw"] * geo["pd"], cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"],
+        mjsw=v["mjsw"], fc=v["fc"], v0=v0, name=name,
+    )  # fmt: skip
+    return part, {"d": d, "g": g, "s": s, "b": b}
+
+
+class _IC:
+    """The ``.ic`` voltages of a line's nodes, as the device builder asks for them."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+
+    def get(self, node, default=0.0):
+        return self.ctx.ic(node)
+
+
+def m_line(ctx, name, pos, kw, line):
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (level 1)."""
+    found = ctx.find_model(pos[4:6])
+    if found is not None and found[1] == "VDMOS":
+        raise line.fail(
+            f"element {name!r}: model {found[0]!r} ({found[2]}) is a VDMOS (ngspice's "
+            "vertical power MOSFET, 'Mname d g s model') and is not supported; diracvi's M "
+            "line is level 1 (Shichman–Hodges): 'Mname d g s b model' with an NMOS/PMOS card"
+        )
+    if len(pos) < 6:
+        raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
+    kind, params, where = ctx.model(pos[5], line)
+    if kind not in ("NMOS", "PMOS"):
+        raise line.fail(
+            f"model {pos[5]!r} ({where}) is a {kind} model; this element needs NMOS/PMOS"
+        )
+
+    def fail(why):  # a problem of the card, reported at the element line that uses it
+        return line.fail(f"model {pos[5]!r} ({where}): {why}")
+
+    notes: list[str] = []
+    values = read_mos_model(kind, params, fail, notes)
+    value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
+    part, nodes = mosfet(name, pos, kw, kind.lower(), values, value, line.fail, _IC(ctx), notes)
+    for note in notes:
+        ctx.note(line, note)
+    return part, nodes
