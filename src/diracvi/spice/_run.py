@@ -265,6 +265,14 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     return Controls(settings.reltol, atol_q, atol_v, atol_m, hmax, 1e-13 * span, h_first)
 
 
+def tries_budget(settings: TranSettings) -> int:
+    """How many step tries a variable-step run may take: 10 000, and 10 per TMAX of the
+    run (a circuit whose error estimate stalls just below its tolerance at a tiny step —
+    a ringing junction — would otherwise creep on for hours; the corpus's diode decks
+    take 250 to 600 at their own .tran)."""
+    return 10_000 + 10 * math.ceil(settings.stop / settings.max_step)
+
+
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
     if discretization != "midpoint":
         raise ModelError(
@@ -286,6 +294,7 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         t_stop=settings.stop,
         controls=controls(netlist, settings),
         breakpoints=breaks,
+        max_tries=tries_budget(settings),
     )
     if march.status != 0:
         at = march.t[-1]
