@@ -91,9 +91,10 @@ def test_halfwave_deck_runs_with_variable_steps_and_follows_ngspice():
     """The public eSim half-wave deck, unedited, at its own .tran: it ran with --dt but was
     refused at t = 0 under variable steps. Compared on 20001 uniform times with a fine
     ngspice run (reltol 1e-7, TMAX = TSTEP/50): within 1e-2 of each signal's peak
-    (measured 4.9e-3; ngspice at the deck's own settings is off by 0.15 on the same grid,
-    its 62 points too few for a 50 Hz sine). The corpus's TSTEP grid samples the sine only
-    at its zero crossings, which is why this test uses a dense grid."""
+    (measured 5.2e-3 in 650 steps; ngspice at the deck's own settings is off by 0.15 on
+    the same grid, its 62 points too few for a 50 Hz sine). The corpus's TSTEP grid
+    samples the sine only at its zero crossings, which is why this test uses a dense
+    grid."""
     deck = DATA / load_expected()["es_halfwave"]["file"]
     result = spice.run(deck, internal=True)
     names, data, _ = run_ngspice(deck, fine=True)
