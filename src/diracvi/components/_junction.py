@@ -12,6 +12,7 @@ Shared by the diode (:mod:`~diracvi.components.diode`) and the transistor models
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 
 #: kT/q at ngspice's nominal 27 °C (CONSTboltz, CHARGE of ngspice's const.h)
@@ -55,20 +56,46 @@ def depletion_charge(v, cj, vj, m, fc):
     below ``FC·V_J``, continued linearly in ``C`` above), ``Q(0) = 0``."""
     a = fc * vj
     below = jnp.minimum(v, a)
-    q_low = cj * vj * (1.0 - (1.0 - below / vj) ** (1.0 - m)) / (1.0 - m)
+    # 1 − (1 − x)^{1−M} as −expm1((1−M) log1p(−x)): no cancellation at small V (the
+    # plain form loses eps/x of its value: 10⁻⁶ at V = 10⁻¹⁰, more than Newton may leave)
+    q_low = -cj * vj * jnp.expm1((1.0 - m) * jnp.log1p(-below / vj)) / (1.0 - m)
     f2 = (1.0 - fc) ** (1.0 + m)
     f3 = 1.0 - fc * (1.0 + m)
     d = jnp.maximum(v - a, 0.0)
     return q_low + cj / f2 * (f3 * d + m / (2.0 * vj) * d * (d + 2.0 * a))
 
 
+@jax.custom_jvp
 def depletion_coenergy(v, cj, vj, m, fc):
     r"""``C*(V) = ∫₀^V Q(u) du`` of :func:`depletion_charge`: the term of the flux-form
     Lagrangian ``L = w q̇ + C*(ẇ)`` whose momentum ``∂L/∂ẇ = Q(ẇ)`` is the junction
-    charge, so that the ``w``-line reads ``q̇ = i_dc + dQ/dt``."""
+    charge, so that the ``w``-line reads ``q̇ = i_dc + dQ/dt``.
+
+    Its derivative in ``V`` is :func:`depletion_charge` itself (a custom JVP): JAX's
+    derivative of the closed form below is ``C_J V_J (1 − (1 − V/V_J)^{1−M})/(1 − M)``,
+    whose cancellation at small ``V`` leaves an absolute error ``≈ eps·C_J·V_J`` in the
+    charge — far above a first step's charge ``C_J V`` from a zero state, so Newton
+    could not converge there (a sine source's first steps, ``V ≈ 10⁻¹⁰``)."""
+    return _depletion_coenergy(v, cj, vj, m, fc)
+
+
+@depletion_coenergy.defjvp
+def _depletion_coenergy_jvp(primals, tangents):
+    v, cj, vj, m, fc = primals
+    dv = tangents[0]
+    out = _depletion_coenergy(*primals)
+    # the parameters' tangents from the closed form (no cancellation issue there)
+    _, dparams = jax.jvp(
+        lambda *params: _depletion_coenergy(v, *params), primals[1:], tuple(tangents[1:])
+    )
+    return out, depletion_charge(v, cj, vj, m, fc) * dv + dparams
+
+
+def _depletion_coenergy(v, cj, vj, m, fc):
     a = fc * vj
     below = jnp.minimum(v, a)
-    e_low = cj * vj / (1.0 - m) * (below + vj / (2.0 - m) * ((1.0 - below / vj) ** (2.0 - m) - 1.0))
+    grow = jnp.expm1((2.0 - m) * jnp.log1p(-below / vj))  # (1 − V/V_J)^{2−M} − 1
+    e_low = cj * vj / (1.0 - m) * (below + vj / (2.0 - m) * grow)
     q_a = cj * vj * (1.0 - (1.0 - fc) ** (1.0 - m)) / (1.0 - m)
     f2 = (1.0 - fc) ** (1.0 + m)
     f3 = 1.0 - fc * (1.0 + m)

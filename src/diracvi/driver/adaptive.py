@@ -11,15 +11,21 @@ gives ``q_c``, two steps of ``H/2`` give ``q_f``. For a rule of order 2 the loca
 of the fine result is ``≈ (q_f − q_c)/3`` (Richardson). It is judged per coordinate on
 the positions and on the mean velocity over the step,
 
-    e = max_j max( |q_f − q_c|_j / (3 (s·rtol·Q_j + atol_q,j)),
-                   |q_f − q_c|_j / (3 H (s·rtol·V_j + atol_v,j)) ),
+    e_q,j = |q_f − q_c|_j / (3 (s·rtol·Q_j + atol_q,j)),
+    e_v,j = min( |q_f − q_c|_j / (3 H (s·rtol·V_j + atol_v,j)),  e_q,j ),
 
 with ``Q_j``, ``V_j`` the largest ``|q_j|``, ``|v_j|`` met so far (the signal's running
 peak, so a waveform passing through zero is not stepped ever finer there) and ``s`` =
 :data:`SAFETY` (local errors add up over many steps); and per constraint on the
 step-centred multiplier ``φ = −c/h`` (a circuit's node potential; ``c_k = 2μ_k − c_{k−1}``
 is the step's own impulse, see :mod:`diracvi.spice._resample`), the coarse step's against
-the mean of the two fine ones, with ``atol_m``. ``e ≤ 1``
+the mean of the two fine ones, with ``atol_m``, and likewise held to at most
+``H/hmax`` times itself. A rate is thus judged no stricter than its integral over the
+step (SPICE's tolerance ``max(current tol, charge tol / h)``): a stiff mode ringing
+under the midpoint rule (amplification → −1, e.g. a junction capacitance behind its
+series resistance, excited where a diode switches) moves the end state by an amount
+that does not shrink with ``H``; judged as a rate it grew as ``1/H`` and drove the step
+to ``hmin``. ``e = max_j`` of all of them; ``e ≤ 1``
 accepts the two fine steps (they are what is recorded: every recorded step is a plain
 Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
 ``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
@@ -68,7 +74,8 @@ MESSAGES = {
     TOO_SMALL: "the step fell below hmin: the error cannot be met (a discontinuity, or "
     "tolerances below round-off)",
     FAILED_SOLVE: "a step's equations could not be solved even at the smallest step",
-    TOO_MANY: "the run took more tries than max_tries",
+    TOO_MANY: "the run took more step tries than its budget (max_tries): the error "
+    "estimate stalls at a tiny step (a ringing junction, or tolerances below round-off)",
 }
 
 #: the local error of a step is held at this share of the tolerance: errors accumulate
@@ -181,6 +188,12 @@ def _march(system, rule, solver, capacity, x):
         diff_m = jnp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
         m_peak = jnp.maximum(c["m_peak"], jnp.maximum(jnp.abs(phi1), jnp.abs(phi2)))
         e_m = diff_m / (share * rtol * m_peak + x["atol_m"])
+        # a rate's tolerance is at least its integral's over the step (SPICE's
+        # max(current tol, charge tol / h)): a mode ringing at the midpoint's amplification
+        # −1 (a stiff junction) moves the end state by a fixed amount whatever H, which
+        # read as a rate grows as 1/H and would drive the step to hmin
+        e_v = jnp.minimum(e_v, e_q)
+        e_m = jnp.minimum(e_m, e_m * h_try / hmax)
         err = jnp.max(jnp.concatenate([e_q, e_v, e_m]), initial=0.0)
         ok = ok & jnp.isfinite(err)
         modes_new, located, h_event, e_new = events.decide(

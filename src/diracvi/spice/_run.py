@@ -292,6 +292,14 @@ def _event_atol(netlist: Netlist, settings: TranSettings) -> np.ndarray:
     )
 
 
+def tries_budget(settings: TranSettings) -> int:
+    """How many step tries a variable-step run may take: 10 000, and 10 per TMAX of the
+    run (a circuit whose error estimate stalls just below its tolerance at a tiny step —
+    a ringing junction — would otherwise creep on for hours; the corpus's diode decks
+    take 250 to 600 at their own .tran)."""
+    return 10_000 + 10 * math.ceil(settings.stop / settings.max_step)
+
+
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
     if discretization != "midpoint":
         raise ModelError(
@@ -315,6 +323,7 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         breakpoints=breaks,
         event_atol=_event_atol(netlist, settings),
         modes=netlist.initial_modes(),
+        max_tries=tries_budget(settings),
     )
     if march.status != 0:
         at = march.t[-1]
