@@ -38,7 +38,7 @@ class SparseRows:
     :meth:`dense` and :meth:`to_scipy`.
     """
 
-    __slots__ = ("rows", "cols", "values", "shape", "_hash")
+    __slots__ = ("_hash", "cols", "rows", "shape", "values")
 
     def __init__(self, rows, cols, values, shape):
         shape = tuple(int(s) for s in shape)
