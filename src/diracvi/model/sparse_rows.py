@@ -65,13 +65,14 @@ class SparseRows:
         key = rows * shape[1] + cols
         order = np.argsort(key, kind="stable")
         key, values = key[order], values[order]
-        first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]]) if key.size else key
-        summed = np.add.reduceat(values, first) if key.size else values
-        keep = summed != 0.0
-        key = key[first][keep] if key.size else key
+        if key.size:
+            first = np.flatnonzero(np.r_[True, key[1:] != key[:-1]])
+            summed = np.add.reduceat(values, first)
+            keep = summed != 0.0
+            key, values = key[first][keep], summed[keep]
         self.rows = _frozen(key // max(shape[1], 1), np.int64)
         self.cols = _frozen(key % max(shape[1], 1), np.int64)
-        self.values = _frozen(summed[keep] if key.size else summed, np.float64)
+        self.values = _frozen(values, np.float64)
         self.shape = shape
         digest = hashlib.sha256()
         for a in (self.rows, self.cols, self.values):
