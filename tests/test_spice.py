@@ -263,3 +263,25 @@ def test_a_one_step_run_is_refused_with_the_fix(tmp_path):
         res = CliRunner().invoke(app, ["run", str(path), "--steps", "1", *extra])
         assert res.exit_code != 0 and "smaller dt" in res.output, res.output
         assert "Traceback" not in res.output
+
+
+def test_output_holds_the_saved_vectors_proportionately(monkeypatch):
+    """A fixed-step run's dataset: the ``.save`` vectors only; beyond ``SEPARATE_MAX``
+    vectors one ``vectors(time, vector)`` variable with the same values; the
+    trajectory's states dropped beyond ``STATES_MAX`` coordinates (diagnostics kept)."""
+    from diracvi.spice import _run
+
+    netlist, _, _ = ng.CIRCUITS["rc"]
+    deck = netlist.replace(".tran", ".save v(out) i(R1)\n.tran")
+    result = spice.run(deck, dt=1e-5, steps=50)
+    ds = result.to_xarray()
+    assert {"v(out)", "i(r1)"} <= set(ds.data_vars) and "v(in)" not in ds.data_vars
+    assert "q" in ds.data_vars and "energy" in ds.data_vars
+    monkeypatch.setattr(_run, "SEPARATE_MAX", 1)
+    monkeypatch.setattr(_run, "STATES_MAX", 1)
+    ds = result.to_xarray()
+    assert list(ds["vector"].values) == list(result) == ["v(out)", "i(r1)"]
+    for name in result:
+        np.testing.assert_array_equal(ds["vectors"].sel(vector=name).values, result[name])
+    assert "q" not in ds.data_vars and "energy" in ds.data_vars
+    assert ds.attrs["vectors"] == "vectors(time, vector)"
