@@ -204,3 +204,20 @@ def test_sparse_kcl_rows_equal_the_dense_ones():
     one = dv.simulate(sparse, netlist.q0, netlist.p0, solver=dv.NewtonSolver(), **args)
     two = dv.simulate(dense, netlist.q0, netlist.p0, solver=dv.NewtonSolver(), **args)
     _assert_same(one, two, rtol=1e-12)
+
+
+def test_short_blocks_give_the_same_run(monkeypatch):
+    """A large circuit's run goes in shorter blocks (its buffers bounded): with blocks
+    of 8 steps (the last one partial, saves every 5 steps across their ends) the sparse
+    run is Newton's to 1e-10."""
+    from diracvi.solvers import sparse_affine
+
+    monkeypatch.setattr(sparse_affine, "BLOCK_BYTES", 1)
+    netlist = spice.read(ladder(12, steps=60))
+    sparse = _run(netlist, SparseAffineSolver(), save_every=5)
+    newton = _run(netlist, dv.NewtonSolver(), save_every=5)
+    assert sparse.solver == SPARSE
+    _assert_same(sparse, newton)
+    np.testing.assert_allclose(
+        sparse.constraint_violation, newton.constraint_violation, rtol=0, atol=1e-12
+    )

@@ -58,6 +58,16 @@ SPARSE_MOMENTUM_CHECK_LIMIT = 256
 #: steps per block: the driven offsets and the energies are computed a block at a time
 #: (one compiled program for every block: the last is padded)
 BLOCK = 256
+#: a block's buffers (states, increments, offsets) stay within about this many bytes:
+#: fewer steps per block for a large circuit (256 steps of a 10⁵-stage ladder were
+#: ≈ 5 GB of buffers), so a run that keeps no states is O(n) in memory
+BLOCK_BYTES = 64 << 20
+
+
+def block_length(n: int, size: int) -> int:
+    """Steps per block for ``n`` coordinates and ``size`` unknowns (8 … ``BLOCK``)."""
+    per_step = 8 * (5 * n + 2 * size)  # states, increments, padded q pairs, offsets
+    return int(max(8, min(BLOCK, BLOCK_BYTES // per_step)))
 
 
 class NotSparseAffine(Exception):
@@ -240,6 +250,7 @@ class SparseAffineMap:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
         self.jz, self.jx, self.pz, self.px, self.imp = mats
         self.n, self.size = system.n, self.jx.shape[0]
+        self.block = block_length(self.n, self.size)
         # one product gives J_z z and P_z z
         import scipy.sparse as sp
 
@@ -254,10 +265,10 @@ class SparseAffineMap:
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
         """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
-        one compiled program; every argument padded to ``BLOCK`` rows)."""
+        one compiled program; every argument padded to ``self.block`` rows)."""
 
         def padded(a):
-            return np.concatenate([a, np.repeat(a[-1:], BLOCK - len(a), axis=0)])
+            return np.concatenate([a, np.repeat(a[-1:], self.block - len(a), axis=0)])
 
         r0, pm0, energy = _block(
             self.system, self.drivers, self.rule, self.scheme, np.float64(self.h),
@@ -318,11 +329,12 @@ class SparseAffineMap:
             if nodal:
                 node_out[0] = z[n:]
         energy, violation = np.empty(steps), np.empty(steps)
-        starts = list(range(0, steps, BLOCK))
+        block = self.block
+        starts = list(range(0, steps, block))
         con_z, con_y = self._con[:, : 2 * n].tocsr(), self._con[:, 2 * n :].tocsr()
 
         def times_of(start):
-            index = start + np.arange(min(BLOCK, steps - start), dtype=np.float64)
+            index = start + np.arange(min(block, steps - start), dtype=np.float64)
             return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
 
         times = times_of(0)
@@ -334,8 +346,8 @@ class SparseAffineMap:
             pm0 = np.broadcast_to(self.pm0, (len(times), n))
         checks = []  # (z, y, t) of the last step of every block, verified at the end
         y = np.zeros(size)
-        zs = np.empty((BLOCK + 1, 2 * n))
-        ys = np.empty((BLOCK, size))
+        zs = np.empty((block + 1, 2 * n))
+        ys = np.empty((block, size))
         for b, start in enumerate(starts):
             count = len(times)
             zs[0] = z
