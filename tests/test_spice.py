@@ -249,12 +249,13 @@ def test_cli_runs_a_netlist_and_writes_spice_names(tmp_path):
     res = CliRunner().invoke(app, ["run", str(path), "--out", str(out)])
     assert res.exit_code == 0, res.output
     ds = xr.open_dataset(out)
-    assert {"v(in)", "v(out)", "i(V1)", "i(R1)", "i(C1)"} <= set(ds.data_vars)
+    # the saved vectors, as ngspice saves them without .save: nodes and source currents
+    assert set(ds.data_vars) == {"v(in)", "v(out)", "i(v1)"}
     assert ds.attrs["discretization"] == "midpoint"
     # the RC circuit's agreement with ngspice, as for the others below (t > 0, ≤ 1e-3 peak)
     t, ref = ng.load("rc")
     for probe in ("v(out)", "i(V1)"):
-        got = np.interp(t, ds["time"].values, ds[probe].values)
+        got = np.interp(t, ds["time"].values, ds[probe.lower()].values)
         assert np.max(np.abs(got - ref[probe])[1:]) <= 1e-3 * np.max(np.abs(ref[probe]))
     ds.close()
 
@@ -279,3 +280,25 @@ def test_a_one_step_run_is_refused_with_the_fix(tmp_path):
         res = CliRunner().invoke(app, ["run", str(path), "--steps", "1", *extra])
         assert res.exit_code != 0 and "smaller dt" in res.output, res.output
         assert "Traceback" not in res.output
+
+
+def test_output_holds_the_saved_vectors_proportionately(monkeypatch):
+    """A fixed-step run's dataset: the ``.save`` vectors only; beyond ``SEPARATE_MAX``
+    vectors one ``vectors(time, vector)`` variable with the same values; the
+    trajectory's states dropped beyond ``STATES_MAX`` coordinates (diagnostics kept)."""
+    from diracvi.spice import _run
+
+    netlist, _, _ = ng.CIRCUITS["rc"]
+    deck = netlist.replace(".tran", ".save v(out) i(R1)\n.tran")
+    result = spice.run(deck, dt=1e-5, steps=50)
+    ds = result.to_xarray()
+    assert {"v(out)", "i(r1)"} <= set(ds.data_vars) and "v(in)" not in ds.data_vars
+    assert "q" in ds.data_vars and "energy" in ds.data_vars
+    monkeypatch.setattr(_run, "SEPARATE_MAX", 1)
+    monkeypatch.setattr(_run, "STATES_MAX", 1)
+    ds = result.to_xarray()
+    assert list(ds["vector"].values) == list(result) == ["v(out)", "i(r1)"]
+    for name in result:
+        np.testing.assert_array_equal(ds["vectors"].sel(vector=name).values, result[name])
+    assert "q" not in ds.data_vars and "energy" in ds.data_vars
+    assert ds.attrs["vectors"] == "vectors(time, vector)"

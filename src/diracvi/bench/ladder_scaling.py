@@ -6,17 +6,19 @@ For each ladder (:func:`diracvi.bench.ladders.ladder`: R, L, C per stage, a 1 kH
 - **ngspice**: ``ngspice -b`` on the netlist with a ``.control`` block that runs the
   ``.tran`` (maximum step = the netlist's step, default tolerances) and writes three
   probes with ``wrdata``: the whole process's wall time and peak RSS;
-- **diracvi end to end**: ``diracvi run ladder.cir`` as a subprocess (Python start,
-  ``import diracvi``, reading, the plan, stepping, the summary), with the disk cache cold
-  (a fresh ``DIRACVI_CACHE_DIR``) and then warm (the same directory again): wall time and
-  peak RSS; up to ``MAX_OUT`` stages also with ``--out x.nc`` (every variable written);
+- **diracvi end to end**: ``diracvi run ladder.cir --dt 1e-06`` as a subprocess (Python
+  start, ``import diracvi``, reading, the plan, stepping, the summary) at the netlist's
+  step, fixed as ngspice's maximum step is (without ``--dt`` a netlist runs SPICE's
+  variable steps, which are not the sparse path), with the disk cache cold (a fresh
+  ``DIRACVI_CACHE_DIR``) and then warm (the same directory again): wall time and peak
+  RSS; up to ``MAX_OUT`` stages also with ``--out x.nc`` (the saved vectors written);
 - **warm in-process** ``simulate``: after a first call in this process, the min of a few;
 - **agreement**: ``max |v_diracvi − v_ngspice| / peak`` over the probes, ngspice
   interpolated onto diracvi's time nodes (t > 0).
 
 ``DIRACVI_BENCH_LADDERS`` (comma-separated stage counts) overrides the sizes: default
-100 and 1000 (100 with ``--quick``); 10⁴ and more only on request (see
-``benchmarks/README.md`` for what limits them).
+100, 1000 and 10⁴ (100 with ``--quick``); 10⁵ on request (see ``benchmarks/README.md``
+for what limits it).
 """
 
 from __future__ import annotations
@@ -38,6 +40,8 @@ from .ladders import ladder
 NAME = "circuits"
 PROBES = ("v(n1)", "v(n10)", "i(L1)")
 SIZES_ENV = "DIRACVI_BENCH_LADDERS"
+#: the ladders' step (the netlist's TSTEP, fixed for diracvi, ngspice's maximum step)
+DT = 1e-6
 #: the largest ladder also run with ``--out`` (the NetCDF holds every variable)
 MAX_OUT = 1000
 
@@ -46,7 +50,7 @@ def sizes(settings: Settings) -> tuple[int, ...]:
     raw = os.environ.get(SIZES_ENV, "").strip()
     if raw:
         return tuple(int(x) for x in raw.split(",") if x.strip())
-    return (100,) if settings.quick else (100, 1000)
+    return (100,) if settings.quick else (100, 1000, 10_000)
 
 
 #: runs a command and prints its wall time, exit code and peak RSS (KB): a child of this
@@ -100,12 +104,12 @@ def _ngspice(text: str, tmp: Path):
     return wall, mb, data[:, 0], {p: data[:, 1 + j] for j, p in enumerate(PROBES)}
 
 
-def _diracvi_run(path: Path, cache: Path, tmp: Path, out: bool = False):
+def _diracvi_run(path: Path, dt: float, cache: Path, tmp: Path, out: bool = False):
     env = dict(os.environ, DIRACVI_CACHE_DIR=str(cache))
     src = Path(__file__).resolve().parents[2]  # the package's own tree first
     env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")])
     code = "from diracvi.cli import app; app()"
-    cmd = [sys.executable, "-c", code, "run", str(path)]
+    cmd = [sys.executable, "-c", code, "run", str(path), "--dt", repr(dt)]
     if out:
         cmd += ["--out", str(tmp / "x.nc")]
     wall, mb, _ = _timed(cmd, tmp, env)
@@ -144,18 +148,19 @@ def rows(settings: Settings) -> list[Row]:
     out = []
     repeats = 3
     for stages in sizes(settings):
-        text = ladder(stages)
+        dt = DT
+        text = ladder(stages, dt=dt)
         with tempfile.TemporaryDirectory() as tmp_name:
             tmp = Path(tmp_name)
             path = tmp / f"ladder{stages}.cir"
             path.write_text(text)
             ng_wall, ng_mb, t_ref, ref = _ngspice(text, tmp)
             cache = tmp / "cache"
-            cold, cold_mb = _diracvi_run(path, cache, tmp)
-            warm_e2e, warm_mb = _diracvi_run(path, cache, tmp)
+            cold, cold_mb = _diracvi_run(path, dt, cache, tmp)
+            warm_e2e, warm_mb = _diracvi_run(path, dt, cache, tmp)
             with_out = size_mb = None
             if stages <= MAX_OUT:
-                with_out, _ = _diracvi_run(path, cache, tmp, out=True)
+                with_out, _ = _diracvi_run(path, dt, cache, tmp, out=True)
                 size_mb = (tmp / "x.nc").stat().st_size / 1e6
             warm, netlist, traj = _warm(text, repeats)
             err = _agreement(netlist, traj, t_ref, ref)
@@ -165,7 +170,7 @@ def rows(settings: Settings) -> list[Row]:
             f"{cold_mb:.0f}), ngspice {ng_mb:.0f} MB"
         )
         if with_out is not None:
-            notes += f"; with --out (every variable, {size_mb:.0f} MB NetCDF) {with_out:.1f} s"
+            notes += f"; with --out (saved vectors, {size_mb:.0f} MB NetCDF) {with_out:.1f} s"
         solver = traj.solver
         out += [
             Row(NAME, f"{label}: `diracvi run` end to end, cache cold ÷ ngspice -b", cold,

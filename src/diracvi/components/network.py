@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model.interconnect import Interaction, connect, interconnect
+from ..model.sparse_rows import SparseRows
 from ._part import Part, traced
 from .electrical import CoupledInductors, Ground, MutualInductance
 
@@ -190,10 +191,11 @@ class Circuit:
         node_list = [n for n in incidence if not self._is_ground(n)]
         if incidence:
             self._check_topology(incidence, branches, node_list)
-        forms = np.zeros((len(node_list), len(coords)))
-        for r, node in enumerate(node_list):
-            for col, sign in incidence[node]:
-                forms[r, col] += sign
+        # the node–branch incidence matrix, sparse: 2 entries per branch, O(N) in memory
+        # (dense it would be nodes × coordinates: 4.8 GB for a ladder of 10⁴ stages)
+        entries = [(r, col, sign) for r, n in enumerate(node_list) for col, sign in incidence[n]]
+        rows, cols, signs = np.array(entries, dtype=np.float64).reshape(-1, 3).T
+        forms = SparseRows(rows, cols, signs, (len(node_list), len(coords)))
         kcl_rows = {n: f"KCL({n})" for n in node_list}
 
         # mechanical: flanges at a node -> connect(first, other)
@@ -273,12 +275,14 @@ class Circuit:
                         f"not in circuit {self.name!r}; name an element whose current is "
                         f"reported, one of {sorted(branch)} (SPICE: a voltage source)."
                     )
-                row = np.zeros(len(index))
-                row[index[f"{part.name}.{coord}"]] += 1.0
-                row[index[target]] -= 1.0
-                rows.append(row)
+                r = len(names)
+                rows.append((r, index[f"{part.name}.{coord}"], 1.0))
+                rows.append((r, index[target], -1.0))
                 names.append(f"sense({part.name})")
-        return [Interaction(np.array(rows), names=tuple(names))] if rows else []
+        if not rows:
+            return []
+        r, c, v = np.array(rows, dtype=np.float64).T
+        return [Interaction(SparseRows(r, c, v, (len(names), len(index))), names=tuple(names))]
 
     def _check_topology(self, incidence, branches, node_list) -> None:
         grounds = [n for n in incidence if self._is_ground(n)]

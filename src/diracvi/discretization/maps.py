@@ -19,8 +19,10 @@ DiracSystem` has it):
 
 and an interconnection, in addition, through ``map_subsystems`` / ``join_subsystems``
 (each subsystem's blocks, group by group when alike subsystems are packed),
-``port_arrays()`` (the connections ``v_x − v_y``) and ``general_rows()`` /
-``general_forms(q)`` (the rows of general interactions ``B(q)``).
+``port_arrays()`` (the connections ``v_x − v_y``), ``incidence()`` (constant sparse rows,
+a circuit's KCL: a :class:`~diracvi.model.sparse_rows.SparseRows`, applied as ``B @ v``
+in O(non-zeros)) and ``general_rows()`` / ``general_forms(q)`` (the rows of general
+interactions ``B(q)``).
 
 A system may define its own ``discrete_momenta(rule, q_k, q_{k+1}, h, t_k)`` (a user
 class implementing the protocol directly): :func:`discrete_momenta` then uses it.
@@ -148,6 +150,10 @@ def interaction_constraints(rule, system, side: str, qk, qk1, h, tk=0.0, stage=N
         a, b, rows = ports
         v = (qk1 - qk) / h
         out = out.at[rows].set(v[a] - v[b])
+    sparse = system.incidence()
+    if sparse is not None:  # B v on its rows, zero on the others (the rule's quadrature
+        # of a constant one-form: only its products B v are taken)
+        out = out + rule.discrete_constraints(lambda q, t: sparse, side, qk, qk1, h, tk)
     index = system.general_rows()
     if index is not None:
         forms = system.general_forms
@@ -175,6 +181,10 @@ def _staged_interaction(rule, system, side, qk, stage, qk1, h, tk):
             stage=stage[a] - stage[b],
         )
         end, mid = end.at[index].set(e), mid.at[index].set(s)
+    sparse = system.incidence()
+    if sparse is not None:
+        e, s = rule.discrete_constraints(lambda q, t: sparse, side, qk, qk1, h, tk, stage=stage)
+        end, mid = end + e, mid + s
     index = system.general_rows()
     if index is not None:
         forms = system.general_forms

@@ -31,17 +31,11 @@ def run_sparse(plan, run, q0, p0, t0, save_states: bool):
     q_end, p_end = z[:n], z[n:]
     sign = 1.0 if scheme == "plus" else -1.0
     index = np.arange(0, steps + 1, k, dtype=np.int64)
-    q = p = node = None
-    if save_states:
-        q = np.concatenate([np.asarray(q0)[None], out["q"]])
-        p = np.concatenate([np.asarray(p0)[None], out["p"]])
-        if nodal:
-            node = np.concatenate([np.asarray(p0)[None], out["node"]])
     return Trajectory(
         t=t0 + sign * h * index,
-        q=q,
-        p=p,
-        p_nodal=node,
+        q=out["q"],  # (the initial state first, as written by the map's run)
+        p=out["p"],
+        p_nodal=out["node"],
         multipliers=out["mu"],
         energy=out["energy"],
         constraint_residual=out["con"],

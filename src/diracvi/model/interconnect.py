@@ -18,6 +18,7 @@ can be checked to round-off.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import weakref
 from collections import Counter
 from collections.abc import Callable, Sequence
@@ -31,6 +32,7 @@ from ..errors import ModelError
 from ..runtime.config import ensure_float64
 from ..runtime.program import Program, lift
 from .monolithic import monolithic
+from .sparse_rows import SparseRows, is_scipy_sparse
 from .stacked import Packing, pack
 from .system import DiracSystem, LagrangeDiracSystem, StaticTuple
 from .validate import check_forms_array, check_name, eval_shape
@@ -44,8 +46,10 @@ class Interaction(eqx.Module):
 
     Args:
         forms: ``B(q) -> (l, N)`` (a callable of the interconnected coordinates, in
-            ``system.coords`` order) or a constant (l, N) array. Rows may involve any
-            number of subsystems and may depend on the configuration.
+            ``system.coords`` order), a constant (l, N) array, or a constant SciPy
+            sparse matrix (kept as its non-zero triples, :class:`SparseRows`: memory and
+            every product O(non-zeros), as a circuit's KCL rows need). Rows may involve
+            any number of subsystems and may depend on the configuration.
         names: names of the l rows (default ``"λ0"``, ``"λ1"``, … numbered across the
             whole interconnection).
 
@@ -58,9 +62,15 @@ class Interaction(eqx.Module):
     #: the captured arrays of ``_fn`` once it is a lifted :class:`Program` (see
     #: :meth:`lifted`): leaves, so alike interactions share one program
     _consts: tuple = ()
+    #: constant sparse rows (host constants: static)
+    _sparse: SparseRows | None = eqx.field(static=True, default=None)
 
     def __init__(self, forms, names=None, _consts=()):
-        if callable(forms):  # a function, or a lifted Program with its constants
+        self._sparse = None
+        if isinstance(forms, SparseRows) or is_scipy_sparse(forms):
+            self._fn, self._const = None, None
+            self._sparse = forms if isinstance(forms, SparseRows) else SparseRows.from_scipy(forms)
+        elif callable(forms):  # a function, or a lifted Program with its constants
             self._fn, self._const, self._consts = forms, None, tuple(_consts)
         else:
             const = check_forms_array("Interaction(forms=...)", forms)
@@ -71,7 +81,10 @@ class Interaction(eqx.Module):
         self.names = None if names is None else tuple(str(n) for n in names)
 
     def forms(self, q):
-        """``B(q)``: the constant, the lifted program or the function as given."""
+        """``B(q)``: the constant (sparse rows made dense), the lifted program or the
+        function as given."""
+        if self._sparse is not None:
+            return self._sparse.dense(q.dtype)
         if self._fn is None:
             return self._const
         if isinstance(self._fn, Program):
@@ -151,6 +164,12 @@ def _involved_subsystems(inter: Interaction, rows: int, owner, everyone):
     """
     if inter._fn is not None:
         return [everyone] * rows
+    if inter._sparse is not None:  # O(non-zeros): the owners of each row's columns
+        sparse = inter._sparse
+        pairs = np.unique(np.stack([sparse.rows, owner[sparse.cols]], axis=1), axis=0)
+        starts = np.searchsorted(pairs[:, 0], np.arange(rows + 1))
+        subs = pairs[:, 1].tolist()
+        return [tuple(subs[a:b]) or everyone for a, b in itertools.pairwise(starts.tolist())]
     forms = np.asarray(inter._const)
     out = []
     for row in forms:
@@ -165,7 +184,9 @@ class InterconnectedSystem(DiracSystem):
 
     A :func:`connect` row ``dx − dy`` is kept as its two coordinate indices, not as a
     dense row over Q: its constraint and constraint force cost O(1) however large Q is.
-    ``interactions`` holds the general :class:`Interaction` objects.
+    An :class:`Interaction` of a sparse matrix is kept as its triples
+    (:meth:`incidence`): O(non-zeros). ``interactions`` holds the other (general)
+    :class:`Interaction` objects.
     """
 
     subsystems: tuple[DiracSystem, ...]
@@ -181,6 +202,8 @@ class InterconnectedSystem(DiracSystem):
     _form_rows: tuple[tuple[int, int], ...] = eqx.field(static=True)
     # the subsystems each interaction row involves (every one, for a callable B(q))
     _row_subsystems: tuple[tuple[int, ...], ...] = eqx.field(static=True)
+    # the rows of constant sparse interactions, placed in B (l × N), or None
+    _incidence: SparseRows | None = eqx.field(static=True)
     # every row name (subsystems' own, prefixed, then the interaction rows): read per
     # trace many times over (``system.m``), so formed once
     _all_constraint_names: tuple[str, ...] = eqx.field(static=True)
@@ -229,6 +252,7 @@ class InterconnectedSystem(DiracSystem):
         owner = np.repeat(np.arange(len(subsystems)), np.diff(offsets))
         everyone = tuple(range(len(subsystems)))
         general, inames, ports, port_rows, form_rows, involved = [], [], [], [], [], []
+        sparse = []  # (first row, SparseRows) of the constant sparse interactions
         for j, inter in enumerate(interactions):
             if isinstance(inter, Connection):
                 # a module-level function: a method call on a half-built Module flattens
@@ -254,10 +278,14 @@ class InterconnectedSystem(DiracSystem):
                     "give one name per row."
                 )
             involved.extend(_involved_subsystems(inter, rows, owner, everyone))
-            form_rows.append((len(inames), rows))
+            if inter._sparse is not None:  # kept as triples, not as a general interaction
+                sparse.append((len(inames), inter._sparse))
+            else:
+                form_rows.append((len(inames), rows))
+                general.append(inter)
             inames.extend(given)
-            general.append(inter)
         self.interactions = tuple(general)
+        self._incidence = SparseRows.stack(sparse, len(inames), len(self._coords))
         self._interaction_names = StaticTuple(inames)
         self._port_index = StaticTuple(ports)
         self._port_rows = StaticTuple(port_rows)
@@ -269,7 +297,9 @@ class InterconnectedSystem(DiracSystem):
     # ----------------------------------------------------------- construction
     def _rows(self, inter: Interaction, j: int) -> int:
         n = len(self._coords)
-        if inter._const is not None:
+        if inter._sparse is not None:
+            shape = inter._sparse.shape
+        elif inter._const is not None:
             shape = tuple(inter._const.shape)
         else:
             shape = eval_shape(f"interactions[{j}]", inter._fn, (n,), signature="B(q)").shape
@@ -423,7 +453,8 @@ class InterconnectedSystem(DiracSystem):
 
     def general_forms(self, q):
         """The rows of the general :class:`Interaction` objects at ``q``, stacked
-        (rows :meth:`_form_row_index` of ``B``); ``None`` if every row is a connection."""
+        (rows :meth:`_form_row_index` of ``B``); ``None`` if every row is a connection
+        or a constant sparse row (:meth:`incidence`)."""
         if not self.interactions:
             return None
         return jnp.concatenate([i.forms(q) for i in self.interactions], axis=0)
@@ -434,6 +465,9 @@ class InterconnectedSystem(DiracSystem):
         if self._port_index:
             a, b, rows = self._port_arrays()
             forms = forms.at[rows, a].set(1.0).at[rows, b].set(-1.0)
+        if self._incidence is not None:
+            inc = self._incidence
+            forms = forms.at[inc.rows, inc.cols].add(inc.values)
         general = self.general_forms(q)
         if general is not None:
             forms = forms.at[self._form_row_index()].set(general)
@@ -445,6 +479,8 @@ class InterconnectedSystem(DiracSystem):
         if self._port_index:
             a, b, rows = self._port_arrays()
             force = force.at[a].add(lam[rows]).at[b].add(-lam[rows])
+        if self._incidence is not None:
+            force = force + self._incidence.transpose_apply(lam)
         general = self.general_forms(q)
         if general is not None:
             force = force + general.T @ lam[self._form_row_index()]
@@ -460,6 +496,12 @@ class InterconnectedSystem(DiracSystem):
         """The rows of ``B`` that :meth:`general_forms` fills, or ``None`` if there are
         no general interactions."""
         return self._form_row_index() if self.interactions else None
+
+    def incidence(self) -> SparseRows | None:
+        """The constant sparse rows of ``B`` (interactions given as sparse matrices),
+        placed in its ``(l, N)`` shape: ``incidence() @ v`` is ``B v`` on those rows and
+        zero on the others; ``None`` if there are none."""
+        return self._incidence
 
     def map_subsystems(self, fn, *vectors):
         """``fn(subsystem, *blocks)`` for every subsystem, on its blocks of the global

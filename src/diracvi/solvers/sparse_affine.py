@@ -58,6 +58,16 @@ SPARSE_MOMENTUM_CHECK_LIMIT = 256
 #: steps per block: the driven offsets and the energies are computed a block at a time
 #: (one compiled program for every block: the last is padded)
 BLOCK = 256
+#: a block's buffers (states, increments, offsets) stay within about this many bytes:
+#: fewer steps per block for a large circuit (256 steps of a 10⁵-stage ladder were
+#: ≈ 5 GB of buffers), so a run that keeps no states is O(n) in memory
+BLOCK_BYTES = 64 << 20
+
+
+def block_length(n: int, size: int) -> int:
+    """Steps per block for ``n`` coordinates and ``size`` unknowns (8 … ``BLOCK``)."""
+    per_step = 8 * (5 * n + 2 * size)  # states, increments, padded q pairs, offsets
+    return int(max(8, min(BLOCK, BLOCK_BYTES // per_step)))
 
 
 class NotSparseAffine(Exception):
@@ -240,6 +250,7 @@ class SparseAffineMap:
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
         self.jz, self.jx, self.pz, self.px, self.imp = mats
         self.n, self.size = system.n, self.jx.shape[0]
+        self.block = block_length(self.n, self.size)
         # one product gives J_z z and P_z z
         import scipy.sparse as sp
 
@@ -254,10 +265,10 @@ class SparseAffineMap:
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
         """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
-        one compiled program; every argument padded to ``BLOCK`` rows)."""
+        one compiled program; every argument padded to ``self.block`` rows)."""
 
         def padded(a):
-            return np.concatenate([a, np.repeat(a[-1:], BLOCK - len(a), axis=0)])
+            return np.concatenate([a, np.repeat(a[-1:], self.block - len(a), axis=0)])
 
         r0, pm0, energy = _block(
             self.system, self.drivers, self.rule, self.scheme, np.float64(self.h),
@@ -297,18 +308,33 @@ class SparseAffineMap:
     # --------------------------------------------------------------------- run
     def run(self, q0, p0, t0, steps, save_every, save_states, nodal, share):
         """Step ``steps`` times from ``(q0, p0)`` at ``t0``; returns a dict of the
-        saved arrays (states every ``save_every`` steps) and the final state, or raises
-        :class:`NotSparseAffine` if the verification rejects a step."""
+        saved arrays (states every ``save_every`` steps, the initial one first) and the
+        final state, or raises :class:`NotSparseAffine` if the verification rejects a
+        step.
+
+        The saved arrays are allocated once at their final size and written in place
+        (no per-block pieces joined at the end: that doubled the peak memory of a large
+        circuit's run); ``q`` and ``p`` are the two halves of one array of states."""
         n, size, k = self.n, self.size, save_every
         sign = 1.0 if self.scheme == "plus" else -1.0
         z = np.concatenate([q0, p0]).astype(np.float64)
         zmap, px, solve = self._zmap, self.px, self.lu.solve
-        keep_q, keep_p, keep_mu, keep_con, keep_node = [], [], [], [], []
+        saves = steps // k
+        if save_states:
+            states = np.empty((saves + 1, 2 * n))
+            states[0] = z
+            mu_out = np.empty((saves, size - n))
+            con_out = np.empty((saves, size - n))
+            node_out = np.empty((saves + 1, n)) if nodal else None
+            if nodal:
+                node_out[0] = z[n:]
         energy, violation = np.empty(steps), np.empty(steps)
-        starts = list(range(0, steps, BLOCK))
+        block = self.block
+        starts = list(range(0, steps, block))
+        con_z, con_y = self._con[:, : 2 * n].tocsr(), self._con[:, 2 * n :].tocsr()
 
         def times_of(start):
-            index = start + np.arange(min(BLOCK, steps - start), dtype=np.float64)
+            index = start + np.arange(min(block, steps - start), dtype=np.float64)
             return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
 
         times = times_of(0)
@@ -320,45 +346,49 @@ class SparseAffineMap:
             pm0 = np.broadcast_to(self.pm0, (len(times), n))
         checks = []  # (z, y, t) of the last step of every block, verified at the end
         y = np.zeros(size)
+        zs = np.empty((block + 1, 2 * n))
+        ys = np.empty((block, size))
         for b, start in enumerate(starts):
             count = len(times)
-            zs = np.empty((count + 1, 2 * n))
-            ys = np.empty((count, size))
             zs[0] = z
             for j in range(count):
-                g = zmap @ z
+                g = zmap @ zs[j]
                 rhs = g[:size]
                 rhs += r0[j]
                 np.negative(rhs, out=rhs)
                 y = solve(rhs)
-                after = zs[j + 1]
-                np.add(z[:n], y[:n], out=after[:n])
-                after[n:] = z[n:] + pm0[j] + g[size:] + px @ y
                 ys[j] = y
-                z = after
-            z = z.copy()
+                after = zs[j + 1]
+                np.add(zs[j, :n], y[:n], out=after[:n])
+                mom = g[size:]
+                mom += pm0[j]
+                mom += px @ y
+                np.add(zs[j, n:], mom, out=after[n:])
+            z = zs[count].copy()
+            zb, yb = zs[: count + 1], ys[:count]
             # diagnostics of the block, vectorized over its steps; with them, the next
             # block's offsets (one call)
-            con = (self._con @ np.concatenate([zs[:-1], ys], axis=1).T).T + r0[:count, n:]
-            q_from, q_to = zs[:-1, :n], zs[1:, :n]
+            con = (con_z @ zb[:-1].T + con_y @ yb.T).T + r0[:count, n:]
+            q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
             following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
             r0_next, pm0_next, e = self._block(following, qk, qk1, times)
             energy[start : start + count] = e
             violation[start : start + count] = np.max(np.abs(con), axis=1, initial=0.0)
-            saved = (start + np.arange(count) + 1) % k == 0
             if save_states:
-                keep_q.append(zs[1:, :n][saved])
-                keep_p.append(zs[1:, n:][saved])
-                keep_mu.append(ys[saved][:, n:])
-                keep_con.append(con[saved])
+                index = start + np.arange(count) + 1  # the steps' numbers, 1-based
+                saved = index % k == 0
+                rows = index[saved] // k  # rows of the saved arrays (0: the initial state)
+                states[rows] = zb[1:][saved]
+                mu_out[rows - 1] = yb[saved][:, n:]
+                con_out[rows - 1] = con[saved]
                 if nodal:
-                    impulse = (self.imp @ ys.T).T
-                    scale = np.full(count, share)
-                    if start == 0:
+                    impulse = (self.imp @ yb[saved].T).T
+                    scale = np.full(len(rows), share)
+                    if start == 0 and saved[0]:
                         scale[0] = share / (1.0 - share)
-                    keep_node.append((zs[1:, n:] - scale[:, None] * impulse)[saved])
-            checks.append((zs[-2], ys[-1], times[-1]))
+                    node_out[rows] = zb[1:][saved][:, n:] - scale[:, None] * impulse
+            checks.append((zs[count - 1].copy(), ys[count - 1].copy(), times[-1]))
             times = following
             if self.driven:
                 r0, pm0 = r0_next, pm0_next
@@ -371,14 +401,14 @@ class SparseAffineMap:
             raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
         return dict(
             z=z,
-            y=y,
+            y=y.copy(),
             energy=energy[k - 1 :: k],
             violation=violation.reshape(-1, k).max(axis=1),
-            q=np.concatenate(keep_q) if save_states else None,
-            p=np.concatenate(keep_p) if save_states else None,
-            mu=np.concatenate(keep_mu) if save_states else None,
-            con=np.concatenate(keep_con) if save_states else None,
-            node=np.concatenate(keep_node) if (save_states and nodal) else None,
+            q=states[:, :n] if save_states else None,
+            p=states[:, n:] if save_states else None,
+            mu=mu_out if save_states else None,
+            con=con_out if save_states else None,
+            node=node_out if (save_states and nodal) else None,
         )
 
 

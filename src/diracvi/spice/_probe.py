@@ -60,8 +60,10 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
             f"under discretization={traj.discretization!r}, and this run has {steps} "
             f"(dt={float(traj.dt):g}). Fix: a smaller dt (at most half the horizon)."
         )
+    # the rows by name once (traj.multiplier looks each up in the list: O(N²) overall)
+    row = {name: j for j, name in enumerate(traj.constraint_names)}
     for node in assembly.nodes:
-        lam = traj.multiplier(assembly.kcl_rows[node])
+        lam = traj.multipliers[:, row[assembly.kcl_rows[node]]]
         inner = -lam / h  # φ at t_0 … t_{steps-1}
         first = _end(inner[1:steps], _FROM_NODES) if midpoint else inner[0]
         phi = xp.concatenate([xp.stack([first]), inner[1:steps]])

@@ -26,7 +26,7 @@ from ..errors import ModelError, StepFailure
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
-from ._probe import to_dataset, waveforms
+from ._probe import waveforms
 from ._resample import Sampler, step_potentials
 from ._tran import TranSettings, breakpoints, tran_settings
 
@@ -124,14 +124,41 @@ class Result(Mapping):
         return f"{len(h)} variable steps of {h.min():.3g} … {h.max():.3g} s"
 
     def to_xarray(self):
-        """The dataset of ``v(<node>)``/``i(<element>)`` over ``time`` (a fixed-step run:
-        the trajectory's dataset plus those)."""
-        if self.internal is None and self.times is None:
-            return to_dataset(self.netlist, self.trajectory)
+        """The dataset of the saved vectors (``.save``, else every ``v(<node>)`` and
+        ``i(<element>)``) over ``time``: one variable each, named as ngspice names them,
+        or, beyond ``SEPARATE_MAX`` vectors, one variable ``vectors(time, vector)`` with
+        the names as the ``vector`` coordinate (thousands of NetCDF variables take
+        minutes to create; one 2-d variable a fraction of a second). A fixed-step run
+        adds the trajectory's diagnostics, final state and attributes, and its states
+        (``q``, ``p``, multipliers) up to ``STATES_MAX`` coordinates (above, the file
+        would be O(coordinates · steps): the vectors are what a netlist asks for)."""
         import xarray as xr
 
-        data = {k: (("time",), v) for k, v in self.waveforms.items()}
-        ds = xr.Dataset(data, coords={"time": self.time})
+        saved = self._saved()
+        if len(saved) <= SEPARATE_MAX:
+            data = {name: (("time",), self.waveforms[key]) for name, key in saved.items()}
+            layout = "one variable per vector"
+        else:
+            stacked = np.stack([self.waveforms[key] for key in saved.values()], axis=1)
+            data = {"vectors": (("time", "vector"), stacked)}
+            layout = "vectors(time, vector)"
+        coords = {"time": self.time}
+        if len(saved) > SEPARATE_MAX:
+            coords["vector"] = list(saved)
+        if self.internal is None and self.times is None:
+            traj = self.trajectory
+            ds = traj.to_xarray()
+            if traj.q is not None and traj.q.shape[1] > STATES_MAX:
+                ds = ds.drop_vars([v for v in STATE_VARIABLES if v in ds.data_vars])
+                ds.attrs["states"] = (
+                    f"not written: {traj.q.shape[1]} coordinates (more than {STATES_MAX}); "
+                    "the saved vectors are"
+                )
+            ds = ds.assign(data).assign_coords({k: v for k, v in coords.items() if k != "time"})
+            ds.attrs["vectors"] = layout
+            return ds
+        ds = xr.Dataset(data, coords=coords)
+        ds.attrs["vectors"] = layout
         march, settings = self.trajectory, self.settings
         ds.attrs.update(
             title=self.netlist.title,
@@ -171,6 +198,14 @@ class Result(Mapping):
             if tmp.exists():
                 tmp.unlink()
         return path
+
+
+#: up to this many saved vectors, one NetCDF variable each; more: one 2-d variable
+SEPARATE_MAX = 256
+#: a fixed-step run's file holds the trajectory's states up to this many coordinates
+STATES_MAX = 256
+#: the trajectory's per-state variables (O(coordinates · steps))
+STATE_VARIABLES = ("q", "p", "p_nodal", "multipliers", "constraint_residual")
 
 
 def _lookup(waves: dict, key: str) -> np.ndarray:

@@ -39,7 +39,8 @@ class _Group:
     y_index: np.ndarray  # (G, s) positions of the local unknowns in x
     rows: np.ndarray  # (G, copies·rows_each) the stage rows each member is involved in
     slots: np.ndarray  # (G, copies·rows_each) the slot (stage row, member) of each
-    ports: tuple[np.ndarray, ...]  # (member, local row, local column, ±1) of connections
+    ports: tuple[np.ndarray, ...]  # (member, local row, local column, coefficient): the
+    # entries of connections and of constant sparse rows
     general: tuple[np.ndarray, ...]  # (member, local row, row of general_forms)
     # T[e, s'] += coefficient · w_(row of e) · P_member[row, column], at (position, row of e)
     assembly: tuple[np.ndarray, ...]
@@ -153,9 +154,17 @@ def _new_plan(system: InterconnectedSystem, scheme: str, copies: int) -> _Plan:
     rows_of_sub = [[j * nrows + b for j in range(copies) for b in rs] for rs in base_rows_of_sub]
     slots_of_sub = [[slot_of[(t, i)] for t in rs] for i, rs in enumerate(rows_of_sub)]
 
-    # which rows are connections (coefficients ±1) and which come from general_forms
+    # which rows are connections (coefficients ±1) or constant sparse rows (their
+    # entries, as a connection's) and which come from general_forms
     pairs = zip(system._port_index, system._port_rows, strict=True)
-    port_of_row = {int(row): (int(a), int(b)) for (a, b), row in pairs}
+    port_of_row = {int(row): ((int(a), 1.0), (int(b), -1.0)) for (a, b), row in pairs}
+    sparse = system.incidence()
+    if sparse is not None:
+        for row, col, val in zip(
+            sparse.rows.tolist(), sparse.cols.tolist(), sparse.values.tolist(), strict=True
+        ):
+            port_of_row.setdefault(row, ())
+            port_of_row[row] += ((col, val),)
     general_of_row = {int(row): k for k, row in enumerate(system._form_row_index())}
 
     # groups: same structure and the same number of interface rows
@@ -189,7 +198,7 @@ def _new_plan(system: InterconnectedSystem, scheme: str, copies: int) -> _Plan:
         for k, i in enumerate(members):
             for r, b in enumerate(base_rows_of_sub[i]):
                 if b in port_of_row:
-                    for col, val in zip(port_of_row[b], (1.0, -1.0), strict=True):
+                    for col, val in port_of_row[b]:
                         if q_start[i] <= col < q_start[i] + n:
                             ports.append((k, r, col - q_start[i], val))
                 else:
