@@ -693,3 +693,35 @@ def test_discrete_power_balance_with_the_charge_port_accounts_for_every_watt():
     assert np.max(np.abs(residual)) <= 1e-10 * scale, np.max(np.abs(residual)) / scale
     assert np.max(np.abs(port)) > 1e-2 * scale  # the port does a sizeable share
     assert np.max(np.abs(junctions)) > 1e-3 * scale
+
+
+def _ported_stage(tf, bf=100.0, steps=30, h=0.5e-9):
+    c = cp.Circuit("ported")
+    c.add(cp.VoltageSource(5.0, name="VCC"), p="vcc", n="0")
+    c.add(cp.VoltageSource(cp.Sine(0.8, 0.15, 20e6), name="VIN"), p="in", n="0")
+    c.add(cp.Resistor(1e3, name="RB"), p="in", n="b")
+    c.add(cp.Resistor(2e3, name="RC"), p="vcc", n="c")
+    c.add(cp.Capacitor(1e-12, name="CL", v0=4.0), p="c", n="0")
+    ported = dict(PORTED, tf=tf, bf=bf)
+    c.add(cp.BJT("npn", **ported, v0=(0.75, -3.25), name="Q1"), c="c", b="b", e="0", s="0")
+    built = c.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=h, steps=steps, discretization="midpoint",
+        solver=SOLVER,
+    )  # fmt: skip
+    return traj.q[-1, built.system.coords.index("CL.q")]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("arg", "x", "eps"), [("tf", 1e-9, 1e-12), ("bf", 100.0, 1e-2)])
+def test_gradient_through_the_charge_port_matches_central_differences(arg, x, eps):
+    """``jax.grad`` of the load's final charge with respect to TF (which sits only in the
+    charge port here) and BF, on the stage whose B-E diffusion charge is ported."""
+
+    def loss(value):
+        return _ported_stage(**({"tf": 1e-9} | {arg: value}))
+
+    grad = float(jax.grad(loss)(x))
+    fd = (float(loss(x + eps)) - float(loss(x - eps))) / (2 * eps)
+    assert abs(grad - fd) <= 1e-5 * abs(fd), (grad, fd)
+    assert abs(fd) > 0
