@@ -17,9 +17,9 @@ each, as :mod:`~diracvi.components.diode`): ``be`` (b′→e′) carrying ``I_be
 ``bc`` (b′→c′) carrying ``I_bc/B_R + I_bcn``, and the transport branch ``ce`` (c′→e′)
 carrying ``(I_be − I_bc)/q_b`` (a PNP's three point the other way, so that every flux
 velocity is a type-normalised voltage and SPICE's ``pnjlim`` limits ``ẇ_be``, ``ẇ_bc``
-between Newton iterates as it limits a diode's), a force ``F_w = −I(ẇ_be, ẇ_bc)`` that depends on *other*
-branches' flux velocities (non-reciprocal, like a VCCS). A substrate branch (to c′ for
-NPN, b′ for PNP, as ngspice's default vertical/lateral layout) carries ngspice's
+between Newton iterates as it limits a diode's), a force ``F_w = −I(ẇ_be, ẇ_bc)`` that
+depends on *other* branches' flux velocities (non-reciprocal, like a VCCS). A substrate
+branch (to c′ for NPN, b′ for PNP, as ngspice's default vertical/lateral layout) carries ngspice's
 ``G_min`` leak. ``RB``, ``RC``, ``RE`` > 0 are resistor branches (``F = −R q̇``) to
 internal nodes ``b′ c′ e′`` whose KCL rows are the part's own constraints ``A q̇ = 0``.
 Junction capacitances ``CJE``, ``CJC`` (ngspice's depletion charge with ``FC``), the
