@@ -258,6 +258,24 @@ def test_include_and_lib_of_local_files(tmp_path):
     assert net.circuit.origin["R2"] == "load.inc line 2 (R2)"
 
 
+def test_a_line_starting_with_an_unusual_character_is_a_comment(tmp_path):
+    # ngspice replaces a leading ')' (and '=', '[', '?', '&', '%', ...) by '*' with a
+    # warning; eSim's model libraries close '.model NAME NPN(' with a lone ')' line
+    # (npn_1.lib of the corpus), whose '(' the .model reader then accepts unclosed
+    (tmp_path / "npn.lib").write_text(".model qq NPN(\n+ Bf=125\n+ Is=1e-15\n)")
+    deck = tmp_path / "top.cir"
+    deck.write_text(
+        "lone paren\n.include npn.lib\nv1 1 0 5\nr1 1 2 1k\nrb 1 3 100k\nq1 2 3 0 qq\n"
+        "= 7 stray\n.tran 1u 10u\n.end\n"
+    )
+    net = spice.read(deck)
+    q1 = _parts(net)["q1"]
+    assert dict(q1.parameters) == pytest.approx({"is": 1e-15, "bf": 125.0, "br": 1.0})
+    said = [n for n in net.notes if "read as a comment" in n]
+    assert any(n.startswith("npn.lib line 4: ')'") for n in said), net.notes
+    assert any(n.startswith("line 7: '= 7 stray'") for n in said), net.notes
+
+
 def test_include_problems_name_the_file_and_line(tmp_path):
     (tmp_path / "bad.inc").write_text("R2 b 0 {nope}\n")
     (tmp_path / "lib.l").write_text(".lib tt\n.param r=1\n.endl\n")

@@ -466,7 +466,8 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
         ),
         ("q1 3 2 0 qn\n.model qn NPN (IRB=1m)", r"line 5: model 'qn' \(line 6\): .*IRB"),
         ("q1 3 2 0 qn\n.model qn NPN (RBM=5 RB=10)", r"line 5: model 'qn' \(line 6\): .*RBM"),
-        ("q1 3 2 0 qn\n.model qn NPN (TF=1n VAF=50)", r"line 5: .*tf/tr need"),
+        ("q1 3 2 0 qn\n.model qn NPN (TF=1n PTF=30)", r"line 5: model 'qn' .*PTF=30.*excess"),
+        ("q1 3 2 0 qn\n.model qn NPN (SUBS=-1)", r"line 5: model 'qn' .*SUBS=-1.*collector"),
         ("q1 3 2 0 zz\n.model qn NPN", r"line 5: element 'q1': no defined model"),
         ("m1 3 2 0 0 nch W=1u FOO=2\n.model nch NMOS", r"line 5: .*FOO is not supported"),
     ],
@@ -554,3 +555,188 @@ def test_discrete_power_balance_of_a_mosfet_stage_accounts_for_every_watt():
     for x in terms:
         assert np.max(np.abs(x)) > 1e-2 * scale  # every term is a sizeable share
     assert np.all(vg > 1.7)
+
+
+# ------------------------------------------------------------------ the charge port
+PORTED = dict(
+    is_=1e-15, bf=100.0, vaf=50.0, ikf=0.02, tf=1e-9, xtf=2.0, vtf=3.0, itf=0.01,
+    cje=2e-12, cjc=1e-12, cjs=1e-12,
+)  # fmt: skip
+
+
+def _pn(v, i_s):
+    """``I_S (e^{V/V_T} − 1)``, ngspice's ``−I_S (1 + (3 V_T/(e V))³)`` below ``−3 V_T``."""
+    v = np.asarray(v, dtype=float)
+    low = v < -3 * VT
+    safe = np.where(low, v, -1.0)
+    return np.where(low, -i_s * (1 + (3 * VT / (np.e * safe)) ** 3), i_s * np.expm1(v / VT))
+
+
+def _forward_charge(vbe, vbc, p):
+    """ngspice's B-E diffusion charge, written out here from its manual and bjtload:
+    ``TF·I_be (1 + XTF e^{V_BC/(1.44 VTF)} (I_be/(I_be + ITF))²)/q_b`` for ``V_BE > 0``."""
+    ibe = _pn(vbe, p["is_"])
+    if vbe <= 0:  # diracvi's one formula differs here by ≤ TF·I_S·|1 − (1 + arg)/q_b|
+        return p["tf"] * float(ibe)
+    q1 = 1 / (1 - vbc / p["vaf"])
+    qb = q1 * (1 + np.sqrt(1 + 4 * ibe / p["ikf"])) / 2
+    arg = p["xtf"] * np.exp(vbc / (1.44 * p["vtf"])) * (ibe / (ibe + p["itf"])) ** 2
+    return p["tf"] * ibe * (1 + arg) / qb
+
+
+def test_the_forward_diffusion_charge_is_no_lagrangians_momentum():
+    """Gummel–Poon's ``Q_F(V_BE, V_BC)`` depends on ``V_BC`` while the B-C charge does not
+    depend on ``V_BE``: the charges' Jacobian is not symmetric, so no co-energy has them as
+    gradient. Such a part carries them in a charge port (its momentum ``∂L/∂v + Q``);
+    with ``q_b ≡ 1`` and ``XTF = 0`` the charge ``TF·I_be`` stays in the Lagrangian."""
+    from diracvi.components.bjt import forward_diffusion_charge
+
+    ported = cp.BJT("npn", **PORTED, name="Q1")
+    assert isinstance(ported, cp.ChargePortPart)
+    plain = cp.BJT("npn", is_=1e-15, tf=1e-9, cje=2e-12, name="Q2")
+    assert not isinstance(plain, cp.ChargePortPart)
+    p = dict(PORTED, is_=1e-15)
+    table = {"is": 1e-15, "nf": 1.0, "nr": 1.0, "ova": 1 / 50, "ovb": 0.0, "oik": 50.0,
+             "oikr": 0.0, "tf": 1e-9, "xtf": 2.0, "ovtf": 1 / 4.32, "itf": 0.01}  # fmt: skip
+    for vbe, vbc in ((0.7, -2.0), (0.75, 0.3), (-0.2, -1.0), (0.6, -8.0)):
+        got = float(forward_diffusion_charge(vbe, vbc, table))
+        tol = 1e-12 * abs(_forward_charge(vbe, vbc, p)) + (10 * 1e-9 * 1e-15 if vbe <= 0 else 0)
+        assert abs(got - _forward_charge(vbe, vbc, p)) <= tol
+    d_vbc = float(jax.grad(forward_diffusion_charge, argnums=1)(0.72, -2.0, table))
+    assert abs(d_vbc) > 1e-14  # ∂Q_F/∂V_BC ≠ 0 = ∂Q_BC/∂V_BE (Q_BC = TR·I_bc + depletion)
+    # the momentum of the w_be line is the depletion charge plus type·Q_F
+    q, v = np.zeros(ported.n), np.zeros(ported.n)
+    i, j = ported.coords.index("wbe"), ported.coords.index("wbc")
+    v[i], v[j] = 0.72, -2.0
+    from diracvi.components._junction import depletion_charge
+
+    want = float(depletion_charge(0.72, 2e-12, 0.75, 0.33, 0.5)) + _forward_charge(0.72, -2.0, p)
+    assert float(ported.momentum(q, v)[i]) == pytest.approx(want, rel=1e-12)
+    with pytest.raises(dv.ModelError, match="charge port"):
+        c = cp.Circuit("ce")
+        c.add(cp.VoltageSource(5.0, name="V1"), p="c", n="0")
+        c.add(cp.VoltageSource(0.7, name="V2"), p="b", n="0")
+        c.add(cp.BJT("npn", **PORTED, name="Q1"), c="c", b="b", e="0", s="0")
+        built = c.build()
+        dv.simulate(built.system, built.q0, built.p0, dt=1e-9, steps=2,
+                    discretization="lobatto", solver=SOLVER)  # fmt: skip
+
+
+PORT_STAGE = """NPN stage whose B-E diffusion charge goes through the charge port
+vcc vcc 0 5
+vin in 0 SIN(0.8 0.15 20meg)
+rb in b 1k
+rc vcc c 2k
+cl c 0 1p
+q1 c b 0 qn
+.model qn NPN (IS=1e-15 BF=100 VAF=50 IKF=20m TF=1n XTF=2 VTF=3 ITF=10m CJE=2p CJC=1p
++ CJS=1p)
+.ic v(c)=4 v(b)=0.75
+.tran 0.5n 200n
+.end
+"""
+
+
+def test_discrete_power_balance_with_the_charge_port_accounts_for_every_watt():
+    r"""Midpoint, at each interior node ``t_k``: the sources' work = Δ(load capacitor's
+    energy) + ``R ī² h`` + the transistor's conduction ``Σ_b V_b ī_b,cond h`` + its
+    Lagrangian junction charges ``Σ_b V_b ΔQ_b`` + **the charge port's work**
+    ``V_BE ΔQ_F``. Every branch current comes from its law at the step voltages
+    ``V_{k±½} = Δw/h`` (independent NumPy formulas), the port's ``ΔQ_F = Q_F(V_{k+½}) −
+    Q_F(V_{k−½})``: the balance closes to round-off, with the port a sizeable share."""
+    from diracvi.components._junction import depletion_charge
+
+    result = spice.run(PORT_STAGE, dt=0.1e-9, steps=1000, solver=SOLVER)
+    traj = result.trajectory
+    h, k = float(traj.dt), slice(1, -1)
+
+    def coord(name):
+        return traj.q[:, traj.coords.index(name)]
+
+    def node_current(name):
+        dq = np.diff(coord(name))
+        return (dq[:-1] + dq[1:]) / (2 * h)
+
+    def at_nodes(x):  # the two steps' values around each interior node, averaged
+        return (x[:-1] + x[1:]) / 2
+
+    step = {b: np.diff(coord(f"q1.w{b}")) / h for b in ("be", "bc", "ce", "sub")}
+    vb, vc = result["v(b)"][k], result["v(c)"][k]
+    node_v = {"be": vb, "bc": vb - vc, "ce": vc, "sub": -vc}
+    for b, v in node_v.items():  # the flux lines: V(t_k) = (V_{k−½} + V_{k+½})/2 exactly
+        assert np.max(np.abs(at_nodes(step[b]) - v)) <= 1e-9 * np.max(np.abs(v)) + 1e-12
+    p = dict(PORTED)
+
+    def pn(v):
+        return _pn(v, p["is_"])
+
+    vbe, vbc = step["be"], step["bc"]
+    q1 = 1 / (1 - vbc / p["vaf"])
+    qb = q1 * (1 + np.sqrt(1 + 4 * pn(vbe) / p["ikf"])) / 2
+    cond = {
+        "be": pn(vbe) / p["bf"] + GMIN * vbe,
+        "bc": pn(vbc) / 1.0 + GMIN * vbc,
+        "ce": (pn(vbe) - pn(vbc)) / qb,
+        "sub": GMIN * step["sub"],
+    }
+    lagrangian_q = {
+        "be": np.asarray(depletion_charge(vbe, 2e-12, 0.75, 0.33, 0.5)),
+        "bc": np.asarray(depletion_charge(vbc, 1e-12, 0.75, 0.33, 0.5)),
+        "sub": np.asarray(depletion_charge(step["sub"], 1e-12, 0.75, 0.0, 0.0)),
+    }
+    q_f = np.array([_forward_charge(a, b, p) for a, b in zip(vbe, vbc, strict=True)])
+
+    sources = (
+        -(result["v(vcc)"][k] * node_current("vcc.q") + result["v(in)"][k] * node_current("vin.q"))
+        * h
+    )
+    q = coord("cl.q")
+    stored = np.diff(((q[:-1] + q[1:]) / 2) ** 2 / (2 * 1e-12))
+    dissipated = (1e3 * node_current("rb.q") ** 2 + 2e3 * node_current("rc.q") ** 2) * h
+    conduction = sum(node_v[b] * at_nodes(cond[b]) * h for b in cond)
+    junctions = sum(node_v[b] * np.diff(lagrangian_q[b]) for b in lagrangian_q)
+    port = node_v["be"] * np.diff(q_f)
+    # each branch's node current is its law: conduction + its charges' change
+    for b in ("be", "bc", "sub"):
+        law = (
+            at_nodes(cond[b]) + (np.diff(lagrangian_q[b]) + (np.diff(q_f) if b == "be" else 0)) / h
+        )
+        assert np.max(np.abs(node_current(f"q1.q{b}") - law)) <= 1e-9 * np.max(np.abs(law))
+    terms = (sources, stored, dissipated, conduction, junctions, port)
+    scale = max(np.max(np.abs(x)) for x in terms)
+    residual = sources - stored - dissipated - conduction - junctions - port
+    assert np.max(np.abs(residual)) <= 1e-10 * scale, np.max(np.abs(residual)) / scale
+    assert np.max(np.abs(port)) > 1e-2 * scale  # the port does a sizeable share
+    assert np.max(np.abs(junctions)) > 1e-3 * scale
+
+
+def _ported_stage(tf, bf=100.0, steps=30, h=0.5e-9):
+    c = cp.Circuit("ported")
+    c.add(cp.VoltageSource(5.0, name="VCC"), p="vcc", n="0")
+    c.add(cp.VoltageSource(cp.Sine(0.8, 0.15, 20e6), name="VIN"), p="in", n="0")
+    c.add(cp.Resistor(1e3, name="RB"), p="in", n="b")
+    c.add(cp.Resistor(2e3, name="RC"), p="vcc", n="c")
+    c.add(cp.Capacitor(1e-12, name="CL", v0=4.0), p="c", n="0")
+    ported = dict(PORTED, tf=tf, bf=bf)
+    c.add(cp.BJT("npn", **ported, v0=(0.75, -3.25), name="Q1"), c="c", b="b", e="0", s="0")
+    built = c.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=h, steps=steps, discretization="midpoint",
+        solver=SOLVER,
+    )  # fmt: skip
+    return traj.q[-1, built.system.coords.index("CL.q")]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("arg", "x", "eps"), [("tf", 1e-9, 1e-12), ("bf", 100.0, 1e-2)])
+def test_gradient_through_the_charge_port_matches_central_differences(arg, x, eps):
+    """``jax.grad`` of the load's final charge with respect to TF (which sits only in the
+    charge port here) and BF, on the stage whose B-E diffusion charge is ported."""
+
+    def loss(value):
+        return _ported_stage(**({"tf": 1e-9} | {arg: value}))
+
+    grad = float(jax.grad(loss)(x))
+    fd = (float(loss(x + eps)) - float(loss(x - eps))) / (2 * eps)
+    assert abs(grad - fd) <= 1e-5 * abs(fd), (grad, fd)
+    assert abs(fd) > 0

@@ -8,6 +8,7 @@ c.add(Capacitor(1e-6, name="C1"), p="out", n="0")
 built = c.build()   # built.system, built.q0, built.p0
 """
 
+from ._charge_port import ChargePortPart
 from ._part import Part
 from .bjt import BJT
 from .controlled import CCCS, CCVS, VCCS, VCVS
@@ -54,6 +55,7 @@ __all__ = [
     "VCVS",
     "Assembly",
     "Capacitor",
+    "ChargePortPart",
     "Circuit",
     "CoupledInductors",
     "CurrentSource",

@@ -15,18 +15,29 @@ With ``type`` = +1 (NPN) or −1 (PNP) and the internal junction voltages
 **Lagrange–Dirac form.** Three voltage-controlled branches in flux form (``L = w q̇``
 each, as :mod:`~diracvi.components.diode`): ``be`` (b′→e′) carrying ``I_be/B_F + I_ben``,
 ``bc`` (b′→c′) carrying ``I_bc/B_R + I_bcn``, and the transport branch ``ce`` (c′→e′)
-carrying ``(I_be − I_bc)/q_b``, a force ``F_w = −I(ẇ_be, ẇ_bc)`` that depends on *other*
-branches' flux velocities (non-reciprocal, like a VCCS). A substrate branch (to c′ for
-NPN, b′ for PNP, as ngspice's default vertical/lateral layout) carries ngspice's
+carrying ``(I_be − I_bc)/q_b`` (a PNP's three point the other way, so that every flux
+velocity is a type-normalised voltage and SPICE's ``pnjlim`` limits ``ẇ_be``, ``ẇ_bc``
+between Newton iterates as it limits a diode's), a force ``F_w = −I(ẇ_be, ẇ_bc)`` that
+depends on *other* branches' flux velocities (non-reciprocal, like a VCCS). A substrate
+branch (to c′ for NPN, b′ for PNP, as ngspice's default vertical/lateral layout) carries ngspice's
 ``G_min`` leak. ``RB``, ``RC``, ``RE`` > 0 are resistor branches (``F = −R q̇``) to
 internal nodes ``b′ c′ e′`` whose KCL rows are the part's own constraints ``A q̇ = 0``.
-Junction capacitances ``CJE``, ``CJC`` (ngspice's depletion charge with ``FC``) and the
-diffusion charges ``TF·I_be``, ``TR·I_bc`` enter the Lagrangian as co-energies of the
-flux velocity, ``C*(ẇ)`` with ``∂C*/∂ẇ = Q(ẇ)``: the ``w``-line then reads
-``q̇ = i + dQ/dt``, and the energy ``⟨p, v⟩ − L`` contains the stored ``∫V dQ``.
-Gummel–Poon's diffusion charge ``TF·I_be/q_b`` is not the momentum of any Lagrangian
-unless ``q_b`` is constant (its mixed derivatives are not symmetric), so ``TF``/``TR`` need
-``V_AF = V_AR = I_KF = I_KR = ∞``.
+Junction capacitances ``CJE``, ``CJC`` (ngspice's depletion charge with ``FC``), the
+substrate capacitance ``CJS`` (``VJS``, ``MJS``; ngspice's form, the depletion charge
+with ``FC = 0``) and the diffusion charges ``TF·I_be``, ``TR·I_bc`` enter the Lagrangian
+as co-energies of the flux velocity, ``C*(ẇ)`` with ``∂C*/∂ẇ = Q(ẇ)``: the ``w``-line then
+reads ``q̇ = i + dQ/dt``, and the energy ``⟨p, v⟩ − L`` contains the stored ``∫V dQ``.
+
+Gummel–Poon's full base–emitter diffusion charge (ngspice's)
+
+    Q_F = TF · I_be (1 + XTF e^{V_BC/(1.44 VTF)} (I_be/(I_be + ITF))²) / q_b
+
+depends on both junction voltages, and ``∂Q_F/∂V_BC ≠ ∂Q_BC/∂V_BE``: it is no co-energy's
+gradient, so no Lagrangian gives it. When ``q_b`` varies (``VAF``, ``VAR``, ``IKF``, ``IKR``)
+or ``XTF ≠ 0`` it enters through a charge port (:class:`~._charge_port.ChargePortPart`):
+the ``w_be`` momentum is ``∂L/∂ẇ_be + type·Q_F``, and its current ``dQ_F/dt`` is integrated
+as SPICE integrates a charge (the module ``_charge_port`` derives the discrete pair and
+``docs/circuits.md`` the power balance). Otherwise ``Q_F = TF·I_be`` stays in ``L``.
 """
 
 from __future__ import annotations
@@ -37,7 +48,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ._junction import depletion_coenergy, diffusion_coenergy, pn_current
+from ._charge_port import ChargePortPart
+from ._junction import THERMAL_VOLTAGE, depletion_coenergy, diffusion_coenergy, pn_current
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
 
@@ -61,12 +73,7 @@ def gummel_poon(vbe, vbc, p):
     ibc = pn_current(vbc, p["is"], p["nr"])
     iben = pn_current(vbe, p["ise"], p["ne"]) + p["gmin"] * vbe
     ibcn = pn_current(vbc, p["isc"], p["nc"]) + p["gmin"] * vbc
-    q1 = 1.0 / (1.0 - vbc * p["ova"] - vbe * p["ovb"])
-    if p["oik"] == 0.0 and p["oikr"] == 0.0:
-        qb = q1
-    else:
-        q2 = p["oik"] * ibe + p["oikr"] * ibc
-        qb = q1 * (1.0 + jnp.sqrt(jnp.maximum(1.0 + 4.0 * q2, 0.0))) / 2.0
+    qb = base_charge(vbe, vbc, ibe, ibc, p)
     transport = (ibe - ibc) / qb
     base_emitter = ibe / p["bf"] + iben
     base_collector = ibc / p["br"] + ibcn
@@ -77,6 +84,34 @@ def gummel_poon(vbe, vbc, p):
         base_collector,
         transport,
     )
+
+
+def base_charge(vbe, vbc, ibe, ibc, p):
+    r"""Gummel–Poon's normalised base charge ``q_b = q_1 (1 + √(1 + 4 q_2))/2``."""
+    q1 = 1.0 / (1.0 - vbc * p["ova"] - vbe * p["ovb"])
+    if p["oik"] == 0.0 and p["oikr"] == 0.0:
+        return q1
+    q2 = p["oik"] * ibe + p["oikr"] * ibc
+    return q1 * (1.0 + jnp.sqrt(jnp.maximum(1.0 + 4.0 * q2, 0.0))) / 2.0
+
+
+def forward_diffusion_charge(vbe, vbc, p):
+    r"""ngspice's base–emitter diffusion charge ``Q_F(V_BE, V_BC)`` (type-normalised),
+    ``TF·I_be (1 + arg_tf)/q_b`` with ``arg_tf = XTF e^{V_BC/(1.44 VTF)} (I_be/(I_be + ITF))²``.
+
+    ngspice switches to the plain ``TF·I_be`` for ``V_BE ≤ 0``; there ``|I_be| ≤ I_S`` and
+    the two differ by at most ``TF·I_S·|1 − (1 + arg_tf)/q_b|`` (~10⁻²⁴ C for common
+    values), far below any charge the circuit moves. One formula everywhere keeps
+    ``∂Q_F/∂V_BC`` structurally present: a ``jnp.where`` would hide it from the
+    Jacobian's sparsity pattern (:mod:`diracvi.solvers.sparsity`) at sample points with
+    ``V_BE ≤ 0``."""
+    ibe = pn_current(vbe, p["is"], p["nf"])
+    ibc = pn_current(vbc, p["is"], p["nr"])
+    argtf = p["xtf"] * jnp.exp(vbc * p["ovtf"]) if p["ovtf"] != 0.0 else p["xtf"] + 0.0 * vbc
+    if p["itf"] != 0.0:
+        share = ibe / (ibe + p["itf"])
+        argtf = argtf * share * share
+    return p["tf"] * ibe * (1.0 + argtf) / base_charge(vbe, vbc, ibe, ibc, p)
 
 
 def BJT(
@@ -106,6 +141,12 @@ def BJT(
     mjc=0.33,
     tf=0.0,
     tr=0.0,
+    xtf=0.0,
+    vtf=None,
+    itf=0.0,
+    cjs=0.0,
+    vjs=0.75,
+    mjs=0.0,
     fc=0.5,
     area=1.0,
     gmin=1e-12,
@@ -115,9 +156,11 @@ def BJT(
     r"""A Gummel–Poon BJT with pins ``c b e s`` (substrate ``s``: ground it when unused).
 
     Defaults as ngspice's manual (``IS = 1e-16`` A, ``BF = 100``, ``BR = 1``, ``NE = 1.5``,
-    ``NC = 2``, ``VJE = VJC = 0.75`` V, ``MJE = MJC = 0.33``, ``FC = 0.5``). ``is_``, ``bf``
-    and ``br`` may be traced JAX values. ``v0 = (V_BE, V_BC)``: the initial junction
-    voltages (they set the initial junction charges when ``CJE``/``CJC``/``TF``/``TR`` ≠ 0).
+    ``NC = 2``, ``VJE = VJC = VJS = 0.75`` V, ``MJE = MJC = 0.33``, ``MJS = 0``, ``FC = 0.5``,
+    ``VTF = ∞``). ``is_``, ``bf``, ``br`` and ``tf`` may be traced JAX values.
+    ``v0 = (V_BE, V_BC[, V_sub])``: the initial junction voltages (they set the initial
+    junction charges when ``CJE``/``CJC``/``CJS``/``TF``/``TR`` ≠ 0); ``V_sub = φ_s − φ_c′``
+    (NPN) or ``φ_s − φ_b′`` (PNP), 0 V when not given.
     """
     where = f"BJT {name!r}"
     if kind not in KINDS:
@@ -139,9 +182,13 @@ def BJT(
         "oik": _inverse(where, "ikf", ikf) / a,
         "oikr": _inverse(where, "ikr", ikr) / a,
         "gmin": positive(where, "gmin", gmin),
+        "tf": coefficient(where, "tf", tf),
+        "xtf": finite(where, "xtf", xtf),
+        "ovtf": _inverse(where, "vtf", vtf) / 1.44,  # ngspice's 1/(1.44 VTF)
+        "itf": finite(where, "itf", itf) * a,
     }
-    if not all(isinstance(p[k], float) for k in ("ova", "ovb", "oik", "oikr")):
-        raise ModelError(f"{where}: vaf, var, ikf, ikr must be plain numbers (not traced).")
+    if not all(isinstance(p[k], float) for k in ("ova", "ovb", "oik", "oikr", "ovtf")):
+        raise ModelError(f"{where}: vaf, var, ikf, ikr, vtf must be plain numbers (not traced).")
     res = {k: finite(where, k, x) / a for k, x in (("rb", rb), ("rc", rc), ("re", re))}
     junction = {
         "be": (
@@ -155,25 +202,37 @@ def BJT(
             finite(where, "mjc", mjc),
         ),
     }
-    transit = {"be": finite(where, "tf", tf), "bc": finite(where, "tr", tr)}
+    junction["sub"] = (
+        finite(where, "cjs", cjs) * a,
+        positive(where, "vjs", vjs),
+        finite(where, "mjs", mjs),
+    )
+    # the B-E diffusion charge is a co-energy's gradient only when q_b ≡ 1 and XTF = 0
+    ported = _nonzero(p["tf"]) and (
+        p["xtf"] != 0.0 or any(p[k] != 0.0 for k in ("ova", "ovb", "oik", "oikr"))
+    )
+    transit = {"be": 0.0 if ported else p["tf"], "bc": finite(where, "tr", tr), "sub": 0.0}
     fc = finite(where, "fc", fc)
     if min(res.values()) < 0.0 or min(c for c, _, _ in junction.values()) < 0.0:
-        raise ModelError(f"{where}: rb, rc, re, cje, cjc must be ≥ 0.")
+        raise ModelError(f"{where}: rb, rc, re, cje, cjc, cjs must be ≥ 0.")
     if not 0.0 <= fc < 1.0 or not all(0.0 <= m < 1.0 for _, _, m in junction.values()):
-        raise ModelError(f"{where}: fc, mje, mjc must lie in [0, 1).")
-    if any(t != 0.0 for t in transit.values()) and any(
-        p[k] != 0.0 for k in ("ova", "ovb", "oik", "oikr")
-    ):
-        raise ModelError(
-            f"{where}: tf/tr need vaf = var = ikf = ikr = ∞: Gummel–Poon's diffusion charge "
-            "TF·I_be/q_b is not the momentum of a Lagrangian when q_b varies."
-        )
+        raise ModelError(f"{where}: fc, mje, mjc, mjs must lie in [0, 1).")
+    if p["xtf"] < 0.0 or p["itf"] < 0.0:
+        raise ModelError(f"{where}: xtf={xtf!r} and itf={itf!r} must be ≥ 0.")
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
-    if v0.shape != (2,) or not np.all(np.isfinite(v0)):
-        raise ModelError(f"{where}: v0={v0!r} must be two finite voltages (V_BE, V_BC).")
+    if v0.shape not in ((2,), (3,)) or not np.all(np.isfinite(v0)):
+        raise ModelError(
+            f"{where}: v0={v0!r} must be two or three finite voltages (V_BE, V_BC[, V_sub])."
+        )
 
     # branches: name -> (+ end, − end); internal nodes b′ c′ e′ are "B", "C", "E"
-    branches = {"be": ("B", "E"), "bc": ("B", "C"), "ce": ("C", "E")}
+    # oriented so that every flux velocity is a type-normalised voltage (a PNP's branches
+    # point the other way): ẇ_be = V_BE, ẇ_bc = V_BC, ẇ_ce = V_CE as ngspice's bjtload
+    # uses them, and junction limiting sees forward bias as a positive velocity
+    if kind == "npn":
+        branches = {"be": ("B", "E"), "bc": ("B", "C"), "ce": ("C", "E")}
+    else:
+        branches = {"be": ("E", "B"), "bc": ("C", "B"), "ce": ("E", "C")}
     branches["sub"] = ("s", "C" if kind == "npn" else "B")
     for k, (node, inner) in {"rb": ("b", "B"), "rc": ("c", "C"), "re": ("e", "E")}.items():
         if res[k] > 0.0:
@@ -199,30 +258,31 @@ def BJT(
 
     charges = {
         k: (junction[k], transit[k], p["is"], p["nf" if k == "be" else "nr"])
-        for k in ("be", "bc")
-        if junction[k][0] > 0.0 or transit[k] != 0.0
+        for k in ("be", "bc", "sub")
+        if junction[k][0] > 0.0 or _nonzero(transit[k])
     }
 
     def stored(vn, k):  # co-energy C*(V) of junction k (type-normalised V)
         (cj, vj, m), t, i_s, n = charges[k]
-        out = depletion_coenergy(vn, cj, vj, m, fc) if cj > 0.0 else 0.0 * vn
-        if t != 0.0:
+        grading = 0.0 if k == "sub" else fc  # ngspice's substrate charge: FC = 0
+        out = depletion_coenergy(vn, cj, vj, m, grading) if cj > 0.0 else 0.0 * vn
+        if _nonzero(t):
             out = out + diffusion_coenergy(vn, t, i_s, n)
         return out
 
     def lagrangian(q, v):
         out = sum(q[idx[f"w{k}"]] * v[idx[f"q{k}"]] for k in branches if f"w{k}" in idx)
-        for k in charges:
-            out = out + stored(sign * v[idx[f"w{k}"]], k)
+        for k in charges:  # (the substrate's φ_s − φ_c′ (NPN) or φ_s − φ_b′ (PNP) as ngspice)
+            out = out + stored(v[idx[f"w{k}"]], k)
         return out + 0.0 * v[0]
 
     def force(q, v):
-        vbe, vbc = sign * v[idx["wbe"]], sign * v[idx["wbc"]]
+        vbe, vbc = v[idx["wbe"]], v[idx["wbc"]]
         _, _, i_be, i_bc, i_ce = gummel_poon(vbe, vbc, p)
         f = jnp.zeros(len(coords), dtype=v.dtype)
-        f = f.at[idx["wbe"]].set(-sign * i_be)
-        f = f.at[idx["wbc"]].set(-sign * i_bc)
-        f = f.at[idx["wce"]].set(-sign * i_ce)
+        f = f.at[idx["wbe"]].set(-i_be)
+        f = f.at[idx["wbc"]].set(-i_bc)
+        f = f.at[idx["wce"]].set(-i_ce)
         f = f.at[idx["wsub"]].set(-p["gmin"] * v[idx["wsub"]])
         for k in ("rb", "rc", "re"):
             if k in branches:
@@ -230,11 +290,25 @@ def BJT(
         return f
 
     initial_v = np.zeros(len(coords))
-    initial_v[idx["wbe"]], initial_v[idx["wbc"]] = v0
-    initial_v[idx["wce"]] = v0[0] - v0[1]
+    initial_v[idx["wbe"]], initial_v[idx["wbc"]] = sign * v0[0], sign * v0[1]
+    initial_v[idx["wce"]] = sign * (v0[0] - v0[1])
+    if len(v0) == 3:
+        initial_v[idx["wsub"]] = v0[2]
+    # SPICE's pnjlim on both junctions, with ngspice's BJT values: V_T (not N·V_T) and
+    # V_crit = V_T ln(V_T/(√2 I_S))
+    vcrit = THERMAL_VOLTAGE * jnp.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * p["is"]))
+    row = jnp.stack([jnp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit, jnp.inf)])
     constraints = np.array(rows) if rows else None
     params = {"is": p["is"], "bf": p["bf"], "br": p["br"]}
-    return ControlledPart(
+    extra = {}
+    if ported:
+
+        def charge(q, v):  # the charge port: Q_F on the w_be line
+            q_f = forward_diffusion_charge(v[idx["wbe"]], v[idx["wbc"]], p)
+            return jnp.zeros(len(coords), dtype=v.dtype).at[idx["wbe"]].set(q_f)
+
+        extra["charge"] = charge
+    return (ChargePortPart if ported else ControlledPart)(
         tuple(coords),
         lagrangian,
         force=force,
@@ -246,5 +320,13 @@ def BJT(
         initial_v=initial_v,
         role="transistor",
         branch_roles=(),
+        junctions=("wbe", "wbc"),
+        junction_limits=jnp.stack([row, row]),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
+        **extra,
     )
+
+
+def _nonzero(x) -> bool:
+    """``x ≠ 0`` for a number; a traced value counts as nonzero (it is being varied)."""
+    return not isinstance(x, float) or x != 0.0

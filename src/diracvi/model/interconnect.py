@@ -430,6 +430,20 @@ class InterconnectedSystem(DiracSystem):
             for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
         )
 
+    def momentum(self, q, v, t=0.0):
+        r"""``p = (p^1, …, p^N)``: each subsystem's own momentum, side by side — ``∂L/∂v``
+        of ``L = Σ L^i``, plus the charge of a part with a charge port
+        (:class:`~diracvi.components.ChargePortPart`)."""
+        if self._packing is not None:
+            parts = self._per_group(lambda s, a, b: s.momentum(a, b, t), (q, "n"), (v, "n"))
+            return self._packing.join(parts, "n")
+        return jnp.concatenate(
+            [
+                jnp.atleast_1d(sub.momentum(qi, vi, t))
+                for sub, qi, vi in zip(self.subsystems, self._split(q), self._split(v), strict=True)
+            ]
+        )
+
     def position_constraints(self, q, t=0.0):
         """Every subsystem's holonomic constraints ``g^i(q_i, t)``, stacked."""
         if self._packing is not None:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
+from ..errors import ModelError
 from .system import LagrangeDiracSystem, with_row_order
 
 
@@ -19,6 +20,13 @@ def monolithic(system) -> LagrangeDiracSystem:
     assembly, which is what makes the comparison a check of the paper's theorem.
     """
     subsystems, split = system._members(), system._split
+    ported = [s.name for s in subsystems if hasattr(type(s), "discrete_momenta")]
+    if ported:  # their momenta are not ∂L/∂v: Σ L^i would drop their own terms
+        raise ModelError(
+            f"monolithic(): subsystems {ported} give their own discrete momenta (a charge "
+            "port, a charge that is no Lagrangian's momentum), which Σ L^i cannot express; "
+            "simulate the interconnection itself."
+        )
     timed = system.time_dependent
 
     def lagrangian(q, v, t=0.0):

@@ -21,7 +21,8 @@ _BJT = {
     "is": 1e-16, "bf": 100.0, "nf": 1.0, "vaf": 0.0, "ikf": 0.0, "ise": 0.0, "ne": 1.5,
     "br": 1.0, "nr": 1.0, "var": 0.0, "ikr": 0.0, "isc": 0.0, "nc": 2.0, "rb": 0.0,
     "re": 0.0, "rc": 0.0, "cje": 0.0, "vje": 0.75, "mje": 0.33, "tf": 0.0, "cjc": 0.0,
-    "vjc": 0.75, "mjc": 0.33, "tr": 0.0, "fc": 0.5,
+    "vjc": 0.75, "mjc": 0.33, "tr": 0.0, "fc": 0.5, "xtf": 0.0, "vtf": 0.0, "itf": 0.0,
+    "cjs": 0.0, "vjs": 0.75, "mjs": 0.0,
 }  # fmt: skip
 _BJT_ALIAS = {
     "va": "vaf", "ik": "ikf", "c2": "ise", "vb": "var", "c4": "isc", "pe": "vje", "me": "mje",
@@ -30,13 +31,15 @@ _BJT_ALIAS = {
 }  # fmt: skip
 _BJT_FIXED = {
     "irb": (0.0, "base-resistance roll-off current (a bias-dependent RB)"),
-    "xtf": (0.0, "transit-time bias coefficient"), "ptf": (0.0, "excess phase"),
+    "ptf": (0.0, "excess phase"),
     "xcjc": (1.0, "fraction of the B-C capacitance at the internal base"),
-    "cjs": (0.0, "substrate capacitance"), "iss": (0.0, "substrate saturation current"),
+    "iss": (0.0, "substrate saturation current"),
     "tnom": (27.0, "nominal temperature"),
 }  # fmt: skip
-# only act with XTF, CJS or ISS ≠ 0, away from 27 °C, or on noise
-_BJT_INERT = ("vtf", "itf", "vjs", "mjs", "ns", "xtb", "eg", "xti", "kf", "af", "subs")
+# only act with ISS ≠ 0, away from 27 °C, or on noise
+_BJT_INERT = ("ns", "xtb", "eg", "xti", "kf", "af")
+# the substrate junction's place: to c′ (vertical, 1: NPN's default) or b′ (lateral, −1)
+_BJT_SUBS = {"NPN": 1.0, "PNP": -1.0}
 _TEMPCO = re.compile(r"^(t[a-z]+[12]|ctc|cte|cts|tvj[ces]|tlevc?)$")
 
 
@@ -75,6 +78,13 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
             notes.append(f"{number}: {kind} {key.upper()} ignored (no effect here)")
         elif key == "rbm":
             values["rbm"] = x
+        elif key == "subs" and not mos:
+            if x != _BJT_SUBS[kind]:
+                raise fail(
+                    f"{kind} parameter SUBS={token} is not supported; only its default "
+                    f"{_BJT_SUBS[kind]:g} (the substrate junction at the internal "
+                    f"{'collector' if kind == 'NPN' else 'base'}; drop it)"
+                )
         else:
             raise fail(f"{kind} parameter {key.upper()!r} is not known or not supported")
     if values.get("rbm", values["rb"]) != values["rb"]:
@@ -108,13 +118,15 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
         else:
             raise fail(f"element {name!r}: parameter {key.upper()} is not supported on Q lines")
     v = model.values
-    vb, vc, ve = (ic.get(nodes[k], 0.0) for k in "bce")
+    vb, vc, ve, vs = (ic.get(nodes[k], 0.0) for k in "bces")
     part = cp.BJT(
         model.kind, is_=v["is"], bf=v["bf"], br=v["br"], nf=v["nf"], nr=v["nr"],
         vaf=v["vaf"], var=v["var"], ikf=v["ikf"], ikr=v["ikr"], ise=v["ise"], ne=v["ne"],
         isc=v["isc"], nc=v["nc"], rb=v["rb"], rc=v["rc"], re=v["re"], cje=v["cje"],
         vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
-        tr=v["tr"], fc=v["fc"], area=area, v0=(vb - ve, vb - vc), name=name,
+        tr=v["tr"], xtf=v["xtf"], vtf=v["vtf"], itf=v["itf"], cjs=v["cjs"], vjs=v["vjs"],
+        mjs=v["mjs"], fc=v["fc"], area=area, name=name,
+        v0=(vb - ve, vb - vc, vs - (vc if model.kind == "npn" else vb)),
     )  # fmt: skip
     return part, nodes
 

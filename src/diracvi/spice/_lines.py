@@ -149,12 +149,28 @@ def load(text: str, base: Path | None, problems: Problems) -> Source:
     return source
 
 
-def _logical(raw: list[str], first: int, file: str, problems: Problems) -> list[Line]:
+#: leading characters ngspice turns into '*' (a comment line), warning "Unusual leading
+#: characters": a lone ')' closing a '.model NAME TYPE(' card whose parameters follow on
+#: '+' lines is the common case (its '(' then stays open, which the .model reader accepts)
+_UNUSUAL_LEAD = set('=[]?()&%$"!:,;\f')
+
+
+def _logical(
+    raw: list[str], first: int, file: str, problems: Problems, notes: list | None = None
+) -> list[Line]:
     lines: list[Line] = []
     for k, text in enumerate(raw, start=first):
         body = re.split(r";| \$ |\t\$ ", text, maxsplit=1)[0].rstrip()
         stripped = body.strip()
         if not stripped or stripped.startswith("*"):
+            continue
+        if stripped[0] in _UNUSUAL_LEAD:
+            if notes is not None:
+                where = Line(k, stripped, file).where
+                notes.append(
+                    f"{where}: {stripped[:20]!r} read as a comment (a line starting with "
+                    f"{stripped[0]!r}, as ngspice does)"
+                )
             continue
         if stripped.startswith("+"):
             if not lines:
@@ -172,7 +188,7 @@ def _logical(raw: list[str], first: int, file: str, problems: Problems) -> list[
 
 
 def _expand(raw, first, file, base, source, problems, depth) -> None:
-    lines = _logical(raw, first, file, problems)
+    lines = _logical(raw, first, file, problems, source.notes)
     k = 0
     while k < len(lines):
         line = lines[k]
