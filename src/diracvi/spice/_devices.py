@@ -78,7 +78,7 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
             notes.append(f"{number}: {kind} {key.upper()} ignored (no effect here)")
         elif key == "rbm":
             values["rbm"] = x
-        elif key == "subs" and not mos:
+        elif key == "subs":
             if x != _BJT_SUBS[kind]:
                 raise fail(
                     f"{kind} parameter SUBS={token} is not supported; only its default "
