@@ -40,6 +40,8 @@ def ladder50():
     return spice.read(ladder(50, steps=100))
 
 
+# 29 s: the KCL-rows and automatic-choice tests cover the sparse path by default
+@pytest.mark.slow
 def test_sparse_equals_dense_affine_and_newton(ladder50):
     """A driven 50-stage ladder: the sparse map, the dense affine map and Newton agree
     to 1e-10 of each quantity's peak; its constraint residuals are at round-off."""
