@@ -12,6 +12,7 @@ import pytest
 
 import _ngspice as ng
 import diracvi as dv
+from _midpoint_nodes import MidpointNodes
 from diracvi import spice
 from diracvi.components.mosfet import meyer_capacitances
 
@@ -203,12 +204,8 @@ def test_discrete_power_balance_with_meyer_capacitances_accounts_for_every_watt(
     traj = result.trajectory
     h, k = float(traj.dt), slice(1, -1)
 
-    def coord(name):
-        return traj.q[:, traj.coords.index(name)]
-
-    def node_current(name):
-        dq = np.diff(coord(name))
-        return (dq[:-1] + dq[1:]) / (2 * h)
+    nodes = MidpointNodes(traj)
+    coord, node_current = nodes.coord, nodes.node_current
 
     def at_nodes(i):
         return (i[:-1] + i[1:]) / 2

@@ -13,6 +13,7 @@ import pytest
 
 import _ngspice as ng
 import diracvi as dv
+from _midpoint_nodes import MidpointNodes
 from diracvi import components as cp
 from diracvi import spice
 from diracvi.spice import waveforms
@@ -519,12 +520,8 @@ def test_discrete_power_balance_of_a_mosfet_stage_accounts_for_every_watt():
     traj = result.trajectory
     h, k = float(traj.dt), slice(1, -1)
 
-    def coord(name):
-        return traj.q[:, traj.coords.index(name)]
-
-    def node_current(name):
-        dq = np.diff(coord(name))
-        return (dq[:-1] + dq[1:]) / (2 * h)
+    nodes = MidpointNodes(traj)
+    coord, node_current = nodes.coord, nodes.node_current
 
     def step_volts(name):
         return np.diff(coord(name)) / h
@@ -650,12 +647,8 @@ def test_discrete_power_balance_with_the_charge_port_accounts_for_every_watt():
     traj = result.trajectory
     h, k = float(traj.dt), slice(1, -1)
 
-    def coord(name):
-        return traj.q[:, traj.coords.index(name)]
-
-    def node_current(name):
-        dq = np.diff(coord(name))
-        return (dq[:-1] + dq[1:]) / (2 * h)
+    nodes = MidpointNodes(traj)
+    coord, node_current = nodes.coord, nodes.node_current
 
     def at_nodes(x):  # the two steps' values around each interior node, averaged
         return (x[:-1] + x[1:]) / 2
