@@ -13,7 +13,16 @@ How a page is read (``page_steps``), in order of its fenced blocks:
   uses: it is written to ``NAME`` when reached (a Python one is also run, as the prose goes
   on to use its names).
 - ```` ```python ```` — run in one namespace per page, in the page's directory.
+- a block right after the line ``<!-- printed by the block above -->`` is what the step
+  before it prints: the runner compares it with that step's standard output
+  (``same_printout``: the words equal, each number to the digits shown, a number shown
+  below 1e-10 — round-off — only below 1e-10 again).
 - other blocks (``text`` without a title, untagged) are output or diagrams: not run.
+
+Inline commands in prose (```` `diracvi bench --only gradients` ````) are not run (most
+name a command, or take minutes); ``test_inline_commands_parse`` checks each against the
+command line itself: the command exists, every option does, and a value of a choice
+option is one of its choices (``a|b`` spans: each alternative).
 
 The page runs are marked ``docs`` (deselected by default, run in CI by ``.ci/run``: a page
 takes seconds to a minute); ``test_every_command_is_run_or_listed`` is in the default run
@@ -22,6 +31,8 @@ and fails when a page gains a command the tables do not cover or a table entry n
 
 from __future__ import annotations
 
+import contextlib
+import io
 import os
 import re
 import shlex
@@ -36,6 +47,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
 FENCE = re.compile(r"^(?P<indent> *)```(?P<info>[^\n]*)\n(?P<body>.*?)^(?P=indent)```", re.S | re.M)
 TITLE = re.compile(r'title="([^"]+)"')
+PRINTED = "<!-- printed by the block above -->"
 
 #: command (an ``&&`` part, as written) → why it is not run by these tests
 SKIPPED = {
@@ -79,8 +91,8 @@ SLOW = {
 
 @dataclass(frozen=True)
 class Step:
-    kind: str  # "shell" | "python" | "file"
-    text: str  # the command, the code, or the file's content
+    kind: str  # "shell" | "python" | "file" | "printed"
+    text: str  # the command, the code, the file's content, or the output shown
     line: int  # where it is on the page
     name: str = ""  # a file's name
 
@@ -122,6 +134,10 @@ def page_steps(page: Path) -> list[Step]:
         body = "\n".join(line[len(m.group("indent")) :] for line in m.group("body").splitlines())
         line = text.count("\n", 0, m.start()) + 1
         title = TITLE.search(info)
+        before = text[: m.start()].rstrip().rsplit("\n", 1)[-1].strip()
+        if before == PRINTED:
+            steps.append(Step("printed", body, line))
+            continue
         if title:
             steps.append(Step("file", body + "\n", line, title.group(1)))
         if lang in ("bash", "console", "sh"):
@@ -129,6 +145,49 @@ def page_steps(page: Path) -> list[Step]:
         elif lang == "python":
             steps.append(Step("python", body, line))
     return steps
+
+
+NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+ROUND_OFF = 1e-10
+
+
+def same_printout(shown: str, printed: str) -> str | None:
+    """``None`` if ``printed`` reads as the ``shown`` block, else what differs.
+
+    Line by line (trailing spaces and blank lines at the end ignored): the text between
+    numbers must be equal, and each number equal to the digits shown — half a unit of its
+    last digit (``1.8e-15`` stands for [1.75e-15, 1.85e-15]). A number shown below
+    ``ROUND_OFF`` in magnitude is round-off, whose digits depend on the machine's
+    arithmetic: the printed one need only be below ``ROUND_OFF`` too."""
+    a, b = shown.rstrip().splitlines(), printed.rstrip().splitlines()
+    if len(a) != len(b):
+        return f"{len(a)} lines shown, {len(b)} printed:\n{printed}"
+    for k, (s, p) in enumerate(zip(a, b, strict=True), 1):
+        s, p = s.rstrip(), p.rstrip()
+        if NUMBER.sub("#", s) != NUMBER.sub("#", p):
+            return f"line {k}: shown {s!r}, printed {p!r}"
+        for x, y in zip(NUMBER.findall(s), NUMBER.findall(p), strict=True):
+            shown_value, value = float(x), float(y)
+            if abs(shown_value) < ROUND_OFF:
+                ok = abs(value) < ROUND_OFF
+            else:
+                mantissa = x.lower().split("e")[0]
+                decimals = len(mantissa.split(".")[1]) if "." in mantissa else 0
+                exponent = int(x.lower().split("e")[1]) if "e" in x.lower() else 0
+                ok = abs(value - shown_value) <= 0.5 * 10.0 ** (exponent - decimals) * (1 + 1e-9)
+            if not ok:
+                return f"line {k}: shown {x}, printed {y} (in {p!r})"
+    return None
+
+
+def test_printouts_are_compared_to_the_digits_shown():
+    assert same_printout("a 1.8e-15 b\n7\n", "a 3.2e-16 b\n7") is None  # round-off
+    assert same_printout("err 1.8e-15\n", "err 2.0e-09\n") is not None  # not round-off
+    assert same_printout("v = 0.25 V\n", "v = 0.254 V\n") is None
+    assert same_printout("v = 0.25 V\n", "v = 0.256 V\n") is not None
+    assert same_printout("3 problems\n", "2 problems\n") is not None
+    assert same_printout("line 3: R1\n", "line 3: R2\n") is not None
+    assert same_printout("one\ntwo\n", "one\n") is not None
 
 
 def _first_line(code: str) -> str:
@@ -161,6 +220,111 @@ def test_shell_blocks_are_read_as_written():
     body = "diracvi list   # the problems\n  # a comment line\na && b 'c # d'\n"
     assert shell_commands(body, console=False) == ["diracvi list", "a", "b 'c # d'"]
     assert shell_commands("$ diracvi list\noutput\n", console=True) == ["diracvi list"]
+
+
+# ------------------------------------------------------------------ inline commands
+
+INLINE = re.compile(r"`(diracvi(?: [^`]*)?)`")
+
+
+def inline_commands(page: Path) -> list[tuple[int, str]]:
+    """The ```` `diracvi …` ```` spans of ``page``'s prose (fenced blocks left out), each
+    ``a|b`` word expanded into its alternatives: ``(line, command)``."""
+    text = FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), page.read_text(encoding="utf-8"))
+    found = []
+    for m in INLINE.finditer(text):
+        line = text.count("\n", 0, m.start()) + 1
+        variants = [[]]
+        for word in m.group(1).split():
+            alternatives = (
+                word.split("|") if "|" in word and not word.startswith("tcp:") else [word]
+            )
+            if word == "COMMAND":  # `diracvi COMMAND --help`: each of them
+                alternatives = list(_command_names())
+            variants = [[*v, a] for v in variants for a in alternatives]
+        found += [(line, " ".join(v)) for v in variants]
+    return found
+
+
+def _command_names() -> list[str]:
+    import typer.main
+
+    from diracvi.cli import app
+
+    return list(typer.main.get_command(app).commands)
+
+
+def _rest(ctx) -> list[str]:
+    """A group's words after its own options (click ≥ 8.2 keeps the subcommand's name
+    apart, in ``_protected_args``)."""
+    return [*getattr(ctx, "_protected_args", []), *ctx.args]
+
+
+def check_inline(command: str, tmp: Path) -> str | None:
+    """``None`` if the command line accepts ``command`` as far as it goes: every word
+    names a command or an option that exists, every choice is one of its choices. A span
+    that stops before a value or an argument the command needs (``diracvi sweep
+    --scheduler``, ``diracvi run``) names it and passes. Nothing is run: click parses
+    into a context without calling the command."""
+    import importlib
+
+    import typer.main
+
+    from diracvi.cli import app
+
+    group = typer.main.get_command(app)
+    # the click that parses: typer ≥ 0.26 carries its own copy (``typer._click``)
+    click = importlib.import_module(type(group).__mro__[1].__module__.rsplit(".", 1)[0])
+    exceptions = click.exceptions
+    words = shlex.split(command)[1:]
+    for word in words:  # file arguments that must exist: empty stand-ins
+        if "." in word and not word.startswith("-") and "/" not in word:
+            (tmp / word).touch()
+    previous = Path.cwd()
+    os.chdir(tmp)
+    try:
+        ctx = group.make_context("diracvi", list(words))
+        cmd, args = group, _rest(ctx)
+        while hasattr(cmd, "resolve_command") and args:
+            name, cmd, args = cmd.resolve_command(ctx, args)
+            ctx = cmd.make_context(name, args, parent=ctx)
+            args = _rest(ctx) if hasattr(cmd, "resolve_command") else []
+        if cmd.name == "bench":  # its --only names are checked by the command itself
+            from diracvi.bench import BENCHMARKS
+
+            unknown = [name for name in ctx.params.get("only") or () if name not in BENCHMARKS]
+            if unknown:
+                return f"--only {unknown}: no such benchmark"
+    except (exceptions.MissingParameter, exceptions.NoArgsIsHelpError):
+        return None
+    except exceptions.BadOptionUsage as e:
+        return None if "requires an argument" in e.format_message() else e.format_message()
+    except exceptions.ClickException as e:
+        return e.format_message()
+    except typer.Exit:  # --help, --version: the parse ends there
+        return None
+    finally:
+        os.chdir(previous)
+    return None
+
+
+def test_inline_commands_parse(tmp_path):
+    spans = [(p, line, c) for p in PAGES for line, c in inline_commands(p)]
+    assert len(spans) > 20
+    bad = [f"{p.name}:{line}: `{c}`: {problem}" for p, line, c in spans
+           if (problem := check_inline(c, tmp_path))]  # fmt: skip
+    assert not bad, "inline commands the command line refuses:\n" + "\n".join(bad)
+
+
+def test_a_wrong_inline_command_is_caught(tmp_path):
+    assert check_inline("diracvi bench --only gradients", tmp_path) is None
+    assert check_inline("diracvi cache info", tmp_path) is None
+    assert check_inline("diracvi sweep --scheduler", tmp_path) is None  # names the option
+    assert "gradient" in check_inline("diracvi bench --only gradient", tmp_path)
+    assert check_inline("diracvi run deck.cir --solver newton-ful", tmp_path) is not None
+    assert check_inline("diracvi run deck.cir --steps-per 3", tmp_path) is not None
+    assert check_inline("diracvi cache wipe", tmp_path) is not None
+    assert check_inline("diracvi simulate rlc", tmp_path) is not None
 
 
 # ------------------------------------------------------------------ running a page
@@ -199,7 +363,7 @@ def _workdir(tmp: Path) -> Path:
     return work
 
 
-def _run_shell(command: str, work: Path, env, where: str, timeout: float = 900) -> None:
+def _run_shell(command: str, work: Path, env, where: str, timeout: float = 900) -> str:
     out = subprocess.run(
         ["bash", "-c", command],
         cwd=work,
@@ -213,6 +377,7 @@ def _run_shell(command: str, work: Path, env, where: str, timeout: float = 900) 
         f"{where}: `{command}` failed (exit {out.returncode}):\n{out.stdout[-3000:]}\n"
         f"{out.stderr[-3000:]}"
     )
+    return out.stdout
 
 
 def _pages_with_steps():
@@ -228,16 +393,25 @@ def run_page(page: Path, tmp: Path) -> None:
     os.chdir(work)
     try:
         namespace: dict = {"__name__": f"docs_{page.stem}"}
+        printed = None  # what the last step run printed
         for step in page_steps(page):
             where = f"{page.name}:{step.line}"
             if _skipped(page, step):
+                printed = None
                 continue
             if step.kind == "file":
                 (work / step.name).write_text(step.text, encoding="utf-8")
             elif step.kind == "shell":
-                _run_shell(step.text, work, env, where)
+                printed = _run_shell(step.text, work, env, where)
+            elif step.kind == "printed":
+                assert printed is not None, f"{where}: no step before it printed anything"
+                problem = same_printout(step.text, printed)
+                assert problem is None, f"{where}: the page shows what is not printed: {problem}"
             else:
-                exec(compile(step.text, where, "exec"), namespace)
+                out = io.StringIO()
+                with contextlib.redirect_stdout(out):
+                    exec(compile(step.text, where, "exec"), namespace)
+                printed = out.getvalue()
     finally:
         os.chdir(previous)
 
@@ -262,6 +436,25 @@ def test_a_page_whose_command_fails_fails(tmp_path):
     )
     with pytest.raises(AssertionError, match=r"page\.md:13: `grep -q goodbye data\.txt` failed"):
         run_page(page, tmp_path)
+
+
+def test_a_page_that_shows_other_output_fails(tmp_path):
+    """A printed block is compared with what the step before it printed (Python or shell):
+    the page passes while they agree and fails, naming the block's line, once they do not."""
+    page = tmp_path / "page.md"
+    body = (
+        "```python\nprint(f'{2 / 3:.3f} and {1e-17:.1e}')\n```\n\n"
+        "<!-- printed by the block above -->\n```text\n0.667 and 3.0e-16\n```\n\n"
+        "```bash\necho 3 problems\n```\n\n"
+        "<!-- printed by the block above -->\n```text\nSHOWN\n```\n"
+    )
+    page.write_text(body.replace("SHOWN", "3 problems"), encoding="utf-8")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    run_page(page, tmp_path / "a")
+    page.write_text(body.replace("SHOWN", "2 problems"), encoding="utf-8")
+    with pytest.raises(AssertionError, match=r"page\.md:15: the page shows what is not printed"):
+        run_page(page, tmp_path / "b")
 
 
 @pytest.mark.slow
