@@ -145,8 +145,8 @@ class Lobatto(CentredNodes, QuadratureRule):
         right line, the midpoint rule's nodal impulse), and the stage rows' multipliers
         at the stages they constrain, ``−b_j ∇g(Q_j)ᵀ ν_j`` with ``ν_j = (−ν_pair, ν_mid,
         ν_pair)``: ``b₁ = b₃``, so this is the variation of ``−b₁ ν_pair (g(Q₃) − g(Q₁))
-        − b₂ ν_mid g(Q₂)``, the stage rows of :meth:`holonomic_rows`. Returns the three stage covectors, then (with ``held``)
-        the two nodal ones, for :meth:`pullback`.
+        − b₂ ν_mid g(Q₂)``, the stage rows of :meth:`holonomic_rows`. Returns the three
+        stage covectors, then (with ``held``) the two nodal ones, for :meth:`pullback`.
         """
         end, mids = self.rows_of(side)
         mus = [None] * 3

@@ -113,9 +113,7 @@ def _staged_constraints(rule, system, side, qk, stage, qk1, h, tk):
         system.one_forms, side, qk, qk1, h, tk, offset=offset, stage=stage
     )
     if system.has_holonomic:
-        g_end, g_mid = rule.holonomic_rows(
-            system.position_constraints, side, qk, stage, qk1, h, tk
-        )
+        g_end, g_mid = rule.holonomic_rows(system.position_constraints, side, qk, stage, qk1, h, tk)
         end = jnp.concatenate([end, g_end / h])
         mid = jnp.concatenate([mid, g_mid / h])
     return system.order_rows(end), system.order_rows(mid)
