@@ -53,6 +53,14 @@ class Lobatto(CentredNodes, QuadratureRule):
     vector per stage, in impulse units ``μ_j = −h λ_j``
     (the sign and scale of the paper's ``μ_k``). ``μ`` of the step is the one at the
     unknown end's stage (``t_{k+1}`` for (+), ``t_k`` for (−)), ``ν`` the other two.
+
+    A holonomic row ``g(q, t) = 0`` is held at the unknown end with its multiplier ``μ``
+    acting at the known node, and by the stage rows ``g(Q₂) = 0``, ``g(Q₃) − g(Q₁) = 0``
+    (:meth:`holonomic_rows`, :meth:`reaction_covectors`): a variational step on the
+    constraint manifold. Imposing ``g`` at ``q_{k+1}, Q₁, Q₂`` with the end row's
+    multiplier at ``Q₃`` (this rule's first version) left the momentum along ``∇g(q_k)``
+    unabsorbed, a step-map eigenvalue of −1.0009 that grew until Newton failed
+    (``docs/discretizations.md``, issue 31).
     """
 
     def __init__(self):
