@@ -20,7 +20,8 @@ one-forms and the forces (DESIGN.md §1). With ``v_k = (q_{k+1} − q_k)/h``::
   apply those nodes and weights; override them only for a different quadrature.
 - **A staged rule** (``stages > 0`` internal stage positions and multipliers per step,
   see :mod:`diracvi.discretization.lobatto`): also override :attr:`stages` and the
-  staged hooks below (:meth:`~QuadratureRule.nodes` … :meth:`~QuadratureRule.stage_guess`);
+  staged hooks below (:meth:`~QuadratureRule.nodes` … :meth:`~QuadratureRule.stage_guess`,
+  :meth:`~QuadratureRule.holonomic_rows` where ``g`` is imposed);
   the step's unknowns are then ``x = (q_other, μ, S₁ … S_s, ν₁ … ν_s)`` and
   :mod:`diracvi.discretization.equations` assembles them.
 
@@ -124,15 +125,24 @@ class QuadratureRule(eqx.Module):
         the triple ``(left, stage, right)`` (staged rules)."""
         self._no_stages("pullback")
 
-    def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu):
+    def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu, held=None):
         """The constraint reactions at the stages, from ``multiplier_force(q, μ, t) =
-        A(q, t)ᵀ μ`` (staged rules)."""
+        A(q, t)ᵀ μ``; ``held`` (a boolean per row, or ``None`` when there are none) marks
+        the holonomic rows (staged rules). :meth:`pullback` takes what this returns."""
         self._no_stages("reaction_covectors")
 
     def holonomic_points(self, side, qk, stage, qk1, h, tk):
         """Where ``g(q, t) = 0`` is imposed: ``((q_end, t_end), ((Q, t), …))`` (staged
         rules)."""
         self._no_stages("holonomic_points")
+
+    def holonomic_rows(self, held_at, side, qk, stage, qk1, h, tk):
+        """The holonomic rows of a step, ``(g at the unknown end, stage rows (k, stages))``,
+        from ``held_at(q, t) = g(q, t)`` (staged rules). By default ``g`` at each of
+        :meth:`holonomic_points`; a rule that imposes combinations of stage values
+        overrides this."""
+        (q_end, t_end), points = self.holonomic_points(side, qk, stage, qk1, h, tk)
+        return held_at(q_end, t_end), jnp.stack([held_at(q, t) for q, t in points], axis=-1)
 
     def stage_from_unknowns(self, side: str, qk, qk1, unknowns):
         """The stage positions ``S`` (shape (n, stages)) from the step's stage unknowns;

@@ -53,6 +53,14 @@ class Lobatto(CentredNodes, QuadratureRule):
     vector per stage, in impulse units ``μ_j = −h λ_j``
     (the sign and scale of the paper's ``μ_k``). ``μ`` of the step is the one at the
     unknown end's stage (``t_{k+1}`` for (+), ``t_k`` for (−)), ``ν`` the other two.
+
+    A holonomic row ``g(q, t) = 0`` is held at the unknown end with its multiplier ``μ``
+    acting at the known node, and by the stage rows ``g(Q₂) = 0``, ``g(Q₃) − g(Q₁) = 0``
+    (:meth:`holonomic_rows`, :meth:`reaction_covectors`): a variational step on the
+    constraint manifold. Imposing ``g`` at ``q_{k+1}, Q₁, Q₂`` with the end row's
+    multiplier at ``Q₃`` (this rule's first version) left the momentum along ``∇g(q_k)``
+    unabsorbed, a step-map eigenvalue of −1.0009 that grew until Newton failed
+    (``docs/discretizations.md``, issue 31).
     """
 
     def __init__(self):
@@ -96,9 +104,14 @@ class Lobatto(CentredNodes, QuadratureRule):
     @staticmethod
     def pullback(covectors):
         r"""``(φ₁, φ₂, φ₃)`` at the stage positions → their pull-back to ``(q_k, [Q₁ Q₂],
-        q_{k+1})``: ``Σ_j φ_j ∂Q_j/∂(·)``, with ``∂Q₃/∂(q_k, Q₁, q_{k+1}) = (1, −1, 1)``."""
-        f1, f2, f3 = covectors
-        return f3, jnp.stack([f1 - f3, f2], axis=-1), f3
+        q_{k+1})``: ``Σ_j φ_j ∂Q_j/∂(·)``, with ``∂Q₃/∂(q_k, Q₁, q_{k+1}) = (1, −1, 1)``.
+        Two more entries ``(ψ_k, ψ_{k+1})``, covectors at the nodes themselves (the
+        holonomic rows' nodal reactions), add to the end lines as they are."""
+        f1, f2, f3, *nodal = covectors
+        left, right = f3, f3
+        if nodal:
+            left, right = left + nodal[0], right + nodal[1]
+        return left, jnp.stack([f1 - f3, f2], axis=-1), right
 
     @staticmethod
     def rows_of(side: str):
@@ -130,17 +143,71 @@ class Lobatto(CentredNodes, QuadratureRule):
         )
         return left, right, mid
 
-    def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu):
-        r"""``−b_j A(Q_j, t_j)ᵀ μ_j`` at each stage (``h b_j A_jᵀ λ_j`` with ``λ_j = −μ_j/h``);
-        ``multiplier_force(q, μ, t) = A(q, t)ᵀ μ``."""
+    def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu, held=None):
+        r"""The reactions, from ``multiplier_force(q, μ, t) = A(q, t)ᵀ μ``.
+
+        One-form rows: ``−b_j A(Q_j, t_j)ᵀ μ_j`` at each stage (``h b_j A_jᵀ λ_j`` with
+        ``λ_j = −μ_j/h``), ``μ_j`` the multiplier of the row at stage ``j``.
+        Holonomic rows (``held``): the multiplier ``μ`` of ``g(q_unknown) = 0`` acts at the
+        known node (``−∇g(q_k)ᵀμ`` on the (+) left line, ``+∇g(q_{k+1})ᵀμ`` on the (−)
+        right line, the midpoint rule's nodal impulse), and the stage rows' multipliers
+        at the stages they constrain, ``−b_j ∇g(Q_j)ᵀ ν_j`` with ``ν_j = (−ν_pair, ν_mid,
+        ν_pair)``: ``b₁ = b₃``, so this is the variation of ``−b₁ ν_pair (g(Q₃) − g(Q₁))
+        − b₂ ν_mid g(Q₂)``, the stage rows of :meth:`holonomic_rows`. Returns the three
+        stage covectors, then (with ``held``) the two nodal ones, for :meth:`pullback`.
+        """
         end, mids = self.rows_of(side)
         mus = [None] * 3
         mus[end], mus[mids[0]], mus[mids[1]] = mu, nu[..., 0], nu[..., 1]
         nodes = self.nodes(qk, stage, qk1, h, tk)
-        return [
-            -w * multiplier_force(q, m, t)
-            for w, (q, _, t), m in zip(WEIGHTS, nodes, mus, strict=True)
+        if held is None:
+            return [
+                -w * multiplier_force(q, m, t)
+                for w, (q, _, t), m in zip(WEIGHTS, nodes, mus, strict=True)
+            ]
+        pair, mid = self.held_columns(side)
+        # ν_pair multiplies g(Q₃) − g(Q₁): its reaction is −ν at Q₁, +ν at Q₃
+        held_mus = (-nu[..., pair], nu[..., mid], nu[..., pair])
+        stage_covectors = [
+            -w * multiplier_force(q, jnp.where(held, mh, m), t)
+            for w, (q, _, t), m, mh in zip(
+                WEIGHTS, nodes, [jnp.where(held, 0.0, m) for m in mus], held_mus, strict=True
+            )
         ]
+        nodal = jnp.where(held, mu, 0.0)
+        zero = jnp.zeros_like(qk)
+        if side == "plus":
+            return [*stage_covectors, -multiplier_force(qk, nodal, tk), zero]
+        return [*stage_covectors, zero, multiplier_force(qk1, nodal, tk + h)]
+
+    @staticmethod
+    def held_columns(side: str):
+        """The ``ν`` columns of a holonomic row: ``(pair, mid)``, the row
+        ``g(Q₃) − g(Q₁)`` in the column of the known end's stage and ``g(Q₂)`` in the
+        other, as the one-form rows lay out their stages (:meth:`rows_of`)."""
+        return (0, 1) if side == "plus" else (1, 0)
+
+    def holonomic_rows(self, held_at, side, qk, stage, qk1, h, tk):
+        r"""``g`` at the unknown end, and the stage rows ``g(Q₃, t_{k+1}) − g(Q₁, t_k)``
+        and ``g(Q₂, t_k + h/2)`` in the columns of :meth:`held_columns`.
+
+        With the nodal multiplier of :meth:`reaction_covectors` this is the discrete
+        Lagrangian ``L_d(q_k, q_{k+1}) = ext h Σ_j b_j L(Q_j, V_j)`` over the stages that
+        satisfy the two stage rows, restricted to ``g(q_k) = g(q_{k+1}) = 0``: a
+        variational (symplectic) step on the constraint manifold whose known end's
+        momentum direction ``∇g(q_known)`` is absorbed by ``μ``. Time reversal
+        (``Q₁ ↔ Q₃``) maps the two rows to themselves up to sign, so the rule stays
+        symmetric. ``g(Q₃) + g(Q₁)`` in place of the difference gives the same orbits but
+        a step Jacobian that is singular where the stages coincide (the first guess);
+        ``g(Q₁)`` and ``g(Q₃)`` separately drop the order to 2 (``docs/discretizations.md``).
+        """
+        q1, q2, q3 = self.stage_positions(qk, stage, qk1)
+        q_end, t_end = (qk1, tk + h) if side == "plus" else (qk, tk)
+        rows = [None, None]
+        pair, mid = self.held_columns(side)
+        rows[pair] = held_at(q3, tk + h) - held_at(q1, tk)
+        rows[mid] = held_at(q2, tk + 0.5 * h)
+        return held_at(q_end, t_end), jnp.stack(rows, axis=-1)
 
     def discrete_constraints(self, forms, side, qk, qk1, h, tk=0.0, offset=None, stage=None):
         r"""``(c_end, [c_a c_b])`` with ``c_j = A(Q_j, t_j) V_j + b(Q_j, t_j)``: the row at the
@@ -153,15 +220,6 @@ class Lobatto(CentredNodes, QuadratureRule):
             values.append(c if offset is None else c + offset(q, t))
         end, (a, b) = self.rows_of(side)
         return values[end], jnp.stack([values[a], values[b]], axis=-1)
-
-    def holonomic_points(self, side, qk, stage, qk1, h, tk):
-        """Where ``g(q, t) = 0`` is imposed: the unknown end itself (so every stored
-        configuration is on the constraint), and the two other stages."""
-        qs = self.stage_positions(qk, stage, qk1)
-        ts = (tk, tk + 0.5 * h, tk + h)
-        end, (a, b) = self.rows_of(side)
-        q_end = qk1 if side == "plus" else qk
-        return (q_end, ts[end]), ((qs[a], ts[a]), (qs[b], ts[b]))
 
     def step_energy(self, energy, qk, qk1, h, tk=0.0, stage=None):
         """The Simpson mean of ``E`` over the stages (``E`` at the chord midpoint when

@@ -83,8 +83,8 @@ def discrete_constraints(rule, system, side: str, qk, qk1, h, tk=0.0, stage=None
     The holonomic rows are evaluated at the unknown end of the step (``q_{k+1}`` for
     (+), ``q_k`` for (−)) and scaled by ``1/h`` to the size of a velocity row. With
     internal stages (``stage=``), the pair (end rows, stage rows): the rule's one-form
-    rows at its stages, and ``g`` at the unknown end and at the rule's other stages
-    (:meth:`~diracvi.discretization.base.QuadratureRule.holonomic_points`). An
+    rows at its stages, and ``g`` at the unknown end and the rule's stage rows of ``g``
+    (:meth:`~diracvi.discretization.base.QuadratureRule.holonomic_rows`). An
     interconnection: each subsystem's ``ω^i_{d±}``, then ``α_{d±}`` (the product
     retraction), each part of a staged pair in that order.
     """
@@ -113,11 +113,9 @@ def _staged_constraints(rule, system, side, qk, stage, qk1, h, tk):
         system.one_forms, side, qk, qk1, h, tk, offset=offset, stage=stage
     )
     if system.has_holonomic:
-        held_at = system.position_constraints
-        (q_end, t_end), points = rule.holonomic_points(side, qk, stage, qk1, h, tk)
-        end = jnp.concatenate([end, held_at(q_end, t_end) / h])
-        held = jnp.stack([held_at(q, t) / h for q, t in points], axis=-1)
-        mid = jnp.concatenate([mid, held])
+        g_end, g_mid = rule.holonomic_rows(system.position_constraints, side, qk, stage, qk1, h, tk)
+        end = jnp.concatenate([end, g_end / h])
+        mid = jnp.concatenate([mid, g_mid / h])
     return system.order_rows(end), system.order_rows(mid)
 
 
@@ -194,10 +192,16 @@ def _staged_interaction(rule, system, side, qk, stage, qk1, h, tk):
 
 
 def reactions(rule, system, side: str, qk, stage, qk1, h, tk, mu, nu):
-    r"""A staged rule's constraint reactions at its stages, ``−b_j A(Q_j, t_j)ᵀ μ_j``
-    (``h b_j A_jᵀ λ_j`` with ``λ_j = −μ_j/h``): ``μ`` at the unknown end's stage, ``ν``
-    (shape (m, stages)) at the others; pull them back with ``rule.pullback``."""
-    return rule.reaction_covectors(system.multiplier_force, side, qk, stage, qk1, h, tk, mu, nu)
+    r"""A staged rule's constraint reactions, ``−b_j A(Q_j, t_j)ᵀ μ_j`` at its stages
+    (``h b_j A_jᵀ λ_j`` with ``λ_j = −μ_j/h``) for the one-form rows, ``μ`` at the unknown
+    end's stage and ``ν`` (shape (m, stages)) at the others; the rule places the
+    holonomic rows' reactions itself (:class:`~diracvi.discretization.lobatto.Lobatto`:
+    ``μ`` at the known node). Pull them back with ``rule.pullback``."""
+    # the rule places holonomic rows' reactions differently (lobatto: at the known node)
+    held = jnp.asarray(system.holonomic_mask) if system.has_holonomic else None
+    return rule.reaction_covectors(
+        system.multiplier_force, side, qk, stage, qk1, h, tk, mu, nu, held=held
+    )
 
 
 __all__ = [
