@@ -33,10 +33,10 @@ from ._part import finite
 from .joints import joint_rows
 from .rigid_body import (
     COORDS,
+    GRAM_PAIRS,
     ORTHONORMALITY,
     RigidBody,
     directors,
-    orthonormality,
     rotation,
     vector,
 )
@@ -309,7 +309,9 @@ class Multibody:
             return total
 
         def holonomic(q):
-            rows = [orthonormality(q[layout[b] : layout[b] + 12]) for b in names]
+            d = q.reshape(len(names), 4, 3)[:, 1:, :]  # every body's directors at once
+            gram = jnp.einsum("bij,bkj->bik", d, d) - jnp.eye(3)
+            rows = [gram[:, GRAM_PAIRS[0], GRAM_PAIRS[1]].reshape(-1)]
             rows += [_rows(conn, ends(conn, q)) for conn in joints]
             return jnp.concatenate(rows)
 

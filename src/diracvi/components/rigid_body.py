@@ -71,19 +71,15 @@ def directors(q):
     return q[3:12].reshape(3, 3).T
 
 
+#: the (i, j) of the six rows ``dᵢ·dⱼ − δᵢⱼ``, i ≤ j, in ORTHONORMALITY's order
+GRAM_PAIRS = ((0, 1, 2, 0, 0, 1), (0, 1, 2, 1, 2, 2))
+
+
 def orthonormality(q):
-    """The six rows ``dᵢ·dⱼ − δᵢⱼ`` (i ≤ j) of one body's coordinates."""
+    """The six rows ``dᵢ·dⱼ − δᵢⱼ`` (i ≤ j) of one body's coordinates (one Gram matrix:
+    a small program, which the step's Jacobian differentiates cheaply)."""
     d = q[3:12].reshape(3, 3)
-    return jnp.stack(
-        [
-            d[0] @ d[0] - 1.0,
-            d[1] @ d[1] - 1.0,
-            d[2] @ d[2] - 1.0,
-            d[0] @ d[1],
-            d[0] @ d[2],
-            d[1] @ d[2],
-        ]
-    )
+    return (d @ d.T - jnp.eye(3))[GRAM_PAIRS]
 
 
 def point(q, local):
