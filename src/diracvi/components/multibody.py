@@ -275,7 +275,7 @@ class Multibody:
                 )
         if bad:
             raise ModelError(
-                f"Multibody {self.name!r}: the initial poses do not satisfy the joints: "
+                f"Multibody {self.name!r}: the initial state does not satisfy the joints: "
                 + "; ".join(bad)
                 + ". Fix: place the bodies (mb.add(…, position=, orientation=)) so that "
                 "joined frames coincide, and give velocities the joints allow."
