@@ -133,12 +133,11 @@ def director_mass(where: str, mass, inertia, com) -> np.ndarray:
     checking that ``J`` is a physical inertia tensor (symmetric, with strictly positive
     ``E_c``: the triangle inequalities ``Jᵢ < Jⱼ + Jₖ`` of its principal moments)."""
     m = positive(where, "mass", mass)
-    j = np.asarray(inertia, dtype=np.float64) if np.ndim(inertia) else None
-    if j is not None and j.shape == (3,):
-        j = np.diag(j)
-    j = vector(where, "inertia", j if j is not None else inertia, (3, 3))
+    if np.shape(inertia) == (3,):  # principal moments
+        inertia = np.diag(vector(where, "inertia", inertia))
+    j = vector(where, "inertia", inertia, (3, 3))
     if np.max(np.abs(j - j.T)) > 1e-12 * max(1.0, np.max(np.abs(j))):
-        raise ModelError(f"{where}: inertia={j.tolist()} is not symmetric.")
+        raise ModelError(f"{where}: inertia={j.tolist()} is not symmetric; pass J = Jᵀ.")
     euler = 0.5 * np.trace(j) * np.eye(3) - j
     low = np.linalg.eigvalsh(euler)[0]
     if low <= 0.0:
