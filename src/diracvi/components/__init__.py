@@ -38,7 +38,9 @@ from .mechanical import (
     TorsionSpring,
 )
 from .mosfet import MOSFET
+from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
+from .rigid_body import RigidBody
 from .switch import CurrentSwitch, Relay, VoltageSwitch
 from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
@@ -70,12 +72,15 @@ __all__ = [
     "Inductor",
     "Inertia",
     "Mass",
+    "Multibody",
+    "MultibodyModel",
     "MutualInductance",
     "Part",
     "Pendulum",
     "Pulse",
     "Relay",
     "Resistor",
+    "RigidBody",
     "RotationalDamper",
     "Sine",
     "Spring",

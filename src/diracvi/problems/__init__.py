@@ -26,6 +26,7 @@ from .driven import (
 )
 from .linkages import FourBar, cart_pendulum_torn, cartesian_pendulum, four_bar
 from .oscillator import damped_oscillator
+from .rigid_bodies import free_rigid_body, heavy_top, spatial_double_pendulum
 from .rolling_disk import rolling_disk
 from .spring_chain import chain_torn, spring_chain, spring_chain_torn
 
@@ -95,7 +96,9 @@ __all__ = [
     "forced_linear_solution",
     "forced_oscillator",
     "four_bar",
+    "free_rigid_body",
     "get",
+    "heavy_top",
     "lc_circuit",
     "rlc_circuit",
     "rlc_ladder",
@@ -105,6 +108,7 @@ __all__ = [
     "rlc_sine_torn",
     "rlc_torn",
     "rolling_disk",
+    "spatial_double_pendulum",
     "spring_chain",
     "spring_chain_torn",
 ]
