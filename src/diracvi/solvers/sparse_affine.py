@@ -45,11 +45,14 @@ model's own residual, and one Newton correction ``J_x⁻¹ r`` of it must be bel
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..discretization.equations import new_momentum, reaction_impulse, residual, unknown_count
 from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
+from .condensed import SingularStep, condense, own_unknowns
 
 #: the initial-data check of a run on this path checks momenta (a dense O(n³)
 #: projector) up to this many coordinates; joined ports always
@@ -139,8 +142,11 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
     r0, pm0 = jax.vmap(offsets)(times_next)
     # the energy alone (the step diagnostics' constraint rows would evaluate the
     # interaction's dense one-forms: they are formed on the host, from the sparse rows)
-    energy = jax.vmap(lambda a, b, t: rule.step_energy(system.energy, a, b, h, t, None))(
-        qk, qk1, times
+    # (a loop over the steps, not vmap: the packed parts' gathers batched over 256 steps
+    # ran 4.6× slower on the 1000-stage ladder, 67 → 14.6 ms a block)
+    energy = jax.lax.map(
+        lambda args: rule.step_energy(system.energy, *args[:2], h, args[2], None),
+        (qk, qk1, times),
     )
     return r0, pm0, energy
 
@@ -244,30 +250,121 @@ class SparseAffineMap:
     Built by :func:`build`; :meth:`run` steps it. ``describe`` names it in ``traj.solver``.
     """
 
-    describe = "sparse affine step map (SuperLU, COLAMD)"
+    describe = "sparse affine step map (condensed to the nodes, SuperLU)"
 
     def __init__(self, system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds):
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
         self.jz, self.jx, self.pz, self.px, self.imp = mats
         self.n, self.size = system.n, self.jx.shape[0]
         self.block = block_length(self.n, self.size)
-        # one product gives J_z z and P_z z
         import scipy.sparse as sp
 
-        self._zmap = sp.vstack([self.jz, self.pz]).tocsr()
         self._con = sp.hstack([self.jz[self.n :], self.jx[self.n :]]).tocsr()
         self.lu, self.driven = lu, driven
         self.r0, self.pm0 = r0, pm0  # the autonomous offsets (driven: at t0)
         self.verify_rtol = verify_rtol
         self.seeds = seeds
         self.drivers = self.driver_rows = self.driver_coords = None
+        self._operators()
+
+    def _operators(self) -> None:
+        """The step as products with the condensed solve's pieces (see :meth:`run`):
+
+            s = T_z z + T_r r₀,   v = S⁻¹ s,   z' = M_z z + M_v v + M_r r₀ + (0, P₀),
+            y = Y_x (z, v) + Y_r r₀,   c = C_x (z, v) + C_r r₀
+
+        with ``v`` the kept unknowns (the multipliers of the nodes, and the unknowns of
+        parts not condensed) and ``c`` the constraint rows' residual. All sparse with
+        the parts' own patterns: O(n) entries."""
+        import scipy.sparse as sp
+
+        n, size, lu = self.n, self.size, self.lu
+        cond, kept = lu.cond, lu.kept
+        e_c = sp.csr_matrix(
+            (np.ones(cond.size), (cond, np.arange(cond.size))), shape=(size, cond.size)
+        )
+        e_k = sp.csr_matrix(
+            (np.ones(kept.size), (kept, np.arange(kept.size))), shape=(size, kept.size)
+        )
+        jz = self.jz.tocsr()
+        jz_c, jz_k = jz[cond], jz[kept]
+        t_z = -(jz_k - lu.left @ jz_c)
+        t_r = -(e_k.T - lu.left @ e_c.T)
+        y_z = -(e_c @ (lu.inv_a @ jz_c))
+        y_v = e_k - e_c @ lu.right
+        y_r = -(e_c @ lu.inv_a @ e_c.T)
+        q_of_y = sp.vstack([sp.eye(n, size), self.px]).tocsr()  # (q' − q, p' − p) from y
+        m_z = sp.eye(2 * n) + sp.vstack([sp.csr_matrix((n, 2 * n)), self.pz]) + q_of_y @ y_z
+        con_z, con_y = self._con[:, : 2 * n], self._con[:, 2 * n :]
+        c_r = con_y @ y_r + sp.eye(size - n, size, k=n)
+        self._g = sp.vstack([t_z, m_z]).tocsr()  # one product gives T_z z and M_z z
+        self._g_aug = None  # with the constant offsets as a last column (at the first run)
+        self._m_v = (q_of_y @ y_v).tocsr()
+        self._y_x = sp.hstack([y_z, y_v]).tocsr()
+        self._c_x = sp.hstack([con_z + con_y @ y_z, con_y @ y_v]).tocsr()
+        # the offsets' maps, stacked: (T_r; M_r; Y_r; C_r) r₀
+        self._off = sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc()
+        self._nk = kept.size
+        self._moving = None  # (rows of r₀, coords of P₀) that move, and their maps
+
+    def _offset_maps(self):
+        """The offsets split into a constant part (``r₀``, ``P₀`` with their moving
+        entries zero) and the moving entries' map, restricted to the entries it reaches
+        (a source's rows reach a few): ``(rows, coords, base, moving, reach)``."""
+        if self._moving is not None:
+            return self._moving
+        n, size = self.n, self.size
+        if not self.driven:
+            rows, coords = np.zeros(0, np.int64), np.zeros(0, np.int64)
+        elif self.drivers is not None:
+            rows, coords = self.driver_rows, self.driver_coords
+        else:
+            rows, coords = np.arange(size), np.arange(n)
+        r_fixed, p_fixed = self.r0.copy(), self.pm0.copy()
+        r_fixed[rows], p_fixed[coords] = 0.0, 0.0
+        base = self._off @ r_fixed
+        base[self._nk + n : self._nk + 2 * n] += p_fixed
+        moving = self._off[:, rows].tocsr()
+        reach = np.union1d(np.flatnonzero(np.diff(moving.indptr)), self._nk + n + coords)
+        moving = moving[reach]
+        moving = moving.toarray().T if rows.size <= 64 else moving.T.tocsr()
+        self._moving = (rows, coords, base, moving, reach)
+        return self._moving
+
+    def _offsets(self, r0, pm0):
+        """The moving part of ``(T_r r₀, M_r r₀ + (0, P₀), Y_r r₀, C_r r₀)`` of the
+        steps whose moving entries of ``r₀``, ``P₀`` are the rows of ``r0``, ``pm0``: its
+        values at the entries ``reach`` (split as those four), one row a step."""
+        _, coords, _, moving, reach = self._offset_maps()
+        n, nk = self.n, self._nk
+        if isinstance(moving, np.ndarray):
+            off = r0 @ moving
+        else:
+            off = np.ascontiguousarray((moving.T @ np.ascontiguousarray(r0.T)).T)
+        where = np.searchsorted(reach, nk + n + coords)
+        off[:, where] += pm0
+        return off
+
+    def _split(self, reach):
+        """``reach`` (entries of the stacked offsets) split as (s, z, y, c), each with
+        its positions in ``reach``."""
+        n, nk, size = self.n, self._nk, self.size
+        edges = [0, nk, nk + 2 * n, nk + 2 * n + size, nk + 2 * n + 2 * size - n]
+        out = []
+        for lo, hi in itertools.pairwise(edges):
+            at = np.flatnonzero((reach >= lo) & (reach < hi))
+            out.append((reach[at] - lo, at))
+        return out
 
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
-        """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
-        one compiled program; every argument padded to ``self.block`` rows)."""
+        """The next block's moving offsets ``(r₀, P₀)`` (the driven parts' rows, or every
+        row) and this block's energies (one call of one compiled program; every argument
+        padded to ``self.block`` rows)."""
 
         def padded(a):
+            if len(a) == self.block:
+                return a
             return np.concatenate([a, np.repeat(a[-1:], self.block - len(a), axis=0)])
 
         r0, pm0, energy = _block(
@@ -276,12 +373,6 @@ class SparseAffineMap:
         )  # fmt: skip
         count = len(times_next)
         r0, pm0 = np.asarray(r0)[:count], np.asarray(pm0)[:count]
-        if self.drivers is not None:  # the drivers' rows into the constant offsets
-            full_r = np.repeat(self.r0[None], count, axis=0)
-            full_p = np.repeat(self.pm0[None], count, axis=0)
-            full_r[:, self.driver_rows] = r0
-            full_p[:, self.driver_coords] = pm0
-            r0, pm0 = full_r, full_p
         return r0, pm0, np.asarray(energy)[: len(times)]
 
     def _check_steps(self, z, y, times):
@@ -315,23 +406,29 @@ class SparseAffineMap:
         The saved arrays are allocated once at their final size and written in place
         (no per-block pieces joined at the end: that doubled the peak memory of a large
         circuit's run); ``q`` and ``p`` are the two halves of one array of states."""
+        import scipy.sparse as sp
+
         n, size, k = self.n, self.size, save_every
         sign = 1.0 if self.scheme == "plus" else -1.0
-        z = np.concatenate([q0, p0]).astype(np.float64)
-        zmap, px, solve = self._zmap, self.px, self.lu.solve
+        _, _, base, _, reach = self._offset_maps()
+        (s_idx, s_at), (z_idx, z_at), (y_idx, y_at), (c_idx, c_at) = self._split(reach)
+        nk = self._nk
+        base_y, base_c = base[nk + 2 * n : nk + 2 * n + size], base[nk + 2 * n + size :]
+        if self._g_aug is None:  # the constant offsets: the product with a last entry 1
+            self._g_aug = sp.hstack([self._g, base[: nk + 2 * n, None]]).tocsr()
+        g_map, m_v, solve = self._g_aug, self._m_v, self.lu.schur.solve
         saves = steps // k
         if save_states:
             states = np.empty((saves + 1, 2 * n))
-            states[0] = z
+            states[0, :n], states[0, n:] = q0, p0
             mu_out = np.empty((saves, size - n))
             con_out = np.empty((saves, size - n))
             node_out = np.empty((saves + 1, n)) if nodal else None
             if nodal:
-                node_out[0] = z[n:]
+                node_out[0] = p0
         energy, violation = np.empty(steps), np.empty(steps)
         block = self.block
         starts = list(range(0, steps, block))
-        con_z, con_y = self._con[:, : 2 * n].tocsr(), self._con[:, 2 * n :].tocsr()
 
         def times_of(start):
             index = start + np.arange(min(block, steps - start), dtype=np.float64)
@@ -340,61 +437,78 @@ class SparseAffineMap:
         times = times_of(0)
         if self.driven:
             zeros = np.zeros((1, n))
-            r0, pm0, _ = self._block(times, zeros, zeros, times[:1])
-        else:
-            r0 = np.broadcast_to(self.r0, (len(times), size))
-            pm0 = np.broadcast_to(self.pm0, (len(times), n))
+            off = self._offsets(*self._block(times, zeros, zeros, times[:1])[:2])
         checks = []  # (z, y, t) of the last step of every block, verified at the end
-        y = np.zeros(size)
-        zs = np.empty((block + 1, 2 * n))
-        ys = np.empty((block, size))
+        zs = np.empty((block + 1, 2 * n + 1))  # states (q, p, 1), one row a step
+        zs[:, 2 * n] = 1.0
+        zs[0, :n], zs[0, n : 2 * n] = q0, p0
+        vs = np.empty((block, nk))
+        x_t = np.empty((2 * n + nk, block))  # a block's (z, v), one column a step
+        moving_s, moving_z = self.driven and s_idx.size > 0, self.driven and z_idx.size > 0
         for b, start in enumerate(starts):
             count = len(times)
-            zs[0] = z
-            for j in range(count):
-                g = zmap @ zs[j]
-                rhs = g[:size]
-                rhs += r0[j]
-                np.negative(rhs, out=rhs)
-                y = solve(rhs)
-                ys[j] = y
-                after = zs[j + 1]
-                np.add(zs[j, :n], y[:n], out=after[:n])
-                mom = g[size:]
-                mom += pm0[j]
-                mom += px @ y
-                np.add(zs[j, n:], mom, out=after[n:])
-            z = zs[count].copy()
-            zb, yb = zs[: count + 1], ys[:count]
-            # diagnostics of the block, vectorized over its steps; with them, the next
-            # block's offsets (one call)
-            con = (con_z @ zb[:-1].T + con_y @ yb.T).T + r0[:count, n:]
+            if self.driven:
+                off_s, off_z = off[:, s_at], off[:, z_at]
+            for j in range(count):  # the step (see _operators)
+                g = g_map @ zs[j]
+                rhs = g[:nk]
+                if moving_s:
+                    rhs[s_idx] += off_s[j]
+                v = solve(rhs)
+                vs[j] = v
+                after = zs[j + 1, : 2 * n]
+                np.add(g[nk:], m_v @ v, out=after)
+                if moving_z:
+                    after[z_idx] += off_z[j]
+            zb = zs[: count + 1, : 2 * n]
+            # the block's diagnostics, vectorized over its steps: one transposed copy
+            # of (z, v), then one product each; with them, the next block's offsets
+            x = x_t[:, :count]
+            x[: 2 * n] = zb[:-1].T
+            x[2 * n :] = vs[:count].T
+            con_t = self._c_x @ x
+            con_t += base_c[:, None]
+            if self.driven and c_idx.size:
+                con_t[c_idx] += off[:count, c_at].T
             q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
             following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
             r0_next, pm0_next, e = self._block(following, qk, qk1, times)
             energy[start : start + count] = e
-            violation[start : start + count] = np.max(np.abs(con), axis=1, initial=0.0)
-            if save_states:
-                index = start + np.arange(count) + 1  # the steps' numbers, 1-based
-                saved = index % k == 0
-                rows = index[saved] // k  # rows of the saved arrays (0: the initial state)
-                states[rows] = zb[1:][saved]
-                mu_out[rows - 1] = yb[saved][:, n:]
-                con_out[rows - 1] = con[saved]
+            violation[start : start + count] = np.max(np.abs(con_t), axis=0, initial=0.0)
+            # the saved steps of this block: a slice (every k-th step), and the last step
+            # (the check and the final y); their unknowns y from (z, v)
+            first = (k - 1 - start % k) if save_states else count
+            stored = slice(first, count, k)
+            saved = len(range(first, count, k))
+            if saved == count:
+                y_t = self._y_x @ x
+            else:
+                cols = np.r_[first:count:k, count - 1] if saved else np.array([count - 1])
+                y_t = self._y_x @ np.ascontiguousarray(x[:, cols])
+            y_t += base_y[:, None]
+            if self.driven and y_idx.size:
+                y_t[y_idx] += (
+                    off[first:count:k][:, y_at].T if saved == count else (off[cols][:, y_at].T)
+                )
+            if saved:
+                rows = (start + first + 1) // k + np.arange(saved)  # rows of the saved arrays
+                states[rows] = zb[1:][stored]
+                mu_out[rows - 1] = y_t[n:, :saved].T
+                con_out[rows - 1] = con_t[:, stored].T
                 if nodal:
-                    impulse = (self.imp @ yb[saved].T).T
-                    scale = np.full(len(rows), share)
-                    if start == 0 and saved[0]:
+                    impulse = (self.imp @ y_t[:, :saved]).T
+                    scale = np.full(saved, share)
+                    if start == 0 and first == 0:
                         scale[0] = share / (1.0 - share)
-                    node_out[rows] = zb[1:][saved][:, n:] - scale[:, None] * impulse
-            checks.append((zs[count - 1].copy(), ys[count - 1].copy(), times[-1]))
+                    node_out[rows] = zb[1:][stored][:, n:] - scale[:, None] * impulse
+            y = y_t[:, -1].copy()
+            checks.append((zb[count - 1].copy(), y, times[-1]))
+            zs[0] = zs[count]
             times = following
             if self.driven:
-                r0, pm0 = r0_next, pm0_next
-            else:
-                r0 = np.broadcast_to(self.r0, (len(times), size))
-                pm0 = np.broadcast_to(self.pm0, (len(times), n))
+                off = self._offsets(r0_next, pm0_next)
+        z = zs[0, : 2 * n].copy()
         zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
         worst = self._check_steps(zc, yc, tc)
         if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
@@ -417,7 +531,6 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     :class:`NotSparseAffine` saying why not (not an interconnection, a staged rule, not
     affine, a singular step Jacobian)."""
     import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
     if not hasattr(system, "row_subsystems"):
         raise NotSparseAffine("not an interconnection")
@@ -463,9 +576,10 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     )
     jz, jx = full[:size, : 2 * n], full[:size, 2 * n :].tocsc()
     pz, px = full[size:, : 2 * n], full[size:, 2 * n :].tocsr()
+    offsets, mu_start, mu_sizes, *_ = _structure(system)
     try:
-        lu = spla.splu(jx, permc_spec="COLAMD")
-    except RuntimeError as exc:
+        lu = condense(jx, own_unknowns(offsets, mu_start, mu_sizes))
+    except SingularStep as exc:
         raise NotSparseAffine(f"the step Jacobian is singular ({exc})") from None
     r0 = np.asarray(values[0][0])
     pm0 = np.asarray(values[1][0])
@@ -493,11 +607,14 @@ def _use_drivers(out, system, values, t1) -> None:
     out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
     zeros = np.zeros((1, system.n))
     r_t1, p_t1, _ = out._block(np.array([t1]), zeros, zeros, np.array([t1]))
-    same = np.array_equal(r_t1[0], np.asarray(values[0][2])) and np.array_equal(
-        p_t1[0], np.asarray(values[1][2])
+    full_r, full_p = out.r0.copy(), out.pm0.copy()
+    full_r[out.driver_rows], full_p[out.driver_coords] = r_t1[0], p_t1[0]
+    same = np.array_equal(full_r, np.asarray(values[0][2])) and np.array_equal(
+        full_p, np.asarray(values[1][2])
     )
     if not same:
         out.drivers = out.driver_rows = out.driver_coords = None
+    out._moving = None
 
 
 class SparseAffineSolver(AffineSolver):
