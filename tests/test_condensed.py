@@ -1,0 +1,74 @@
+"""White-box: ``J_x⁻¹`` by condensing the parts' own unknowns (``diracvi.solvers.condensed``).
+
+The Schur complement onto the kept unknowns is an exact identity, so a solve equals a
+dense LU solve of the whole matrix to round-off (relative to ``‖J_x⁻¹‖ ‖rhs‖``), for
+parts of several layouts, with singular and ill-conditioned own blocks left in the
+factored system, and for one or many right-hand sides.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from diracvi.solvers.condensed import SingularStep, condense, own_unknowns
+
+
+def _interconnection(rng, layouts, rows_count, singular=()):
+    """A step Jacobian of the parts' pattern: part ``i`` has ``layouts[i] = (coords,
+    own multipliers)``; its own block is dense (zero for ``i`` in ``singular``, or of
+    rank one for a negative index), its unknowns meet two random interaction rows."""
+    coords = np.array([c for c, _ in layouts])
+    mus = np.array([m for _, m in layouts])
+    n, own = int(coords.sum()), int(mus.sum())
+    offsets = np.concatenate([[0], np.cumsum(coords)])
+    mu_start = n + np.concatenate([[0], np.cumsum(mus)[:-1]])
+    size = n + own + rows_count
+    a = np.zeros((size, size))
+    for i, (c, m) in enumerate(layouts):
+        idx = np.concatenate([offsets[i] + np.arange(c), mu_start[i] + np.arange(m)])
+        block = rng.standard_normal((idx.size, idx.size)) + 3 * np.eye(idx.size)
+        if i in singular:
+            block[:] = 0.0
+        elif -i - 1 in singular:  # rank one: condition number ∞ in exact arithmetic
+            u = rng.standard_normal(idx.size)
+            block = np.outer(u, u)
+        a[np.ix_(idx, idx)] = block
+        for b in rng.choice(rows_count, size=2, replace=False):
+            row = n + own + b
+            a[idx, row] = rng.standard_normal(idx.size)  # the node's multiplier in the part
+            a[row, idx] = rng.standard_normal(idx.size)  # the part's unknowns in the KCL row
+    # every interaction row meets some part (else S is singular by construction)
+    for b in range(rows_count):
+        row = n + own + b
+        if not a[row, : n + own].any():
+            a[row, 0] = a[0, row] = 1.0
+    groups = own_unknowns(offsets, mu_start, mus)
+    return a, groups
+
+
+# kept in the factored system: none; two zero blocks (a source's); a rank-one 2 × 2 block
+@pytest.mark.parametrize(("singular", "kept_parts"), [((), ()), ((0, 3), (0, 3)), ((-8,), (7,))])
+def test_condensed_solve_equals_dense_solve(singular, kept_parts):
+    rng = np.random.default_rng(7)
+    layouts = [(1, 0)] * 6 + [(2, 0)] * 3 + [(2, 1)] * 4 + [(1, 2)] * 2
+    a, groups = _interconnection(rng, layouts, rows_count=9, singular=singular)
+    solver = condense(sp.csc_matrix(a), groups)
+    assert solver.cond.size + solver.kept.size == a.shape[0]
+    own = sum(index.size for _, index in groups)
+    assert solver.cond.size == own - sum(sum(layouts[i]) for i in kept_parts)
+    scale = np.linalg.norm(np.linalg.inv(a), 2)
+    for rhs in (rng.standard_normal(a.shape[0]), rng.standard_normal((a.shape[0], 3))):
+        got = solver.solve(rhs)
+        want = np.linalg.solve(a, rhs)
+        assert got.shape == rhs.shape
+        assert np.max(np.abs(got - want)) <= 1e-13 * scale * np.max(np.abs(rhs))
+
+
+def test_singular_jacobian_is_reported():
+    rng = np.random.default_rng(3)
+    a, groups = _interconnection(rng, [(1, 0)] * 4, rows_count=3)
+    a[-1] = 0.0  # a KCL row of zeros
+    with pytest.raises(SingularStep):
+        condense(sp.csc_matrix(a), groups)
