@@ -72,3 +72,37 @@ def test_singular_jacobian_is_reported():
     a[-1] = 0.0  # a KCL row of zeros
     with pytest.raises(SingularStep):
         condense(sp.csc_matrix(a), groups)
+
+
+def test_ladder_map_solves_with_the_node_count(monkeypatch):
+    """The sparse map of a 20-stage ladder netlist: its ``lu`` keeps the 41 nodes'
+    multipliers and the source's increment (a zero own block) and condenses the 60 R, L,
+    C branches; its solve equals SuperLU of the whole ``J_x`` to round-off."""
+    import scipy.sparse.linalg as spla
+
+    import diracvi as dv
+    from diracvi import spice
+    from diracvi.bench.ladders import ladder
+    from diracvi.solvers import sparse_affine
+
+    built = []
+    original = sparse_affine.build
+
+    def build(*a, **k):
+        built.append(original(*a, **k))
+        return built[-1]
+
+    monkeypatch.setattr(sparse_affine, "build", build)
+    netlist = spice.read(ladder(20, steps=4))
+    traj = dv.simulate(
+        netlist.system, netlist.q0, netlist.p0, dt=netlist.dt, steps=netlist.steps,
+        discretization="midpoint", solver=sparse_affine.SparseAffineSolver(),
+    )  # fmt: skip
+    assert traj.solver.startswith("sparse affine")
+    lu = built[-1].lu
+    assert (lu.kept.size, lu.cond.size) == (41 + 1, 60)
+    whole = spla.splu(built[-1].jx.tocsc())
+    rng = np.random.default_rng(5)
+    for rhs in (rng.standard_normal(lu.size), rng.standard_normal((lu.size, 2))):
+        want = whole.solve(rhs)
+        assert np.max(np.abs(lu.solve(rhs) - want)) <= 1e-12 * np.max(np.abs(want))

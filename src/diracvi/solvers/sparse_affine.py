@@ -1,4 +1,5 @@
-r"""The circuit-scale linear path: a sparse step matrix, factored once, stepped on the host.
+r"""The circuit-scale linear path: a sparse step matrix condensed onto the nodes, factored
+once, stepped on the host.
 
 For an interconnection whose step equations are affine (the affine screen's test, done
 here on compressed Jacobians) the step from ``z = (q, p)`` is, in increments
@@ -11,9 +12,21 @@ is sparse: a part's equations involve its own unknowns and the multipliers of th
 interaction rows it is in, an interaction row (a node's KCL) the unknowns of the parts it
 joins — the structure of modified nodal analysis. The dense affine map ``Δ`` of
 :mod:`diracvi.solvers.affine` is full (O(n²) per step and memory); here ``J_x`` is
-assembled sparse, ordered by COLAMD and factored ONCE by SuperLU
-(``scipy.sparse.linalg.splu``), and every step is two sparse products and one pair of
-triangular solves: O(nnz(L + U)) per step, O(n) for a chain.
+assembled sparse and solved by **condensing the parts' own unknowns**
+(:mod:`diracvi.solvers.condensed`): each part's own block of ``J_x`` is inverted (alike
+parts as one stacked array) and the Schur complement ``S`` onto the nodes' multipliers
+(and the unknowns of parts whose own block is singular, as a voltage source's) — a
+system of the node count, like MNA's — is factored ONCE by SuperLU (COLAMD). The step
+is then, on the augmented state ``z̃ = (q, p, 1, u)`` (``u`` the driven parts' moving
+offsets at the step's time),
+
+    v = S⁻¹ (G_s z̃),        z' = G_z z̃ + M_v v,
+
+two sparse products accumulated in place and one solve of the node count; the step's
+unknowns ``y``, the constraint residuals and the momenta's impulses are recovered after
+each block of steps from ``(z̃, v)``, one product each over the block. ``lu`` (a
+:class:`~diracvi.solvers.condensed.CondensedSolve`) is ``J_x⁻¹``: ``lu.solve(rhs)`` for
+``rhs`` of shape ``(size,)`` or ``(size, m)``; ``lu.schur`` is the SuperLU factor of ``S``.
 
 **Assembly, compiled once per kind of part.** The Jacobians come from ``K`` compressed
 JVPs of the packed interconnection's residual (alike parts vmapped, so the program does
@@ -29,23 +42,29 @@ residual and momentum line at that point must equal ``f(0) + J w`` — which als
 the structural pattern (a missed entry would break the equality). ``detect_rtol``
 relative, as :class:`~diracvi.AffineSolver`.
 
-**Why SciPy on the host and not a compiled scan.** The factorization has data-dependent
-fill and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to
-form and would not serve general meshes. SuperLU's solve is a few library calls per
-step (measured in ``benchmarks/README.md``). A banded LAPACK solve in reverse
-Cuthill–McKee order was measured too and dropped: on the 1000-stage ladder (bandwidths
-(2, 2), 5002 unknowns) ``dgbtrs`` took 430 µs a call against SuperLU's 240 µs (it makes
-two BLAS calls per column). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the energies
-are evaluated by compiled JAX programs, a block of steps per call.
+**Why condensed, and why SciPy on the host.** The factorization has data-dependent fill
+and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to form
+and would not serve general meshes. The per-step solve is latency-bound (a chain of
+dependent row updates, ≈ 3.5 ns per non-zero of L + U whatever the ordering), so what
+pays is fewer unknowns in the factored system: on the 1000-stage ladder ``J_x`` has 5002
+unknowns and nnz(L + U) = 22 002 (74 µs CPU a solve), ``S`` 2002 and 8011 (36 µs).
+Measured the same session (``benchmarks/ladder_step.py``; ``benchmarks/README.md``,
+"fixed-step sparse path, condensed"): a whole step (products and solve) MEASURED_STEP.
+Dropped by measurement: a banded LAPACK solve in reverse Cuthill–McKee order
+(``dgbtrs`` 430 µs against SuperLU's 240 µs on ``J_x``; on ``S``, tridiagonal in that
+order, ``dgbtrs`` 149 µs and ``dgttrs`` 91 µs against SuperLU's 112 µs at the same
+load: not worth a special case), the augmented system ``[J_x 0; −S I]`` (130 µs),
+``spsolve_triangular`` (2 ms). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the
+energies are evaluated by compiled JAX programs, a block of steps per call (the
+energies by ``lax.map`` over the steps: vmapped, the packed parts' gathers ran 4.6×
+slower).
 
 **Verification.** A sample of steps (the last of every block) is re-evaluated with the
-model's own residual, and one Newton correction ``J_x⁻¹ r`` of it must be below
+model's own residual, and one Newton correction ``J_x⁻¹ r`` of it (by ``lu``) must be below
 ``verify_rtol`` relative to the step's size, as the dense map's per-step test.
 """
 
 from __future__ import annotations
-
-import itertools
 
 import numpy as np
 
@@ -154,6 +173,20 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
 #: at most this many time-dependent parts are evaluated part by part for the offsets
 #: (more: the whole residual at zero, one program over the packed system)
 MAX_DRIVERS = 16
+
+
+try:  # y += A x for a CSR matrix, in place and without scipy's dispatch (≈ 3 µs a call)
+    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
+except ImportError:  # pragma: no cover (a SciPy that moved it: the public product)
+    _csr_matvec = None
+
+
+def _accumulate(a, x, y) -> None:
+    """``y += a @ x`` for a CSR ``a`` and contiguous float64 ``x``, ``y``."""
+    if _csr_matvec is None:
+        y += a @ x
+    else:
+        _csr_matvec(a.shape[0], a.shape[1], a.indptr, a.indices, a.data, x, y)
 
 
 _probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
@@ -297,64 +330,60 @@ class SparseAffineMap:
         m_z = sp.eye(2 * n) + sp.vstack([sp.csr_matrix((n, 2 * n)), self.pz]) + q_of_y @ y_z
         con_z, con_y = self._con[:, : 2 * n], self._con[:, 2 * n :]
         c_r = con_y @ y_r + sp.eye(size - n, size, k=n)
-        self._g = sp.vstack([t_z, m_z]).tocsr()  # one product gives T_z z and M_z z
-        self._g_aug = None  # with the constant offsets as a last column (at the first run)
+        self._parts = dict(
+            t_z=t_z, m_z=m_z, y_z=y_z, y_v=y_v, c_z=con_z + con_y @ y_z, c_v=con_y @ y_v,
+            offsets=sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc(),  # (T_r; M_r; Y_r; C_r)
+        )  # fmt: skip
         self._m_v = (q_of_y @ y_v).tocsr()
-        self._y_x = sp.hstack([y_z, y_v]).tocsr()
-        self._c_x = sp.hstack([con_z + con_y @ y_z, con_y @ y_v]).tocsr()
-        # the offsets' maps, stacked: (T_r; M_r; Y_r; C_r) r₀
-        self._off = sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc()
         self._nk = kept.size
-        self._moving = None  # (rows of r₀, coords of P₀) that move, and their maps
+        self._step = None  # the augmented maps (made at the first run: see _augmented)
 
-    def _offset_maps(self):
-        """The offsets split into a constant part (``r₀``, ``P₀`` with their moving
-        entries zero) and the moving entries' map, restricted to the entries it reaches
-        (a source's rows reach a few): ``(rows, coords, base, moving, reach)``."""
-        if self._moving is not None:
-            return self._moving
+    def _moving(self):
+        """The entries of ``r₀`` and ``P₀`` that move with ``t`` (the driven parts' rows,
+        every row when they are many, none for an autonomous model)."""
         n, size = self.n, self.size
         if not self.driven:
-            rows, coords = np.zeros(0, np.int64), np.zeros(0, np.int64)
-        elif self.drivers is not None:
-            rows, coords = self.driver_rows, self.driver_coords
-        else:
-            rows, coords = np.arange(size), np.arange(n)
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        if self.drivers is not None:
+            return self.driver_rows, self.driver_coords
+        return np.arange(size), np.arange(n)
+
+    def _augmented(self):
+        """The step and its diagnostics as products with the augmented state
+        ``z̃ = (q, p, 1, u)`` (``u``: the moving entries of ``r₀``, ``P₀`` at the step's
+        time; the constant ones are the column of ``1``):
+
+            s = G_s z̃,   v = S⁻¹ s,   z' = G_z z̃ + M_v v,   y = Y (z̃, v),   c = C (z̃, v)
+
+        so a step is two products accumulated in place and one solve, whatever drives it."""
+        if self._step is not None:
+            return self._step
+        import scipy.sparse as sp
+
+        n, nk, size, parts = self.n, self._nk, self.size, self._parts
+        rows, coords = self._moving()
         r_fixed, p_fixed = self.r0.copy(), self.pm0.copy()
         r_fixed[rows], p_fixed[coords] = 0.0, 0.0
-        base = self._off @ r_fixed
-        base[self._nk + n : self._nk + 2 * n] += p_fixed
-        moving = self._off[:, rows].tocsr()
-        reach = np.union1d(np.flatnonzero(np.diff(moving.indptr)), self._nk + n + coords)
-        moving = moving[reach]
-        moving = moving.toarray().T if rows.size <= 64 else moving.T.tocsr()
-        self._moving = (rows, coords, base, moving, reach)
-        return self._moving
-
-    def _offsets(self, r0, pm0):
-        """The moving part of ``(T_r r₀, M_r r₀ + (0, P₀), Y_r r₀, C_r r₀)`` of the
-        steps whose moving entries of ``r₀``, ``P₀`` are the rows of ``r0``, ``pm0``: its
-        values at the entries ``reach`` (split as those four), one row a step."""
-        _, coords, _, moving, reach = self._offset_maps()
-        n, nk = self.n, self._nk
-        if isinstance(moving, np.ndarray):
-            off = r0 @ moving
-        else:
-            off = np.ascontiguousarray((moving.T @ np.ascontiguousarray(r0.T)).T)
-        where = np.searchsorted(reach, nk + n + coords)
-        off[:, where] += pm0
-        return off
-
-    def _split(self, reach):
-        """``reach`` (entries of the stacked offsets) split as (s, z, y, c), each with
-        its positions in ``reach``."""
-        n, nk, size = self.n, self._nk, self.size
-        edges = [0, nk, nk + 2 * n, nk + 2 * n + size, nk + 2 * n + 2 * size - n]
-        out = []
-        for lo, hi in itertools.pairwise(edges):
-            at = np.flatnonzero((reach >= lo) & (reach < hi))
-            out.append((reach[at] - lo, at))
-        return out
+        off = parts["offsets"]
+        base = off @ r_fixed
+        base[nk + n : nk + 2 * n] += p_fixed
+        into_p = sp.csc_matrix(
+            (np.ones(coords.size), (nk + n + coords, np.arange(coords.size))),
+            shape=(off.shape[0], coords.size),
+        )
+        extra = sp.hstack([sp.csc_matrix(base[:, None]), off[:, rows], into_p]).tocsr()
+        a, b, c = np.cumsum([nk, 2 * n, size])
+        e_s, e_z, e_y, e_c = extra[:a], extra[a:b], extra[b:c], extra[c:]
+        self._step = dict(
+            g_s=sp.hstack([parts["t_z"], e_s]).tocsr(),
+            g_z=sp.hstack([parts["m_z"], e_z]).tocsr(),
+            y=sp.hstack([parts["y_z"], e_y, parts["y_v"]]).tocsr(),
+            c=sp.hstack([parts["c_z"], e_c, parts["c_v"]]).tocsr(),
+            width=2 * n + 1 + rows.size + coords.size,
+        )
+        for name in ("g_s", "g_z", "y", "c"):
+            self._step[name].sort_indices()
+        return self._step
 
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
@@ -406,17 +435,11 @@ class SparseAffineMap:
         The saved arrays are allocated once at their final size and written in place
         (no per-block pieces joined at the end: that doubled the peak memory of a large
         circuit's run); ``q`` and ``p`` are the two halves of one array of states."""
-        import scipy.sparse as sp
-
-        n, size, k = self.n, self.size, save_every
+        n, size, k, nk = self.n, self.size, save_every, self._nk
         sign = 1.0 if self.scheme == "plus" else -1.0
-        _, _, base, _, reach = self._offset_maps()
-        (s_idx, s_at), (z_idx, z_at), (y_idx, y_at), (c_idx, c_at) = self._split(reach)
-        nk = self._nk
-        base_y, base_c = base[nk + 2 * n : nk + 2 * n + size], base[nk + 2 * n + size :]
-        if self._g_aug is None:  # the constant offsets: the product with a last entry 1
-            self._g_aug = sp.hstack([self._g, base[: nk + 2 * n, None]]).tocsr()
-        g_map, m_v, solve = self._g_aug, self._m_v, self.lu.schur.solve
+        step = self._augmented()
+        g_s, g_z, m_v = step["g_s"], step["g_z"], self._m_v
+        solve, width = self.lu.schur.solve, step["width"]
         saves = steps // k
         if save_states:
             states = np.empty((saves + 1, 2 * n))
@@ -437,39 +460,34 @@ class SparseAffineMap:
         times = times_of(0)
         if self.driven:
             zeros = np.zeros((1, n))
-            off = self._offsets(*self._block(times, zeros, zeros, times[:1])[:2])
+            moving = np.concatenate(self._block(times, zeros, zeros, times[:1])[:2], axis=1)
         checks = []  # (z, y, t) of the last step of every block, verified at the end
-        zs = np.empty((block + 1, 2 * n + 1))  # states (q, p, 1), one row a step
+        zs = np.zeros((block + 1, width))  # augmented states (q, p, 1, u), one row a step
         zs[:, 2 * n] = 1.0
         zs[0, :n], zs[0, n : 2 * n] = q0, p0
-        vs = np.empty((block, nk))
-        x_t = np.empty((2 * n + nk, block))  # a block's (z, v), one column a step
-        moving_s, moving_z = self.driven and s_idx.size > 0, self.driven and z_idx.size > 0
+        ss = np.empty((block, nk))
+        x_t = np.empty((width + nk, block))  # a block's (z̃, v), one column a step
         for b, start in enumerate(starts):
             count = len(times)
             if self.driven:
-                off_s, off_z = off[:, s_at], off[:, z_at]
-            for j in range(count):  # the step (see _operators)
-                g = g_map @ zs[j]
-                rhs = g[:nk]
-                if moving_s:
-                    rhs[s_idx] += off_s[j]
+                zs[:count, 2 * n + 1 :] = moving
+            zs[1 : count + 1, : 2 * n] = 0.0
+            ss[:count] = 0.0
+            for j in range(count):  # the step (see _augmented): products accumulated
+                rhs = ss[j]
+                _accumulate(g_s, zs[j], rhs)
                 v = solve(rhs)
-                vs[j] = v
+                ss[j] = v  # (v replaces its right-hand side)
                 after = zs[j + 1, : 2 * n]
-                np.add(g[nk:], m_v @ v, out=after)
-                if moving_z:
-                    after[z_idx] += off_z[j]
+                _accumulate(g_z, zs[j], after)
+                _accumulate(m_v, v, after)
             zb = zs[: count + 1, : 2 * n]
             # the block's diagnostics, vectorized over its steps: one transposed copy
-            # of (z, v), then one product each; with them, the next block's offsets
+            # of (z̃, v), then one product each; with them, the next block's offsets
             x = x_t[:, :count]
-            x[: 2 * n] = zb[:-1].T
-            x[2 * n :] = vs[:count].T
-            con_t = self._c_x @ x
-            con_t += base_c[:, None]
-            if self.driven and c_idx.size:
-                con_t[c_idx] += off[:count, c_at].T
+            x[:width] = zs[:count].T
+            x[width:] = ss[:count].T
+            con_t = step["c"] @ x
             q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
             following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
@@ -477,20 +495,15 @@ class SparseAffineMap:
             energy[start : start + count] = e
             violation[start : start + count] = np.max(np.abs(con_t), axis=0, initial=0.0)
             # the saved steps of this block: a slice (every k-th step), and the last step
-            # (the check and the final y); their unknowns y from (z, v)
+            # (the check and the final y); their unknowns y from (z̃, v)
             first = (k - 1 - start % k) if save_states else count
             stored = slice(first, count, k)
             saved = len(range(first, count, k))
             if saved == count:
-                y_t = self._y_x @ x
+                y_t = step["y"] @ x
             else:
-                cols = np.r_[first:count:k, count - 1] if saved else np.array([count - 1])
-                y_t = self._y_x @ np.ascontiguousarray(x[:, cols])
-            y_t += base_y[:, None]
-            if self.driven and y_idx.size:
-                y_t[y_idx] += (
-                    off[first:count:k][:, y_at].T if saved == count else (off[cols][:, y_at].T)
-                )
+                cols = np.r_[first:count:k, count - 1]
+                y_t = step["y"] @ np.ascontiguousarray(x[:, cols])
             if saved:
                 rows = (start + first + 1) // k + np.arange(saved)  # rows of the saved arrays
                 states[rows] = zb[1:][stored]
@@ -507,7 +520,7 @@ class SparseAffineMap:
             zs[0] = zs[count]
             times = following
             if self.driven:
-                off = self._offsets(r0_next, pm0_next)
+                moving = np.concatenate([r0_next, pm0_next], axis=1)
         z = zs[0, : 2 * n].copy()
         zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
         worst = self._check_steps(zc, yc, tc)
@@ -614,7 +627,7 @@ def _use_drivers(out, system, values, t1) -> None:
     )
     if not same:
         out.drivers = out.driver_rows = out.driver_coords = None
-    out._moving = None
+    out._step = None
 
 
 class SparseAffineSolver(AffineSolver):
