@@ -48,8 +48,11 @@ and would not serve general meshes. The per-step solve is latency-bound (a chain
 dependent row updates, ≈ 3.5 ns per non-zero of L + U whatever the ordering), so what
 pays is fewer unknowns in the factored system: on the 1000-stage ladder ``J_x`` has 5002
 unknowns and nnz(L + U) = 22 002 (74 µs CPU a solve), ``S`` 2002 and 8011 (36 µs).
-Measured the same session (``benchmarks/ladder_step.py``; ``benchmarks/README.md``,
-"fixed-step sparse path, condensed"): a whole step (products and solve) MEASURED_STEP.
+Measured side by side (``benchmarks/ladder_step.py``; ``benchmarks/README.md``, "Fixed-step
+sparse path, condensed onto the nodes"), CPU µs a step, products and solve: 18.6 → 11.0
+at 100 stages, 93.5 → 58.0 at 1000, 909 → 533 at 10⁴ (1.6–1.7×; the nodal solve is
+36 of the 58). Folding the offsets into the state and accumulating the two products in
+place (SciPy's ``csr_matvec``) saved the rest of the per-step calls.
 Dropped by measurement: a banded LAPACK solve in reverse Cuthill–McKee order
 (``dgbtrs`` 430 µs against SuperLU's 240 µs on ``J_x``; on ``S``, tridiagonal in that
 order, ``dgbtrs`` 149 µs and ``dgttrs`` 91 µs against SuperLU's 112 µs at the same
