@@ -44,18 +44,14 @@ def _pieces(m):
         step = m._augmented()
         from diracvi.solvers.sparse_affine import _accumulate
 
-        z = rng.standard_normal(step["width"])
-        v, s, out = rng.standard_normal(m._nk), np.zeros(m._nk), np.zeros(2 * m.n)
+        zv = rng.standard_normal(step["width"] + m._nk)  # (z̃, v)
+        z, v = zv[: step["width"]], zv[step["width"] :]
+        s, out = np.zeros(m._nk), np.zeros(2 * m.n)
         lu = m.lu.schur
-
-        def z_next():
-            _accumulate(step["g_z"], z, out)
-            _accumulate(m._m_v, v, out)
-
         pieces = {
             "s = G_s z̃": lambda: _accumulate(step["g_s"], z, s),
             "v = S⁻¹ s": lambda: lu.solve(v),
-            "z' = G_z z̃ + M_v v": z_next,
+            "z' = G_z (z̃, v)": lambda: _accumulate(step["g_z"], zv, out),
         }
         what = f"S: {m._nk} unknowns, nnz(L+U) {lu.L.nnz + lu.U.nnz}"
     else:  # the whole J_x (before the condensation)

@@ -20,7 +20,7 @@ system of the node count, like MNA's — is factored ONCE by SuperLU (COLAMD). T
 is then, on the augmented state ``z̃ = (q, p, 1, u)`` (``u`` the driven parts' moving
 offsets at the step's time),
 
-    v = S⁻¹ (G_s z̃),        z' = G_z z̃ + M_v v,
+    v = S⁻¹ (G_s z̃),        z' = G_z (z̃, v),
 
 two sparse products accumulated in place and one solve of the node count; the step's
 unknowns ``y``, the constraint residuals and the momenta's impulses are recovered after
@@ -356,9 +356,10 @@ class SparseAffineMap:
         ``z̃ = (q, p, 1, u)`` (``u``: the moving entries of ``r₀``, ``P₀`` at the step's
         time; the constant ones are the column of ``1``):
 
-            s = G_s z̃,   v = S⁻¹ s,   z' = G_z z̃ + M_v v,   y = Y (z̃, v),   c = C (z̃, v)
+            s = G_s z̃,   v = S⁻¹ s,   z' = G_z (z̃, v),   y = Y (z̃, v),   c = C (z̃, v)
 
-        so a step is two products accumulated in place and one solve, whatever drives it."""
+        (``G_z = (M_z, …, M_v)``) so a step is two products accumulated in place and one
+        solve, whatever drives it."""
         if self._step is not None:
             return self._step
         import scipy.sparse as sp
@@ -379,7 +380,7 @@ class SparseAffineMap:
         e_s, e_z, e_y, e_c = extra[:a], extra[a:b], extra[b:c], extra[c:]
         self._step = dict(
             g_s=sp.hstack([parts["t_z"], e_s]).tocsr(),
-            g_z=sp.hstack([parts["m_z"], e_z]).tocsr(),
+            g_z=sp.hstack([parts["m_z"], e_z, self._m_v]).tocsr(),
             y=sp.hstack([parts["y_z"], e_y, parts["y_v"]]).tocsr(),
             c=sp.hstack([parts["c_z"], e_c, parts["c_v"]]).tocsr(),
             width=2 * n + 1 + rows.size + coords.size,
@@ -441,7 +442,7 @@ class SparseAffineMap:
         n, size, k, nk = self.n, self.size, save_every, self._nk
         sign = 1.0 if self.scheme == "plus" else -1.0
         step = self._augmented()
-        g_s, g_z, m_v = step["g_s"], step["g_z"], self._m_v
+        g_s, g_z = step["g_s"], step["g_z"]
         solve, width = self.lu.schur.solve, step["width"]
         saves = steps // k
         if save_states:
@@ -465,7 +466,8 @@ class SparseAffineMap:
             zeros = np.zeros((1, n))
             moving = np.concatenate(self._block(times, zeros, zeros, times[:1])[:2], axis=1)
         checks = []  # (z, y, t) of the last step of every block, verified at the end
-        zs = np.zeros((block + 1, width))  # augmented states (q, p, 1, u), one row a step
+        # one row a step: the augmented state (q, p, 1, u) and the step's v
+        zs = np.zeros((block + 1, width + nk))
         zs[:, 2 * n] = 1.0
         zs[0, :n], zs[0, n : 2 * n] = q0, p0
         ss = np.empty((block, nk))
@@ -473,23 +475,20 @@ class SparseAffineMap:
         for b, start in enumerate(starts):
             count = len(times)
             if self.driven:
-                zs[:count, 2 * n + 1 :] = moving
+                zs[:count, 2 * n + 1 : width] = moving
             zs[1 : count + 1, : 2 * n] = 0.0
             ss[:count] = 0.0
             for j in range(count):  # the step (see _augmented): products accumulated
+                row = zs[j]
                 rhs = ss[j]
-                _accumulate(g_s, zs[j], rhs)
-                v = solve(rhs)
-                ss[j] = v  # (v replaces its right-hand side)
-                after = zs[j + 1, : 2 * n]
-                _accumulate(g_z, zs[j], after)
-                _accumulate(m_v, v, after)
+                _accumulate(g_s, row[:width], rhs)
+                row[width:] = solve(rhs)
+                _accumulate(g_z, row, zs[j + 1, : 2 * n])
             zb = zs[: count + 1, : 2 * n]
             # the block's diagnostics, vectorized over its steps: one transposed copy
             # of (z̃, v), then one product each; with them, the next block's offsets
             x = x_t[:, :count]
-            x[:width] = zs[:count].T
-            x[width:] = ss[:count].T
+            x[:] = zs[:count].T
             con_t = step["c"] @ x
             q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
