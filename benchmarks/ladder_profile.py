@@ -77,7 +77,8 @@ def main() -> None:
     timed(plan_module.Plan, "__init__", "plan")
     timed(sparse_affine, "_probe", "probes")
     timed(sparse_affine, "_assemble", "assembly")
-    timed(sparse_affine, "_factor", "factor")
+    timed(sparse_affine, "_factor", "factor")  # (before the condensation)
+    timed(sparse_affine, "condense", "factor")
     timed(sparse_affine, "_use_drivers", "drivers")
     timed(plan_module, "Checker", "checker")
     timed(sparse_affine.SparseAffineMap, "run", "run")
@@ -91,7 +92,7 @@ def main() -> None:
         ("plan", "plan", 0),
         ("probes", "probes (trace, compile, JVPs)", 1),
         ("assembly", "assembly of the sparse matrices", 1),
-        ("factor", "COLAMD + SuperLU factorization", 1),
+        ("factor", "factorization (condensed: own blocks, SuperLU of S)", 1),
         ("drivers", "driven parts' offsets checked", 1),
         ("checker", "initial-data check", 1),
         ("run", "run (first)", 0),

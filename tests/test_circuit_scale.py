@@ -17,7 +17,7 @@ from diracvi.bench.ladders import ladder
 from diracvi.solvers.sparse_affine import SparseAffineSolver
 from diracvi.spice._ngspice import available, ngspice
 
-SPARSE = "sparse affine step map (SuperLU, COLAMD)"
+SPARSE = "sparse affine step map (condensed to the nodes, SuperLU)"
 FIELDS = ("q", "p", "p_nodal", "multipliers", "energy")
 
 

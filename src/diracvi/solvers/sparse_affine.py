@@ -1,4 +1,5 @@
-r"""The circuit-scale linear path: a sparse step matrix, factored once, stepped on the host.
+r"""The circuit-scale linear path: a sparse step matrix condensed onto the nodes, factored
+once, stepped on the host.
 
 For an interconnection whose step equations are affine (the affine screen's test, done
 here on compressed Jacobians) the step from ``z = (q, p)`` is, in increments
@@ -11,9 +12,21 @@ is sparse: a part's equations involve its own unknowns and the multipliers of th
 interaction rows it is in, an interaction row (a node's KCL) the unknowns of the parts it
 joins — the structure of modified nodal analysis. The dense affine map ``Δ`` of
 :mod:`diracvi.solvers.affine` is full (O(n²) per step and memory); here ``J_x`` is
-assembled sparse, ordered by COLAMD and factored ONCE by SuperLU
-(``scipy.sparse.linalg.splu``), and every step is two sparse products and one pair of
-triangular solves: O(nnz(L + U)) per step, O(n) for a chain.
+assembled sparse and solved by **condensing the parts' own unknowns**
+(:mod:`diracvi.solvers.condensed`): each part's own block of ``J_x`` is inverted (alike
+parts as one stacked array) and the Schur complement ``S`` onto the nodes' multipliers
+(and the unknowns of parts whose own block is singular, as a voltage source's) — a
+system of the node count, like MNA's — is factored ONCE by SuperLU (COLAMD). The step
+is then, on the augmented state ``z̃ = (q, p, 1, u)`` (``u`` the driven parts' moving
+offsets at the step's time),
+
+    v = S⁻¹ (G_s z̃),        z' = G_z (z̃, v),
+
+two sparse products accumulated in place and one solve of the node count; the step's
+unknowns ``y``, the constraint residuals and the momenta's impulses are recovered after
+each block of steps from ``(z̃, v)``, one product each over the block. ``lu`` (a
+:class:`~diracvi.solvers.condensed.CondensedSolve`) is ``J_x⁻¹``: ``lu.solve(rhs)`` for
+``rhs`` of shape ``(size,)`` or ``(size, m)``; ``lu.schur`` is the SuperLU factor of ``S``.
 
 **Assembly, compiled once per kind of part.** The Jacobians come from ``K`` compressed
 JVPs of the packed interconnection's residual (alike parts vmapped, so the program does
@@ -29,17 +42,28 @@ residual and momentum line at that point must equal ``f(0) + J w`` — which als
 the structural pattern (a missed entry would break the equality). ``detect_rtol``
 relative, as :class:`~diracvi.AffineSolver`.
 
-**Why SciPy on the host and not a compiled scan.** The factorization has data-dependent
-fill and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to
-form and would not serve general meshes. SuperLU's solve is a few library calls per
-step (measured in ``benchmarks/README.md``). A banded LAPACK solve in reverse
-Cuthill–McKee order was measured too and dropped: on the 1000-stage ladder (bandwidths
-(2, 2), 5002 unknowns) ``dgbtrs`` took 430 µs a call against SuperLU's 240 µs (it makes
-two BLAS calls per column). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the energies
-are evaluated by compiled JAX programs, a block of steps per call.
+**Why condensed, and why SciPy on the host.** The factorization has data-dependent fill
+and pivoting; JAX has no sparse LU, and a dense or banded one would be O(n·b²) to form
+and would not serve general meshes. The per-step solve is latency-bound (a chain of
+dependent row updates, ≈ 3.5 ns per non-zero of L + U whatever the ordering), so what
+pays is fewer unknowns in the factored system: on the 1000-stage ladder ``J_x`` has 5002
+unknowns and nnz(L + U) = 22 002 (74 µs CPU a solve), ``S`` 2002 and 8011 (36 µs).
+Measured side by side (``benchmarks/ladder_step.py``; ``benchmarks/README.md``, "Fixed-step
+sparse path, condensed onto the nodes"), CPU µs a step, products and solve: 18.6 → 11.0
+at 100 stages, 93.5 → 58.0 at 1000, 909 → 533 at 10⁴ (1.6–1.7×; the nodal solve is
+36 of the 58). Folding the offsets into the state and accumulating the two products in
+place (SciPy's ``csr_matvec``) saved the rest of the per-step calls.
+Dropped by measurement: a banded LAPACK solve in reverse Cuthill–McKee order
+(``dgbtrs`` 430 µs against SuperLU's 240 µs on ``J_x``; on ``S``, tridiagonal in that
+order, ``dgbtrs`` 149 µs and ``dgttrs`` 91 µs against SuperLU's 112 µs at the same
+load: not worth a special case), the augmented system ``[J_x 0; −S I]`` (130 µs),
+``spsolve_triangular`` (2 ms). The driven offsets ``r₀(t_k)``, ``P₀(t_k)`` and the
+energies are evaluated by compiled JAX programs, a block of steps per call (the
+energies by ``lax.map`` over the steps: vmapped, the packed parts' gathers ran 4.6×
+slower).
 
 **Verification.** A sample of steps (the last of every block) is re-evaluated with the
-model's own residual, and one Newton correction ``J_x⁻¹ r`` of it must be below
+model's own residual, and one Newton correction ``J_x⁻¹ r`` of it (by ``lu``) must be below
 ``verify_rtol`` relative to the step's size, as the dense map's per-step test.
 """
 
@@ -50,6 +74,7 @@ import numpy as np
 from ..discretization.equations import new_momentum, reaction_impulse, residual, unknown_count
 from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
+from .condensed import SingularStep, condense, own_unknowns
 
 #: the initial-data check of a run on this path checks momenta (a dense O(n³)
 #: projector) up to this many coordinates; joined ports always
@@ -139,8 +164,11 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
     r0, pm0 = jax.vmap(offsets)(times_next)
     # the energy alone (the step diagnostics' constraint rows would evaluate the
     # interaction's dense one-forms: they are formed on the host, from the sparse rows)
-    energy = jax.vmap(lambda a, b, t: rule.step_energy(system.energy, a, b, h, t, None))(
-        qk, qk1, times
+    # (a loop over the steps, not vmap: the packed parts' gathers batched over 256 steps
+    # ran 4.6× slower on the 1000-stage ladder, 67 → 14.6 ms a block)
+    energy = jax.lax.map(
+        lambda args: rule.step_energy(system.energy, *args[:2], h, args[2], None),
+        (qk, qk1, times),
     )
     return r0, pm0, energy
 
@@ -148,6 +176,20 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
 #: at most this many time-dependent parts are evaluated part by part for the offsets
 #: (more: the whole residual at zero, one program over the packed system)
 MAX_DRIVERS = 16
+
+
+try:  # y += A x for a CSR matrix, in place and without scipy's dispatch (≈ 3 µs a call)
+    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
+except ImportError:  # pragma: no cover (a SciPy that moved it: the public product)
+    _csr_matvec = None
+
+
+def _accumulate(a, x, y) -> None:
+    """``y += a @ x`` for a CSR ``a`` and contiguous float64 ``x``, ``y``."""
+    if _csr_matvec is None:
+        y += a @ x
+    else:
+        _csr_matvec(a.shape[0], a.shape[1], a.indptr, a.indices, a.data, x, y)
 
 
 _probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
@@ -244,30 +286,118 @@ class SparseAffineMap:
     Built by :func:`build`; :meth:`run` steps it. ``describe`` names it in ``traj.solver``.
     """
 
-    describe = "sparse affine step map (SuperLU, COLAMD)"
+    describe = "sparse affine step map (condensed to the nodes, SuperLU)"
 
     def __init__(self, system, rule, scheme, h, mats, lu, driven, r0, pm0, verify_rtol, seeds):
         self.system, self.rule, self.scheme, self.h = system, rule, scheme, float(h)
         self.jz, self.jx, self.pz, self.px, self.imp = mats
         self.n, self.size = system.n, self.jx.shape[0]
         self.block = block_length(self.n, self.size)
-        # one product gives J_z z and P_z z
         import scipy.sparse as sp
 
-        self._zmap = sp.vstack([self.jz, self.pz]).tocsr()
         self._con = sp.hstack([self.jz[self.n :], self.jx[self.n :]]).tocsr()
         self.lu, self.driven = lu, driven
         self.r0, self.pm0 = r0, pm0  # the autonomous offsets (driven: at t0)
         self.verify_rtol = verify_rtol
         self.seeds = seeds
         self.drivers = self.driver_rows = self.driver_coords = None
+        self._operators()
+
+    def _operators(self) -> None:
+        """The step as products with the condensed solve's pieces (see :meth:`run`):
+
+            s = T_z z + T_r r₀,   v = S⁻¹ s,   z' = M_z z + M_v v + M_r r₀ + (0, P₀),
+            y = Y_x (z, v) + Y_r r₀,   c = C_x (z, v) + C_r r₀
+
+        with ``v`` the kept unknowns (the multipliers of the nodes, and the unknowns of
+        parts not condensed) and ``c`` the constraint rows' residual. All sparse with
+        the parts' own patterns: O(n) entries."""
+        import scipy.sparse as sp
+
+        n, size, lu = self.n, self.size, self.lu
+        cond, kept = lu.cond, lu.kept
+        e_c = sp.csr_matrix(
+            (np.ones(cond.size), (cond, np.arange(cond.size))), shape=(size, cond.size)
+        )
+        e_k = sp.csr_matrix(
+            (np.ones(kept.size), (kept, np.arange(kept.size))), shape=(size, kept.size)
+        )
+        jz = self.jz.tocsr()
+        jz_c, jz_k = jz[cond], jz[kept]
+        t_z = -(jz_k - lu.left @ jz_c)
+        t_r = -(e_k.T - lu.left @ e_c.T)
+        y_z = -(e_c @ (lu.inv_a @ jz_c))
+        y_v = e_k - e_c @ lu.right
+        y_r = -(e_c @ lu.inv_a @ e_c.T)
+        q_of_y = sp.vstack([sp.eye(n, size), self.px]).tocsr()  # (q' − q, p' − p) from y
+        m_z = sp.eye(2 * n) + sp.vstack([sp.csr_matrix((n, 2 * n)), self.pz]) + q_of_y @ y_z
+        con_z, con_y = self._con[:, : 2 * n], self._con[:, 2 * n :]
+        c_r = con_y @ y_r + sp.eye(size - n, size, k=n)
+        self._parts = dict(
+            t_z=t_z, m_z=m_z, y_z=y_z, y_v=y_v, c_z=con_z + con_y @ y_z, c_v=con_y @ y_v,
+            offsets=sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc(),  # (T_r; M_r; Y_r; C_r)
+        )  # fmt: skip
+        self._m_v = (q_of_y @ y_v).tocsr()
+        self._nk = kept.size
+        self._step = None  # the augmented maps (made at the first run: see _augmented)
+
+    def _moving(self):
+        """The entries of ``r₀`` and ``P₀`` that move with ``t`` (the driven parts' rows,
+        every row when they are many, none for an autonomous model)."""
+        n, size = self.n, self.size
+        if not self.driven:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        if self.drivers is not None:
+            return self.driver_rows, self.driver_coords
+        return np.arange(size), np.arange(n)
+
+    def _augmented(self):
+        """The step and its diagnostics as products with the augmented state
+        ``z̃ = (q, p, 1, u)`` (``u``: the moving entries of ``r₀``, ``P₀`` at the step's
+        time; the constant ones are the column of ``1``):
+
+            s = G_s z̃,   v = S⁻¹ s,   z' = G_z (z̃, v),   y = Y (z̃, v),   c = C (z̃, v)
+
+        (``G_z = (M_z, …, M_v)``) so a step is two products accumulated in place and one
+        solve, whatever drives it."""
+        if self._step is not None:
+            return self._step
+        import scipy.sparse as sp
+
+        n, nk, size, parts = self.n, self._nk, self.size, self._parts
+        rows, coords = self._moving()
+        r_fixed, p_fixed = self.r0.copy(), self.pm0.copy()
+        r_fixed[rows], p_fixed[coords] = 0.0, 0.0
+        off = parts["offsets"]
+        base = off @ r_fixed
+        base[nk + n : nk + 2 * n] += p_fixed
+        into_p = sp.csc_matrix(
+            (np.ones(coords.size), (nk + n + coords, np.arange(coords.size))),
+            shape=(off.shape[0], coords.size),
+        )
+        extra = sp.hstack([sp.csc_matrix(base[:, None]), off[:, rows], into_p]).tocsr()
+        a, b, c = np.cumsum([nk, 2 * n, size])
+        e_s, e_z, e_y, e_c = extra[:a], extra[a:b], extra[b:c], extra[c:]
+        self._step = dict(
+            g_s=sp.hstack([parts["t_z"], e_s]).tocsr(),
+            g_z=sp.hstack([parts["m_z"], e_z, self._m_v]).tocsr(),
+            y=sp.hstack([parts["y_z"], e_y, parts["y_v"]]).tocsr(),
+            c=sp.hstack([parts["c_z"], e_c, parts["c_v"]]).tocsr(),
+            width=2 * n + 1 + rows.size + coords.size,
+        )
+        for name in ("g_s", "g_z", "y", "c"):
+            self._step[name].sort_indices()
+        return self._step
 
     # ------------------------------------------------------------------ blocks
     def _block(self, times_next, qk, qk1, times):
-        """The next block's offsets ``(r₀, P₀)`` and this block's energies (one call of
-        one compiled program; every argument padded to ``self.block`` rows)."""
+        """The next block's moving offsets ``(r₀, P₀)`` (the driven parts' rows, or every
+        row) and this block's energies (one call of one compiled program; every argument
+        padded to ``self.block`` rows)."""
 
         def padded(a):
+            if len(a) == self.block:
+                return a
             return np.concatenate([a, np.repeat(a[-1:], self.block - len(a), axis=0)])
 
         r0, pm0, energy = _block(
@@ -276,12 +406,6 @@ class SparseAffineMap:
         )  # fmt: skip
         count = len(times_next)
         r0, pm0 = np.asarray(r0)[:count], np.asarray(pm0)[:count]
-        if self.drivers is not None:  # the drivers' rows into the constant offsets
-            full_r = np.repeat(self.r0[None], count, axis=0)
-            full_p = np.repeat(self.pm0[None], count, axis=0)
-            full_r[:, self.driver_rows] = r0
-            full_p[:, self.driver_coords] = pm0
-            r0, pm0 = full_r, full_p
         return r0, pm0, np.asarray(energy)[: len(times)]
 
     def _check_steps(self, z, y, times):
@@ -315,23 +439,23 @@ class SparseAffineMap:
         The saved arrays are allocated once at their final size and written in place
         (no per-block pieces joined at the end: that doubled the peak memory of a large
         circuit's run); ``q`` and ``p`` are the two halves of one array of states."""
-        n, size, k = self.n, self.size, save_every
+        n, size, k, nk = self.n, self.size, save_every, self._nk
         sign = 1.0 if self.scheme == "plus" else -1.0
-        z = np.concatenate([q0, p0]).astype(np.float64)
-        zmap, px, solve = self._zmap, self.px, self.lu.solve
+        step = self._augmented()
+        g_s, g_z = step["g_s"], step["g_z"]
+        solve, width = self.lu.schur.solve, step["width"]
         saves = steps // k
         if save_states:
             states = np.empty((saves + 1, 2 * n))
-            states[0] = z
+            states[0, :n], states[0, n:] = q0, p0
             mu_out = np.empty((saves, size - n))
             con_out = np.empty((saves, size - n))
             node_out = np.empty((saves + 1, n)) if nodal else None
             if nodal:
-                node_out[0] = z[n:]
+                node_out[0] = p0
         energy, violation = np.empty(steps), np.empty(steps)
         block = self.block
         starts = list(range(0, steps, block))
-        con_z, con_y = self._con[:, : 2 * n].tocsr(), self._con[:, 2 * n :].tocsr()
 
         def times_of(start):
             index = start + np.arange(min(block, steps - start), dtype=np.float64)
@@ -340,61 +464,66 @@ class SparseAffineMap:
         times = times_of(0)
         if self.driven:
             zeros = np.zeros((1, n))
-            r0, pm0, _ = self._block(times, zeros, zeros, times[:1])
-        else:
-            r0 = np.broadcast_to(self.r0, (len(times), size))
-            pm0 = np.broadcast_to(self.pm0, (len(times), n))
+            moving = np.concatenate(self._block(times, zeros, zeros, times[:1])[:2], axis=1)
         checks = []  # (z, y, t) of the last step of every block, verified at the end
-        y = np.zeros(size)
-        zs = np.empty((block + 1, 2 * n))
-        ys = np.empty((block, size))
+        # one row a step: the augmented state (q, p, 1, u) and the step's v
+        zs = np.zeros((block + 1, width + nk))
+        zs[:, 2 * n] = 1.0
+        zs[0, :n], zs[0, n : 2 * n] = q0, p0
+        ss = np.empty((block, nk))
+        x_t = np.empty((width + nk, block))  # a block's (z̃, v), one column a step
         for b, start in enumerate(starts):
             count = len(times)
-            zs[0] = z
-            for j in range(count):
-                g = zmap @ zs[j]
-                rhs = g[:size]
-                rhs += r0[j]
-                np.negative(rhs, out=rhs)
-                y = solve(rhs)
-                ys[j] = y
-                after = zs[j + 1]
-                np.add(zs[j, :n], y[:n], out=after[:n])
-                mom = g[size:]
-                mom += pm0[j]
-                mom += px @ y
-                np.add(zs[j, n:], mom, out=after[n:])
-            z = zs[count].copy()
-            zb, yb = zs[: count + 1], ys[:count]
-            # diagnostics of the block, vectorized over its steps; with them, the next
-            # block's offsets (one call)
-            con = (con_z @ zb[:-1].T + con_y @ yb.T).T + r0[:count, n:]
+            if self.driven:
+                zs[:count, 2 * n + 1 : width] = moving
+            zs[1 : count + 1, : 2 * n] = 0.0
+            ss[:count] = 0.0
+            for j in range(count):  # the step (see _augmented): products accumulated
+                row = zs[j]
+                rhs = ss[j]
+                _accumulate(g_s, row[:width], rhs)
+                row[width:] = solve(rhs)
+                _accumulate(g_z, row, zs[j + 1, : 2 * n])
+            zb = zs[: count + 1, : 2 * n]
+            # the block's diagnostics, vectorized over its steps: one transposed copy
+            # of (z̃, v), then one product each; with them, the next block's offsets
+            x = x_t[:, :count]
+            x[:] = zs[:count].T
+            con_t = step["c"] @ x
             q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
             following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
             r0_next, pm0_next, e = self._block(following, qk, qk1, times)
             energy[start : start + count] = e
-            violation[start : start + count] = np.max(np.abs(con), axis=1, initial=0.0)
-            if save_states:
-                index = start + np.arange(count) + 1  # the steps' numbers, 1-based
-                saved = index % k == 0
-                rows = index[saved] // k  # rows of the saved arrays (0: the initial state)
-                states[rows] = zb[1:][saved]
-                mu_out[rows - 1] = yb[saved][:, n:]
-                con_out[rows - 1] = con[saved]
+            violation[start : start + count] = np.max(np.abs(con_t), axis=0, initial=0.0)
+            # the saved steps of this block: a slice (every k-th step), and the last step
+            # (the check and the final y); their unknowns y from (z̃, v)
+            first = (k - 1 - start % k) if save_states else count
+            stored = slice(first, count, k)
+            saved = len(range(first, count, k))
+            if saved == count:
+                y_t = step["y"] @ x
+            else:
+                cols = np.r_[first:count:k, count - 1]
+                y_t = step["y"] @ np.ascontiguousarray(x[:, cols])
+            if saved:
+                rows = (start + first + 1) // k + np.arange(saved)  # rows of the saved arrays
+                states[rows] = zb[1:][stored]
+                mu_out[rows - 1] = y_t[n:, :saved].T
+                con_out[rows - 1] = con_t[:, stored].T
                 if nodal:
-                    impulse = (self.imp @ yb[saved].T).T
-                    scale = np.full(len(rows), share)
-                    if start == 0 and saved[0]:
+                    impulse = (self.imp @ y_t[:, :saved]).T
+                    scale = np.full(saved, share)
+                    if start == 0 and first == 0:
                         scale[0] = share / (1.0 - share)
-                    node_out[rows] = zb[1:][saved][:, n:] - scale[:, None] * impulse
-            checks.append((zs[count - 1].copy(), ys[count - 1].copy(), times[-1]))
+                    node_out[rows] = zb[1:][stored][:, n:] - scale[:, None] * impulse
+            y = y_t[:, -1].copy()
+            checks.append((zb[count - 1].copy(), y, times[-1]))
+            zs[0] = zs[count]
             times = following
             if self.driven:
-                r0, pm0 = r0_next, pm0_next
-            else:
-                r0 = np.broadcast_to(self.r0, (len(times), size))
-                pm0 = np.broadcast_to(self.pm0, (len(times), n))
+                moving = np.concatenate([r0_next, pm0_next], axis=1)
+        z = zs[0, : 2 * n].copy()
         zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
         worst = self._check_steps(zc, yc, tc)
         if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
@@ -417,7 +546,6 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     :class:`NotSparseAffine` saying why not (not an interconnection, a staged rule, not
     affine, a singular step Jacobian)."""
     import scipy.sparse as sp
-    import scipy.sparse.linalg as spla
 
     if not hasattr(system, "row_subsystems"):
         raise NotSparseAffine("not an interconnection")
@@ -463,9 +591,10 @@ def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rto
     )
     jz, jx = full[:size, : 2 * n], full[:size, 2 * n :].tocsc()
     pz, px = full[size:, : 2 * n], full[size:, 2 * n :].tocsr()
+    offsets, mu_start, mu_sizes, *_ = _structure(system)
     try:
-        lu = spla.splu(jx, permc_spec="COLAMD")
-    except RuntimeError as exc:
+        lu = condense(jx, own_unknowns(offsets, mu_start, mu_sizes))
+    except SingularStep as exc:
         raise NotSparseAffine(f"the step Jacobian is singular ({exc})") from None
     r0 = np.asarray(values[0][0])
     pm0 = np.asarray(values[1][0])
@@ -493,11 +622,14 @@ def _use_drivers(out, system, values, t1) -> None:
     out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
     zeros = np.zeros((1, system.n))
     r_t1, p_t1, _ = out._block(np.array([t1]), zeros, zeros, np.array([t1]))
-    same = np.array_equal(r_t1[0], np.asarray(values[0][2])) and np.array_equal(
-        p_t1[0], np.asarray(values[1][2])
+    full_r, full_p = out.r0.copy(), out.pm0.copy()
+    full_r[out.driver_rows], full_p[out.driver_coords] = r_t1[0], p_t1[0]
+    same = np.array_equal(full_r, np.asarray(values[0][2])) and np.array_equal(
+        full_p, np.asarray(values[1][2])
     )
     if not same:
         out.drivers = out.driver_rows = out.driver_coords = None
+    out._step = None
 
 
 class SparseAffineSolver(AffineSolver):
