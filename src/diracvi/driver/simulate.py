@@ -102,8 +102,9 @@ def simulate(
     or ``jax.vmap`` (or with traced ``q0``, ``p0``, ``t0`` or system parameters), the run
     is one pure JAX function and the result a :class:`Trajectory` of JAX arrays (a
     PyTree). Each step is differentiated by the implicit function theorem; ``adjoint``
-    chooses the memory of reverse mode: ``"checkpoint"`` (default: the run is stored at
-    about √steps points and recomputed in between) or ``"full"`` (every step stored).
+    chooses the memory of reverse mode: ``"checkpoint"`` (default: each step's solution is
+    stored and its linearization recomputed in the backward pass, never its Newton solve)
+    or ``"full"`` (every step's intermediates stored).
     ``checkpoint=`` and ``project_initial=True`` are host-only and refused there;
     ``throw=True`` makes a failed step a runtime error (``equinox.error_if``),
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.

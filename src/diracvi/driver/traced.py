@@ -9,27 +9,35 @@ and ``t0``, built from the same chunk code as an untraced run
 untraced run with the same step solver.
 
 **Derivatives of a step** come from the implicit function theorem, never from Newton's
-iterations: the step solver runs inside :func:`jax.lax.custom_root`, whose derivative
-solves with the step Jacobian ``∂r/∂x`` at the converged step, ``dx = −(∂r/∂x)⁻¹ ∂r/∂θ dθ``
-(forward mode) or its transpose (reverse mode). A linear model, which an untraced run
-steps by the precomputed affine map, is stepped by Newton here: it converges in one
-iteration, and its derivative is the same implicit-function one.
+iterations: the solved step is a :func:`jax.custom_jvp` function whose rule forms the step
+Jacobian ``∂r/∂x`` once, at the converged step, inverts it (plain-``lax`` Gauss–Jordan,
+:func:`_inverse`) and applies ``dx = −(∂r/∂x)⁻¹ ∂r/∂θ dθ`` (forward mode). Reverse mode is
+JAX's linearize-then-transpose of that rule: the inverse is computed in the forward sweep
+and each step's backward pass is one product ``(∂r/∂x)⁻ᵀ x̄`` and the VJP of ``r`` in its
+parameters. A linear model, which an untraced run steps by the precomputed affine map, is
+stepped by Newton here: it converges in one iteration, and its derivative is the same
+implicit-function one.
 
-**Reverse mode over the time loop** stores, by default (``adjoint="checkpoint"``), only
-the state at the start of each of about √(steps) segments of the run and recomputes a
-segment's steps when its cotangents are needed (:func:`jax.checkpoint`): memory
-O(√steps · n) for ≈ one extra forward pass. ``adjoint="full"`` stores every step's
-residuals: fastest, memory O(steps · n).
+**Reverse mode over the time loop** (``adjoint="checkpoint"``, the default) splits the
+run into about √(steps) segments under :func:`jax.checkpoint` with a policy that keeps
+each step's solution ``x`` (and its status, iteration count, residual) and nothing else:
+the backward pass recomputes a segment's linearization (momentum lines, ``∂r/∂x`` and
+its inverse, the VJPs) from the stored solutions but never its Newton solves. Memory
+O(steps · (n + m)) — each step's solution, as much as a saved trajectory — against
+``adjoint="full"``, which stores every step's intermediates, the inverse included
+(O(steps · (n + m)²)), for about the same time.
 """
 
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.ad_checkpoint import checkpoint_name
 
 from ..discretization.equations import StepEquations
 from ..discretization.rules import get_rule
@@ -41,6 +49,8 @@ from .stepping import keeps_nodal, stateful_chunk_runner, step_times
 from .trajectory import Trajectory
 
 ADJOINTS = ("checkpoint", "full")
+#: the name of each step's solution in a checkpointed segment (the values it saves)
+SOLUTION_NAME = "diracvi_step_solution"
 
 
 try:  # the active trace, looked up once here rather than on every call
@@ -61,45 +71,112 @@ def is_traced(*trees) -> bool:
     return bool(trees) and any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(trees))
 
 
-def _tangent_solve(g, y):
-    """Solve ``g(x) = y`` for the linearized step residual ``g`` (dense, (n+m)²)."""
-    return _gauss_solve(jax.jacfwd(g)(y), y)
+#: up to this many unknowns the elimination is unrolled (straight-line code, no loop)
+_UNROLL_SIZE = 16
 
 
-def _gauss_solve(a, b):
-    """``a⁻¹ b`` by Gaussian elimination with partial pivoting, in plain ``lax`` ops.
+def _inverse(a):
+    r"""``a⁻¹`` by Gauss–Jordan elimination with partial pivoting, in plain ``lax`` ops.
 
-    Not ``jnp.linalg.solve``: in the backward pass of a checkpointed scan under
-    ``jax.jit`` (JAX 0.10, CPU), XLA receives the LAPACK call of this solve as an untyped
-    custom call and refuses to compile it ("No registered implementation for untyped
-    custom call to lapack_dgetrf_ffi"). The same elimination LAPACK's ``getrf`` does
-    (row exchange to the largest pivot, then the Schur update), so the accuracy is the
-    same; the cost, O((n+m)³) per step, is what the dense solve cost already.
+    Column ``j``: exchange row ``j`` with the row ``p ≥ j`` of the largest ``|a_pj|`` (the
+    pivot LAPACK's ``getrf`` takes), written as the rank-one update
+    ``A ← A + (e_j − e_p)(a_p − a_j)ᵀ`` so no gather is needed, then clear column ``j`` in
+    every other row; applied to ``[A | I]`` this leaves ``[D | D a⁻¹]`` with ``D``
+    diagonal. Not ``jnp.linalg.inv``: in the backward pass of a checkpointed scan under
+    ``jax.jit`` (JAX 0.10.2, CPU) XLA receives LAPACK's ``getrf`` as an untyped custom
+    call and refuses to run it ("No registered implementation for untyped custom call to
+    lapack_dgetrf_ffi for Host"; rechecked on this version with the filter_grad test's
+    model). Small matrices (the dense Newton models) are eliminated in straight-line
+    code, larger ones in a loop.
     """
     size = a.shape[0]
     rows = jnp.arange(size)
 
     def eliminate(j, ab):
         a, b = ab
-        pivot = jnp.argmax(jnp.where(rows >= j, jnp.abs(a[:, j]), -1.0))
-        swap = rows.at[j].set(pivot).at[pivot].set(j)
-        a, b = a[swap], b[swap]
-        factors = jnp.where(rows > j, a[:, j] / a[j, j], 0.0)
-        return a - factors[:, None] * a[j][None, :], b - factors * b[j]
+        column = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
+        pivot = jnp.argmax(jnp.where(rows >= j, jnp.abs(column), -1.0))
+        exchange = (rows == j).astype(a.dtype) - (rows == pivot).astype(a.dtype)
+        # row j ↔ row p: e_j − e_p times (row p − row j), i.e. −exchange @ A
+        a = a - jnp.outer(exchange, exchange @ a)
+        b = b - jnp.outer(exchange, exchange @ b)
+        row_a = jax.lax.dynamic_index_in_dim(a, j, axis=0, keepdims=False)
+        row_b = jax.lax.dynamic_index_in_dim(b, j, axis=0, keepdims=False)
+        column = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
+        factors = jnp.where(rows != j, column / row_a[j], 0.0)
+        return a - jnp.outer(factors, row_a), b - jnp.outer(factors, row_b)
 
-    a, b = jax.lax.fori_loop(0, size, eliminate, (a, b))
+    ab = (a, jnp.eye(size, dtype=a.dtype))
+    if size <= _UNROLL_SIZE:
+        for j in range(size):
+            ab = eliminate(j, ab)
+    else:
+        ab = jax.lax.fori_loop(0, size, eliminate, ab)
+    a, b = ab
+    return b / jnp.diagonal(a)[:, None]
 
-    def substitute(i, x):
-        k = size - 1 - i
-        return x.at[k].set((b[k] - a[k] @ x) / a[k, k])
 
-    return jax.lax.fori_loop(0, size, substitute, jnp.zeros_like(b))
+def _zero_tangent(leaf):
+    """The tangent of a non-differentiated output: float0 for integers and booleans."""
+    if jnp.issubdtype(leaf.dtype, jnp.inexact):
+        return jnp.zeros_like(leaf)
+    return np.zeros(leaf.shape, dtype=jax.dtypes.float0)
+
+
+def _hoisted(fn, example):
+    """``fn(x)`` as ``(converted(x, *values), values)``: every traced value ``fn`` captures
+    is lifted to an argument (:func:`jax.closure_convert` lifts only those being
+    differentiated and leaves the others captured, which a ``custom_jvp`` cannot take)."""
+    closed, shape = jax.make_jaxpr(fn, return_shape=True)(example)
+    tree = jax.tree.structure(shape)
+    jaxpr, consts = closed.jaxpr, closed.consts
+    traced = [isinstance(c, jax.core.Tracer) for c in consts]
+    kept = [None if t else c for c, t in zip(consts, traced, strict=True)]
+
+    def converted(x, *values):
+        it = iter(values)
+        full = [next(it) if t else c for c, t in zip(kept, traced, strict=True)]
+        return jax.tree.unflatten(tree, jax.core.eval_jaxpr(jaxpr, full, x))
+
+    return converted, tuple(c for c, t in zip(consts, traced, strict=True) if t)
+
+
+@partial(jax.custom_jvp, nondiff_argnums=(0, 1))
+def _implicit_root(solve, residual, guess, solve_consts, residual_consts):
+    """``(x, *aux) = solve(guess, *solve_consts)`` with ``residual(x, *residual_consts) = 0``
+    differentiated by the implicit function theorem (the JVP rule below)."""
+    return solve(guess, *solve_consts)
+
+
+@_implicit_root.defjvp
+def _implicit_root_jvp(solve, residual, primals, tangents):
+    r"""``dx = −(∂r/∂x)⁻¹ (∂r/∂θ dθ)`` with ``∂r/∂x`` formed and inverted once, at the
+    converged ``x``.
+
+    The inverse is a primal value of this rule, so under reverse mode JAX's
+    linearize-then-transpose computes it in the forward sweep and the transposed tangent
+    is one product ``(∂r/∂x)⁻ᵀ x̄`` per step, followed by the VJP of ``r`` in ``θ``;
+    forward mode applies it to ``∂r/∂θ dθ``. The guess and the solver's own inputs get no
+    derivative: the solution depends on ``θ`` only through ``r(x, θ) = 0``.
+    """
+    guess, solve_consts, residual_consts = primals
+    residual_dots = tangents[2]
+    out = solve(guess, *solve_consts)
+    # named so a checkpointed segment keeps them (the solution, its status, iterations and
+    # residual; not the solver's factors): its recomputation then skips the Newton solve
+    out = (*(checkpoint_name(leaf, SOLUTION_NAME) for leaf in out[:4]), *out[4:])
+    x = out[0]
+    jacobian = jax.jacfwd(lambda y: residual(y, *residual_consts))(x)
+    inverse = _inverse(jacobian)
+    _, rhs = jax.jvp(lambda *c: residual(x, *c), tuple(residual_consts), tuple(residual_dots))
+    x_dot = -(inverse @ rhs)
+    return out, (x_dot, *(_zero_tangent(leaf) for leaf in out[1:]))
 
 
 class ImplicitStep(StepSolver):
     """A step solver whose solution is differentiated by the implicit function theorem.
 
-    The wrapped solver's iterations run under :func:`jax.lax.custom_root`; its status,
+    The wrapped solver runs inside :func:`_implicit_root` (a ``custom_jvp``); its status,
     iteration count and state (factors) pass through as non-differentiated outputs.
     """
 
@@ -115,27 +192,26 @@ class ImplicitStep(StepSolver):
         return self.inner.momentum(eqs, x, state)
 
     def solve(self, eqs, guess, state) -> StepResult:
-        dtypes = []
+        trees = []
 
-        def solve(_f, x0):
+        def solve(x0):
             res = self.inner.solve(eqs, x0, state)
             aux = (res.status, res.iterations, res.residual_norm, res.state)
             leaves, tree = jax.tree.flatten(aux)
-            dtypes[:] = [tree, [leaf.dtype for leaf in leaves]]
-            # as floats: custom_root (JAX 0.10) gives integer auxiliary outputs tangents
-            # of the wrong type; the counts and pivots are exact in float64
-            return res.x, [leaf.astype(x0.dtype) for leaf in leaves]
+            trees[:] = [tree]
+            return (res.x, *leaves)
 
-        def residual(x):  # a plain closure: custom_root hashes its functions
-            return eqs.residual(x)
-
-        x, leaves = jax.lax.custom_root(residual, guess, solve, _tangent_solve, has_aux=True)
-        tree, types = dtypes
-        leaves = [leaf.astype(t) for leaf, t in zip(leaves, types, strict=True)]
-        status, iterations, res_norm, new_state = jax.tree.unflatten(tree, leaves)
+        # the traced values both functions capture (the state, the system's parameters,
+        # traced closures) become explicit arguments, so the JVP rule can differentiate
+        solve_c, solve_consts = _hoisted(solve, guess)
+        residual_c, residual_consts = _hoisted(eqs.residual, guess)
+        x, *leaves = _implicit_root(
+            solve_c, residual_c, guess, tuple(solve_consts), tuple(residual_consts)
+        )
+        status, iterations, res_norm, new_state = jax.tree.unflatten(trees[0], leaves)
         if isinstance(self.inner, PartitionedSolver):
             # the stacked subsystem parameters feed the momentum line: keep their
-            # derivatives (custom_root's auxiliary outputs carry none)
+            # derivatives (the solver's auxiliary outputs carry none)
             new_state = (state[0], *new_state[1:])
         return StepResult(x, status, iterations, res_norm, new_state)
 
@@ -228,7 +304,8 @@ def _run(system, rule, scheme, method, inner, start, run, save_states, throw, ad
         return (carry, state, fail), saved
 
     if adjoint == "checkpoint" and count > 1:
-        segment = jax.checkpoint(segment, prevent_cse=False)
+        policy = jax.checkpoint_policies.save_only_these_names(SOLUTION_NAME)
+        segment = jax.checkpoint(segment, prevent_cse=False, policy=policy)
     firsts = jnp.arange(count, dtype=jnp.float64) * (seg * k)
     (carry, state, fail), saved = jax.lax.scan(segment, (carry, state, fail), firsts)
     saved = jax.tree.map(lambda a: a.reshape(count * seg, *a.shape[2:]), saved)
