@@ -86,6 +86,8 @@ class SparseRun(NamedTuple):
     factorizations: int
     levels: tuple
     fit: bool
+    #: tries whose size was off the grid (a step landing on a breakpoint or the end)
+    landings: int = 0
 
 
 def _offsets_fn(system, drivers, rule, scheme, hs, ts):
@@ -212,7 +214,7 @@ class _Maps:
                 got, want = np.delete(got, rows), np.delete(want, rows)
             worst = max(worst, _largest(got - want) / max(_largest(want), 1e-300))
         self.fit = worst <= FIT_RTOL
-        for h, f in zip(sizes + [check_h], self.basis[1] + [found], strict=True):
+        for h, f in zip([*sizes, check_h], [*self.basis[1], found], strict=True):
             self._store(float(h), f, _mats(f), f.lu, grid=True)
 
     def _combine(self, h):
@@ -317,7 +319,11 @@ def adaptive_sparse(
     ensure_float64()
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
-    if events.relays(system):
+    try:
+        switches = bool(events.relays(system))
+    except ModelError:  # a packed system with switches (it cannot carry their states)
+        switches = True
+    if switches:
         raise NotSparseAffine("the circuit has switches (discrete states)")
     rule = get_rule("midpoint")
     n = system.n
@@ -363,7 +369,7 @@ def adaptive_sparse(
     c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
     q_peak, v_peak, m_peak = np.abs(q), np.zeros(n), np.zeros(m)
     ts, hs, qs, ps, mus = [t], [], [q.copy()], [p.copy()], []
-    tries = rejected = 0
+    tries = rejected = landings = 0
     status = OK
     share = SAFETY
     count = {}  # accepted steps per map, for the verification sample
@@ -377,8 +383,10 @@ def adaptive_sparse(
         land = rem <= h0 * (1.0 + 1e-9)
         if land:
             h_try, level = rem, None
+            landings += 1
         elif rem < 2.0 * h0:
             h_try, level = 0.5 * rem, None
+            landings += 1
         else:
             h_try, level = h0, k
         half = 0.5 * h_try
@@ -460,5 +468,5 @@ def adaptive_sparse(
         DESCRIBE,
     )
     return run, SparseRun(
-        maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit)
+        maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit), landings
     )

@@ -20,9 +20,13 @@ import numpy as np
 
 from ..driver import events
 from ..driver.adaptive import Controls, adaptive
+from ..driver.adaptive_sparse import adaptive_sparse
 from ..driver.events import relays
 from ..driver.simulate import simulate
 from ..errors import ModelError, StepFailure
+from ..model.interconnect import InterconnectedSystem
+from ..solvers.limiting import junctions
+from ..solvers.sparse_affine import NotSparseAffine
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
@@ -348,18 +352,7 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         )
     settings = tran_settings(netlist)
     breaks = breakpoints(netlist.system, 0.0, settings.stop)
-    march = adaptive(
-        netlist.system,
-        netlist.q0,
-        netlist.p0,
-        t0=0.0,
-        t_stop=settings.stop,
-        controls=controls(netlist, settings),
-        breakpoints=breaks,
-        event_atol=_event_atol(netlist, settings),
-        modes=netlist.initial_modes(),
-        max_tries=tries_budget(settings),
-    )
+    march = _march(netlist, settings, breaks)
     if march.status != 0:
         at = march.t[-1]
         raise StepFailure(
@@ -382,6 +375,38 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
     grid = settings.output_times()
     return Result(
         netlist, march, {k: sampler(v, grid) for k, v in signals.items()}, grid, inner, settings
+    )
+
+
+def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
+    """The variable-step run: a linear circuit on the sparse step maps
+    (:mod:`diracvi.driver.adaptive_sparse`: O(n) per step and in memory), any other —
+    nonlinear, with switches, or refused by the sparse path — in the compiled loop
+    (:mod:`diracvi.driver.adaptive`); ``march.solver`` says which ran."""
+    system = netlist.system
+    ctl = controls(netlist, settings)
+    budget = tries_budget(settings)
+    # junctions (diodes, transistors) are nonlinear: not worth the sparse path's probes
+    if isinstance(system, InterconnectedSystem) and not relays(system) and not junctions(system):
+        try:
+            march, _ = adaptive_sparse(
+                system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
+                controls=ctl, breakpoints=breaks, max_tries=budget,
+            )  # fmt: skip
+            return march
+        except NotSparseAffine:
+            pass  # not linear (or not verified): the compiled loop steps it
+    return adaptive(
+        system,
+        netlist.q0,
+        netlist.p0,
+        t0=0.0,
+        t_stop=settings.stop,
+        controls=ctl,
+        breakpoints=breaks,
+        event_atol=_event_atol(netlist, settings),
+        modes=netlist.initial_modes(),
+        max_tries=budget,
     )
 
 
