@@ -5,6 +5,11 @@ the steps are chosen by an error estimate for ``.options``' tolerances, never lo
 TMAX and ending exactly on every source corner, and the waveforms are reported on the
 TSTEP grid from TSTART. ``dt=`` forces a fixed step instead (the trajectory's own points
 are then the output).
+
+A linear circuit's variable steps are solved on sparse step maps
+(:mod:`diracvi.driver.adaptive_sparse`, O(n) per step for a ladder), any other circuit's
+by Newton in one compiled loop (:mod:`diracvi.driver.adaptive`); ``result.trajectory.solver``
+says which ran.
 """
 
 from __future__ import annotations
