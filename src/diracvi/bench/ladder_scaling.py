@@ -92,6 +92,10 @@ def _timed(cmd, cwd, env=None, check=True, cpu=None) -> tuple[float, float, str]
     return float(wall), int(kb) / 1024.0, out
 
 
+#: the CPU seconds of the last ngspice run (for the notes)
+_NGSPICE_CPU: list[float] = []
+
+
 def _ngspice(text: str, tmp: Path):
     """``ngspice -b`` of the ladder writing the probes: (wall, MB, t, values)."""
     body = text.rpartition(".end")[0].rstrip()
@@ -104,7 +108,9 @@ def _ngspice(text: str, tmp: Path):
     step, stop = lines[tran].split()[1:3]
     lines[tran] = f".tran {step} {stop} 0 {step} uic"  # maximum step: the netlist's step
     (tmp / "deck.cir").write_text("\n".join(lines))
-    wall, mb, log = _timed(["ngspice", "-b", "deck.cir"], tmp, check=False)
+    cpu: list[float] = []
+    wall, mb, log = _timed(["ngspice", "-b", "deck.cir"], tmp, check=False, cpu=cpu)
+    _NGSPICE_CPU[:] = cpu
     if not (tmp / "out.txt").exists():
         raise RuntimeError(f"ngspice failed:\n{log[-2000:]}")
     data = np.loadtxt(tmp / "out.txt", skiprows=1, ndmin=2)
@@ -179,6 +185,7 @@ def rows(settings: Settings) -> list[Row]:
             path = tmp / f"ladder{stages}.cir"
             path.write_text(text)
             ng_wall, ng_mb, t_ref, ref = _ngspice(text, tmp)
+            ng_cpu = _NGSPICE_CPU[0]
             cache = tmp / "cache"
             cold, cold_mb = _diracvi_run(path, dt, cache, tmp)
             warm_e2e, warm_mb = _diracvi_run(path, dt, cache, tmp)
@@ -211,6 +218,6 @@ def rows(settings: Settings) -> list[Row]:
                 "÷ ngspice -b", var_warm, ng_wall, var_warm / ng_wall, solver=var_solver,
                 notes=f"max error / peak vs ngspice {var_err:.1e}; CPU {var_cpu[1]:.1f} s "
                 f"(cold: {var_cold:.1f} s wall, {var_cpu[0]:.1f} s CPU); peak RSS "
-                f"{var_mb:.0f} MB"),
+                f"{var_mb:.0f} MB; ngspice CPU {ng_cpu:.2f} s"),
         ]  # fmt: skip
     return out

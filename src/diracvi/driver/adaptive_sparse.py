@@ -277,6 +277,41 @@ FIT_CHECK = 6
 FIT_RTOL = 1e-12
 
 
+class _Record:
+    """Growing buffers of the recorded steps: nodes ``t``, sizes ``h``, states ``z`` (its
+    halves are ``q`` and ``p``), multipliers ``μ``."""
+
+    def __init__(self, capacity: int, n: int, m: int):
+        self.n, self.k = n, 0
+        self.t = np.empty(capacity + 1)
+        self.h = np.empty(capacity)
+        self.z = np.empty((capacity + 1, 2 * n))
+        self.mu = np.empty((capacity, m))
+
+    def start(self, t, z):
+        self.t[0], self.z[0] = t, z
+
+    def _grow(self):
+        for name in ("t", "h", "z", "mu"):
+            old = getattr(self, name)
+            new = np.empty((2 * old.shape[0], *old.shape[1:]))
+            new[: old.shape[0]] = old
+            setattr(self, name, new)
+
+    def add(self, t, h, z, mu):
+        if self.k >= len(self.h):
+            self._grow()
+        k = self.k
+        self.t[k + 1], self.h[k], self.z[k + 1], self.mu[k] = t, h, z, mu
+        self.k = k + 1
+
+    def arrays(self):
+        """``(t, h, q, p, μ)``: views of the written rows (no copy of the states)."""
+        k, n = self.k, self.n
+        z = self.z[: k + 1]
+        return self.t[: k + 1], self.h[:k], z[:, :n], z[:, n:], self.mu[:k]
+
+
 def _level(h: float, top: float) -> tuple[float, int]:
     """``h`` rounded down to the grid ``top·2^{−k}`` (``k ≥ 0``): the size and ``k``."""
     k = max(0, math.ceil(math.log2(top / h) - 1e-12))
@@ -368,7 +403,10 @@ def adaptive_sparse(
     ib = 0
     c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
     q_peak, v_peak, m_peak = np.abs(q), np.zeros(n), np.zeros(m)
-    ts, hs, qs, ps, mus = [t], [], [q.copy()], [p.copy()], []
+    # the recorded steps, written in place (a guess of the count, grown if exceeded;
+    # np.empty's pages are committed only when written, so the guess costs nothing)
+    rec = _Record(2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16, n, m)
+    rec.start(t, z)
     tries = rejected = landings = 0
     status = OK
     share = SAFETY
@@ -432,11 +470,8 @@ def adaptive_sparse(
             h_next = max(h_next, h0)
         if accept:
             t_new = target if land else t + half + half
-            ts += [t + half, t_new]
-            hs += [half, half]
-            qs += [q1, q2]
-            ps += [z1[n:], z2[n:]]
-            mus += [mu1, mu2]
+            rec.add(t + half, half, z1, mu1)
+            rec.add(t_new, half, z2, mu2)
             seen = count.get(id(fine), 0)
             if seen % VERIFY_EVERY == 0 and len(fine.samples) < VERIFY_MAX:
                 fine.samples.append((z.copy(), y1.copy(), t))
@@ -456,11 +491,7 @@ def adaptive_sparse(
     if not worst <= verify_rtol:
         raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
     run = AdaptiveRun(
-        np.asarray(ts),
-        np.asarray(hs),
-        np.asarray(qs),
-        np.asarray(ps),
-        np.asarray(mus) if mus else np.zeros((0, m)),
+        *rec.arrays(),
         tries,
         rejected,
         status,
