@@ -3,9 +3,9 @@
 The path's promises: the same recorded steps' semantics and error control as the compiled
 loop (so the two agree to the run's tolerance), breakpoints landed exactly, and a number
 of LU factorizations bounded by the grid levels visited and the landings — not by the
-length of the run. The agreement with ngspice of the decks in ``test_spice_time.py``
-holds on this path too (they are linear: they take it, which ``test_linear_decks_take_it``
-checks).
+length of the run; a circuit from :data:`~diracvi.spice._run.SPARSE_MIN_COORDINATES`
+coordinates takes it in ``spice.run``. The decks of ``test_spice_time.py`` agree with
+ngspice on this path too (measured when it took them all; they are below the threshold).
 """
 
 from __future__ import annotations
@@ -60,7 +60,9 @@ def counted_splu(monkeypatch):
 
 
 def test_linear_decks_take_it_and_nonlinear_ones_do_not(monkeypatch):
-    result = spice.run(PULSE_DECK)
+    text = ladder(6, steps=100)
+    assert spice.read(text).system.n >= _run.SPARSE_MIN_COORDINATES
+    result = spice.run(text)
     assert result.trajectory.solver == sparse.DESCRIBE
     # a diode deck goes to the compiled loop (stopped there: its run is other tests')
     seen = []

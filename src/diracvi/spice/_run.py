@@ -6,7 +6,8 @@ TMAX and ending exactly on every source corner, and the waveforms are reported o
 TSTEP grid from TSTART. ``dt=`` forces a fixed step instead (the trajectory's own points
 are then the output).
 
-A linear circuit's variable steps are solved on sparse step maps
+A linear circuit's variable steps (from :data:`SPARSE_MIN_COORDINATES` coordinates)
+are solved on sparse step maps
 (:mod:`diracvi.driver.adaptive_sparse`, O(n) per step for a ladder), any other circuit's
 by Newton in one compiled loop (:mod:`diracvi.driver.adaptive`); ``result.trajectory.solver``
 says which ran.
@@ -383,6 +384,15 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
     )
 
 
+#: a linear circuit of at least this many coordinates takes the sparse maps. Measured
+#: (CPU seconds, fresh process with the disk cache warm, then a second run in it): a
+#: series RLC with a pulse train (4 coordinates) 1.92 / 0.31 s sparse against 1.44 /
+#: 0.045 s in the compiled loop (whose steps are unrounded: 844 against 1162); a
+#: 10-stage ladder (31 coordinates) 1.80 / 0.57 s sparse against 2.46 / 0.93 s compiled,
+#: and the compiled loop's dense Newton grows as n³ from there
+SPARSE_MIN_COORDINATES = 16
+
+
 def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
     """The variable-step run: a linear circuit on the sparse step maps
     (:mod:`diracvi.driver.adaptive_sparse`: O(n) per step and in memory), any other —
@@ -392,7 +402,13 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
     ctl = controls(netlist, settings)
     budget = tries_budget(settings)
     # junctions (diodes, transistors) are nonlinear: not worth the sparse path's probes
-    if isinstance(system, InterconnectedSystem) and not relays(system) and not junctions(system):
+    linear_candidate = (
+        isinstance(system, InterconnectedSystem)
+        and system.n >= SPARSE_MIN_COORDINATES
+        and not relays(system)
+        and not junctions(system)
+    )
+    if linear_candidate:
         try:
             march, _ = adaptive_sparse(
                 system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
