@@ -20,15 +20,20 @@ ladder.
 step size needs its own factorization. The controller's proposal is rounded *down* to
 the grid ``2·hmax·2^{−k}`` (a try of ``H`` records two steps of ``H/2 ≤ hmax``): a try
 needs the maps of two neighbouring levels, ``H`` and ``H/2``, and a run touches a handful
-of levels, each built (assembled by :func:`~diracvi.solvers.sparse_affine.build` and
-factored by SuperLU) once and kept in a small cache (:data:`CACHE_SIZE` maps, least
-recently used dropped). Only a step that lands on a breakpoint (a source corner, the run's
-end) has a size off the grid: its maps are built for that size and dropped first. So the
-builds of a run are at most the grid levels it visits plus two per landing try (see
-:attr:`SparseRun.builds`); ngspice refactors at every change of step. Rounding down costs
-steps against a continuous size: on the ladders about 1.3× the compiled loop's tries
-(measured in ``benchmarks/README.md``), for a factorization count that does not grow
-with the run.
+of levels, each factored by SuperLU once and kept in a small cache (:data:`CACHE_SIZE`
+maps; a landing's dropped first, then the least recently used). Only a step that lands
+on a breakpoint (a source corner, the run's end) has a size off the grid.
+
+The step matrices of a linear circuit under the midpoint rule are ``A/h + B + C·h``
+entry by entry (inertia over ``h``; resistance, coupling and constraint rows; stiffness
+times ``h``), so :func:`~diracvi.solvers.sparse_affine.build` (probes of the model: the
+costly part) runs four times — three grid sizes to fit ``A, B, C``, one to check the
+fit to round-off — and every other size's matrices are a combination of those three,
+``O(nnz)``. A model whose step is not of that form gets a build per size. So a run
+makes 4 builds and at most ``4 + (levels visited + 1) + 2·(landing tries)``
+factorizations (:class:`SparseRun` counts them), whatever its length; ngspice refactors
+at every change of step. Rounding down costs tries against a continuous size: 1.1× the
+compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README.md``).
 
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
