@@ -18,6 +18,7 @@ from diracvi import spice
 from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive as compiled
 from diracvi.driver import adaptive_sparse as sparse
+from diracvi.spice import _ngspice as ng
 from diracvi.spice import _run
 from diracvi.spice._resample import Sampler
 from diracvi.spice._tran import breakpoints, tran_settings
@@ -143,3 +144,23 @@ def test_a_circuit_it_cannot_step_is_refused_with_the_reason():
             netlist.system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
             controls=_run.controls(netlist, settings),
         )  # fmt: skip
+
+
+FINE = ".options reltol=1e-7 abstol=1e-15 vntol=1e-12 chgtol=1e-18 trtol=1"
+
+
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+def test_a_ladder_on_this_path_agrees_with_a_fine_ngspice_run():
+    """A 6-stage ladder (19 coordinates: above the threshold) at its own settings
+    (reltol 1e-3, TMAX = TSTEP) against ngspice at reltol 1e-7, TMAX = TSTEP/50, on the
+    TSTEP grid: within 1e-3 of each probe's peak."""
+    text = ladder(6, steps=300)
+    result = spice.run(text)
+    assert result.trajectory.solver == sparse.DESCRIBE
+    probes = ("v(n1)", "v(n6)", "i(L1)")
+    t_ref, ref = ng.ngspice(text, probes, tmax=result.settings.step / 50, options=FINE)
+    keep = result.time >= t_ref[0]
+    for probe in probes:
+        want = np.interp(result.time[keep], t_ref, ref[probe])
+        error = np.max(np.abs(result[probe][keep] - want)) / np.max(np.abs(ref[probe]))
+        assert error <= 1e-3, (probe, error)
