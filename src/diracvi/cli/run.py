@@ -220,6 +220,7 @@ def _print_variable_summary(netlist, result) -> None:
             f"reltol {settings.reltol:g}, abstol {settings.abstol:g}, "
             f"vntol {settings.vntol:g}, chgtol {settings.chgtol:g}",
         ),
+        ("solver", march.solver),
         ("status", march.message),
     ]
     for key, value in rows:

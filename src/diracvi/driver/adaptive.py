@@ -91,6 +91,10 @@ SAFETY = 0.03
 _ORDER = 2
 
 
+#: names this path in ``AdaptiveRun.solver``
+DESCRIBE = "variable steps, Newton in one compiled loop (dense Jacobians)"
+
+
 class Controls(NamedTuple):
     """Tolerances and limits of an adaptive run (all times in the model's units)."""
 
@@ -119,6 +123,8 @@ class AdaptiveRun(NamedTuple):
     status: int
     #: (N, number of switches): the switch states each step was taken with
     modes: np.ndarray | None = None
+    #: which path stepped the run (as ``Trajectory.solver``)
+    solver: str = DESCRIBE
 
     @property
     def message(self) -> str:

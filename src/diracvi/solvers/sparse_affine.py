@@ -279,6 +279,11 @@ def _pattern(system, rule):
     return seeds, seed_of, row_of, col_of
 
 
+#: the seeds and structural entries of a system's step Jacobians (independent of ``h``):
+#: pass it to :func:`build` to build maps for several step sizes without recomputing it
+structural_pattern = _pattern
+
+
 # ----------------------------------------------------------------------- the map
 class SparseAffineMap:
     """The assembled, factored step of a linear interconnection (host side).
@@ -541,16 +546,20 @@ class SparseAffineMap:
         )
 
 
-def build(system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rtol=1e-11):
+def build(
+    system, rule, scheme, h, q0, p0, t0=0.0, detect_rtol=1e-12, verify_rtol=1e-11, pattern=None
+):
     """The :class:`SparseAffineMap` of ``system`` (a packed interconnection), or raise
     :class:`NotSparseAffine` saying why not (not an interconnection, a staged rule, not
-    affine, a singular step Jacobian)."""
+    affine, a singular step Jacobian). ``pattern``: :func:`structural_pattern` of the same system
+    and rule, when the caller builds the map for several step sizes (it does not depend
+    on ``h``; on a large circuit it is most of a warm build's time)."""
     import scipy.sparse as sp
 
     if not hasattr(system, "row_subsystems"):
         raise NotSparseAffine("not an interconnection")
     n, size = system.n, unknown_count(system, rule)
-    seeds, seed_of, row_of, col_of = _pattern(system, rule)
+    seeds, seed_of, row_of, col_of = _pattern(system, rule) if pattern is None else pattern
     rng = np.random.default_rng(20261125)
     scale = 1.0 + float(np.max(np.abs(q0), initial=0.0)) + float(np.max(np.abs(p0), initial=0.0))
     w_rand = scale * rng.uniform(-1.0, 1.0, 2 * n + size)

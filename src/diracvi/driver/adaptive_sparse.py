@@ -1,0 +1,508 @@
+r"""Variable steps for a linear circuit on the sparse step map, a host loop.
+
+A linear (affine) interconnection's (+) midpoint step of size ``h`` from ``z = (q, p)``
+at ``t`` is, in increments ``y = (q_other − q, μ)`` (:mod:`diracvi.solvers.sparse_affine`),
+
+    J_x(h) y = −(r₀(t; h) + J_z(h) z),      p_other − p = P₀(t; h) + P_z(h) z + P_x(h) y.
+
+:func:`adaptive_sparse` marches it with exactly the error control of
+:mod:`diracvi.driver.adaptive` — step doubling (one step of ``H`` against two of ``H/2``),
+the same per-coordinate, per-velocity and per-node-potential tests with
+:data:`~diracvi.driver.adaptive.SAFETY`, the same acceptance rule, breakpoints landed
+exactly, the two fine steps recorded — so :mod:`diracvi.spice._resample` reads its
+:class:`~diracvi.driver.adaptive.AdaptiveRun` unchanged. It differs in how a step is
+solved: the compiled loop runs Newton on the dense step equations (dense Jacobians,
+O(n²) memory, O(n³) per factorization; a 1000-stage ladder did not finish in 9 minutes
+at 10.5 GB), here each step is two sparse products and one sparse LU solve, O(n) for a
+ladder.
+
+**Step sizes on a grid, factored only when needed.** ``J_x`` depends on ``h``, so each
+step size needs its own factorization. The controller's proposal is rounded *down* to
+the grid ``2·hmax·2^{−k}`` (a try of ``H`` records two steps of ``H/2 ≤ hmax``): a try
+needs the maps of two neighbouring levels, ``H`` and ``H/2``, and a run touches a handful
+of levels, each factored by SuperLU once and kept in a small cache (:data:`CACHE_SIZE`
+maps; a landing's dropped first, then the least recently used). Only a step that lands
+on a breakpoint (a source corner, the run's end) has a size off the grid.
+
+The step matrices of a linear circuit under the midpoint rule are ``A/h + B + C·h``
+entry by entry (inertia over ``h``; resistance, coupling and constraint rows; stiffness
+times ``h``), so :func:`~diracvi.solvers.sparse_affine.build` (probes of the model: the
+costly part) runs four times — three grid sizes to fit ``A, B, C``, one to check the
+fit to round-off — and every other size's matrices are a combination of those three,
+``O(nnz)``. A model whose step is not of that form gets a build per size. So a run
+makes 4 builds and at most ``4 + (levels visited + 1) + 2·(landing tries)``
+factorizations (:class:`SparseRun` counts them), whatever its length; ngspice refactors
+at every change of step. Rounding down costs tries against a continuous size: 1.1× the
+compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README.md``).
+
+**Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
+come from one compiled program (the driven parts' own rows, or the whole residual at zero,
+vmapped over ``(h, t)`` pairs): no program is compiled per step size.
+
+**Verification.** ``build`` checks affinity (the Jacobians at two points agree and
+reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the
+model's residual, below ``verify_rtol`` relative) is run on a sample of accepted steps
+of every map used. A model that is not affine, not an interconnection, or has switches
+is refused (:class:`~diracvi.solvers.sparse_affine.NotSparseAffine`); the caller then
+takes the compiled loop.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from typing import NamedTuple
+
+import numpy as np
+
+from ..discretization.rules import get_rule
+from ..errors import ModelError
+from ..runtime.compile import run_once_jit
+from ..runtime.config import ensure_float64
+from ..solvers.sparse_affine import (
+    NotSparseAffine,
+    _own_offsets,
+    _parts,
+    build,
+    structural_pattern,
+)
+from . import events
+from .adaptive import _ORDER, FAILED_SOLVE, OK, SAFETY, TOO_MANY, TOO_SMALL, AdaptiveRun, Controls
+
+#: how many step maps (each an assembled, factored J_x for one step size) are kept
+CACHE_SIZE = 8
+
+#: names this path in ``AdaptiveRun.solver``
+DESCRIBE = "variable steps on the sparse affine map (SuperLU, step sizes on a 2^-k grid)"
+
+#: a sample of accepted steps is verified against the model's own residual: every this
+#: many steps of a map (and the first), at most :data:`VERIFY_MAX` per map
+VERIFY_EVERY = 256
+VERIFY_MAX = 12
+
+
+class SparseRun(NamedTuple):
+    """What :func:`adaptive_sparse` reports besides the :class:`AdaptiveRun`: ``builds``
+    (maps assembled by probing the model), ``factorizations`` (sparse LU factorizations,
+    the builds' included), ``levels`` (the grid levels ``k`` the tries used), ``fit``
+    (whether the maps were combined from the basis builds)."""
+
+    builds: int
+    factorizations: int
+    levels: tuple
+    fit: bool
+    #: tries whose size was off the grid (a step landing on a breakpoint or the end)
+    landings: int = 0
+
+
+def _offsets_fn(system, drivers, rule, scheme, hs, ts):
+    """``(r₀, P₀)`` of each pair ``(h, t)``: the driven parts' own rows (``drivers``) or,
+    with ``drivers=None``, the whole residual and momentum line at zero."""
+    import jax
+    import jax.numpy as jnp
+
+    if drivers is None:
+        from ..discretization.equations import unknown_count
+
+        size = 2 * system.n + unknown_count(system, rule)
+
+        def one(h, t):
+            r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), t)
+            return r, pm
+
+    else:
+
+        def one(h, t):
+            pieces = [_own_offsets(sub, rule, scheme, h, t) for sub in drivers]
+            return (
+                jnp.concatenate([r for r, _ in pieces]),
+                jnp.concatenate([pm for _, pm in pieces]),
+            )
+
+    return jax.vmap(one)(hs, ts)
+
+
+_offsets = run_once_jit(_offsets_fn, "diracvi.driver.adaptive_sparse._offsets")
+
+
+class _Map:
+    """One step size's map: ``J_x``'s factors and the products of a step. ``found``: the
+    :class:`~diracvi.solvers.sparse_affine.SparseAffineMap` whose ``_check_steps``
+    verifies its steps (``h`` and ``lu`` its own)."""
+
+    def __init__(self, found, mats, lu, grid):
+        import scipy.sparse as sp
+
+        jz, jx, pz, px, r0, pm0 = mats
+        self.found, self.h, self.grid = found, found.h, grid
+        self.n, self.size = found.n, jx.shape[0]
+        self.zmap = sp.vstack([jz, pz]).tocsr()
+        self.px = px.tocsr()
+        self.solve = lu.solve
+        self.r0, self.pm0 = np.asarray(r0), np.asarray(pm0)
+        self.samples = []  # (z, y, t) of accepted steps to verify
+
+    def step(self, z, r0, pm0):
+        """``(z_next, y)`` of one step from ``z`` with the offsets ``r₀``, ``P₀``."""
+        n, size = self.n, self.size
+        g = self.zmap @ z
+        y = self.solve(-(g[:size] + r0))
+        after = np.empty_like(z)
+        after[:n] = z[:n] + y[:n]
+        after[n:] = z[n:] + g[size:] + pm0 + self.px @ y
+        return after, y
+
+
+def _mats(found):
+    return (found.jz, found.jx, found.pz, found.px, found.r0, found.pm0)
+
+
+def _largest(a) -> float:
+    """``max |a_ij|`` of a sparse matrix or an array (0 if empty), without densifying."""
+    if hasattr(a, "tocoo"):
+        a = a.tocoo().data
+    return float(np.max(np.abs(a), initial=0.0))
+
+
+def _weights(sizes, h):
+    """``λ(h)`` with ``M(h) = Σ_i λ_i(h) M(h_i)`` for every ``M(h) = A/h + B + C·h``."""
+    x = np.asarray(sizes) / sizes[0]
+    basis = np.stack([1.0 / x, np.ones(3), x], axis=1)  # rows: (1/x_i, 1, x_i)
+    u = h / sizes[0]
+    return np.linalg.solve(basis.T, np.array([1.0 / u, 1.0, u]))
+
+
+class _Maps:
+    """The cache of step maps, keyed by the step size.
+
+    The step matrices of a linear circuit under the midpoint rule are ``A/h + B + C·h``
+    entry by entry (inertia over ``h``; damping, coupling and constraint rows; stiffness
+    times ``h``). So after :data:`FIT_SIZES` builds at grid sizes and one more that checks
+    the fit, a map for any ``h`` is a combination of those three (``O(nnz)``, no probes)
+    and one SuperLU factorization. If the check fails (a model whose step is not of that
+    form), every size is built."""
+
+    def __init__(self, system, rule, q0, p0, t0, detect_rtol, verify_rtol, top):
+        self.system, self.rule = system, rule
+        self.q0, self.p0, self.t0 = q0, p0, t0
+        self.detect_rtol, self.verify_rtol = detect_rtol, verify_rtol
+        self.pattern = structural_pattern(system, rule)
+        self.cache: OrderedDict = OrderedDict()
+        self.builds = self.factorizations = 0
+        self.levels: set = set()
+        self.retired: list = []  # maps dropped from the cache with samples still to verify
+        self.basis = None  # the three builds the others are combined from
+        self.fit = None  # True / False once checked
+        self.top = top
+
+    def _build(self, h):
+        self.builds += 1
+        self.factorizations += 1
+        return build(
+            self.system, self.rule, "plus", float(h), self.q0, self.p0, self.t0,
+            self.detect_rtol, self.verify_rtol, pattern=self.pattern,
+        )  # fmt: skip
+
+    def _try_fit(self) -> None:
+        """Build the three basis sizes and one check size; decide ``self.fit``."""
+        sizes = [self.top * 2.0**-k for k in FIT_SIZES]
+        self.basis = (sizes, [self._build(h) for h in sizes])
+        check_h = self.top * 2.0**-FIT_CHECK
+        found = self._build(check_h)
+        combined = self._combine(check_h)
+        worst = 0.0
+        for j, (got, want) in enumerate(zip(combined, _mats(found), strict=True)):
+            if j >= 4 and found.driven:  # the offsets: what the drivers do not replace
+                if found.drivers is None:
+                    continue  # (every offset comes from the compiled program)
+                rows = found.driver_rows if j == 4 else found.driver_coords
+                got, want = np.delete(got, rows), np.delete(want, rows)
+            worst = max(worst, _largest(got - want) / max(_largest(want), 1e-300))
+        self.fit = worst <= FIT_RTOL
+        for h, f in zip([*sizes, check_h], [*self.basis[1], found], strict=True):
+            self._store(float(h), f, _mats(f), f.lu, grid=True)
+
+    def _combine(self, h):
+        sizes, found = self.basis
+        lam = _weights(sizes, h)
+        out = []
+        for parts in zip(*(_mats(f) for f in found), strict=True):
+            total = lam[0] * parts[0]
+            for w, m in zip(lam[1:], parts[1:], strict=True):
+                total = total + w * m
+            out.append(total)
+        return out
+
+    def _store(self, key, found, mats, lu, grid):
+        entry = _Map(found, mats, lu, grid)
+        self.cache[key] = entry
+        while len(self.cache) > CACHE_SIZE:
+            # off-grid maps (a landing's) go first, then the least recently used
+            off = [k for k, v in self.cache.items() if not v.grid and k != key]
+            drop = off[0] if off else next(iter(self.cache))
+            self.retired.append(self.cache.pop(drop))
+        return entry
+
+    def get(self, h: float, level: int | None) -> _Map:
+        import copy
+
+        import scipy.sparse.linalg as spla
+
+        key = float(h)
+        if level is not None:
+            self.levels.add(level)
+        if self.fit is None:
+            self._try_fit()
+        found = self.cache.get(key)
+        if found is not None:
+            self.cache.move_to_end(key)
+            return found
+        if not self.fit:
+            built = self._build(key)
+            return self._store(key, built, _mats(built), built.lu, level is not None)
+        mats = self._combine(key)
+        jx = mats[1].tocsc()
+        try:
+            lu = spla.splu(jx, permc_spec="COLAMD")
+        except RuntimeError as exc:
+            raise NotSparseAffine(f"the step Jacobian at h = {key:g} is singular ({exc})") from None
+        self.factorizations += 1
+        found = copy.copy(self.basis[1][0])  # its _check_steps, at this h with this LU
+        found.h, found.lu = key, lu
+        return self._store(key, found, mats, lu, level is not None)
+
+    def all(self):
+        return list(self.cache.values()) + self.retired
+
+
+#: the grid levels built to fit ``A/h + B + C·h`` (see :class:`_Maps`), and the one that
+#: checks the fit; the fit must reproduce its matrices to ``FIT_RTOL`` of their largest entry
+FIT_SIZES = (0, 2, 4)
+FIT_CHECK = 6
+FIT_RTOL = 1e-12
+
+
+class _Record:
+    """Growing buffers of the recorded steps: nodes ``t``, sizes ``h``, states ``z`` (its
+    halves are ``q`` and ``p``), multipliers ``μ``."""
+
+    def __init__(self, capacity: int, n: int, m: int):
+        self.n, self.k = n, 0
+        self.t = np.empty(capacity + 1)
+        self.h = np.empty(capacity)
+        self.z = np.empty((capacity + 1, 2 * n))
+        self.mu = np.empty((capacity, m))
+
+    def start(self, t, z):
+        self.t[0], self.z[0] = t, z
+
+    def _grow(self):
+        for name in ("t", "h", "z", "mu"):
+            old = getattr(self, name)
+            new = np.empty((2 * old.shape[0], *old.shape[1:]))
+            new[: old.shape[0]] = old
+            setattr(self, name, new)
+
+    def add(self, t, h, z, mu):
+        if self.k >= len(self.h):
+            self._grow()
+        k = self.k
+        self.t[k + 1], self.h[k], self.z[k + 1], self.mu[k] = t, h, z, mu
+        self.k = k + 1
+
+    def arrays(self):
+        """``(t, h, q, p, μ)``: views of the written rows (no copy of the states)."""
+        k, n = self.k, self.n
+        z = self.z[: k + 1]
+        return self.t[: k + 1], self.h[:k], z[:, :n], z[:, n:], self.mu[:k]
+
+
+def _level(h: float, top: float) -> tuple[float, int]:
+    """``h`` rounded down to the grid ``top·2^{−k}`` (``k ≥ 0``): the size and ``k``."""
+    k = max(0, math.ceil(math.log2(top / h) - 1e-12))
+    return top * 2.0**-k, k
+
+
+def _verify(maps: _Maps) -> float:
+    """The largest relative Newton correction of the sampled steps (see the module doc)."""
+    worst = 0.0
+    for entry in maps.all():
+        if not entry.samples:
+            continue
+        z, y, t = (np.stack(c) for c in zip(*entry.samples, strict=True))
+        worst = max(worst, entry.found._check_steps(z, y, t))
+    return worst
+
+
+def adaptive_sparse(
+    system,
+    q0,
+    p0,
+    *,
+    t0: float,
+    t_stop: float,
+    controls: Controls,
+    breakpoints=(),
+    max_tries: int = 1_000_000,
+    detect_rtol: float = 1e-12,
+    verify_rtol: float = 1e-11,
+) -> tuple[AdaptiveRun, SparseRun]:
+    """March a linear interconnection ``system`` (packed, see
+    :meth:`~diracvi.model.interconnect.InterconnectedSystem._packed`) from ``(q0, p0)``
+    at ``t0`` to ``t_stop`` under the (+) midpoint rule with error-controlled steps, as
+    :func:`diracvi.driver.adaptive.adaptive` does, on sparse step maps (module doc).
+
+    Raises :class:`~diracvi.solvers.sparse_affine.NotSparseAffine` when the path does not
+    apply (not an interconnection, not affine, switches, a step that fails its
+    verification). Returns the :class:`AdaptiveRun` and a :class:`SparseRun`.
+    """
+    ensure_float64()
+    if not t_stop > t0:
+        raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
+    try:
+        switches = bool(events.relays(system))
+    except ModelError:  # a packed system with switches (it cannot carry their states)
+        switches = True
+    if switches:
+        raise NotSparseAffine("the circuit has switches (discrete states)")
+    rule = get_rule("midpoint")
+    n = system.n
+    q = np.asarray(q0, dtype=np.float64).reshape(n).copy()
+    p = np.asarray(p0, dtype=np.float64).reshape(n).copy()
+    hmax, hmin, rtol = float(controls.hmax), float(controls.hmin), float(controls.rtol)
+    top = 2.0 * hmax  # a try of H records two steps of H/2 ≤ hmax
+    maps = _Maps(system, rule, q, p, float(t0), detect_rtol, verify_rtol, top)
+    first = maps.get(*_level(min(controls.h_first, top), top))
+    m = first.size - n
+    atol_q = np.broadcast_to(np.asarray(controls.atol_q, np.float64), (n,))
+    atol_v = np.broadcast_to(np.asarray(controls.atol_v, np.float64), (n,))
+    atol_m = np.broadcast_to(np.asarray(controls.atol_m, np.float64), (m,))
+    driven = bool(system.time_dependent)
+    breaks = [float(b) for b in sorted(breakpoints) if t0 < b < t_stop]
+
+    def offsets(entries, hs, ts):
+        """Per step ``(r₀, P₀)`` of the given maps at sizes ``hs`` and times ``ts``."""
+        if not driven:
+            return [(e.r0, e.pm0) for e in entries]
+        drivers = first.found.drivers
+        use = drivers is not None and all(e.found.drivers is not None for e in entries)
+        # the drivers alone when they give the offsets (the packed system is a large
+        # PyTree: flattening it costs more than the program's run)
+        r, pm = _offsets(
+            None if use else system, drivers if use else None, rule, "plus",
+            np.asarray(hs, np.float64), np.asarray(ts, np.float64),
+        )  # fmt: skip
+        r, pm = np.asarray(r), np.asarray(pm)
+        if not use:
+            return list(zip(r, pm, strict=True))
+        out = []
+        for j, e in enumerate(entries):
+            full_r, full_p = e.r0.copy(), e.pm0.copy()
+            full_r[e.found.driver_rows] = r[j]
+            full_p[e.found.driver_coords] = pm[j]
+            out.append((full_r, full_p))
+        return out
+
+    t, z = float(t0), np.concatenate([q, p])
+    h = min(float(controls.h_first), top)
+    ib = 0
+    c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
+    q_peak, v_peak, m_peak = np.abs(q), np.zeros(n), np.zeros(m)
+    # the recorded steps, written in place (a guess of the count, grown if exceeded;
+    # np.empty's pages are committed only when written, so the guess costs nothing)
+    rec = _Record(2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16, n, m)
+    rec.start(t, z)
+    tries = rejected = landings = 0
+    status = OK
+    share = SAFETY
+    count = {}  # accepted steps per map, for the verification sample
+    while t < t_stop:
+        if tries >= max_tries:
+            status = TOO_MANY
+            break
+        target = min(breaks[ib], t_stop) if ib < len(breaks) else t_stop
+        rem = target - t
+        h0, k = _level(min(h, top), top)
+        land = rem <= h0 * (1.0 + 1e-9)
+        if land:
+            h_try, level = rem, None
+            landings += 1
+        elif rem < 2.0 * h0:
+            h_try, level = 0.5 * rem, None
+            landings += 1
+        else:
+            h_try, level = h0, k
+        half = 0.5 * h_try
+        coarse = maps.get(h_try, level)
+        fine = maps.get(half, None if level is None else level + 1)
+        (rc, pc), (r1, p1o), (r2, p2o) = offsets(
+            [coarse, fine, fine], [h_try, half, half], [t, t, t + half]
+        )
+        zc, yc = coarse.step(z, rc, pc)
+        z1, y1 = fine.step(z, r1, p1o)
+        z2, y2 = fine.step(z1, r2, p2o)
+        tries += 1
+        ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
+        qc, q1, q2 = zc[:n], z1[:n], z2[:n]
+        mu_c, mu1, mu2 = yc[n:], y1[n:], y2[n:]
+        diff = np.abs(q2 - qc) / (2.0**_ORDER - 1.0)
+        v1, v2 = (q1 - z[:n]) / half, (q2 - q1) / half
+        qp = np.maximum(q_peak, np.maximum(np.abs(q1), np.abs(q2)))
+        vp = np.maximum(v_peak, np.maximum(np.abs(v1), np.abs(v2)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e_q = diff / (share * rtol * qp + atol_q)
+            e_v = diff / h_try / (share * rtol * vp + atol_v)
+        c1 = 2.0 * mu1 - c_last
+        c2 = 2.0 * mu2 - c1
+        phi_c = -(2.0 * mu_c - c_last) / h_try
+        phi1, phi2 = -c1 / half, -c2 / half
+        diff_m = np.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
+        mp = np.maximum(m_peak, np.maximum(np.abs(phi1), np.abs(phi2)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e_m = diff_m / (share * rtol * mp + atol_m)
+        e_v = np.minimum(e_v, e_q)
+        e_m = np.minimum(e_m, e_m * h_try / hmax)
+        err = max(
+            float(np.max(e_q, initial=0.0)),
+            float(np.max(e_v, initial=0.0)),
+            float(np.max(e_m, initial=0.0)),
+        )
+        ok = ok and math.isfinite(err)
+        accept = ok and err <= 1.0
+        grow = min(max(0.9 * max(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2), 2.0) if ok else 0.0
+        h_next = h_try * grow if ok else 0.25 * h_try
+        if accept and h_try < h0:  # a landing step says little about the next one
+            h_next = max(h_next, h0)
+        if accept:
+            t_new = target if land else t + half + half
+            rec.add(t + half, half, z1, mu1)
+            rec.add(t_new, half, z2, mu2)
+            seen = count.get(id(fine), 0)
+            if seen % VERIFY_EVERY == 0 and len(fine.samples) < VERIFY_MAX:
+                fine.samples.append((z.copy(), y1.copy(), t))
+            count[id(fine)] = seen + 2
+            t, z = t_new, z2
+            c_last = c2
+            q_peak, v_peak, m_peak = qp, vp, mp
+            if land and ib < len(breaks) and target == breaks[ib]:
+                ib += 1
+        else:
+            rejected += 1
+        h = min(h_next, top)
+        if not accept and h_next < hmin:
+            status = TOO_SMALL if ok else FAILED_SOLVE
+            break
+    worst = _verify(maps)
+    if not worst <= verify_rtol:
+        raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+    run = AdaptiveRun(
+        *rec.arrays(),
+        tries,
+        rejected,
+        status,
+        None,
+        DESCRIBE,
+    )
+    return run, SparseRun(
+        maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit), landings
+    )

@@ -1,0 +1,166 @@
+"""Variable steps of a linear circuit on the sparse step maps (driver/adaptive_sparse.py).
+
+The path's promises: the same recorded steps' semantics and error control as the compiled
+loop (so the two agree to the run's tolerance), breakpoints landed exactly, and a number
+of LU factorizations bounded by the grid levels visited and the landings — not by the
+length of the run; a circuit from :data:`~diracvi.spice._run.SPARSE_MIN_COORDINATES`
+coordinates takes it in ``spice.run``. The decks of ``test_spice_time.py`` agree with
+ngspice on this path too (measured when it took them all; they are below the threshold).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse.linalg as spla
+
+from diracvi import spice
+from diracvi.bench.ladders import ladder
+from diracvi.driver import adaptive as compiled
+from diracvi.driver import adaptive_sparse as sparse
+from diracvi.spice import _ngspice as ng
+from diracvi.spice import _run
+from diracvi.spice._resample import Sampler
+from diracvi.spice._tran import breakpoints, tran_settings
+
+PULSE_DECK = """Series RLC driven by a pulse train
+V1 in 0 PULSE(0 1 10n 5n 5n 100n 300n)
+R1 in a 10
+L1 a b 1u
+C1 b 0 1n
+.tran 5n 1u uic
+.end
+"""
+
+
+def _sparse_run(text, stop=None):
+    """``(netlist, settings, breakpoints, AdaptiveRun, SparseRun)`` of the sparse path."""
+    netlist = spice.read(text)
+    settings = tran_settings(netlist)
+    t_stop = settings.stop if stop is None else stop
+    breaks = breakpoints(netlist.system, 0.0, t_stop)
+    march, info = sparse.adaptive_sparse(
+        netlist.system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=t_stop,
+        controls=_run.controls(netlist, settings), breakpoints=breaks,
+    )  # fmt: skip
+    return netlist, settings, breaks, march, info
+
+
+@pytest.fixture
+def counted_splu(monkeypatch):
+    """Counts every SuperLU factorization (scipy's ``splu``), wherever it is called."""
+    calls = []
+    original = spla.splu
+
+    def counting(*args, **kwargs):
+        calls.append(args[0].shape)
+        return original(*args, **kwargs)
+
+    monkeypatch.setattr(spla, "splu", counting)
+    return calls
+
+
+def test_linear_decks_take_it_and_nonlinear_ones_do_not(monkeypatch):
+    text = ladder(6, steps=100)
+    assert spice.read(text).system.n >= _run.SPARSE_MIN_COORDINATES
+    result = spice.run(text)
+    assert result.trajectory.solver == sparse.DESCRIBE
+    # a diode deck goes to the compiled loop (stopped there: its run is other tests')
+    seen = []
+
+    def stop(system, *args, **kwargs):
+        seen.append(system)
+        raise RuntimeError("compiled loop reached")
+
+    monkeypatch.setattr(_run, "adaptive", stop)
+    diode = (
+        "half-wave\nV1 a 0 SIN(0 5 1k)\nD1 a b dx\nR1 b 0 1k\n.model dx D\n.tran 10u 2m uic\n.end\n"
+    )
+    with pytest.raises(RuntimeError, match="compiled loop reached"):
+        spice.run(diode)
+    assert len(seen) == 1
+
+
+def test_factorizations_are_bounded_and_do_not_grow_with_the_run(counted_splu):
+    """Four builds (three to fit ``A/h + B + C·h``, one to check it), then one
+    factorization per grid level visited and at most two per landing try: the same count
+    for a run five times as long (no breakpoint inside: only the end is landed on)."""
+    text = ladder(2, steps=200)
+    _, _, breaks, march, info = _sparse_run(text)
+    assert len(breaks) == 0 and march.status == 0
+    assert info.fit and info.builds == 4
+    assert len(counted_splu) == info.factorizations  # every one is counted
+    bound = 4 + (len(info.levels) + 1) + 2 * info.landings
+    assert info.factorizations <= bound
+    assert info.landings <= 3  # the last two tries before the end, and a retry
+    longer = _sparse_run(text, stop=4 * 200e-6)[4]
+    assert longer.factorizations <= info.factorizations + 1
+    # a try is three solves; the factorizations are a small fraction of them
+    assert info.factorizations <= 0.05 * march.tries
+
+
+def test_breakpoints_land_exactly_and_bound_the_factorizations(counted_splu):
+    """Every source corner is a node of the run (bitwise), no recorded step is longer
+    than TMAX, and the factorizations stay within the levels plus two per landing."""
+    _, settings, breaks, march, info = _sparse_run(PULSE_DECK)
+    assert len(breaks) >= 12  # four corners a period
+    nodes = set(march.t.tolist())
+    assert all(float(b) in nodes for b in breaks)
+    assert march.t[-1] == settings.stop
+    assert np.max(march.h) <= settings.max_step * (1 + 1e-12)
+    assert len(counted_splu) == info.factorizations
+    assert info.factorizations <= 4 + (len(info.levels) + 1) + 2 * info.landings
+
+
+@pytest.mark.slow
+def test_agrees_with_the_compiled_loop_to_its_tolerance():
+    """The same deck by the compiled loop (dense Newton) and by the sparse maps: the
+    waveforms on the TSTEP grid agree to well within the run's reltol (1e-3): both
+    control the same local error, the sparse path on a coarser set of step sizes."""
+    netlist, settings, breaks, march, _ = _sparse_run(PULSE_DECK)
+    reference = compiled.adaptive(
+        netlist.system, netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
+        controls=_run.controls(netlist, settings), breakpoints=breaks,
+    )  # fmt: skip
+    assert reference.status == 0
+    grid = settings.output_times()
+    bounds = np.concatenate([[0.0], breaks, [settings.stop]])
+    got = _run._step_signals(netlist, march)
+    want = _run._step_signals(netlist, reference)
+    a, b = Sampler(march.t, march.h, bounds), Sampler(reference.t, reference.h, bounds)
+    for key in ("v(b)", "v(a)", "i(V1)"):
+        x, y = a(got[key], grid), b(want[key], grid)
+        assert np.max(np.abs(x - y)) <= 2e-4 * np.max(np.abs(y)), key
+    # the sizes are the compiled loop's rounded down to the grid: a few more tries
+    assert reference.tries <= march.tries <= 2 * reference.tries
+
+
+def test_a_circuit_it_cannot_step_is_refused_with_the_reason():
+    netlist = spice.read("sw\nV1 a 0 PULSE(0 1 0 1u 1u 1m 2m)\nS1 a b a 0 sm\nR1 b 0 1k\n"
+                         ".model sm sw vt=0.5\n.tran 10u 1m uic\n.end\n")  # fmt: skip
+    settings = tran_settings(netlist)
+    with pytest.raises(sparse.NotSparseAffine, match="switches"):
+        sparse.adaptive_sparse(
+            netlist.system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
+            controls=_run.controls(netlist, settings),
+        )  # fmt: skip
+
+
+FINE = ".options reltol=1e-7 abstol=1e-15 vntol=1e-12 chgtol=1e-18 trtol=1"
+
+
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+def test_a_ladder_on_this_path_agrees_with_a_fine_ngspice_run():
+    """A 6-stage ladder (19 coordinates: above the threshold) at its own settings
+    (reltol 1e-3, TMAX = TSTEP) against ngspice at reltol 1e-7, TMAX = TSTEP/50, on the
+    TSTEP grid: within 1e-3 of each probe's peak."""
+    text = ladder(6, steps=300)
+    result = spice.run(text)
+    assert result.trajectory.solver == sparse.DESCRIBE
+    probes = ("v(n1)", "v(n6)", "i(L1)")
+    t_ref, ref = ng.ngspice(text, probes, tmax=result.settings.step / 50, options=FINE)
+    keep = result.time >= t_ref[0]
+    for probe in probes:
+        want = np.interp(result.time[keep], t_ref, ref[probe])
+        error = np.max(np.abs(result[probe][keep] - want)) / np.max(np.abs(ref[probe]))
+        assert error <= 1e-3, (probe, error)
