@@ -108,7 +108,7 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
     # copies of the objects on the path to the leaf only (a flatten and unflatten of the
     # whole part cost ~50 µs per element, most of a 10⁴-element netlist's reading)
     part = _copy_with(template, path, _value(value))
-    fields = vars(part)
+    fields = object.__getattribute__(part, "__dict__")
     fields["name"] = check_name("name", name)
     fields.update(statics)
     return part
@@ -120,8 +120,9 @@ def _copy_with(obj, path: tuple[str, ...], value):
     if not path:
         return value
     copy = object.__new__(type(obj))
-    fields = vars(copy)
-    own = vars(obj)
+    # the dictionaries read past equinox's __getattribute__ (a Python hook per read)
+    fields = object.__getattribute__(copy, "__dict__")
+    own = object.__getattribute__(obj, "__dict__")
     for name in _field_names(type(obj)):
         fields[name] = own[name] if name in own else getattr(obj, name)
     fields[path[0]] = _copy_with(own[path[0]], path[1:], value)
