@@ -13,8 +13,10 @@ where ``P`` has no constants of its own. Two functions whose ``P`` print the sam
 is shared between them (interned), and their ``c`` are ordinary PyTree leaves — stacked
 and vmapped by the partitioned solver, passed as arguments (not baked in) to compiled
 code. Anything this cannot represent faithfully (a traced captured value, a primitive
-whose parameters hold Python callables — custom derivative rules, callbacks) keeps the
-function's identity in the key, so such functions group only with themselves.
+whose parameters hold Python callables — callbacks, a custom derivative rule that is a
+closure or a lambda) keeps the function's identity in the key, so such functions group
+only with themselves. A custom derivative rule that is a top-level function of diracvi
+or JAX (:func:`rule_name`: the diode's junction charge) is printed by its name instead.
 """
 
 from __future__ import annotations
@@ -99,7 +101,11 @@ def rule_name(item) -> str | None:
     reads of one netlist with a diode) although the rule is the same code. The wrapper's
     debug information names the rule's function, file and line; the function is found
     again as the module's attribute of that name, and accepted only if its code starts
-    at that line of that file (a nested function of the same name is another object)."""
+    at that line of that file (a nested function of the same name is another object).
+
+    What the name leaves out: a ``custom_jvp``'s ``nondiff_argnums`` values are baked
+    into the wrapper, not into the rule; two calls differing only in a non-differentiated
+    argument that the primal ignores would share a key. diracvi's rules take none."""
     info = getattr(item, "debug_info", None)
     if info is None or getattr(info, "traced_for", None) not in _RULES:
         return None
