@@ -74,7 +74,9 @@ class Part(LagrangeDiracSystem):
     #: (:mod:`diracvi.solvers.limiting`), and their ``(nV_T, V_crit, BV)`` rows
     junctions: tuple[int, ...] = eqx.field(static=True)
     junction_limits: object
-    waveforms: tuple = eqx.field(static=True)
+    #: (data, not static: their numbers are array leaves, so a source of another value
+    #: leaves the model's structure, and its compiled programs, as they are)
+    waveforms: tuple
 
     def __init__(
         self,

@@ -30,6 +30,13 @@ def _num(where: str, arg: str, value, positive: bool = False, nonneg: bool = Fal
     return x
 
 
+def _data(x):
+    """A waveform's number as data: a float64 array leaf (a compiled program takes it
+    as an argument, so a source of another value reuses the program); a traced value
+    stays the tracer it is."""
+    return x if isinstance(x, jax.core.Tracer) else np.asarray(x, dtype=np.float64)
+
+
 class Waveform(eqx.Module):
     """A source value ``u(t)`` (volts or amperes)."""
 
@@ -46,10 +53,10 @@ class Waveform(eqx.Module):
 class DC(Waveform):
     """``u(t) = value``."""
 
-    value: float = eqx.field(static=True)
+    value: object
 
     def __init__(self, value):
-        self.value = _num("DC", "value", value)
+        self.value = _data(_num("DC", "value", value))
 
     def __call__(self, t):
         return jnp.asarray(self.value, dtype=jnp.float64) + 0.0 * t
@@ -64,22 +71,22 @@ class Sine(Waveform):
     ngspice: the wave is then already running at ``t = 0``.
     """
 
-    offset: float = eqx.field(static=True)
-    amplitude: float = eqx.field(static=True)
-    frequency: float = eqx.field(static=True)
-    delay: float = eqx.field(static=True)
-    damping: float = eqx.field(static=True)
-    phase: float = eqx.field(static=True)
+    offset: object
+    amplitude: object
+    frequency: object
+    delay: object
+    damping: object
+    phase: object
 
     def __init__(self, offset, amplitude, frequency, delay=0.0, damping=0.0, phase=0.0):
-        self.offset = _num("SIN", "VO", offset)
-        self.amplitude = _num("SIN", "VA", amplitude)
-        self.frequency = _num("SIN", "FREQ", frequency, nonneg=True)
+        self.offset = _data(_num("SIN", "VO", offset))
+        self.amplitude = _data(_num("SIN", "VA", amplitude))
+        self.frequency = _data(_num("SIN", "FREQ", frequency, nonneg=True))
         # a negative TD (ngspice accepts it) starts the sine before t = 0: a cosine is
         # SIN(0 A f −1/(4f))
-        self.delay = _num("SIN", "TD", delay)
-        self.damping = _num("SIN", "THETA", damping)
-        self.phase = _num("SIN", "PHASE", phase)
+        self.delay = _data(_num("SIN", "TD", delay))
+        self.damping = _data(_num("SIN", "THETA", damping))
+        self.phase = _data(_num("SIN", "PHASE", phase))
 
     def __call__(self, t):
         phi = self.phase * math.pi / 180.0
@@ -100,22 +107,22 @@ class Pulse(Waveform):
     ``TR ≤ s ≤ TR + PW``; a linear fall over ``TF``.
     """
 
-    v1: float = eqx.field(static=True)
-    v2: float = eqx.field(static=True)
-    delay: float = eqx.field(static=True)
-    rise: float = eqx.field(static=True)
-    fall: float = eqx.field(static=True)
-    width: float = eqx.field(static=True)
-    period: float = eqx.field(static=True)
+    v1: object
+    v2: object
+    delay: object
+    rise: object
+    fall: object
+    width: object
+    period: object
     count: int = eqx.field(static=True)
 
     def __init__(self, v1, v2, delay, rise, fall, width, period, count=0):
-        self.v1, self.v2 = _num("PULSE", "V1", v1), _num("PULSE", "V2", v2)
-        self.delay = _num("PULSE", "TD", delay, nonneg=True)
-        self.rise = _num("PULSE", "TR", rise, positive=True)
-        self.fall = _num("PULSE", "TF", fall, positive=True)
-        self.width = _num("PULSE", "PW", width, nonneg=True)
-        self.period = _num("PULSE", "PER", period, positive=True)
+        self.v1, self.v2 = _data(_num("PULSE", "V1", v1)), _data(_num("PULSE", "V2", v2))
+        self.delay = _data(_num("PULSE", "TD", delay, nonneg=True))
+        self.rise = _data(_num("PULSE", "TR", rise, positive=True))
+        self.fall = _data(_num("PULSE", "TF", fall, positive=True))
+        self.width = _data(_num("PULSE", "PW", width, nonneg=True))
+        self.period = _data(_num("PULSE", "PER", period, positive=True))
         self.count = int(_num("PULSE", "NP", count, nonneg=True))
 
     def __call__(self, t):
@@ -153,10 +160,10 @@ class PWL(Waveform):
     last value and the jump back to ``u(r)`` is taken just after it (as ngspice does).
     """
 
-    times: tuple[float, ...] = eqx.field(static=True)
-    values: tuple[float, ...] = eqx.field(static=True)
-    delay: float = eqx.field(static=True)
-    repeat: float | None = eqx.field(static=True)
+    times: object
+    values: object
+    delay: object
+    repeat: object
 
     def __init__(self, times, values, delay=0.0, repeat=None):
         ts = tuple(_num("PWL", f"T{i + 1}", x) for i, x in enumerate(times))
@@ -167,8 +174,11 @@ class PWL(Waveform):
             )
         if np.any(np.diff(ts) <= 0.0):
             raise ModelError(f"PWL: times {ts} must increase strictly.")
-        self.times, self.values = ts, vs
-        self.delay = _num("PWL", "TD", delay)
+        # arrays (data; their length is the structure): a traced value keeps them JAX's
+        xp = jnp if any(isinstance(x, jax.core.Tracer) for x in (*ts, *vs)) else np
+        self.times = xp.asarray(ts, dtype=np.float64)
+        self.values = xp.asarray(vs, dtype=np.float64)
+        self.delay = _data(_num("PWL", "TD", delay))
         if repeat is not None:
             repeat = _num("PWL", "R", repeat)
             if repeat not in ts[:-1]:
@@ -176,7 +186,7 @@ class PWL(Waveform):
                     f"PWL: R={repeat:g} must be one of the times before the last "
                     f"{ts[:-1]} (the repeat runs from that point to the last)."
                 )
-        self.repeat = repeat
+        self.repeat = None if repeat is None else _data(repeat)
 
     def __call__(self, t):
         tau = t - self.delay
@@ -212,19 +222,19 @@ class Exp(Waveform):
     ``TD1`` and ``TD2`` (the slope jumps there).
     """
 
-    v1: float = eqx.field(static=True)
-    v2: float = eqx.field(static=True)
-    delay_rise: float = eqx.field(static=True)
-    tau_rise: float = eqx.field(static=True)
-    delay_fall: float = eqx.field(static=True)
-    tau_fall: float = eqx.field(static=True)
+    v1: object
+    v2: object
+    delay_rise: object
+    tau_rise: object
+    delay_fall: object
+    tau_fall: object
 
     def __init__(self, v1, v2, delay_rise, tau_rise, delay_fall, tau_fall):
-        self.v1, self.v2 = _num("EXP", "V1", v1), _num("EXP", "V2", v2)
-        self.delay_rise = _num("EXP", "TD1", delay_rise)
-        self.tau_rise = _num("EXP", "TAU1", tau_rise, positive=True)
-        self.delay_fall = _num("EXP", "TD2", delay_fall)
-        self.tau_fall = _num("EXP", "TAU2", tau_fall, positive=True)
+        self.v1, self.v2 = _data(_num("EXP", "V1", v1)), _data(_num("EXP", "V2", v2))
+        self.delay_rise = _data(_num("EXP", "TD1", delay_rise))
+        self.tau_rise = _data(_num("EXP", "TAU1", tau_rise, positive=True))
+        self.delay_fall = _data(_num("EXP", "TD2", delay_fall))
+        self.tau_fall = _data(_num("EXP", "TAU2", tau_fall, positive=True))
 
     def __call__(self, t):
         span = self.v2 - self.v1

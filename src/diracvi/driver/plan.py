@@ -234,7 +234,9 @@ class Plan:
                 and len(system.subsystems) >= GROUPED_MIN_SUBSYSTEMS
                 and not layout(system).traced
             ):
-                system = system._packed()
+                # through the class: a method read from a Module is bound as a PyTree
+                # whose creation flattens the whole system (0.5 s at 10⁴ parts)
+                system = InterconnectedSystem._packed(system)
             self._packed = system
         return self._packed
 

@@ -269,7 +269,9 @@ class InterconnectedSystem(DiracSystem):
                     f"interactions[{j}]={inter!r} is not an interaction: use "
                     "dv.connect('a.x', 'b.y') or dv.Interaction(B)."
                 )
-            rows = self._rows(inter, j)
+            # (read from the class: a method read from a half-built Module is bound as a
+            # PyTree and equinox checks its leaves, every subsystem's, at every call)
+            rows = type(self)._rows(self, inter, j)
             inter = inter.lifted(len(self._coords))  # once its shape is known to be right
             given = inter.names or [f"λ{len(inames) + b}" for b in range(rows)]
             if len(given) != rows:

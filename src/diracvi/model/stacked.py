@@ -22,6 +22,7 @@ interleaved) through an index table of the group's positions.
 from __future__ import annotations
 
 import dataclasses
+import functools
 from functools import cached_property
 
 import equinox as eqx
@@ -38,23 +39,48 @@ def structure_key(sub):
     """What must agree for two subsystems to be stacked: the PyTree structure with every
     static field (the subsystem's own name aside — it enters no equation) and, per leaf,
     the shape and dtype of an array or the value of anything else."""
-    proxy = object.__new__(type(sub))
-    for f in dataclasses.fields(sub):
-        object.__setattr__(proxy, f.name, getattr(sub, f.name))
-    if hasattr(proxy, "name"):
-        object.__setattr__(proxy, "name", "")
+    return _keyed(sub)[0]
+
+
+def _keyed(sub):
+    """``(structure_key(sub), the array leaves of sub)`` from one flattening."""
+    kind = type(sub)
+    names = _field_names(kind)
+    if "name" in names:
+        proxy = object.__new__(kind)
+        fields, own = _dict(proxy), _dict(sub)
+        for name in names:
+            fields[name] = own[name] if name in own else getattr(sub, name)
+        fields["name"] = ""
+    else:
+        proxy = sub
     leaves, treedef = jax.tree_util.tree_flatten(proxy)
-    parts = []
+    parts, arrays = [], []
     for leaf in leaves:
         if eqx.is_array(leaf):
             parts.append(("array", tuple(leaf.shape), str(leaf.dtype)))
+            arrays.append(leaf)
         else:
             try:
                 hash(leaf)
                 parts.append(("value", type(leaf), leaf))
             except TypeError:
                 parts.append(("object", id(leaf)))
-    return treedef, tuple(parts)
+    return (treedef, tuple(parts)), arrays
+
+
+@functools.cache
+def _field_names(kind: type) -> tuple[str, ...]:
+    """The dataclass fields of ``kind`` (none for another class)."""
+    if not dataclasses.is_dataclass(kind):
+        return ()
+    return tuple(f.name for f in dataclasses.fields(kind))
+
+
+def _dict(obj) -> dict:
+    """``vars(obj)``, read past equinox's ``__getattribute__`` (a Python-level hook that
+    costs about a microsecond per read: building a model of 10⁴ parts reads millions)."""
+    return object.__getattribute__(obj, "__dict__")
 
 
 class Skeletons(tuple):
@@ -91,9 +117,10 @@ def _renamed(skeleton, name: str):
     if getattr(skeleton, "name", name) == name:
         return skeleton
     copy = object.__new__(type(skeleton))
-    for f in dataclasses.fields(skeleton):
-        object.__setattr__(copy, f.name, getattr(skeleton, f.name))
-    object.__setattr__(copy, "name", name)
+    fields, own = _dict(copy), _dict(skeleton)
+    for field in _field_names(type(skeleton)):
+        fields[field] = own[field] if field in own else getattr(skeleton, field)
+    fields["name"] = name
     return copy
 
 
@@ -267,8 +294,11 @@ class Packing(eqx.Module):
 def pack(subsystems) -> tuple[Skeletons, Packing]:
     """Group alike ``subsystems`` and stack each group's array leaves once (host side)."""
     keyed: dict = {}
+    arrays_of = []  # each subsystem's array leaves (one flattening per subsystem)
     for i, sub in enumerate(subsystems):
-        keyed.setdefault(structure_key(sub), []).append(i)
+        key, arrays = _keyed(sub)
+        keyed.setdefault(key, []).append(i)
+        arrays_of.append(arrays)
     members = [np.asarray(m, dtype=np.int64) for m in keyed.values()]
     # groups in the order of their first member: a chain's runs then follow its order
     members.sort(key=lambda m: int(m[0]))
@@ -278,10 +308,7 @@ def pack(subsystems) -> tuple[Skeletons, Packing]:
         first = subsystems[int(mem[0])]
         arrays, rest = eqx.partition(first, eqx.is_array)
         treedef = jax.tree.structure(arrays)
-        columns = zip(
-            *([x for x in jax.tree.leaves(subsystems[int(i)]) if eqx.is_array(x)] for i in mem),
-            strict=True,
-        )
+        columns = zip(*(arrays_of[int(i)] for i in mem), strict=True)
         stacks.append(jax.tree.unflatten(treedef, _stack_leaves(columns)))
         rests.append(rest)
         skeleton = jax.tree.map(_placeholder, first)

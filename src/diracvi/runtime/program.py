@@ -13,12 +13,16 @@ where ``P`` has no constants of its own. Two functions whose ``P`` print the sam
 is shared between them (interned), and their ``c`` are ordinary PyTree leaves — stacked
 and vmapped by the partitioned solver, passed as arguments (not baked in) to compiled
 code. Anything this cannot represent faithfully (a traced captured value, a primitive
-whose parameters hold Python callables — custom derivative rules, callbacks) keeps the
-function's identity in the key, so such functions group only with themselves.
+whose parameters hold Python callables — callbacks, a custom derivative rule that is a
+closure or a lambda) keeps the function's identity in the key, so such functions group
+only with themselves. A custom derivative rule that is a top-level function of diracvi
+or JAX (:func:`rule_name`: the diode's junction charge) is printed by its name instead.
 """
 
 from __future__ import annotations
 
+import re
+import sys
 import weakref
 from collections.abc import Callable, Sequence
 
@@ -81,6 +85,64 @@ def _opaque_params(jaxpr, found: list) -> None:
                     found.append(item)
 
 
+#: JAX's wrapped derivative rules, by what they were traced for
+_RULES = ("custom_jvp jvp", "custom_vjp fwd", "custom_vjp bwd")
+_SOURCE = re.compile(r"^(?P<name>[A-Za-z_][A-Za-z_0-9]*) at (?P<file>.+):(?P<line>[0-9]+)$")
+
+
+def rule_name(item) -> str | None:
+    """``module.function`` of a ``custom_jvp``/``custom_vjp`` rule that is a function
+    defined at the top level of an imported module of diracvi or of a library (no
+    closure: it is what its code says, and the code is in the store key's source hash or
+    the libraries' versions), else ``None``.
+
+    JAX traces the rule into a fresh wrapper at every trace of the function it belongs
+    to, so the wrapper's identity differs between two builds of the same model (two
+    reads of one netlist with a diode) although the rule is the same code. The wrapper's
+    debug information names the rule's function, file and line; the function is found
+    again as the module's attribute of that name, and accepted only if its code starts
+    at that line of that file (a nested function of the same name is another object).
+
+    What the name leaves out: a ``custom_jvp``'s ``nondiff_argnums`` values are baked
+    into the wrapper, not into the rule; two calls differing only in a non-differentiated
+    argument that the primal ignores would share a key. diracvi's rules take none."""
+    info = getattr(item, "debug_info", None)
+    if info is None or getattr(info, "traced_for", None) not in _RULES:
+        return None
+    match = _SOURCE.match(getattr(info, "func_src_info", None) or "")
+    if match is None:
+        return None
+    module = _module_of(match["file"])
+    if module is None:
+        return None
+    fn = getattr(module, match["name"], None)
+    code = getattr(fn, "__code__", None)
+    if (
+        code is None
+        or getattr(fn, "__closure__", None)
+        or code.co_filename != match["file"]
+        or code.co_firstlineno != int(match["line"])
+    ):
+        return None
+    return f"{module.__name__}.{match['name']}"
+
+
+#: modules by file (a model with 10⁴ diodes asks 10⁴ times)
+_MODULES: dict = {}
+
+
+def _module_of(path: str):
+    """The imported module of diracvi or of JAX whose file is ``path``."""
+    module = _MODULES.get(path)
+    if module is None:
+        top = __name__.split(".")[0]
+        for name, candidate in list(sys.modules.items()):
+            if getattr(candidate, "__file__", None) == path and name.split(".")[0] in (top, "jax"):
+                module = _MODULES[path] = candidate
+                break
+    return module
+
+
 def _lift_literals(jaxpr):
     """Replace the scalar float literals of the top-level equations by new constvars."""
     new_vars, values, eqns = [], [], []
@@ -113,11 +175,15 @@ def lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
         return None
     jaxpr, literals = _lift_literals(closed.jaxpr)
     consts = [jnp.asarray(c) for c in closed.consts] + [jnp.asarray(v) for v in literals]
-    opaque: list = []
-    _opaque_params(jaxpr, opaque)
+    found: list = []
+    _opaque_params(jaxpr, found)
+    # a derivative rule that is a module's own function is named by it; any other
+    # callable prints by name only (the same name may hide different code): its id
+    named = [(o, rule_name(o)) for o in found]
+    opaque = [o for o, name in named if name is None]
     key = str(jaxpr)
-    if opaque:  # these print by name only: the same name may hide different code
-        key += "\n# opaque: " + " ".join(str(id(o)) for o in opaque)
+    if found:
+        key += "\n# rules: " + " ".join(name or str(id(o)) for o, name in named)
     program = _INTERNED.get(key)
     if program is None:
         name = getattr(fn, "__qualname__", None) or type(fn).__name__
