@@ -35,10 +35,13 @@ import numpy as np
 from ..errors import ModelError
 from .controlled import ControlledPart
 
-#: ``y_k`` holds ``τ·g_k`` (V·s for a voltage, like the fluxes beside it), see mosfet.TAU
-TAU = 1e-12
-#: the weight ``C_τ`` of the term holding ``y_k``: its ``y``-line reads
-#: ``C_τ (g_k − y_k/τ)/τ = 0``, of the size of a node's charge residual
+#: the default ``τ``: ``y_k`` holds ``τ·g_k``. Newton judges all positions by one norm
+#: (its update must fall below ``10⁻¹³·‖q‖∞``), so ``y`` must be of the size of the
+#: fluxes beside it (``V × the run's time span``) for ``g = y/τ`` to be resolved; a
+#: netlist passes its TSTOP
+TAU = 1.0
+#: the weight ``C_τ`` of the term holding ``y_k`` (its ``y``-line reads
+#: ``C_τ (g_k − y_k/τ)/τ = 0``)
 HOLD = 1e-12
 
 
@@ -50,7 +53,7 @@ def BehaviouralSource(
     pairs: int = 0,
     currents=(),
     derivatives=(),
-    text: str = "",
+    tau: float = TAU,
 ) -> ControlledPart:
     r"""A behavioural source of ``kind`` ``"V"`` or ``"I"`` (module docstring).
 
@@ -60,7 +63,8 @@ def BehaviouralSource(
         pairs: the number of control voltages; their pins are ``c{k}p``, ``c{k}n``.
         currents: the elements whose currents ``i`` are, in order (``i(element)``).
         derivatives: functions ``g_k(v, i, t)`` whose time derivatives are ``d``.
-        text: the expression as written (kept in the part's description).
+        tau: the scale ``τ`` of the derivative positions ``y_k = τ g_k`` (seconds; about
+            the run's time span, see :data:`TAU`).
     """
     if kind not in ("V", "I"):
         raise ModelError(f"BehaviouralSource {name!r}: kind={kind!r} must be 'V' or 'I'.")
@@ -92,13 +96,13 @@ def BehaviouralSource(
         if derivatives:
             vc, cc = controls(q, v)
             for k, g in enumerate(derivatives):
-                gap = g(vc, cc, t) - q[iy[k]] / TAU
+                gap = g(vc, cc, t) - q[iy[k]] / tau
                 out_ = out_ - 0.5 * HOLD * gap**2
         return out_
 
     def force(q, v, t):
         vc, cc = controls(q, v)
-        d = v[iy] / TAU
+        d = v[iy] / tau
         value = jnp.asarray(law(vc, cc, t, d), dtype=v.dtype)
         f = jnp.zeros(n, dtype=v.dtype)
         return f.at[1 if kind == "I" else 0].set(-value)

@@ -90,7 +90,7 @@ def _build(ctx, name, line, kind, text, a, b, written, table=None):
         ops = ", ".join(dict.fromkeys(expr.discontinuous))
         ctx.note(
             line,
-            f"{written}: {ops} make the expression jump; Newton steps over the jump as "
+            f"{written}: the expression jumps ({ops}); Newton steps over the jump as "
             "written (no smoothing, no breakpoint)",
         )
     currents = [ctx.ref(c) for c in expr.currents]
@@ -107,7 +107,7 @@ def _build(ctx, name, line, kind, text, a, b, written, table=None):
         pairs=len(expr.pairs),
         currents=currents,
         derivatives=expr.derivatives,
-        text=text,
+        tau=ctx.tran[1] if ctx.tran else cp.behavioural.TAU,  # TSTOP: see TAU
     )
     return part, nodes
 
