@@ -30,9 +30,11 @@ def _linear_form(name, pos, kw, line, form, count):
             if letter in "EG"
             else "or a B source 'Bname n+ n- I=expr' / 'V=expr' with i(Vname) in expr"
         )
+        forms = "POLY(…) form" if letter in "EG" else "POLY(…), VALUE= and TABLE forms"
+        verb = "is" if letter in "EG" else "are"
         raise line.fail(
-            f"element {name!r}: the POLY(…) form of {letter} sources is not supported; "
-            f"write the linear form '{form}' {alt}"
+            f"element {name!r}: the {forms} of {letter} sources {verb} not supported; write the "
+            f"linear form '{form}' {alt}"
         )
     if kw or len(pos) != count:
         extra = f" and {sorted(kw)}" if kw else ""
