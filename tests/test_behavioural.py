@@ -181,6 +181,7 @@ C3 3 0 100n
 }
 
 
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
 @pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 @pytest.mark.parametrize("kind", sorted(NETLISTS))
 def test_behavioural_sources_agree_with_ngspice(kind):
@@ -197,6 +198,7 @@ def test_behavioural_sources_agree_with_ngspice(kind):
         assert peak > 1e-6
 
 
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
 def test_table_is_linear_between_its_points_and_flat_outside():
     """G TABLE into a resistor: away from the corners (where a step holds one) the law is
     affine in the control, so the node values are the table's exactly. (ngspice-39 rounds
@@ -218,6 +220,7 @@ R3 3 0 1k
     assert np.max(out) > 1.99 and np.min(out) < -0.99  # both flat ends are reached
 
 
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
 def test_ddt_of_a_ramp_is_its_slope_and_zero_at_dc():
     """``V = ddt(v(1))`` of a trapezoid whose corners fall on step nodes: the midpoint
     rule's difference quotient is exact for a piecewise-linear input (round-off)."""
@@ -236,6 +239,7 @@ R2 2 0 1k
     assert np.max(np.abs(out)) > 5.9
 
 
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
 def test_comparison_jumps_are_stepped_over_as_written():
     """``V = v(1) > 0.5 ? 1 : 0`` (no smoothing, no breakpoint): away from the steps
     that hold the crossing the output is the ideal comparator's, and Newton converges
@@ -273,6 +277,7 @@ l1 g 0 10m
 """
 
 
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
 def test_discrete_power_balance_accounts_for_every_watt():
     r"""Midpoint, per half-step pair as in test_controlled: independent sources' work =
     Δ(stored) + dissipated + the work done ON the B outputs, the last from the B laws
