@@ -82,7 +82,7 @@ def test_reader_understands_the_supported_syntax():
         ("J1 d g s jmod", r"line 2: element 'J1': a JFET"),
         ("Q1 c b e npn", r"line 2: element 'Q1': no defined model"),
         (".subckt amp a b", r"line 2: '.subckt' without its '.ends'"),
-        (".func f(x) {x}", r"line 2: directive '.func' is not supported"),
+        (".func f {x}", r"line 2: expected '.func NAME\(arg1, arg2, …\) = expr'"),
         ("R1 a 0", r"line 2: expected 'Rname n\+ n- value \[ac=value\]'"),
         ("R1 a 0 1k tc=1", r"line 2: unsupported parameters \['tc'\]"),
         ("R1 a 0 {1/0}", r"line 2: R1 value: '1/0'"),

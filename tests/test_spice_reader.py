@@ -38,12 +38,12 @@ def _value(part, key):
 BROKEN = """a deck with a problem on many lines
 V1 in 0 PULSE(0 1 0 1u 1u 1m 2m) AC 1
 R1 in a {undefined*2}
-B1 a 0 V=2*V(in)
+B1 a 0 V=2*V(in)*volume(1)
 J1 c b 0 mod1
 .model mod1 NJF(BETA=1m)
 R1 a 0 1k
 C1 a 0 -1u
-.func f(x) {x*2}
+.func f {x*2}
 .temp 85
 D1 a 0 nomodel
 .tran 1u 1m
@@ -65,7 +65,8 @@ def test_every_problem_is_reported_at_once_with_line_text_and_fix():
         assert f"line {k}: " in text and lines[k - 1] in text  # its number and its text
     assert "line 2" not in text and "'ac'" not in text  # the AC spec is no parameter
     assert "unknown parameter 'undefined'" in text and "(define it with .param)" in text
-    assert "element 'B1': a behavioural source (B)" in text
+    assert "element 'B1': unknown function 'volume' at column 9" in text
+    assert "expected '.func NAME(arg1, arg2, …) = expr'" in text
     # the transistor is refused at its element line, naming its model's line
     assert "element 'J1': a JFET, model 'mod1' (NJF, line 6)" in text
     assert "line 6:" not in text
@@ -351,13 +352,13 @@ def test_problems_inside_instances_name_the_instance_chain():
 
 
 def test_a_definition_line_failing_in_many_instances_is_one_problem():
-    deck = "t\n.subckt amp a b\nR1 a b 1k\nB1 b 0 V=2*V(a)\n.ends\nV1 1 0 1\n"
+    deck = "t\n.subckt amp a b\nR1 a b 1k\nB1 b 0 V=2*V(a)*volume(1)\n.ends\nV1 1 0 1\n"
     deck += "".join(f"X{k} 1 0 amp\n" for k in range(6))
     with pytest.raises(spice.NetlistError) as info:
         spice.read(deck)
     ((where, text, why),) = info.value.problems
-    assert (where, text) == ("line 4", "B1 b 0 V=2*V(a)")
-    assert why.startswith("in x0, x1, x2, x3 and 2 more: element 'B1': a behavioural source")
+    assert (where, text) == ("line 4", "B1 b 0 V=2*V(a)*volume(1)")
+    assert why.startswith("in x0, x1, x2, x3 and 2 more: element 'B1': unknown function")
 
 
 @pytest.mark.parametrize(

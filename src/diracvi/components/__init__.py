@@ -10,6 +10,7 @@ built = c.build()   # built.system, built.q0, built.p0
 
 from ._charge_port import ChargePortPart
 from ._part import Part
+from .behavioural import BehaviouralSource
 from .bjt import BJT
 from .controlled import CCCS, CCVS, VCCS, VCVS
 from .diode import SPICE_PARAMETERS, Diode, spice_diode
@@ -56,6 +57,7 @@ __all__ = [
     "VCCS",
     "VCVS",
     "Assembly",
+    "BehaviouralSource",
     "Capacitor",
     "ChargePortPart",
     "Circuit",

@@ -1,4 +1,5 @@
-r"""Netlist lines of the linear controlled sources E, F, G, H.
+r"""Netlist lines of the linear controlled sources E, F, G, H (E and G with ``VALUE=`` or
+``TABLE`` are behavioural sources, :mod:`._behavioural`).
 
     Ename n+ n- nc+ nc- gain             V(n+, n-) = gain · V(nc+, nc-)
     Gname n+ n- nc+ nc- transconductance  i = gm · V(nc+, nc-), from n+ through G to n-
@@ -14,15 +15,26 @@ late (:data:`~diracvi.spice._elements.LATE`).
 from __future__ import annotations
 
 from .. import components as cp
+from ._behavioural import value_line
 
 
 def _linear_form(name, pos, kw, line, form, count):
-    """The fields of a linear controlled-source line; ``VALUE=``/``POLY`` refused."""
+    """The fields of a linear controlled-source line; ``POLY`` (and ``VALUE=``/``TABLE``
+    on F and H, which ngspice does not have) refused."""
     fields = [t.lower() for t in pos[1:]]
-    if "value" in kw or "poly" in fields or "value" in fields:
+    if "value" in kw or "poly" in fields or "value" in fields or "table" in fields:
+        letter = pos[0][0].upper()
+        alt = (
+            f"or the behavioural forms '{letter}name n+ n- VALUE={{expr}}' / 'TABLE {{expr}} = "
+            "(x,y) …'"
+            if letter in "EG"
+            else "or a B source 'Bname n+ n- I=expr' / 'V=expr' with i(Vname) in expr"
+        )
+        forms = "POLY(…) form" if letter in "EG" else "POLY(…), VALUE= and TABLE forms"
+        verb = "is" if letter in "EG" else "are"
         raise line.fail(
-            f"element {name!r}: the VALUE= and POLY(…) forms of {pos[0][0].upper()} sources "
-            f"are not supported; write the linear form '{form}'"
+            f"element {name!r}: the {forms} of {letter} sources {verb} not supported; write the "
+            f"linear form '{form}' {alt}"
         )
     if kw or len(pos) != count:
         extra = f" and {sorted(kw)}" if kw else ""
@@ -42,6 +54,9 @@ def _ammeter(ctx, vctrl, line):
 
 
 def vcvs(ctx, name, pos, kw, line):
+    behavioural = value_line(ctx, name, pos, kw, line, "V")
+    if behavioural is not None:
+        return behavioural
     form = "Ename n+ n- nc+ nc- gain"
     _, a, b, c, d, k = _linear_form(name, pos, kw, line, form, 6)
     gain = ctx.value(k, line, f"{pos[0]} gain")
@@ -49,6 +64,9 @@ def vcvs(ctx, name, pos, kw, line):
 
 
 def vccs(ctx, name, pos, kw, line):
+    behavioural = value_line(ctx, name, pos, kw, line, "I")
+    if behavioural is not None:
+        return behavioural
     form = "Gname n+ n- nc+ nc- transconductance"
     _, a, b, c, d, k = _linear_form(name, pos, kw, line, form, 6)
     gm = ctx.value(k, line, f"{pos[0]} transconductance")

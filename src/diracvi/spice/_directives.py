@@ -121,6 +121,23 @@ def _op(reader, line, pos, kw):
     )
 
 
+def _func(reader, line, pos, kw):
+    """``.func name(a, b) = expr`` or ``.func name(a, b) {expr}``: a user function of the
+    behavioural expressions (:mod:`._expr` inlines it at each call)."""
+    m = re.match(
+        r"^\.func\s+([A-Za-z_]\w*)\s*\(([^()]*)\)\s*=?\s*(.+?)\s*$", line.text, re.I | re.S
+    )
+    if m is None:
+        raise line.fail("expected '.func NAME(arg1, arg2, …) = expr' (or '{expr}')")
+    name, args, body = m.group(1).lower(), m.group(2), m.group(3)
+    names = [a.strip().lower() for a in args.split(",") if a.strip()]
+    if body[:1] + body[-1:] in ("{}", "''"):
+        body = body[1:-1]
+    if name in reader.funcs:
+        raise line.fail(f".func {m.group(1)} is defined twice; keep one")
+    reader.funcs[name] = (names, body)
+
+
 def _noted(what):
     def handler(reader, line, pos, kw):
         reader.note(line, f"{card(line)} {what}")
@@ -155,7 +172,7 @@ DIRECTIVES = {
     **dict.fromkeys(
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
     ),
-    ".func": _refused("user functions; write the expression out in {…}"),
+    ".func": _func,
     ".if": _refused("conditional netlists; keep one branch"),
     ".csparam": _refused("control-language parameters; use .param"),
     ".step": _refused("parameter steps; use `diracvi sweep`"),

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from .. import components as cp
 from ..components.diode import SPICE_ALIASES
+from ._behavioural import b_line
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._mos import m_line
@@ -135,6 +136,7 @@ ELEMENTS = {
     "V": _v,
     "I": _i,
     "D": _d,
+    "B": b_line,
     "E": vcvs,
     "F": cccs,
     "G": vccs,
@@ -148,13 +150,12 @@ ELEMENTS = {
 
 #: letters read after the other elements of their scope, because their lines name other
 #: elements (K its inductors; the controlled sources F and H and the switch W their
-#: controlling V)
-LATE = ("K", "F", "H", "W")
+#: controlling V; B the sources of its i(…))
+LATE = ("K", "F", "H", "W", "B")
 
 #: element letters ngspice knows and diracvi does not build yet: what each one is, and
 #: whether it names a model (refused at the element line, which names the model's line)
 UNSUPPORTED = {
-    "B": ("a behavioural source (B)", False),
     "J": ("a JFET", True),
     "Z": ("a MESFET", True),
     "T": ("a lossless transmission line", False),
@@ -166,7 +167,7 @@ UNSUPPORTED = {
     "N": ("an OSDI (Verilog-A) device", True),
 }
 
-SUPPORTED = "R, C, L, K, V, I, D, E, F, G, H, S, W, Q, M (level 1) and X (subcircuits)"
+SUPPORTED = "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, M (level 1) and X (subcircuits)"
 
 
 def unsupported(ctx, pos, line):

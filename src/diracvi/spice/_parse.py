@@ -17,6 +17,7 @@ from pathlib import Path
 
 from .. import components as cp
 from ..errors import ModelError
+from ._behavioural import check_names
 from ._directives import DIRECTIVES
 from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
@@ -158,6 +159,8 @@ class _Reader:
         self.globals: set[str] = set()
         self.all_models: list = []
         self.display: dict[str, str] = {}
+        self.funcs: dict[str, tuple] = {}  # .func name -> (argument names, body)
+        self.name_checks: list = []  # B sources' nodes and sources, checked at the end
         self.top = Scope(self, params=dict(self.overrides))
 
     def note(self, line: Line, text: str) -> None:
@@ -187,6 +190,7 @@ class _Reader:
                 lines = [*lines, control[0].with_text("." + control[0].text)]
                 self.note(control[0], "the .control block's 'tran' is used as the .tran")
         read_body(self.top, lines)
+        check_names(self)
         for model in self.all_models:
             if not model.used:
                 note = f"{model.where}: .model {model.name} {model.kind} is not used (accepted)"

@@ -60,6 +60,11 @@ class Scope:
     def tran(self):
         return self.reader.tran
 
+    @property
+    def funcs(self):
+        """The ``.func`` functions (top level): name -> (argument names, body text)."""
+        return self.reader.funcs
+
     def value(self, token: str, line: Line, what: str) -> float:
         """A number (``4.7k``) or an expression (``{r*2}``, ``'r*2'``, ``r``)."""
         x = number(token)

@@ -1,0 +1,390 @@
+"""Behavioural sources (B; E/G with VALUE= and TABLE): ngspice's expression language against
+hand values and live ngspice, small B circuits against ngspice, the discrete power
+balance, ddt, jumps, and the errors (docs/circuits.md, "Behavioural sources")."""
+
+from __future__ import annotations
+
+import math
+import re
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import _ngspice as ng
+import diracvi as dv
+from diracvi import components as cp
+from diracvi import spice
+from diracvi.spice import waveforms
+from diracvi.spice._expr import ExprError, compile_expression, evaluate_constant
+
+# --------------------------------------------------------------- expressions
+#: (expression, value): each value by hand, and each what ngspice-39 gives (the
+#: live test below checks the table against the installed ngspice)
+TABLE = [
+    ("1+2*3", 7.0),
+    ("(1+2)*3", 9.0),
+    ("1-2-3", -4.0),  # left-associative
+    ("8/2/2", 2.0),
+    ("-2^2", -4.0),  # unary minus below ^
+    ("-2**2", -4.0),
+    ("2^3^2", 64.0),  # ^ is left-associative in ngspice
+    ("2**3", 8.0),
+    ("2^-1", 0.5),
+    ("2*3^2", 18.0),
+    ("(-2)^3", 8.0),  # ngspice: |x|^y
+    ("pow(-2,3)", 8.0),
+    ("pwr(-8,1/3)", -2.0),  # sgn(x)|x|^y
+    ("1+1==2", 1.0),
+    ("5+2>1", 1.0),  # + before >
+    ("0 == 0 > -1", 0.0),  # < > before == (C's order)
+    ("2 <> 3", 1.0),
+    ("1 != 1", 0.0),
+    ("2 <= 2", 1.0),
+    ("3 >= 4", 0.0),
+    ("-3 > -4", 1.0),
+    ("1 || 1 && 0", 1.0),  # && before ||
+    ("0 && 1 || 1", 1.0),
+    ("!0+10*!2", 1.0),
+    ("!1+1", 1.0),  # ! binds tighter than +
+    ("1 ? 0 ? 5 : 6 : 7", 6.0),
+    ("0 ? 1 : 0 ? 2 : 3", 3.0),  # right-associative
+    ("-1 ? 4 : 5", 4.0),  # nonzero is true
+    ("1k+1meg/1e6+2m*1000", 1003.0),
+    ("10u*1e5+1.5n*1e9+2p*1e12+3f*1e15+1mil/25.4e-6", 1.0 + 1.5 + 2.0 + 3.0 + 1.0),
+    ("2g/1e9+1t/1e12", 3.0),
+    ("1MEG/1e6+1kOhm/1e3", 2.0),  # case-insensitive, trailing letters ignored
+    ("abs(-1)+sqrt(16)", 5.0),
+    ("exp(0)+ln(1)+log(1)+log10(1000)", 4.0),  # log is ln in ngspice
+    ("sin(0)+cos(0)+tan(0)+atan(0)", 1.0),
+    ("sinh(1)", math.sinh(1)),
+    ("cosh(1)", math.cosh(1)),
+    ("tanh(0.5)", math.tanh(0.5)),
+    ("min(3,2)+10*max(3,2)", 32.0),
+    ("u(1)+10*u(0)+100*u(-1)", 6.0),  # u(0) = ½
+    ("uramp(3)+uramp(-1)", 3.0),
+    ("sgn(-3)+10*sgn(0)+100*sgn(2)", 99.0),
+    ("floor(-1.5)+10*ceil(1.2)", 18.0),
+    ("2*pi", 2 * math.pi),
+    ("isat*2", 2e-14),
+]
+#: functions with no ngspice-39 counterpart of the same value (docs/circuits.md)
+NOT_NGSPICE = [("limit(5,0,2)+limit(-1,0,2)*10+limit(1.5,2,0)*100", 152.0)]
+
+
+@pytest.mark.parametrize("text, value", TABLE + NOT_NGSPICE)
+def test_expression_values_by_hand(text, value):
+    got = evaluate_constant(text, {"isat": 1e-14})
+    assert got == pytest.approx(value, rel=1e-14, abs=1e-300), (text, got)
+
+
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+def test_expression_table_is_what_ngspice_computes():
+    """One ngspice .op deck with a B source per expression: every value agrees (15
+    digits printed)."""
+    lines = ["expression table", "V1 1 0 1", "R1 1 0 1", ".param isat=1e-14"]
+    for k, (text, _) in enumerate(TABLE):
+        lines += [f"B{k} n{k} 0 V={text}", f"RL{k} n{k} 0 1"]
+    values = ng.operating_point("\n".join([*lines, ".end", ""]))
+    for k, (text, value) in enumerate(TABLE):
+        assert values[f"v(n{k})"] == pytest.approx(value, rel=1e-12), text
+
+
+def test_expression_of_nodes_currents_and_time_is_a_jax_function():
+    c = compile_expression("v(a)*2 + v(b,c) - 1k*i(Vs) + time^2", {})
+    assert c.pairs == [("a", "0"), ("b", "c")]
+    assert c.currents == ["Vs"]
+    v, i = jnp.array([1.0, 3.0]), jnp.array([2e-3])
+    assert float(c.fn(v, i, 0.5, ())) == pytest.approx(2.0 + 3.0 - 2.0 + 0.25)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("1 +", re.escape("expected a number, a name, v(…), i(…) or '(' at the end (column 4)")),
+        ("(1+2", re.escape("expected ')' (close the parenthesis) at the end")),
+        ("1 2", re.escape("unexpected token (an operator missing before it?) at '2' (column 3)")),
+        ("1 ? 2", "expected ':'"),
+        ("3 # 4", "unexpected character '#' at column 3"),
+        ("foo + bar(1)", "unknown name 'foo' at column 1.*unknown function 'bar' at column 7"),
+        ("min(1)", "min takes 2 argument"),
+        ("idt(v(1))", "idt .* is not supported; integrate with a capacitor"),
+        ("ddt(ddt(v(1)))", "ddt inside ddt"),
+        ("temper", "circuit temperature"),
+        ("v(a,b,c)", r"write v\(node\) or v\(node1, node2\)"),
+    ],
+)
+def test_expression_errors_name_the_column_and_the_fix(text, match):
+    with pytest.raises(ExprError, match=match):
+        compile_expression(text, {})
+
+
+def test_func_is_inlined_with_its_arguments():
+    funcs = {"sq": (["x"], "x*x"), "hyp": (["a", "b"], "sqrt(sq(a)+sq(b))")}
+    assert evaluate_constant("hyp(3, 4) + sq(2)", {}, funcs) == 9.0
+    with pytest.raises(ExprError, match="takes 2 arguments, 1 given"):
+        evaluate_constant("hyp(3)", {}, funcs)
+
+
+# --------------------------------------------------------------- circuits
+NETLISTS = {
+    "V-form": (
+        """B source: a polynomial of node voltages and a source's current
+.param a2=0.5
+V1 1 0 SIN(0 1 1k)
+R1 1 2 1k
+R2 2 0 2k
+Vs 2 3 0
+C1 3 0 100n
+B1 4 0 V={2*v(1) + a2*v(1,2)^2 - 500*i(Vs)}
+R4 4 5 1k
+C4 5 0 200n
+.tran 1u 2m uic
+.end
+""",
+        ("v(4)", "v(5)", "i(b1)"),
+    ),
+    "I-form": (
+        """B source: a diode law as a current (ng_convergence's element), driven by a sine
+V1 1 0 SIN(0 0.7 1k)
+R1 1 2 100
+.param vt=26m isat=1e-14
+B1 2 0 I=isat*(exp(v(2)/vt)-1)
+C1 2 0 1u
+.tran 1u 2m uic
+.end
+""",
+        ("v(2)", "i(v1)"),
+    ),
+    "time": (
+        """B source with time and tanh, into an RL
+B1 1 0 V=tanh(3*sin(2*3.14159265*1k*time))
+R1 1 2 100
+L1 2 0 10m
+.tran 1u 2m uic
+.end
+""",
+        ("v(1)", "i(l1)"),
+    ),
+    "E-VALUE": (
+        """E VALUE= into an RC
+V1 1 0 SIN(0 2 1k)
+R1 1 0 1k
+E1 2 0 VALUE={v(1)*abs(v(1))}
+R2 2 3 1k
+C3 3 0 100n
+.tran 1u 2m uic
+.end
+""",
+        ("v(2)", "v(3)"),
+    ),
+}
+
+
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+@pytest.mark.parametrize("kind", sorted(NETLISTS))
+def test_behavioural_sources_agree_with_ngspice(kind):
+    """Against a fine ngspice run (max step TSTOP/40000) at its own time points, t > 0:
+    ≤ 1e-3 of each probe's peak (midpoint at the deck's fixed 1 µs step)."""
+    netlist, probes = NETLISTS[kind]
+    t, ref = ng.ngspice(netlist, probes, tmax=2e-3 / 40000)
+    result = spice.run(netlist, dt=1e-6)
+    for probe in probes:
+        mine = np.interp(t, result.time, result[probe])
+        peak = np.max(np.abs(ref[probe]))
+        err = np.max(np.abs(mine - ref[probe])[t > 0]) / peak
+        assert err <= 1e-3, (kind, probe, err)
+        assert peak > 1e-6
+
+
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
+def test_table_is_linear_between_its_points_and_flat_outside():
+    """G TABLE into a resistor: away from the corners (where a step holds one) the law is
+    affine in the control, so the node values are the table's exactly. (ngspice-39 rounds
+    the corners: at x = 0.01 it gives 40.25 µA where the table says 20 µA, at 0.98 1.928
+    mA for 1.96 mA, measured with .op; docs/circuits.md.)"""
+    text = """G TABLE
+V1 1 0 SIN(0 2 1k)
+R1 1 0 1k
+G1 0 3 TABLE {v(1)} = (-1, -1m) (0, 0) (1, 2m)
+R3 3 0 1k
+.tran 1u 2m uic
+.end
+"""
+    result = spice.run(text, dt=1e-6)
+    x, out = result["v(1)"], result["v(3)"]
+    table = 1e3 * np.interp(x, [-1.0, 0.0, 1.0], [-1e-3, 0.0, 2e-3])
+    away = np.min(np.abs(x[:, None] - np.array([-1.0, 0.0, 1.0])[None, :]), axis=1) > 0.03
+    assert np.max(np.abs(out - table)[away][1:-1]) <= 1e-9
+    assert np.max(out) > 1.99 and np.min(out) < -0.99  # both flat ends are reached
+
+
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
+def test_ddt_of_a_ramp_is_its_slope_and_zero_at_dc():
+    """``V = ddt(v(1))`` of a trapezoid whose corners fall on step nodes: the midpoint
+    rule's difference quotient is exact for a piecewise-linear input (round-off)."""
+    text = """ddt of a trapezoid
+V1 1 0 PULSE(0 2 0 1 1 1 4)
+B2 2 0 V=3*ddt(V(1))
+R2 2 0 1k
+.tran 1m 4
+.end
+"""
+    result = spice.run(text, dt=1e-2)
+    t, out = result.time, result["v(2)"]
+    slope = np.where(t < 1, 6.0, np.where(t < 2, 0.0, np.where(t < 3, -6.0, 0.0)))
+    away = np.min(np.abs(t[:, None] - np.arange(5)[None, :]), axis=1) > 1.5e-2
+    assert np.max(np.abs(out - slope)[away]) <= 1e-9
+    assert np.max(np.abs(out)) > 5.9
+
+
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
+def test_comparison_jumps_are_stepped_over_as_written():
+    """``V = v(1) > 0.5 ? 1 : 0`` (no smoothing, no breakpoint): away from the steps
+    that hold the crossing the output is the ideal comparator's, and Newton converges
+    at every step (a failed step raises)."""
+    text = """comparator
+V1 1 0 SIN(0 1 1k)
+B1 2 0 V=v(1) > 0.5 ? 1 : 0
+R2 2 0 1k
+.tran 1u 2m uic
+.end
+"""
+    net = spice.read(text)
+    assert any("jump" in n for n in net.notes)
+    result = spice.run(text, dt=1e-6)
+    t, out = result.time, result["v(2)"]
+    ideal = (np.sin(2 * np.pi * 1e3 * t) > 0.5).astype(float)
+    near = np.abs(np.sin(2 * np.pi * 1e3 * t) - 0.5) < 2 * np.pi * 1e3 * 1e-6
+    assert np.max(np.abs(out - ideal)[~near]) <= 1e-12
+    assert np.sum(ideal) > 100 and np.sum(1 - ideal) > 100
+
+
+# --------------------------------------------------------------- power balance
+BALANCE = """B sources of both forms with stored energy and losses
+v1 in 0 SIN(0.2 1 2k)
+r1 in a 1k
+vs a 0 0
+b1 e 0 V=2*v(in)+0.3*v(in)^2-100*i(vs)
+r2 e b 1k
+c1 b 0 1u
+b2 g 0 I=1m*tanh(v(b)/0.2)+2*i(vs)
+r3 g 0 1k
+l1 g 0 10m
+.tran 2u 2m uic
+.end
+"""
+
+
+@pytest.mark.slow  # a simulation (> 3 s with its compilation)
+def test_discrete_power_balance_accounts_for_every_watt():
+    r"""Midpoint, per half-step pair as in test_controlled: independent sources' work =
+    Δ(stored) + dissipated + the work done ON the B outputs, the last from the B laws
+    evaluated on the run's own node voltages and currents (≤ 1e-10 of the budget)."""
+    result = spice.run(BALANCE, dt=2e-6)
+    net, traj = result.netlist, result.trajectory
+    h = float(traj.dt)
+    t = traj.t
+    k = slice(1, -1)
+
+    def v(node):
+        return result[f"v({node})"][k]
+
+    def charge(name):
+        return traj.q[:, traj.coords.index(net.assembly.currents[name])]
+
+    def node_current(name):
+        dq = np.diff(charge(name))
+        return (dq[:-1] + dq[1:]) / (2 * h)
+
+    mid = t[:-1] + h / 2
+    u1 = 0.2 + np.sin(2 * np.pi * 2e3 * mid)
+    sources = -(u1[:-1] + u1[1:]) / 2 * node_current("v1") * h
+    qbar = (charge("c1")[:-1] + charge("c1")[1:]) / 2
+    stored = np.diff(qbar**2 / (2 * 1e-6))
+    stored = stored + np.diff(0.5 * 10e-3 * (np.diff(charge("l1")) / h) ** 2)
+    dissipated = sum(
+        r * node_current(n) ** 2 * h for n, r in (("r1", 1e3), ("r2", 1e3), ("r3", 1e3))
+    )
+
+    # each B law on the step's own controls (the midpoint rule evaluates it there):
+    # v(in) = Δw/h of B1's sensing flux, v(b) of B2's, i(vs) = Δq_vs/h
+    def rate(coord):
+        return np.diff(traj.q[:, traj.coords.index(coord)]) / h
+
+    vin, vb, ivs = rate("b1.w0"), rate("b2.w0"), rate(net.assembly.currents["vs"])
+    e_law = 2 * vin + 0.3 * vin**2 - 100 * ivs
+    g_law = 1e-3 * np.tanh(vb / 0.2) + 2 * ivs
+    # at node t_k the V-form's voltage and the I-form's current are the means of the
+    # laws over the two steps around it (the momentum lines of q and w_o at t_k)
+    controlled = (e_law[:-1] + e_law[1:]) / 2 * node_current("b1") * h + v("g") * (
+        g_law[:-1] + g_law[1:]
+    ) / 2 * h
+    terms = (sources, stored, dissipated, controlled)
+    scale = max(np.max(np.abs(x)) for x in terms)
+    residual = sources - stored - dissipated - controlled
+    assert np.max(np.abs(residual)) <= 1e-10 * scale, np.max(np.abs(residual)) / scale
+    for x in terms:
+        assert np.max(np.abs(x)) > 1e-2 * scale
+    assert np.max(np.abs(v("g"))) > 0.1
+
+
+# --------------------------------------------------------------- parts and errors
+def test_part_built_directly_matches_the_netlist():
+    c = cp.Circuit("direct")
+    c.add(cp.VoltageSource(cp.Sine(0, 1, 1e3), name="V1"), p="0", n="in")
+    c.add(cp.Resistor(1e3, name="R0"), p="in", n="1")
+    c.add(cp.Resistor(1e3, name="R1"), p="1", n="0")
+    # an affine law: a node value (the mean of the two steps' values around it) is then
+    # the law of the node voltage exactly
+    law = lambda v, i, t, d: 3.0 * v[0] - 0.25  # noqa: E731
+    c.add(cp.BehaviouralSource("V", law, name="B1", pairs=1), p="2", n="0", c0p="1", c0n="0")
+    c.add(cp.Resistor(1e3, name="R2"), p="2", n="0")
+    built = c.build()
+    traj = dv.simulate(
+        built.system, built.q0, built.p0, dt=1e-5, steps=100, discretization="midpoint"
+    )
+    w = waveforms(built, traj)
+    assert np.max(np.abs(w["v(2)"] - 3.0 * w["v(1)"] + 0.25)[1:-1]) <= 1e-12
+    assert np.max(np.abs(w["v(2)"])) > 0.3
+
+
+@pytest.mark.parametrize(
+    "body, match",
+    [
+        (
+            "B1 2 0 V=v(nowhere)+v(elsewhere,1)+i(Vnone)",
+            r"line 4: element 'B1': nodes \['elsewhere', 'nowhere'\] are not in the circuit"
+            r".*sources \['Vnone'\] are not elements",
+        ),
+        ("B1 2 0 V=1 +* 2", r"line 4: element 'B1': expected a number.* at '\*' \(column 4\)"),
+        ("B1 2 0 Q=v(1)", r"line 4: expected 'Bname n\+ n- V=expr \(or I=expr\)'"),
+        ("B1 2 0 V=foo(v(1))", "unknown function 'foo' at column 1"),
+        ("E1 2 0 POLY(1) 1 0 0 1", r"POLY\(…\) form of E sources is not supported"),
+        ("G1 2 0 TABLE {v(1)} = (1, 1)", "TABLE needs two or more"),
+    ],
+)
+def test_netlist_errors_name_the_line_and_the_fix(body, match):
+    text = f"errors\nV1 1 0 1\nR1 1 0 1k\n{body}\nR2 2 0 1k\n.tran 1u 1m\n.end\n"
+    with pytest.raises(spice.NetlistError, match=match):
+        spice.read(text)
+
+
+def test_subcircuit_b_source_reads_its_local_nodes_and_sources():
+    text = """B in a subcircuit
+.subckt amp in out
+Vsense in x 0
+Rx x 0 1k
+Bo out 0 V=-2*v(in) + 1k*i(Vsense)
+.ends
+V1 1 0 SIN(0 1 1k)
+X1 1 2 amp
+R2 2 0 1k
+.tran 1u 1m uic
+.end
+"""
+    result = spice.run(text, dt=1e-5)
+    # i(Vsense) = v(1)/1k, so v(2) = −2 v(1) + v(1) = −v(1)
+    assert np.max(np.abs(result["v(2)"] + result["v(1)"])) <= 1e-12
+    assert re.search("x1", " ".join(result.netlist.display.values()))
