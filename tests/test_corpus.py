@@ -125,17 +125,23 @@ def test_the_rc_reference_is_the_exact_response():
     v_tr = (tr - 1 + np.exp(-tr)) / tr
     exact = np.where(t <= tr, ramp, 1 + (v_tr - 1) * np.exp(-(t - tr)))
     assert np.max(np.abs(ref["v(2)"] - exact)) < 1e-6
-    np.testing.assert_allclose(t, np.arange(71) * 0.1, rtol=0, atol=1e-12)
+    # ngspice's own points, from 0 to TSTOP, far denser than the TSTEP grid (71 points)
+    assert t[0] == 0.0 and t[-1] == pytest.approx(7.0, rel=1e-12)
+    assert len(t) > 1000 and np.max(np.diff(t)) <= 0.1 / 20
 
 
-def test_tran_lines_and_the_output_grid():
+def test_tran_lines_and_the_thinning_of_the_reference_points():
     tran = corpus.find_tran("t\n.TRAN .2U 3M 0.50M\n")
     assert (tran.step, tran.stop, tran.start) == pytest.approx((2e-7, 3e-3, 5e-4), rel=1e-12)
     assert not tran.uic
-    grid = tran.grid()  # 12 501 TSTEP points, subsampled, ending at TSTOP
-    assert len(grid) <= corpus.MAX_POINTS
-    assert grid[0] == pytest.approx(5e-4) and grid[-1] == pytest.approx(3e-3, rel=1e-12)
-    assert np.allclose(np.diff(grid[:-1]), 7 * 2e-7)
+    t = np.sort(np.random.default_rng(0).uniform(0.0, 3e-3, 12_000))
+    t[-1] = 3e-3
+    keep = corpus.thin(t, tran.start)  # from TSTART, every m-th, the last kept
+    assert len(keep) <= corpus.MAX_POINTS and keep[-1] == len(t) - 1
+    assert t[keep[0]] >= 5e-4 and t[keep[0] - 1] < 5e-4
+    step = np.diff(keep[:-1])
+    assert np.all(step == step[0]) and step[0] == np.ceil((len(t) - keep[0] - 1) / 2000)
+    assert np.array_equal(corpus.thin(t[:50]), np.arange(50))  # few points: all kept
     # a tran command inside .control when there is no .tran line; UIC kept
     only = corpus.find_tran("t\nv1 1 0 1\n.control\ntran 10u 10m uic\n.endc\n.end\n")
     assert (only.step, only.stop) == pytest.approx((1e-5, 1e-2), rel=1e-12) and only.uic
