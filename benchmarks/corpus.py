@@ -11,6 +11,8 @@ ngspice wall times) and a summary.
     --only NAME         these decks only (repeatable)
     --markdown          the table as Markdown (docs/circuits.md)
     --write-expected    rewrite EXPECTED.toml's statuses from this run (keeps file/blob)
+    --skip NAME         leave these decks out (repeatable)
+    --rows FILE         append each deck's row to FILE as one JSON line when it is done
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
 include reading, building, compiling and stepping (a first call; the suite's cache is not
@@ -22,6 +24,7 @@ the same fine reference, by the same measure as diracvi's.
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import re
 import sys
@@ -178,12 +181,17 @@ def main(argv=None) -> int:
     parser.add_argument("--only", action="append", default=[])
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--write-expected", action="store_true")
+    parser.add_argument("--skip", action="append", default=[])
+    parser.add_argument("--rows", type=Path, help="append each deck's row here as JSON")
     args = parser.parse_args(argv)
     expected = corpus.load_expected()
-    names = [n for n in expected if not args.only or n in args.only]
+    names = [n for n in expected if (not args.only or n in args.only) and n not in args.skip]
     rows = []
     for name in names:
         rows.append(run_deck(name, expected[name], references=args.references))
+        if args.rows:
+            with args.rows.open("a") as f:
+                f.write(json.dumps(rows[-1]) + "\n")
         print(
             f"{name}: {rows[-1]['status']} {reason(rows[-1])}; ngspice's own "
             f"{rows[-1]['ngspice_error']:.2g}",

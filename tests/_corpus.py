@@ -304,8 +304,13 @@ def compare(result, t: np.ndarray, ref: dict[str, np.ndarray]):
 
 def compare_ngspice(names: list[str], data: np.ndarray, t: np.ndarray, ref):
     """:func:`compare` for an ngspice run (``run_ngspice``'s names and data), linearly
-    interpolated between its own points as a waveform viewer draws it."""
+    interpolated between its own points as a waveform viewer draws it, over the
+    reference's times from its first point on (with UIC ngspice writes no t = 0 point,
+    and its first step at the deck's settings is longer than the fine run's)."""
     times = data[:, 0]
+    inside = t >= times[0]
+    t = t[inside]
+    ref = {k: v[inside] for k, v in ref.items()}
     have = {n: np.interp(t, times, data[:, j]) for j, n in enumerate(names) if j}
     return compare_sampled(have, (times[0], times[-1]), t, ref)
 
