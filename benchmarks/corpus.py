@@ -11,15 +11,20 @@ ngspice wall times) and a summary.
     --only NAME         these decks only (repeatable)
     --markdown          the table as Markdown (docs/circuits.md)
     --write-expected    rewrite EXPECTED.toml's statuses from this run (keeps file/blob)
+    --skip NAME         leave these decks out (repeatable)
+    --rows FILE         append each deck's row to FILE as one JSON line when it is done
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
 include reading, building, compiling and stepping (a first call; the suite's cache is not
-used); ngspice's include process start-up, at the deck's own tolerances and TMAX.
+used); ngspice's include process start-up, at the deck's own tolerances and TMAX. "ngspice's own
+error" is that ngspice run (at the deck's own settings, linear between its points) against
+the same fine reference, by the same measure as diracvi's.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import re
 import sys
@@ -58,9 +63,10 @@ def run_deck(name: str, entry: dict, *, references: bool) -> dict:
         row["error"], row["missing"] = worst, missing
         row["status"] = "agrees" if worst <= corpus.TOL and not missing else "disagrees"
     try:
-        *_, row["ngspice_seconds"] = corpus.run_ngspice(deck, fine=False)
+        names, data, row["ngspice_seconds"] = corpus.run_ngspice(deck, fine=False)
+        row["ngspice_error"] = corpus.compare_ngspice(names, data, t, ref)[0]
     except Exception:
-        row["ngspice_seconds"] = math.nan
+        row["ngspice_seconds"] = row["ngspice_error"] = math.nan
     return row
 
 
@@ -81,7 +87,7 @@ def reason(row: dict) -> str:
 
 def table(rows: list[dict], markdown: bool) -> str:
     head = ["deck", "elements", "needs beyond R C L K V I D", "status", "detail", "diracvi s",
-            "ngspice s"]  # fmt: skip
+            "ngspice s", "ngspice's own error"]  # fmt: skip
     body = [
         [
             r["deck"],
@@ -93,6 +99,7 @@ def table(rows: list[dict], markdown: bool) -> str:
             else reason(r),
             f"{r['seconds']:.2f}",
             f"{r['ngspice_seconds']:.2f}",
+            f"{r['ngspice_error']:.2g}",
         ]
         for r in rows
     ]
@@ -174,13 +181,23 @@ def main(argv=None) -> int:
     parser.add_argument("--only", action="append", default=[])
     parser.add_argument("--markdown", action="store_true")
     parser.add_argument("--write-expected", action="store_true")
+    parser.add_argument("--skip", action="append", default=[])
+    parser.add_argument("--rows", type=Path, help="append each deck's row here as JSON")
     args = parser.parse_args(argv)
     expected = corpus.load_expected()
-    names = [n for n in expected if not args.only or n in args.only]
+    names = [n for n in expected if (not args.only or n in args.only) and n not in args.skip]
     rows = []
     for name in names:
         rows.append(run_deck(name, expected[name], references=args.references))
-        print(f"{name}: {rows[-1]['status']} {reason(rows[-1])}", file=sys.stderr, flush=True)
+        if args.rows:
+            with args.rows.open("a") as f:
+                f.write(json.dumps(rows[-1]) + "\n")
+        print(
+            f"{name}: {rows[-1]['status']} {reason(rows[-1])}; ngspice's own "
+            f"{rows[-1]['ngspice_error']:.2g}",
+            file=sys.stderr,
+            flush=True,
+        )
     print(table(rows, args.markdown))
     print()
     print(summary(rows))

@@ -2,8 +2,14 @@
 
 ``tests/data/netlists/`` holds public SPICE decks written by others, unedited (sources in
 ``SOURCES.md``), and ``reference/<deck>.csv.gz``: ngspice 39 at the deck's own ``.tran``
-but with ``reltol=1e-7`` and ``TMAX = TSTEP/50``, linearly interpolated onto the TSTEP
-grid ``TSTART + k·TSTEP`` (long runs keep every m-th grid point, at most ``MAX_POINTS``).
+but with ``reltol=1e-7`` and ``TMAX = TSTEP/50``, at ngspice's *own* time points from
+TSTART on (the values it computed, none interpolated), thinned to every m-th point with
+m the smallest that keeps at most ``MAX_POINTS`` (the last point always kept): see
+:func:`thin`. The points are at most ``TSTEP/50`` apart before thinning, so a deck's
+waveform is resolved even when its TSTEP grid is not (the eSim 50 Hz decks print every
+10 ms, which meets their sines only at the zero crossings), and they include ngspice's
+breakpoints; times are written to 17 digits (references written before that change hold
+10), values to 10. ``python benchmarks/corpus.py --references`` rewrites them.
 ``EXPECTED.toml`` says what diracvi does with each deck today.
 
 Names: ngspice's raw file calls a node voltage ``v(n)`` and a branch current ``i(name)``,
@@ -13,7 +19,9 @@ which ngspice 39 calls ``<letter>.<instance>.<name>`` (``i(v.x1.vm)``), is also 
 as ``i(<instance>.<name>)``.
 
 Agreement: for each reference signal ``s``, ``max_k |diracvi(t_k) − s(t_k)| ≤ TOL · max_k
-|s(t_k)|`` over the grid (diracvi's waveform interpolated linearly onto the grid times).
+|s(t_k)|`` over the reference's points ``t_k`` (the peak too is taken over them), with
+diracvi's waveform sampled at ``t_k`` by its own interpolant (``Result.at``: quadratic
+through its step centres between corners, as it fills the TSTEP grid).
 """
 
 from __future__ import annotations
@@ -53,14 +61,17 @@ class Tran:
     tmax: float | None = None
     uic: bool = False
 
-    def grid(self) -> np.ndarray:
-        """The output times ``TSTART + k·TSTEP`` up to TSTOP, at most ``MAX_POINTS``."""
-        n = int(np.floor((self.stop - self.start) / self.step * (1 + 1e-12))) + 1
-        every = max(1, int(np.ceil((n - 1) / (MAX_POINTS - 1))))
-        k = np.arange(0, n, every)
-        if k[-1] != n - 1:
-            k = np.append(k, n - 1)
-        return self.start + k * self.step
+
+def thin(t: np.ndarray, start: float = 0.0) -> np.ndarray:
+    """Indices of the kept reference points: those at or after ``start``, every m-th
+    with the smallest m leaving at most ``MAX_POINTS`` (the last one always kept)."""
+    first = int(np.searchsorted(t, start * (1 - 1e-12) if start > 0 else start))
+    n = len(t) - first
+    every = max(1, int(np.ceil((n - 1) / (MAX_POINTS - 1))))
+    k = np.arange(first, len(t), every)
+    if k[-1] != len(t) - 1:
+        k = np.append(k, len(t) - 1)
+    return k
 
 
 _SCALE = {"t": 1e12, "g": 1e9, "meg": 1e6, "k": 1e3, "mil": 25.4e-6, "m": 1e-3, "u": 1e-6,
@@ -234,14 +245,14 @@ def kept(name: str) -> bool:
 
 
 def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
-    """The fine ngspice run of ``deck`` on its TSTEP grid: ``(t, {vector: values}, s)``."""
+    """The fine ngspice run of ``deck`` at its own (thinned) time points:
+    ``(t, {vector: values}, s)``."""
     names, data, seconds = run_ngspice(deck)
     tran = find_tran(deck.read_text(errors="replace"))
-    t = data[:, 0]
-    grid = tran.grid()
+    keep = thin(data[:, 0], tran.start)
     return (
-        grid,
-        {n: np.interp(grid, t, data[:, j]) for j, n in enumerate(names) if kept(n)},
+        data[keep, 0],
+        {n: data[keep, j] for j, n in enumerate(names) if kept(n)},
         seconds,
     )
 
@@ -249,7 +260,10 @@ def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], f
 def write_reference(path: Path, grid: np.ndarray, signals: dict[str, np.ndarray]) -> None:
     buf = io.StringIO()
     buf.write(",".join(["time", *signals]) + "\n")
-    np.savetxt(buf, np.column_stack([grid, *signals.values()]), delimiter=",", fmt="%.10g")
+    # times to 17 digits: a point ngspice puts just past a corner (0.0120000001 s) must not
+    # be read back on the corner, where the other side's limit holds
+    fmt = ["%.17g"] + ["%.10g"] * len(signals)
+    np.savetxt(buf, np.column_stack([grid, *signals.values()]), delimiter=",", fmt=fmt)
     path.parent.mkdir(parents=True, exist_ok=True)
     with gzip.open(path, "wt", compresslevel=9) as f:
         f.write(buf.getvalue())
@@ -285,19 +299,39 @@ def diracvi_keys(vector: str) -> list[str]:
 def compare(result, t: np.ndarray, ref: dict[str, np.ndarray]):
     """Worst relative error over the reference signals: ``(worst, {vector: error}, missing)``.
 
-    ``error = max |diracvi − ngspice| / peak |ngspice|`` on the grid ``t``; ``missing``
-    lists the reference vectors diracvi does not report."""
-    have = {k.lower(): v for k, v in result.waveforms.items()}
-    rt = np.asarray(result.time, dtype=float)
+    ``error = max |diracvi − ngspice| / peak |ngspice|`` over the reference's times ``t``,
+    diracvi sampled there by its own interpolant (``result.at``); ``missing`` lists the
+    reference vectors diracvi does not report."""
+    span = np.asarray(result.trajectory.t, dtype=float)  # the run's own span
+    return compare_sampled(result.at(t), (span[0], span[-1]), t, ref)
+
+
+def compare_ngspice(names: list[str], data: np.ndarray, t: np.ndarray, ref):
+    """:func:`compare` for an ngspice run (``run_ngspice``'s names and data), linearly
+    interpolated between its own points as a waveform viewer draws it, over the
+    reference's times from its first point on (with UIC ngspice writes no t = 0 point,
+    and its first step at the deck's settings is longer than the fine run's)."""
+    times = data[:, 0]
+    inside = t >= times[0]
+    t = t[inside]
+    ref = {k: v[inside] for k, v in ref.items()}
+    have = {n: np.interp(t, times, data[:, j]) for j, n in enumerate(names) if j}
+    return compare_sampled(have, (times[0], times[-1]), t, ref)
+
+
+def compare_sampled(have: dict, span: tuple[float, float], t: np.ndarray, ref):
+    """The comparison of waveforms ``have`` already sampled at ``t`` (their run covering
+    ``span``) with the reference signals ``ref``."""
+    have = {k.lower(): v for k, v in have.items()}
     errors, missing = {}, []
     for vector, values in ref.items():
         key = next((k for k in diracvi_keys(vector) if k in have), None)
         if key is None:
             missing.append(vector)
             continue
-        mine = np.interp(t, rt, np.asarray(have[key], dtype=float))
-        if t[-1] > rt[-1] * (1 + 1e-9) or t[0] < rt[0] * (1 - 1e-9) - 1e-300:
-            errors[vector] = np.inf  # diracvi's run does not cover the grid
+        mine = np.asarray(have[key], dtype=float)
+        if t[-1] > span[1] * (1 + 1e-9) or t[0] < span[0] * (1 - 1e-9) - 1e-300:
+            errors[vector] = np.inf  # the run does not cover the reference's times
             continue
         peak = float(np.max(np.abs(values)))
         err = float(np.max(np.abs(mine - values)))

@@ -125,17 +125,23 @@ def test_the_rc_reference_is_the_exact_response():
     v_tr = (tr - 1 + np.exp(-tr)) / tr
     exact = np.where(t <= tr, ramp, 1 + (v_tr - 1) * np.exp(-(t - tr)))
     assert np.max(np.abs(ref["v(2)"] - exact)) < 1e-6
-    np.testing.assert_allclose(t, np.arange(71) * 0.1, rtol=0, atol=1e-12)
+    # ngspice's own points, from 0 to TSTOP, far denser than the TSTEP grid (71 points)
+    assert t[0] == 0.0 and t[-1] == pytest.approx(7.0, rel=1e-12)
+    assert len(t) > 1000 and np.max(np.diff(t)) <= 0.1 / 20
 
 
-def test_tran_lines_and_the_output_grid():
+def test_tran_lines_and_the_thinning_of_the_reference_points():
     tran = corpus.find_tran("t\n.TRAN .2U 3M 0.50M\n")
     assert (tran.step, tran.stop, tran.start) == pytest.approx((2e-7, 3e-3, 5e-4), rel=1e-12)
     assert not tran.uic
-    grid = tran.grid()  # 12 501 TSTEP points, subsampled, ending at TSTOP
-    assert len(grid) <= corpus.MAX_POINTS
-    assert grid[0] == pytest.approx(5e-4) and grid[-1] == pytest.approx(3e-3, rel=1e-12)
-    assert np.allclose(np.diff(grid[:-1]), 7 * 2e-7)
+    t = np.sort(np.random.default_rng(0).uniform(0.0, 3e-3, 12_000))
+    t[-1] = 3e-3
+    keep = corpus.thin(t, tran.start)  # from TSTART, every m-th, the last kept
+    assert len(keep) <= corpus.MAX_POINTS and keep[-1] == len(t) - 1
+    assert t[keep[0]] >= 5e-4 and t[keep[0] - 1] < 5e-4
+    step = np.diff(keep[:-1])
+    assert np.all(step == step[0]) and step[0] == np.ceil((len(t) - keep[0] - 1) / 2000)
+    assert np.array_equal(corpus.thin(t[:50]), np.arange(50))  # few points: all kept
     # a tran command inside .control when there is no .tran line; UIC kept
     only = corpus.find_tran("t\nv1 1 0 1\n.control\ntran 10u 10m uic\n.endc\n.end\n")
     assert (only.step, only.stop) == pytest.approx((1e-5, 1e-2), rel=1e-12) and only.uic
@@ -151,37 +157,32 @@ def test_which_vectors_are_compared_and_their_diracvi_names():
     assert corpus.diracvi_keys("V(Out)") == ["v(out)"]
 
 
-def test_xy_vpwl_sources_are_ngspices_away_from_the_corners_it_steps_over():
-    """Why xy_vpwl 'disagrees': each V source sits across a resistor, so v(n) is the
-    waveform itself. diracvi's PWL (TD=, R=) is ngspice's wherever ngspice computed it,
-    and on the TSTEP-grid times that fall on a corner moved by TD= or on a repeat's jump,
-    ngspice 39, which sets no breakpoint there, reports an interpolation across the
-    corner (v(4) at t = 5.5 s: 4.965 V for a source at 5 V), not the source's value."""
+def test_the_xy_vpwl_reference_is_its_sources_waveforms_at_every_point():
+    """Each V source of xy_vpwl sits across a resistor, so v(n) is the PWL waveform
+    itself (TD=, R= repeats): at ngspice's own points the reference is the source's
+    value, corners included. (On the TSTEP grid the reference was an interpolation
+    across the corners ngspice 39 steps over without a breakpoint: 4.965 V at t = 5.5 s
+    for a source at 5 V, and the deck 'disagreed' by 0.3 through its reference.)"""
     from diracvi import spice
-    from diracvi.spice._tran import breakpoints
 
     t, ref = corpus.load_reference("xy_vpwl")
     netlist = spice.read(corpus.DATA / "xy_vpwl.cir")
-    corners = breakpoints(netlist.system, 0.0, t[-1])
-    # ngspice's steps are ≤ TMAX = TSTEP/50 = 0.2 ms: farther than that, it is exact
-    far = np.array([np.min(np.abs(corners - x)) > 1e-3 for x in t])
-    assert np.count_nonzero(~far) >= 20
     by_name = {part.name.lower(): part for part in netlist.system.subsystems}
     for k in range(1, 7):
         (wave,) = by_name[f"vpwl{k}"].waveforms
         u = np.array([float(wave(x)) for x in t])
-        np.testing.assert_allclose(u[far], ref[f"v({k})"][far], rtol=0, atol=1e-8)
-    (delayed,) = by_name["vpwl4"].waveforms
-    assert float(delayed(5.5)) == 5.0 and abs(ref["v(4)"][t == 5.5][0] - 4.965) < 1e-6
+        # 1e-7 V: the times are stored to 10 digits (28.0069 s ± 1e-9 s on a steep ramp)
+        np.testing.assert_allclose(u, ref[f"v({k})"], rtol=0, atol=1e-7)
 
 
 @pytest.mark.slow
-def test_ng_switches_agrees_away_from_the_switching_instants_on_its_grid():
+def test_ng_switches_agrees_away_from_the_switching_instants():
     """Why ng_switches 'disagrees': its controls are PWL ramps whose threshold crossings
-    (1.2 ms, 3.2 ms, 3.5 ms) fall exactly on TSTEP-grid times, where a switched voltage
-    jumps: there the reference holds ngspice's interpolation across the jump and diracvi
-    its own, and any value between the two levels is as right. Everywhere else on the
-    grid (more than 2 µs from an instant) the two agree to 1e-9 of peak."""
+    (1.2 ms, 3.2 ms, 3.5 ms) switch voltages by a jump. Each simulator locates an instant
+    within its own event tolerance, so at the reference's points between ngspice's
+    instant and diracvi's the two are on opposite levels (a whole jump, "1.0 of peak";
+    ngspice at the deck's own settings is off by 0.49 the same way). At every reference
+    point more than 2 µs from a switching instant the two agree to 1e-9 of peak."""
     from diracvi import spice
 
     t, ref = corpus.load_reference("ng_switches")
@@ -190,10 +191,10 @@ def test_ng_switches_agrees_away_from_the_switching_instants_on_its_grid():
     changed = np.flatnonzero(np.any(np.diff(march.modes, axis=0) != 0.0, axis=1))
     instants = march.t[changed + 1]
     far = np.array([np.min(np.abs(instants - x)) > 2e-6 for x in t])
-    assert np.count_nonzero(~far) <= 4
+    assert np.count_nonzero(~far) <= 0.05 * len(t)
+    have = {k.lower(): v for k, v in result.at(t).items()}
     for vector, values in ref.items():
         peak = np.max(np.abs(values))
         if peak == 0.0:
             continue
-        mine = np.interp(t, result.time, result[vector])
-        assert np.max(np.abs(mine - values)[far]) <= 1e-9 * peak, vector
+        assert np.max(np.abs(have[vector.lower()] - values)[far]) <= 1e-9 * peak, vector

@@ -83,7 +83,7 @@ def test_reader_understands_the_supported_syntax():
         ("Q1 c b e npn", r"line 2: element 'Q1': no defined model"),
         (".subckt amp a b", r"line 2: '.subckt' without its '.ends'"),
         (".func f {x}", r"line 2: expected '.func NAME\(arg1, arg2, …\) = expr'"),
-        ("R1 a 0", r"line 2: expected 'Rname n\+ n- value \[ac=value\]'"),
+        ("R1 a 0", r"line 2: expected 'Rname n\+ n- \[value\] \[model\].*a resistor \.model"),
         ("R1 a 0 1k tc=1", r"line 2: unsupported parameters \['tc'\]"),
         ("R1 a 0 {1/0}", r"line 2: R1 value: '1/0'"),
         ("R1 a 0 abc", r"line 2: R1 value: unknown parameter 'abc'"),

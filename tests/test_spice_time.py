@@ -344,6 +344,38 @@ R1 in 0 1k
     assert default.max_step == min(1e-6, 1e-5 / 50) and default.reltol == 1e-3
 
 
+def test_the_first_output_point_is_the_operating_point_as_spice_prints_it():
+    """A PULSE current rising from t = 0 into R + L: the node voltage is
+    v(1) = −(R·i + L·di/dt), whose right limit at t = 0 is −L·(5 A/1 ms) = −50 V while the
+    DC operating point (the left limit, every source at 0) is 0 V. SPICE prints the
+    operating point at t = 0 (Xyce's inductor test deck, in the corpus as xy_inductor);
+    with UIC there is no operating point and the steps' own value stands."""
+    deck = """R-L fed by a current ramp
+I1 1 0 PULSE(0 5 0 1m 1m 10m 25m)
+L1 2 0 10m
+R1 1 2 1m
+.tran 0.1m 2m{uic}
+.end
+"""
+    r, l_ = 1e-3, 10e-3
+
+    def exact(t):  # during the rise: i = 5000·t
+        return -(r * 5000.0 * t + l_ * 5000.0)
+
+    result = spice.run(deck.format(uic=""))
+    v1, t = result["v(1)"], result.time
+    assert v1[0] == 0.0 and result["i(l1)"][0] == 0.0  # the operating point
+    rise = (t > 0) & (t < 1e-3)
+    np.testing.assert_allclose(v1[rise], exact(t[rise]), rtol=1e-9)
+    dense = np.linspace(0.0, 0.9e-3, 37)
+    at = result.at(dense)["v(1)"]
+    assert at[0] == 0.0
+    np.testing.assert_allclose(at[1:], exact(dense[1:]), rtol=1e-9)
+    assert result.internal["v(1)"][0] == 0.0
+    with_uic = spice.run(deck.format(uic=" uic"))
+    assert with_uic["v(1)"][0] == pytest.approx(exact(0.0), rel=1e-9)
+
+
 @needs_ngspice
 def test_output_from_tstart():
     netlist, probes = DECKS["delayed-sin"]

@@ -30,6 +30,7 @@ from ._behavioural import b_line
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._mos import m_line
+from ._resistor import r_line
 from ._sources import source
 from ._switches import s_line, w_line
 
@@ -51,13 +52,6 @@ def _two(ctx, pos, kw, line, form, extra=()):
     if unknown:
         raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
     return pos[1], pos[2], ctx.value(pos[3], line, f"{pos[0]} value")
-
-
-def _r(ctx, name, pos, kw, line):
-    a, b, r = _two(ctx, pos, kw, line, "Rname n+ n- value [ac=value]", ("ac",))
-    if "ac" in kw:  # ngspice: a resistance for the AC analysis only
-        ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
-    return cp.Resistor(r, name=name), {"p": a, "n": b}
 
 
 def _c(ctx, name, pos, kw, line):
@@ -129,7 +123,7 @@ def _x(ctx, name, pos, kw, line):
 #: ``circuit``; read a model with ``ctx.model(token, line)`` and a node's ``.ic`` with
 #: ``ctx.ic(node)`` (today's ``self.models[...]`` and ``self.ic[...]``).
 ELEMENTS = {
-    "R": _r,
+    "R": r_line,
     "C": _c,
     "L": _l,
     "K": _k,

@@ -74,6 +74,7 @@ class Netlist:
     off: frozenset = frozenset()
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
+    _op: object = field(default=None, repr=False)
 
     @property
     def system(self):
@@ -105,7 +106,15 @@ class Netlist:
                 raise NetlistError(f"netlist {self.title!r}: {exc}") from None
             self._start = (op.q0, op.p0)
             self._modes = op.modes
+            self._op = op
         return self._start
+
+    def operating_point(self):
+        """The DC operating point the transient starts from (``None`` with ``UIC``)."""
+        if self.uic:
+            return None
+        self.initial_state()
+        return self._op
 
     def initial_modes(self):
         """The switches' states the transient starts with: the operating point's without

@@ -78,11 +78,27 @@ class Result(Mapping):
     times: np.ndarray | None = None
     internal: Internal | None = None
     settings: TranSettings | None = None
+    #: a variable-step run's step-centred signals and their sampler (:mod:`._resample`)
+    centred: tuple | None = None
 
     @property
     def time(self) -> np.ndarray:
         """The output times."""
         return self.trajectory.t if self.times is None else self.times
+
+    def at(self, times) -> dict[str, np.ndarray]:
+        """Every waveform at ``times`` (within the run), as the run itself samples it:
+        a variable-step run by quadratic interpolation through its step centres within
+        each interval between corners (what the TSTEP grid gets, see :mod:`._resample`),
+        a fixed-step run linearly between its nodes."""
+        times = np.asarray(times, dtype=np.float64)
+        if self.centred is not None:
+            sampler, signals, start = self.centred
+            return _pin_start({k: sampler(v, times) for k, v in signals.items()}, times, start)
+        t = np.asarray(self.trajectory.t, dtype=np.float64)
+        return {
+            k: np.interp(times, t, np.asarray(v, dtype=float)) for k, v in self.waveforms.items()
+        }
 
     def _saved(self) -> dict:
         vectors = self.netlist.vectors or tuple((k, k) for k in self.waveforms)
@@ -375,13 +391,45 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
     sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
     signals = _step_signals(netlist, march)
     nodes = {k: sampler(v, march.t) for k, v in signals.items()}
+    start = _start_values(netlist)
+    nodes = _pin_start(nodes, march.t, start)
     inner = Internal(march.t, march.h, nodes)
+    centred = (sampler, signals, start)
     if internal:
-        return Result(netlist, march, nodes, march.t, inner, settings)
+        return Result(netlist, march, nodes, march.t, inner, settings, centred)
     grid = settings.output_times()
-    return Result(
-        netlist, march, {k: sampler(v, grid) for k, v in signals.items()}, grid, inner, settings
-    )
+    waves = _pin_start({k: sampler(v, grid) for k, v in signals.items()}, grid, start)
+    return Result(netlist, march, waves, grid, inner, settings, centred)
+
+
+def _start_values(netlist: Netlist) -> dict[str, float]:
+    """The waveforms' values at t = 0 as SPICE reports them: without ``UIC``, the DC
+    operating point's node voltages and branch currents. Where a source's derivative
+    jumps at t = 0 (a PULSE rising from TD = 0 through an inductor) the steps' values
+    continue to the right limit, and the operating point is the left one; SPICE prints
+    the operating point. With ``UIC`` (no operating point) nothing is pinned."""
+    op = netlist.operating_point()
+    if op is None:
+        return {}
+    display = netlist.display
+    out = {f"v({node})": value for node, value in op.voltages.items()}
+    for label, value in op.currents.items():
+        out[f"i({display.get(label, label)})"] = value
+    return out
+
+
+def _pin_start(waves: dict, times: np.ndarray, start: dict) -> dict:
+    """``waves`` with their values at ``times == 0`` replaced by ``start``'s."""
+    at0 = np.asarray(times) == 0.0
+    if not start or not np.any(at0):
+        return waves
+    out = {}
+    for key, values in waves.items():
+        if key in start:
+            values = np.array(values, dtype=np.float64)
+            values[at0] = start[key]
+        out[key] = values
+    return out
 
 
 #: a linear circuit of at least this many coordinates takes the sparse maps. Measured

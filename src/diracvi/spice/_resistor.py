@@ -1,0 +1,123 @@
+r"""The R line as ngspice reads it, with its semiconductor-resistor ``.model``.
+
+``Rname n+ n- [value] [mname] [l=L] [w=W] [m=M] [scale=S] [temp=T] [dtemp=D] [tc1=…]
+[tc2=…] [tce=…] [ac=…] [noisy=…]`` is a resistor ``v = R_eff · i`` with (ngspice's
+``RESupdate_conduct``)
+
+    R_eff = R · f · S / M,  f = 1 + tc1·Δ + tc2·Δ²  (or 1.01^(tce·Δ) when TCE is given),
+    Δ = (T or 27 °C) + D − TNOM,
+
+where ``R`` is ``value`` when given; else, when ``L·W·RSH > 0`` (``L`` defaults to the
+model's ``L``, ``W`` to its ``DEFW``, both 10 µm),
+
+    R = RSH · (L − 2·SHORT) / (W − 2·NARROW);
+
+else the model's ``R``; else 1 mΩ (ngspice's fallback, with its warning as a note).
+A width ``W = 2·NARROW`` makes ``R`` infinite: ngspice's conductance is then 0, an open
+circuit, and the element is left out (with a note). Noise (KF, AF, LF, WF, EF, NOISY),
+``BV_MAX`` (a warning level) and the AC resistance do not enter a transient.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .. import components as cp
+
+FORM = "Rname n+ n- [value] [model] [l=…] [w=…] [m=…] [scale=…] [ac=…]"
+#: instance keywords ngspice's resistor takes
+INSTANCE = ("ac", "l", "w", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tce", "noisy",
+            "bv_max", "r", "resistance")  # fmt: skip
+#: model parameters (ngspice's names and aliases) and their defaults
+MODEL = {"rsh": 0.0, "narrow": 0.0, "dw": None, "short": 0.0, "dlr": None, "tc1": 0.0,
+         "tc2": 0.0, "tce": None, "defw": 1e-5, "w": None, "l": 1e-5, "r": None, "res": None,
+         "tnom": 27.0, "kf": 0.0, "af": 0.0, "lf": 1.0, "wf": 1.0, "ef": 1.0,
+         "bv_max": 1e99}  # fmt: skip
+#: the model's aliases → the parameter they set
+ALIASES = {"dw": "narrow", "dlr": "short", "w": "defw", "res": "r"}
+#: the circuit temperature (diracvi's parts are written for ngspice's default)
+TEMP = 27.0
+
+
+def effective(value, model: dict, kw: dict) -> float:
+    """``R_eff`` of the module docstring (``math.inf`` for ngspice's zero conductance)
+    from the instance's ``value`` (or ``None``), the model's parameters (aliases
+    resolved) and the instance keywords, all numbers."""
+    p = {k: v for k, v in MODEL.items() if k not in ALIASES}
+    for key, v in model.items():
+        p[ALIASES.get(key, key)] = v
+    if value is None:
+        length = kw.get("l", p["l"])
+        width = kw.get("w", p["defw"])
+        if length * width * p["rsh"] > 0.0:
+            width_eff = width - 2.0 * p["narrow"]
+            length_eff = length - 2.0 * p["short"]
+            value = math.inf if width_eff == 0.0 else p["rsh"] * length_eff / width_eff
+        elif p["r"] is not None:
+            value = p["r"]
+        else:
+            value = 1e-3
+    delta = kw.get("temp", TEMP) + kw.get("dtemp", 0.0) - p["tnom"]
+    tc1, tc2 = kw.get("tc1", p["tc1"]), kw.get("tc2", p["tc2"])
+    tce = kw.get("tce", p["tce"])
+    factor = 1.01 ** (tce * delta) if tce is not None else 1.0 + (tc1 + tc2 * delta) * delta
+    return value * factor * kw.get("scale", 1.0) / kw.get("m", 1.0)
+
+
+def r_line(ctx, name, pos, kw, line):
+    """An R line (see the module docstring): ``(Resistor, pins)``, or ``(None, {})`` for
+    an infinite resistance."""
+    kw = dict(kw)
+    for key in ("r", "resistance"):  # ngspice's keyword form of the value
+        if key in kw and len(pos) == 3:
+            pos = [*pos, kw.pop(key)]
+    if len(pos) < 3 or len(pos) > 5:
+        raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
+    unknown = sorted(set(kw) - set(INSTANCE))
+    if unknown:
+        raise line.fail(f"unsupported parameters {unknown} (form: '{FORM}')")
+    found = ctx.find_model(pos[3:])
+    model, where = {}, None
+    if found is not None:
+        token, kind, where = found
+        if kind != "R":
+            raise line.fail(f"model {token!r} ({where}) is a {kind} model, not a resistor (R)")
+        _, model, _ = ctx.model(token, line)
+        bad = sorted(k for k in model if k not in MODEL)
+        if bad:
+            raise line.fail(
+                f"resistor model {token!r} ({where}) sets {bad}; ngspice's resistor model "
+                f"has {', '.join(k.upper() for k in MODEL)}"
+            )
+    values = [t for t in pos[3:] if found is None or t != found[0]]
+    if len(values) > 1 or (not values and found is None):
+        raise line.fail(f"expected '{FORM}' (a value, a resistor .model, or both)")
+    value = ctx.value(values[0], line, f"{pos[0]} value") if values else None
+    numbers = {
+        k: ctx.value(v, line, f"{pos[0]} {k}")
+        for k, v in kw.items()
+        if k not in ("ac", "noisy", "bv_max")
+    }
+    if "ac" in kw:  # ngspice: a resistance for the AC analysis only
+        ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
+    if found is None and not numbers:  # the plain R line: its value as given (maybe traced)
+        return cp.Resistor(value, name=name), {"p": pos[1], "n": pos[2]}
+    for key in ("m", "scale"):
+        if key in numbers and numbers[key] <= 0.0:
+            raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
+    r = effective(value, model, numbers)
+    if math.isinf(r):
+        ctx.note(
+            line,
+            f"{pos[0]}: W = 2·NARROW makes its resistance infinite (ngspice's conductance "
+            "0): left out, an open circuit",
+        )
+        return None, {}
+    if value is None and not model.get("rsh") and model.get("r", model.get("res")) is None:
+        ctx.note(line, f"{pos[0]}: no value, RSH or R: 1 mOhm, as ngspice sets it")
+    if not r > 0.0:
+        raise line.fail(
+            f"{pos[0]}: its resistance works out to {r:g} Ohm (value, RSH·(L−2·SHORT)/"
+            "(W−2·NARROW), temperature factor, SCALE/M); diracvi's resistor needs R > 0"
+        )
+    return cp.Resistor(r, name=name), {"p": pos[1], "n": pos[2]}
