@@ -59,13 +59,8 @@ from ..discretization.rules import get_rule
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
 from ..runtime.config import ensure_float64
-from ..solvers.sparse_affine import (
-    NotSparseAffine,
-    _own_offsets,
-    _parts,
-    build,
-    structural_pattern,
-)
+from ..solvers.sparse_affine import NotSparseAffine, _own_offsets, _parts, build
+from ..solvers.sparse_pattern import structural_pattern
 from . import events
 from .adaptive import _ORDER, FAILED_SOLVE, OK, SAFETY, TOO_MANY, TOO_SMALL, AdaptiveRun, Controls
 

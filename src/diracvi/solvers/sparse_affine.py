@@ -75,6 +75,7 @@ from ..discretization.equations import new_momentum, reaction_impulse, residual,
 from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
 from .condensed import SingularStep, condense, own_unknowns
+from .sparse_pattern import NotSparseAffine, _pattern, _structure
 
 #: the initial-data check of a run on this path checks momenta (a dense O(n³)
 #: projector) up to this many coordinates; joined ports always
@@ -93,10 +94,6 @@ def block_length(n: int, size: int) -> int:
     """Steps per block for ``n`` coordinates and ``size`` unknowns (8 … ``BLOCK``)."""
     per_step = 8 * (5 * n + 2 * size)  # states, increments, padded q pairs, offsets
     return int(max(8, min(BLOCK, BLOCK_BYTES // per_step)))
-
-
-class NotSparseAffine(Exception):
-    """The sparse path does not apply (the reason is the message)."""
 
 
 def _parts(system, rule, scheme, h, w, tk):
@@ -194,94 +191,6 @@ def _accumulate(a, x, y) -> None:
 
 _probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
 _block = run_once_jit(_block_fn, "diracvi.solvers.sparse_affine._block")
-
-
-# ----------------------------------------------------------------------- structure
-def _structure(system):
-    """Host-side index tables: per part its columns in ``w = (q, p, y)`` and rows, per
-    interaction row its multiplier's column and equation, and who touches whom."""
-    n = system.n
-    subs = system.subsystems
-    offsets = np.asarray(system._offsets)
-    mu_sizes = np.array([s.m for s in subs], dtype=np.int64)
-    mu_start = n + np.concatenate([[0], np.cumsum(mu_sizes)[:-1]]).astype(np.int64)
-    own = int(mu_sizes.sum())
-    rows_of_sub = [[] for _ in subs]
-    row_subs = [tuple(int(i) for i in r) for r in system.row_subsystems]
-    for b, involved in enumerate(row_subs):
-        for i in involved:
-            rows_of_sub[i].append(b)
-    return offsets, mu_start, mu_sizes, own, row_subs, rows_of_sub
-
-
-def _greedy(count, neighbours):
-    """A greedy colouring: ``color[i]`` differs from every neighbour's."""
-    color = np.full(count, -1, dtype=np.int64)
-    for i in range(count):
-        taken = {int(color[j]) for j in neighbours(i) if color[j] >= 0}
-        c = 0
-        while c in taken:
-            c += 1
-        color[i] = c
-    return color
-
-
-def _pattern(system, rule):
-    """Seeds ``(K, 2n + U)`` and the structural entries ``(seed, row, column)`` of the
-    residual (rows in ``[0, U)``) and of the momentum lines (rows ``U + [0, n)``)."""
-    if rule.stages:
-        raise NotSparseAffine("a staged rule (its stages are not in this path)")
-    n, size = system.n, unknown_count(system, rule)
-    offsets, mu_start, mu_sizes, own, row_subs, rows_of_sub = _structure(system)
-    count = len(system.subsystems)
-    sub_color = _greedy(count, lambda i: {j for b in rows_of_sub[i] for j in row_subs[b] if j != i})
-    row_color = _greedy(
-        len(row_subs), lambda b: {c for i in row_subs[b] for c in rows_of_sub[i] if c != b}
-    )
-    local = 3 * np.diff(offsets) + mu_sizes  # q, p, increment and own μ of each part
-    width = np.zeros(int(sub_color.max(initial=-1)) + 1, dtype=np.int64)
-    np.maximum.at(width, sub_color, local)
-    first_seed = np.concatenate([[0], np.cumsum(width)])
-    row_seed0 = int(first_seed[-1])
-    seeds_count = row_seed0 + int(row_color.max(initial=-1)) + 1
-    seeds = np.zeros((seeds_count, 2 * n + size))
-    entries = []  # arrays (seed, row, column)
-    lam0 = 2 * n + n + own  # column of λ_0 in w
-    for i in range(count):
-        a, b = int(offsets[i]), int(offsets[i + 1])
-        coords = np.arange(a, b)
-        mus = np.arange(mu_start[i], mu_start[i] + mu_sizes[i])
-        cols = np.concatenate([coords, n + coords, 2 * n + coords, 2 * n + mus])
-        seed = first_seed[sub_color[i]] + np.arange(cols.size)
-        seeds[seed, cols] = 1.0
-        rows = np.concatenate(
-            [coords, mus, n + own + np.asarray(rows_of_sub[i], dtype=np.int64), size + coords]
-        )
-        entries.append(
-            (np.repeat(seed, rows.size), np.tile(rows, cols.size), np.repeat(cols, rows.size))
-        )
-    for rb, involved in enumerate(row_subs):
-        seed = row_seed0 + int(row_color[rb])
-        col = lam0 + rb
-        seeds[seed, col] = 1.0
-        coords = np.concatenate(
-            [np.arange(offsets[i], offsets[i + 1]) for i in involved] or [np.zeros(0, np.int64)]
-        )
-        mus = np.concatenate(
-            [np.arange(mu_start[i], mu_start[i] + mu_sizes[i]) for i in involved]
-            or [np.zeros(0, np.int64)]
-        )
-        rows = np.concatenate([coords, mus, size + coords])
-        entries.append((np.full(rows.size, seed), rows, np.full(rows.size, col)))
-    seed_of, row_of, col_of = (
-        np.concatenate(e).astype(np.int64) for e in zip(*entries, strict=True)
-    )
-    return seeds, seed_of, row_of, col_of
-
-
-#: the seeds and structural entries of a system's step Jacobians (independent of ``h``):
-#: pass it to :func:`build` to build maps for several step sizes without recomputing it
-structural_pattern = _pattern
 
 
 # ----------------------------------------------------------------------- the map
@@ -551,9 +460,10 @@ def build(
 ):
     """The :class:`SparseAffineMap` of ``system`` (a packed interconnection), or raise
     :class:`NotSparseAffine` saying why not (not an interconnection, a staged rule, not
-    affine, a singular step Jacobian). ``pattern``: :func:`structural_pattern` of the same system
-    and rule, when the caller builds the map for several step sizes (it does not depend
-    on ``h``; on a large circuit it is most of a warm build's time)."""
+    affine, a singular step Jacobian). ``pattern``:
+    :func:`~diracvi.solvers.sparse_pattern.structural_pattern` of the same system and rule,
+    when the caller builds the map for several step sizes (it does not depend on ``h``; on
+    a large circuit it is most of a warm build's time)."""
     import scipy.sparse as sp
 
     if not hasattr(system, "row_subsystems"):
