@@ -69,6 +69,8 @@ model's own residual, and one Newton correction ``J_x⁻¹ r`` of it (by ``lu``)
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..discretization.equations import new_momentum, reaction_impulse, residual, unknown_count
@@ -175,18 +177,25 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
 MAX_DRIVERS = 16
 
 
-try:  # y += A x for a CSR matrix, in place and without scipy's dispatch (≈ 3 µs a call)
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:  # pragma: no cover (a SciPy that moved it: the public product)
-    _csr_matvec = None
+@functools.cache
+def _csr_matvec():
+    """SciPy's in-place ``y += A x`` for a CSR matrix, without its dispatch (≈ 3 µs a
+    call), or None in a SciPy that moved it. Looked up on first use: importing diracvi
+    does not import SciPy (``tests/test_imports.py``)."""
+    try:
+        from scipy.sparse._sparsetools import csr_matvec
+    except ImportError:  # pragma: no cover (a SciPy that moved it: the public product)
+        return None
+    return csr_matvec
 
 
 def _accumulate(a, x, y) -> None:
     """``y += a @ x`` for a CSR ``a`` and contiguous float64 ``x``, ``y``."""
-    if _csr_matvec is None:
+    matvec = _csr_matvec()
+    if matvec is None:
         y += a @ x
     else:
-        _csr_matvec(a.shape[0], a.shape[1], a.indptr, a.indices, a.data, x, y)
+        matvec(a.shape[0], a.shape[1], a.indptr, a.indices, a.data, x, y)
 
 
 _probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
