@@ -15,7 +15,8 @@ from .driver.trajectory import Trajectory, load
 from .errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from .model.consistency import InconsistentInitialDataWarning
 from .model.consistency import project as project_initial_state
-from .model.interconnect import Connection, Interaction, InterconnectedSystem, connect, interconnect
+from .model.interaction import Connection, Interaction, connect
+from .model.interconnect import InterconnectedSystem, interconnect
 from .model.system import DiracSystem, LagrangeDiracSystem
 from .runtime import cache as _cache
 from .runtime import config as _config  # noqa: F401

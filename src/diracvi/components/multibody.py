@@ -27,7 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..model.interconnect import connect, interconnect
+from ..model.interaction import connect
+from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._part import finite
 from .joints import joint_rows

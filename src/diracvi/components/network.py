@@ -22,7 +22,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..model.interconnect import Interaction, connect, interconnect
+from ..model.interaction import Interaction, connect
+from ..model.interconnect import interconnect
 from ..model.sparse_rows import SparseRows
 from ._part import Part, traced
 from .electrical import CoupledInductors, Ground, MutualInductance

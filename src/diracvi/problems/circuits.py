@@ -18,7 +18,8 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
-from ..model.interconnect import connect, interconnect
+from ..model.interaction import connect
+from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._problem import Problem, linear_flow
 

@@ -22,7 +22,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..driver.simulate import momenta
-from ..model.interconnect import Interaction, interconnect
+from ..model.interaction import Interaction
+from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._problem import Problem
 

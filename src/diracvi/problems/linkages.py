@@ -16,7 +16,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from ..model.interconnect import connect, interconnect
+from ..model.interaction import connect
+from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._problem import Problem
 
