@@ -60,6 +60,7 @@ def test_checkpoint_of_another_run_is_refused(tmp_path):
         run_rlc(path, 200, 50)
 
 
+@pytest.mark.slow  # 13 s; tests/test_survivors.py kills and resumes a Newton run by default
 def test_killed_run_resumes_bitwise_identically(tmp_path):
     steps, every = 200_000, 10_000
     path = tmp_path / "killed.nc"

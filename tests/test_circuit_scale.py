@@ -84,6 +84,9 @@ def test_autonomous_minus_and_saving():
     np.testing.assert_allclose(bare.final_q, ref.final_q, rtol=0, atol=1e-10)
 
 
+# the path choice on a large netlist; tests/test_fast_paths.py checks it at a smaller size by
+# default
+@pytest.mark.slow
 def test_chosen_automatically_for_a_large_linear_netlist():
     """From 256 unknowns (where the partitioned solver took over) a linear netlist is
     stepped by the sparse map, with the partitioned solver's trajectory."""
@@ -178,6 +181,8 @@ def _dense_kcl(system):
     return dv.interconnect(list(system.subsystems), [inter], name=system.name)
 
 
+# dense twin of every KCL row (9 s); ladders against ngspice cover the sparse rows by default
+@pytest.mark.slow
 def test_sparse_kcl_rows_equal_the_dense_ones():
     """The netlist's KCL kept as sparse triples gives the dense rows' step equations to
     round-off under every rule (staged lobatto included), the same ``Bᵀλ`` and the same

@@ -108,6 +108,8 @@ def test_ladder_map_solves_with_the_node_count(monkeypatch):
         assert np.max(np.abs(lu.solve(rhs) - want)) <= 1e-12 * np.max(np.abs(want))
 
 
+# a third run of the ladder (13 s); the condensed solve itself is checked by default
+@pytest.mark.slow
 def test_offsets_of_every_row_give_the_same_run(monkeypatch):
     """A driven ladder with the offsets taken from the whole residual at zero (as for
     more than ``MAX_DRIVERS`` time-dependent parts: every entry of ``r₀``, ``P₀`` is a

@@ -272,6 +272,8 @@ def test_discrete_power_balance_accounts_for_every_watt():
 
 
 # ------------------------------------------------------------------ gradients
+# 11 s; gradients to every part's parameters are checked by default in tests/test_components.py
+@pytest.mark.slow
 def test_gradient_flows_to_a_transconductance():
     """``jax.grad`` of the RC's final charge with respect to ``gm`` (a traced part
     parameter) equals central differences and the closed form

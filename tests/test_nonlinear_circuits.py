@@ -402,6 +402,7 @@ def _loss(theta):
     return jnp.sum(result["v(c)"] ** 2) + 1e3 * jnp.sum(result["i(L1)"] ** 2)
 
 
+@pytest.mark.slow  # 9 s; the diode's parameter gradients are checked part by part by default
 def test_grad_through_a_netlist_matches_central_differences():
     theta = jnp.array([100.0, 1e-6, 1e-2, 1e-14, 2.0])
     grad = jax.jit(jax.grad(_loss))(theta)
