@@ -427,6 +427,9 @@ def adaptive_sparse(
             landings += 1
         else:
             h_try, level = h0, k
+        if not (h_try > 0.0 and t + h_try > t):  # a try that cannot advance time
+            status = TOO_SMALL  # (a breakpoint behind t, or h below t's resolution)
+            break
         half = 0.5 * h_try
         coarse = maps.get(h_try, level)
         fine = maps.get(half, None if level is None else level + 1)
