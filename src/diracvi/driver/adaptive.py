@@ -131,6 +131,58 @@ class AdaptiveRun(NamedTuple):
         return MESSAGES[self.status]
 
 
+class Estimate(NamedTuple):
+    """One try's error estimate (:func:`estimate`): the worst scaled error, the running
+    peaks with this try's values, and the second fine step's impulse ``c₂``."""
+
+    err: object
+    q_peak: object
+    v_peak: object
+    m_peak: object
+    c2: object
+
+
+def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estimate:
+    """The step-doubling error of one try (module docstring), for the compiled loop
+    (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
+
+    ``steps = (q_c, q₁, q₂)``: the coarse step's end and the two fine steps' ends from
+    ``q``; ``mus = (μ_c, μ₁, μ₂)`` their multipliers; ``peaks = (Q, V, Φ)``;
+    ``tolerances = (share, rtol, atol_q, atol_v, atol_m)``."""
+    qc, q1, q2 = steps
+    mu_c, mu1, mu2 = mus
+    share, rtol, atol_q, atol_v, atol_m = tolerances
+    half = 0.5 * h_try
+    diff = xp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
+    v1, v2 = (q1 - q) / half, (q2 - q1) / half
+    q_peak = xp.maximum(peaks[0], xp.maximum(xp.abs(q1), xp.abs(q2)))
+    v_peak = xp.maximum(peaks[1], xp.maximum(xp.abs(v1), xp.abs(v2)))
+    e_q = diff / (share * rtol * q_peak + atol_q)
+    e_v = diff / h_try / (share * rtol * v_peak + atol_v)
+    # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
+    # (node potentials of a circuit), coarse against the mean of the two fine ones
+    c1 = 2.0 * mu1 - c_prev
+    c2 = 2.0 * mu2 - c1
+    phi_c = -(2.0 * mu_c - c_prev) / h_try
+    phi1, phi2 = -c1 / half, -c2 / half
+    diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
+    m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
+    e_m = diff_m / (share * rtol * m_peak + atol_m)
+    # a rate's tolerance is at least its integral's over the step (SPICE's
+    # max(current tol, charge tol / h)): a mode ringing at the midpoint's amplification
+    # −1 (a stiff junction) moves the end state by a fixed amount whatever H, which
+    # read as a rate grows as 1/H and would drive the step to hmin
+    e_v = xp.minimum(e_v, e_q)
+    e_m = xp.minimum(e_m, e_m * h_try / hmax)
+    err = xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
+    return Estimate(err, q_peak, v_peak, m_peak, c2)
+
+
+def growth(xp, err):
+    """The next try's size over this one's: ``clip(0.9 e^{−1/3}, 0.2, 2)``."""
+    return xp.clip(0.9 * xp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
+
+
 def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     eqs = StepEquations(system, rule, "plus", h, q, p, t)
     guess = first_guess(system, rule, q, q_guess, mu_guess)
@@ -177,37 +229,21 @@ def _march(system, rule, solver, capacity, x):
         q1, p1, mu1, ok1 = step(modes, half, t, q, p, half * vel, 0.5 * mu_g)
         q2, p2, mu2, ok2 = step(modes, half, t + half, q1, p1, q1 - q, mu1)
         ok = ok_c & ok1 & ok2
-        diff = jnp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
-        v1, v2 = (q1 - q) / half, (q2 - q1) / half
-        q_peak = jnp.maximum(c["q_peak"], jnp.maximum(jnp.abs(q1), jnp.abs(q2)))
-        v_peak = jnp.maximum(c["v_peak"], jnp.maximum(jnp.abs(v1), jnp.abs(v2)))
-        share = x["safety"]
-        e_q = diff / (share * rtol * q_peak + atol_q)
-        e_v = diff / h_try / (share * rtol * v_peak + atol_v)
-        # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
-        # (node potentials of a circuit), coarse against the mean of the two fine ones
         c_prev = c["c_last"]
-        c1 = 2.0 * mu1 - c_prev
-        c2 = 2.0 * mu2 - c1
-        phi_c = -(2.0 * mu_c - c_prev) / h_try
-        phi1, phi2 = -c1 / half, -c2 / half
-        diff_m = jnp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
-        m_peak = jnp.maximum(c["m_peak"], jnp.maximum(jnp.abs(phi1), jnp.abs(phi2)))
-        e_m = diff_m / (share * rtol * m_peak + x["atol_m"])
-        # a rate's tolerance is at least its integral's over the step (SPICE's
-        # max(current tol, charge tol / h)): a mode ringing at the midpoint's amplification
-        # −1 (a stiff junction) moves the end state by a fixed amount whatever H, which
-        # read as a rate grows as 1/H and would drive the step to hmin
-        e_v = jnp.minimum(e_v, e_q)
-        e_m = jnp.minimum(e_m, e_m * h_try / hmax)
-        err = jnp.max(jnp.concatenate([e_q, e_v, e_m]), initial=0.0)
+        est = estimate(
+            jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
+            (c["q_peak"], c["v_peak"], c["m_peak"]),
+            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax,
+        )  # fmt: skip
+        err, q_peak, v_peak, m_peak, c2 = est
+        v2 = (q2 - q1) / half
         ok = ok & jnp.isfinite(err)
         modes_new, located, h_event, e_new = events.decide(
             found, modes, (q, q1, q2), (p, p1, p2), c["e_last"], h_try, x["event_tol"], hmin
         )
         aim = ok & (err <= 1.0) & ~located  # retried at the switching instant
         accept = ok & (err <= 1.0) & located
-        grow = jnp.clip(0.9 * jnp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
+        grow = growth(jnp, err)
         h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
         # a step shortened to land on a breakpoint says little about the next one
         h_next = jnp.where(accept & (h_try < h0), jnp.maximum(h_next, h0), h_next)

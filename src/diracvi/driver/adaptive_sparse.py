@@ -62,7 +62,17 @@ from ..runtime.config import ensure_float64
 from ..solvers.sparse_affine import NotSparseAffine, _own_offsets, _parts, build
 from ..solvers.sparse_pattern import structural_pattern
 from . import events
-from .adaptive import _ORDER, FAILED_SOLVE, OK, SAFETY, TOO_MANY, TOO_SMALL, AdaptiveRun, Controls
+from .adaptive import (
+    FAILED_SOLVE,
+    OK,
+    SAFETY,
+    TOO_MANY,
+    TOO_SMALL,
+    AdaptiveRun,
+    Controls,
+    estimate,
+    growth,
+)
 
 #: how many step maps (each an assembled, factored J_x for one step size) are kept
 CACHE_SIZE = 8
@@ -441,47 +451,29 @@ def adaptive_sparse(
         z2, y2 = fine.step(z1, r2, p2o)
         tries += 1
         ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
-        qc, q1, q2 = zc[:n], z1[:n], z2[:n]
-        mu_c, mu1, mu2 = yc[n:], y1[n:], y2[n:]
-        diff = np.abs(q2 - qc) / (2.0**_ORDER - 1.0)
-        v1, v2 = (q1 - z[:n]) / half, (q2 - q1) / half
-        qp = np.maximum(q_peak, np.maximum(np.abs(q1), np.abs(q2)))
-        vp = np.maximum(v_peak, np.maximum(np.abs(v1), np.abs(v2)))
         with np.errstate(divide="ignore", invalid="ignore"):
-            e_q = diff / (share * rtol * qp + atol_q)
-            e_v = diff / h_try / (share * rtol * vp + atol_v)
-        c1 = 2.0 * mu1 - c_last
-        c2 = 2.0 * mu2 - c1
-        phi_c = -(2.0 * mu_c - c_last) / h_try
-        phi1, phi2 = -c1 / half, -c2 / half
-        diff_m = np.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
-        mp = np.maximum(m_peak, np.maximum(np.abs(phi1), np.abs(phi2)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            e_m = diff_m / (share * rtol * mp + atol_m)
-        e_v = np.minimum(e_v, e_q)
-        e_m = np.minimum(e_m, e_m * h_try / hmax)
-        err = max(
-            float(np.max(e_q, initial=0.0)),
-            float(np.max(e_v, initial=0.0)),
-            float(np.max(e_m, initial=0.0)),
-        )
+            est = estimate(
+                np, z[:n], (zc[:n], z1[:n], z2[:n]), (yc[n:], y1[n:], y2[n:]), c_last, h_try,
+                (q_peak, v_peak, m_peak), (share, rtol, atol_q, atol_v, atol_m), hmax,
+            )  # fmt: skip
+        err = float(est.err)
         ok = ok and math.isfinite(err)
         accept = ok and err <= 1.0
-        grow = min(max(0.9 * max(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2), 2.0) if ok else 0.0
+        grow = float(growth(np, err)) if ok else 0.0
         h_next = h_try * grow if ok else 0.25 * h_try
         if accept and h_try < h0:  # a landing step says little about the next one
             h_next = max(h_next, h0)
         if accept:
             t_new = target if land else t + half + half
-            rec.add(t + half, half, z1, mu1)
-            rec.add(t_new, half, z2, mu2)
+            rec.add(t + half, half, z1, y1[n:])
+            rec.add(t_new, half, z2, y2[n:])
             seen = count.get(id(fine), 0)
             if seen % VERIFY_EVERY == 0 and len(fine.samples) < VERIFY_MAX:
                 fine.samples.append((z.copy(), y1.copy(), t))
             count[id(fine)] = seen + 2
             t, z = t_new, z2
-            c_last = c2
-            q_peak, v_peak, m_peak = qp, vp, mp
+            c_last = est.c2
+            q_peak, v_peak, m_peak = est.q_peak, est.v_peak, est.m_peak
             if land and ib < len(breaks) and target == breaks[ib]:
                 ib += 1
         else:
