@@ -237,3 +237,43 @@ def test_arm_joint_angles_against_mujoco():
     errors = [error(h) for h in hs]
     assert loglog_slope(hs, errors) == pytest.approx(2.0, abs=0.05)
     assert error(0.000125) < 1e-6
+
+
+FLOATING = """<robot name="floating">
+  <link name="hull">
+    <inertial><mass value="3.0"/>
+      <inertia ixx="0.3" ixy="0" ixz="0" iyy="0.4" iyz="0" izz="0.5"/></inertial>
+  </link>
+  <joint name="weld" type="fixed">
+    <parent link="hull"/><child link="mast"/>
+    <origin xyz="0 0 0.4" rpy="0.1 0 0"/>
+  </joint>
+  <link name="mast">
+    <inertial><origin xyz="0 0 0.2"/><mass value="0.5"/>
+      <inertia ixx="0.02" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.001"/></inertial>
+  </link>
+  <joint name="buoy" type="floating">
+    <parent link="hull"/><child link="float"/>
+    <origin xyz="1 0 0"/>
+  </joint>
+  <link name="float">
+    <inertial><mass value="0.2"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+  </link>
+</robot>"""
+
+
+def test_floating_base_fixed_and_floating_joints():
+    """``fixed_base=False``: the root is a free body; a fixed joint between two massive
+    links welds them (its six rows hold at the pose); a floating joint adds no row."""
+    model = read_urdf(FLOATING, fixed_base=False).build()
+    assert list(model.bodies) == ["hull", "mast", "float"]
+    assert {k: c.kind for k, c in model.joints.items()} == {"weld": "fixed"}
+    np.testing.assert_allclose(model.rotation(model.q0, "mast"), rpy_matrix((0.1, 0.0, 0.0)))
+    np.testing.assert_allclose(model.body(model.q0, "mast")[:3], [0.0, 0.0, 0.4])
+    np.testing.assert_allclose(model.body(model.q0, "float")[:3], [1.0, 0.0, 0.0])
+    assert model.system.n == 36
+    rows = np.asarray(model.system.position_constraints(model.q0))
+    assert rows.shape == (3 * 6 + 6,) and np.max(np.abs(rows)) < 1e-15
+    with pytest.raises(ModelError, match=r"link 'hull' \(the root of a floating base\)"):
+        read_urdf(FLOATING.replace('<mass value="3.0"/>', '<mass value="0"/>'), fixed_base=False)
