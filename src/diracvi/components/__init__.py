@@ -43,6 +43,7 @@ from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
 from .rigid_body import RigidBody
 from .switch import CurrentSwitch, Relay, VoltageSwitch
+from .urdf import parse_urdf, read_urdf
 from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
@@ -92,5 +93,7 @@ __all__ = [
     "VoltageSource",
     "VoltageSwitch",
     "Waveform",
+    "parse_urdf",
+    "read_urdf",
     "spice_diode",
 ]
