@@ -38,6 +38,7 @@ from .mechanical import (
     TorqueSource,
     TorsionSpring,
 )
+from .jfet import JFET
 from .mosfet import MOSFET
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
@@ -51,6 +52,7 @@ __all__ = [
     "CCVS",
     "DC",
     "EMF",
+    "JFET",
     "MOSFET",
     "PWL",
     "SPICE_PARAMETERS",
