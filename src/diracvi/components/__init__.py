@@ -26,6 +26,7 @@ from .electrical import (
     VoltageSource,
 )
 from .electromechanical import EMF, VoiceCoil
+from .jfet import JFET
 from .mechanical import (
     Damper,
     Fixed,
@@ -38,7 +39,6 @@ from .mechanical import (
     TorqueSource,
     TorsionSpring,
 )
-from .jfet import JFET
 from .mosfet import MOSFET
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
