@@ -40,6 +40,7 @@ from .mechanical import (
     TorsionSpring,
 )
 from .mosfet import MOSFET
+from .mosfet6 import MOSFET6
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
 from .rigid_body import RigidBody
@@ -54,6 +55,7 @@ __all__ = [
     "EMF",
     "JFET",
     "MOSFET",
+    "MOSFET6",
     "PWL",
     "SPICE_PARAMETERS",
     "VCCS",
