@@ -104,7 +104,7 @@ def build(
     sign = KINDS[kind]
     pair = is_ if isinstance(is_, (tuple, list)) else (is_, is_)  # (bulk–drain, bulk–source)
     i_sd, i_ss = (mult * finite(where, "is_", x) for x in pair)
-    g = positive(where, "gmin", gmin)
+    g = positive(where, "gmin", gmin) * mult  # ngspice's load scales GMIN by M too
     caps = {
         "gs": finite(where, "cgso", cgso) * mult * width,
         "gd": finite(where, "cgdo", cgdo) * mult * width,
