@@ -121,9 +121,7 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
         v0=v0, name=name,
     )  # fmt: skip
     if v.get("level") == 6.0:
-        part = cp.MOSFET6(
-            kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common
-        )
+        part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
     else:
         part = cp.MOSFET(
             kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
