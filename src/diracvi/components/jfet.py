@@ -75,17 +75,6 @@ def gate_current(v, saturation_current, gmin):
     return pn_current(v, saturation_current, 1.0, reverse="cubic") + gmin * v
 
 
-def terminal_currents(vgs, vds, *, kind="njf", vto=-2.0, beta=1e-4, lambda_=0.0, b=1.0,
-                      pb=1.0, is_=1e-14, gmin=1e-12):  # fmt: skip
-    """``(I_D, I_G)`` into the drain and the gate for the true terminal voltages (no
-    ``RD``/``RS``): ``I_D = type (I_ch − I_GD)``, ``I_G = type (I_GS + I_GD)``."""
-    sign = KINDS[kind]
-    gs, gd = sign * vgs, sign * (vgs - vds)
-    ch = channel_current(gs, gd, vto=vto, beta=beta, lambda_=lambda_, b=b, pb=pb)
-    i_gs, i_gd = gate_current(gs, is_, gmin), gate_current(gd, is_, gmin)
-    return sign * (ch - i_gd), sign * (i_gs + i_gd)
-
-
 def JFET(
     kind="njf",
     vto=-2.0,
@@ -134,8 +123,11 @@ def JFET(
     fc = min(finite(where, "fc", fc), 0.95)  # ngspice limits FC to .95 (with a warning)
     if min(*res.values(), *caps.values(), i_s) < 0.0 or fc < 0.0:
         raise ModelError(f"{where}: is_, rd, rs, cgs, cgd and fc must be ≥ 0.")
-    if isinstance(law["vto"], float) and law["vto"] == law["pb"] and law["b"] != 1.0:
-        raise ModelError(f"{where}: PB = VTO = {pb:g} V makes B's (1 − B)/(PB − VTO) infinite.")
+    if isinstance(law["vto"], float) and law["vto"] == law["pb"]:
+        raise ModelError(
+            f"{where}: PB = VTO = {pb:g} V makes the doping tail's (1 − B)/(PB − VTO) 0/0 "
+            "(ngspice's too); move PB or VTO."
+        )
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
     if v0.shape != (2,) or not np.all(np.isfinite(v0)):
         raise ModelError(f"{where}: v0={v0!r} must be two finite voltages (V_GS, V_GD).")
