@@ -1,5 +1,8 @@
 r"""The level-1 MOSFET (Shichman–Hodges, SPICE ``M`` at ``LEVEL=1``) as a Lagrange–Dirac part.
 
+The part's structure below is :mod:`~diracvi.components._mos_part`'s, shared with level 6
+(:mod:`~diracvi.components.mosfet6`); this module gives level 1's law to it.
+
 Drain current, as ngspice's level 1 computes it (voltages multiplied by ``type`` = +1
 for NMOS, −1 for PMOS, so that both read as an NMOS; ``β = KP·W/L_eff``,
 ``L_eff = L − 2 LD``):
