@@ -26,6 +26,7 @@ from .electrical import (
     VoltageSource,
 )
 from .electromechanical import EMF, VoiceCoil
+from .jfet import JFET
 from .mechanical import (
     Damper,
     Fixed,
@@ -39,6 +40,7 @@ from .mechanical import (
     TorsionSpring,
 )
 from .mosfet import MOSFET
+from .mosfet6 import MOSFET6
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
 from .rigid_body import RigidBody
@@ -52,7 +54,9 @@ __all__ = [
     "CCVS",
     "DC",
     "EMF",
+    "JFET",
     "MOSFET",
+    "MOSFET6",
     "PWL",
     "SPICE_PARAMETERS",
     "VCCS",
