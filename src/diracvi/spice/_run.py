@@ -269,6 +269,18 @@ def run(
     solved), with ``UIC`` from the state the netlist gives (``.ic`` and ``IC=``, zero
     otherwise).
     """
+    thinned = {
+        k: v
+        for k, v in simulate_kwargs.items()
+        if (k == "save_every" and v != 1) or (k == "save_states" and v is not True)
+    }
+    if thinned:  # refused here: waveforms() would fail after the whole run, naming neither
+        options = ", ".join(f"{k}={v!r}" for k, v in thinned.items())
+        raise ModelError(
+            f"spice.run({options}): a netlist's waveforms are computed from every state. "
+            "Fix: leave it out and thin the result (result['v(out)'][::2]), or step "
+            "netlist.system with diracvi.simulate."
+        )
     netlist = source if isinstance(source, Netlist) else read(source, params=params)
     if dt is None and steps is None:
         if any(isinstance(v, jax.core.Tracer) for v in (params or {}).values()):
