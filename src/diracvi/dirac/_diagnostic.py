@@ -39,6 +39,7 @@ from ..discretization.rules import RULES, get_rule
 from ..errors import ModelError
 from ._discrete import InducedDiscrete, combine
 from ._staged import staged_parts
+from ._stagewise import stagewise_parts
 from ._tulczyjew import as_rule
 
 
@@ -112,8 +113,26 @@ def step_residuals(system, traj) -> StepResiduals:
         return StepResiduals(np.zeros(0), np.zeros((0, system.m)), empty, empty, empty[:, :0])
     t = np.asarray(traj.t)
     tk = t[:-1] if side == "plus" else t[1:]  # each step's earlier end
-    if rule.stages:  # the stages are re-solved from the stored states (see _staged)
-        parts = staged_parts(system, rule, side, h, q0, p0, q1, p1, tk)
+    if rule.stages:
+        stages = getattr(traj, "stages", None)
+        if stages is not None and getattr(type(system), "discrete_momenta", None) is None:
+            # the kept stages, checked node by node (see _stagewise)
+            parts = stagewise_parts(
+                system,
+                rule,
+                side,
+                h,
+                q0,
+                p0,
+                q1,
+                p1,
+                tk,
+                stages,
+                np.asarray(traj.multipliers),
+                traj.stage_multipliers,
+            )
+        else:  # the stages are re-solved from the stored states (see _staged)
+            parts = staged_parts(system, rule, side, h, q0, p0, q1, p1, tk)
         zeros = np.zeros_like(parts["base"])
         slot = [zeros, parts["base"]] if side == "plus" else [parts["base"], zeros]
         parts["base"] = np.concatenate(slot, axis=1)  # the base point's (q, p⁺) / (p⁻, q)

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from ..errors import ModelError
 from ._problem import Problem
+from .chaplygin_sleigh import chaplygin_sleigh
 from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
 from .dc_motor import dc_motor, dc_motor_driven
 from .double_pendulum import double_pendulum_torn
@@ -50,6 +51,7 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "cartesian-pendulum": cartesian_pendulum,
     "four-bar": four_bar,
     "cart-pendulum-torn": cart_pendulum_torn,
+    "chaplygin-sleigh": chaplygin_sleigh,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -89,6 +91,7 @@ __all__ = [
     "cart_pendulum_torn",
     "cartesian_pendulum",
     "chain_torn",
+    "chaplygin_sleigh",
     "damped_oscillator",
     "dc_motor",
     "dc_motor_driven",
