@@ -29,6 +29,7 @@ from .linkages import FourBar, cart_pendulum_torn, cartesian_pendulum, four_bar
 from .oscillator import damped_oscillator
 from .rigid_bodies import free_rigid_body, heavy_top, spatial_double_pendulum
 from .rolling_disk import rolling_disk
+from .spherical_pendulum import spherical_pendulum
 from .spring_chain import chain_torn, spring_chain, spring_chain_torn
 
 #: name → factory (called with no arguments gives the source's parameters)
@@ -52,6 +53,7 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "four-bar": four_bar,
     "cart-pendulum-torn": cart_pendulum_torn,
     "chaplygin-sleigh": chaplygin_sleigh,
+    "spherical-pendulum": spherical_pendulum,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -112,6 +114,7 @@ __all__ = [
     "rlc_torn",
     "rolling_disk",
     "spatial_double_pendulum",
+    "spherical_pendulum",
     "spring_chain",
     "spring_chain_torn",
 ]
