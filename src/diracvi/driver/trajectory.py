@@ -278,8 +278,9 @@ class Trajectory:
         r"""Per-step residual of ``(X_d^k, 𝔇^±L_d) ∈ D^{d±}_Δ``, shape (steps,).
 
         ``system`` is the system that produced this trajectory; see
-        :func:`diracvi.dirac.trajectory_residual`. Covers every rule (a ``"lobatto"``
-        run's internal stages, which are not stored, are re-solved from its states).
+        :func:`diracvi.dirac.trajectory_residual`. Covers every rule: a ``"lobatto"``
+        run made with ``keep_stages=True`` is checked node by node from its kept stages,
+        one without them by re-solving its stages from its states.
         """
         from ..dirac import trajectory_residual  # imported here: dirac imports this module
 
