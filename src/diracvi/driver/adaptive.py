@@ -57,7 +57,13 @@ import numpy as np
 from ..discretization.equations import StepEquations, first_guess, split
 from ..discretization.rules import get_rule
 from ..errors import ModelError
-from ..runtime.compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
+from ..runtime.compile import (
+    LOOP_REQUESTED,
+    RUN_ONCE_REQUESTED,
+    fast_compile,
+    loop_options,
+    run_once_options,
+)
 from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
@@ -345,13 +351,15 @@ def _march(system, rule, solver, capacity, x):
     return jax.lax.while_loop(cond, body, init)
 
 
-#: compiled like a marching chunk (XLA's default optimization, or the run-once options
-#: under DIRACVI_FAST_COMPILE=1) and kept in the program store: a later process loads it
+#: compiled with XLA's default optimization and its older fusion code generator (half
+#: the compilation, the same step speed: runtime/compile.py: loop_options), or the
+#: run-once options under DIRACVI_FAST_COMPILE=1, and kept in the program store: a
+#: later process loads it
 _program = StoredJit(
     _march,
     "diracvi.driver.adaptive._march",
-    run_once_options if fast_compile() else dict,
-    options_key=RUN_ONCE_REQUESTED if fast_compile() else {},
+    run_once_options if fast_compile() else loop_options,
+    options_key=RUN_ONCE_REQUESTED if fast_compile() else LOOP_REQUESTED,
 )
 
 
