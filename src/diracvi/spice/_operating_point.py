@@ -94,38 +94,29 @@ def _static(system, t, q, v, mu):
     return balance, velocity
 
 
-def _dependence_fn(system, t, q, v, mu):
-    """``∂(static equations)/∂q`` at a probe ``(q, v, μ)``: its nonzero columns are the
-    coordinates whose value enters the equations."""
-    return jax.jacfwd(lambda qq: jnp.concatenate(_static(system, t, qq, v, mu)))(q)
-
-
-def _linearized_fn(system, t, q0, dep, kcl, held, held_values, modes, x, source, gmin):
-    """``(r(x), ∂r/∂x, q, p)``: the residual of the static equations (with the held
-    nodes and the homotopies' ``source`` and ``gmin``) and its Jacobian, one program for
-    a Newton iterate; and the state ``(q, p = ∂L/∂v)`` that ``x`` stands for."""
+def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, source, gmin):
+    """The static equations at ``(v, μ, q)`` with the held nodes' currents ``hold_i`` and
+    the homotopies' ``source`` and ``gmin`` — the balance, the one-forms' rows and the
+    held rows ``φ_n − s·V_ic`` — their Jacobians in ``v``, ``μ``, every ``q`` and
+    ``hold_i``, and ``p = ∂L/∂v``: one program for the dependence probe (the nonzero
+    ``q`` columns) and every Newton iterate (which keeps only those columns)."""
     stepped = events.with_modes(system, modes)
-    n, m, k = q0.shape[0], stepped.m, dep.shape[0]
 
-    def residual(y):
-        v, mu, qd, hold_i = y[:n], y[n : n + m], y[n + m : n + m + k], y[n + m + k :]
-        q = q0.at[dep].set(qd)
+    def equations(v, mu, q, hold_i):
         balance, velocity = _static(stepped, t, q, v, mu)
         velocity = velocity.at[kcl].add(gmin * mu[kcl])
         velocity = velocity.at[held].add(hold_i)
         fixed = mu[held] - source * held_values
-        r = jnp.concatenate([balance, velocity, v[dep], fixed])
+        r = jnp.concatenate([balance, velocity, fixed])
         return r, r
 
-    jac, r = jax.jacfwd(residual, has_aux=True)(x)
-    q = q0.at[dep].set(x[n + m : n + m + k])
-    return r, jac, q, stepped.momentum(q, x[:n], t)
+    jac, r = jax.jacfwd(equations, argnums=(0, 1, 2, 3), has_aux=True)(v, mu, q, hold_i)
+    return r, *jac, stepped.momentum(q, v, t)
 
 
-# programs run once or a few times per circuit: compiled without optimization and kept
-# in the on-disk store, so a later process loads them untraced (the eager JAX calls
-# they replace compiled a program per operation: ~120 for an RC circuit)
-_dependence = run_once_jit(_dependence_fn, "diracvi.spice._operating_point._dependence")
+# run once or a few times per circuit: compiled without optimization and kept in the
+# on-disk store, so a later process loads it untraced (the eager JAX calls it replaces
+# compiled a program per operation: ~120 for an RC circuit)
 _linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._linearized")
 
 
@@ -166,6 +157,14 @@ class _Equations:
         n, m, k = self.n, self.m, len(self.dep)
         return x[:n], x[n : n + m], x[n + m : n + m + k], x[n + m + k :]
 
+    def _program(self, modes, v, mu, q, hold_i, source, gmin):
+        data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
+        out = _linearized(
+            self.system, self.t0, *data, *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+            np.float64(source), np.float64(gmin),
+        )  # fmt: skip
+        return tuple(np.asarray(a) for a in out)
+
     def _dependent(self) -> np.ndarray:
         """The coordinates whose value enters the static equations (a capacitor's charge):
         nonzero columns of their Jacobian in ``q`` at a generic probe."""
@@ -173,20 +172,35 @@ class _Equations:
         v = rng.standard_normal(self.n)
         mu = rng.standard_normal(self.m)
         q = self.q0 + rng.standard_normal(self.n) * 1e-3
-        jac = np.asarray(_dependence(self.system, self.t0, q, v, mu))
-        return np.nonzero(np.any(np.abs(jac) > 0.0, axis=0))[0]
+        modes = events.initial_modes(self.system)
+        _, _, _, jac_q, _, _ = self._program(modes, v, mu, q, np.zeros(len(self.held)), 1.0, 0.0)
+        rows = self.n + self.m  # the balance and the one-forms (the held rows are φ's)
+        return np.nonzero(np.any(np.abs(jac_q[:rows]) > 0.0, axis=0))[0]
 
     def linearized(self, modes):
         """``x, source, gmin ↦ (r, ∂r/∂x, q, p)`` as NumPy arrays, the switches in the
-        states ``modes`` (data: one compilation serves every state tried)."""
-        data = (self.q0, self.dep, self.kcl, self.held, self.held_values)
+        states ``modes`` (data: one compilation serves every state tried):
+
+            r = (balance, one-form rows, v_dep, held rows),  x = (v, μ, q_dep, hold_i)."""
+        n, m, dep = self.n, self.m, self.dep
+        rows = n + m
+        pick = np.zeros((len(dep), n))  # the rows v_j = 0 of the position-dependent j
+        pick[np.arange(len(dep)), dep] = 1.0
 
         def call(x, source, gmin):
-            out = _linearized(
-                self.system, self.t0, *data, np.asarray(modes, np.float64),
-                np.asarray(x, np.float64), np.float64(source), np.float64(gmin),
-            )  # fmt: skip
-            return tuple(np.asarray(a) for a in out)
+            v, mu, qd, hold_i = self.split(np.asarray(x, np.float64))
+            q = self.q0.copy()
+            q[dep] = qd
+            r, j_v, j_mu, j_q, j_h, p = self._program(modes, v, mu, q, hold_i, source, gmin)
+            r = np.concatenate([r[:rows], v[dep], r[rows:]])
+            jac = np.block(
+                [
+                    [j_v[:rows], j_mu[:rows], j_q[:rows][:, dep], j_h[:rows]],
+                    [pick, np.zeros((len(dep), m + len(dep) + len(self.held)))],
+                    [j_v[rows:], j_mu[rows:], j_q[rows:][:, dep], j_h[rows:]],
+                ]
+            )
+            return r, jac, q, p
 
         return call
 
