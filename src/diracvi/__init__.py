@@ -7,6 +7,8 @@ traj = dv.simulate(system, [1.0], [0.0], dt=0.01, steps=1000)
 """
 
 import importlib
+import importlib.util
+from typing import TYPE_CHECKING
 
 from .errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from .runtime import cache as _cache
@@ -48,6 +50,21 @@ _PUBLIC = {
     "StepSolver": ("solvers", "StepSolver"),
     "sweep": ("sweeps.run", "sweep"),
 }
+
+
+if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) read them
+    from . import dirac as dirac
+    from .discretization.rules import Lobatto, Midpoint, QuadratureRule, Retraction
+    from .driver.ensemble import Ensemble, simulate_ensemble
+    from .driver.simulate import momenta, simulate
+    from .driver.trajectory import Trajectory, load
+    from .model.consistency import InconsistentInitialDataWarning
+    from .model.consistency import project as project_initial_state
+    from .model.interaction import Connection, Interaction, connect
+    from .model.interconnect import InterconnectedSystem, interconnect
+    from .model.system import DiracSystem, LagrangeDiracSystem
+    from .solvers import AffineSolver, NewtonSolver, PartitionedSolver, SolveStatus, StepSolver
+    from .sweeps.run import sweep
 
 
 def __getattr__(name: str):
