@@ -10,6 +10,8 @@ than the MLIR-based fusion emitters that are XLA's default (measured: a torn dou
 pendulum's 1000-step chunk at level 0 in 1.43 → 0.61 s, the torn RLC's in
 0.46 → 0.22 s); a jaxlib that no longer knows the option compiles without it.
 
+The variable-step loop of a netlist keeps XLA's default optimization but takes the older
+fusion code generator (:func:`loop_options`: half the compilation, the same step speed).
 The marching chunks, which run many steps, keep the default, unless
 ``DIRACVI_FAST_COMPILE=1`` is set: then they are compiled like the run-once programs.
 The program (its HLO) is the same; only the machine code is less optimized. Measured on
