@@ -89,7 +89,7 @@ def test_torn_rssr_is_the_monolithic_one():
 
 @pytest.mark.slow
 def test_rssr_holds_its_loop_over_1e5_steps():
-    """10⁵ steps of 5 ms (500 s, about 480 crank turns): rows below 1e-12, energy band at
+    """10⁵ steps of 5 ms (500 s, about 590 crank turns): rows below 1e-12, energy band at
     the scheme's O(h²) size with no trend."""
     prob = rssr_linkage(dt=0.005, steps=100_000)
     traj = dv.simulate(
