@@ -50,11 +50,13 @@ to the next step). Above it, this try's share of the gap (``H/4``) is cut first:
 retried shorter by ``clip(0.9 e^{−1/3}, 0.2, 0.5)``, but not below twice the last
 try's steps (``H = 2h₋₁``: the centres evenly spaced); then the *last* try's share
 (``h₋₁/2``): that try is taken again from its own start, shorter by the same factor.
-A retaken try is not retaken a second time (a ringing junction's alternation does not
-shrink with the step; the tries budget of :mod:`diracvi.spice._run` stops a run whose
-checks would cut on without end), no gap is judged across a breakpoint or a switching
-instant (the interpolant does not cross those), and no try is retaken from a compiled
-call's earlier buffer. (The sparse host
+A cut must have helped: another one, with the gap no wider than at the last, is made
+only if the gap's error fell since (a knee's falls as the gap closes; the alternation
+of a ringing junction, which does not shrink with the step, grows instead, and cutting
+on would drive the step to ``hmin`` — the eSim clipper did). A retaken try is not
+retaken a second time, no gap is judged across a breakpoint or a switching instant (the
+interpolant does not cross those), and no try is retaken from a compiled call's earlier
+buffer. (The sparse host
 loop for linear circuits, :mod:`~diracvi.driver.adaptive_sparse`, has no junction to
 turn on and no such check.)
 
@@ -309,7 +311,12 @@ def _march(system, rule, solver, capacity, x):
         e_gap_v = gap_v / (rtol * v_peak + atol_v)
         e_gap_m = gap_m / (rtol * m_peak + x["atol_m"])
         e_gap = jnp.max(jnp.concatenate([e_gap_v, e_gap_m]), initial=0.0)
-        coarse = passes & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0)
+        # a cut must have helped: a second one while the gap is no wider than at the last
+        # cut only if its error fell since (a knee's falls as the gap closes; a ringing
+        # junction's alternation, which does not shrink with the step, rises instead)
+        gap = 0.5 * h_last + 0.25 * h_try
+        helped = (e_gap < c["gap_seen"]) | (gap > c["gap_width"] * (1.0 + 1e-9))
+        coarse = passes & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0) & helped
         # this try's own share of the gap first (down to the last try's spacing), then
         # the last try's
         own = coarse & (h_try > 2.0 * h_last * (1.0 + 1e-9))
@@ -375,6 +382,10 @@ def _march(system, rule, solver, capacity, x):
         new["h"] = jnp.where(back, c["was_h"] * shrink, new["h"])
         new["back_ok"] = jnp.where(back, False, new["back_ok"])
         new["gap_ok"] = jnp.where(back, False, new["gap_ok"])
+        cut = own | back
+        resolved = accept & (e_gap <= 1.0)
+        new["gap_seen"] = jnp.where(cut, e_gap, jnp.where(resolved, jnp.inf, c["gap_seen"]))
+        new["gap_width"] = jnp.where(cut, gap, jnp.where(resolved, 0.0, c["gap_width"]))
         new["redone"] = jnp.where(back, True, new["redone"])
         new["aimed"] = jnp.where(back, False, new["aimed"])
         return new
@@ -403,6 +414,8 @@ def _march(system, rule, solver, capacity, x):
         "phi_prev": x["phi_prev"],
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
         "gap_ok": jnp.asarray(False),
+        "gap_seen": jnp.asarray(jnp.inf, dtype),
+        "gap_width": jnp.asarray(0.0, dtype),
         "redone": jnp.asarray(False),
         **{"was_" + key: x[key] for key in _UNDO},
         "was_h": x["h"],
