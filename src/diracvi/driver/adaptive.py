@@ -50,13 +50,12 @@ to the next step). Above it, this try's share of the gap (``H/4``) is cut first:
 retried shorter by ``clip(0.9 e^{−1/3}, 0.2, 0.5)``, but not below twice the last
 try's steps (``H = 2h₋₁``: the centres evenly spaced); then the *last* try's share
 (``h₋₁/2``): that try is taken again from its own start, shorter by the same factor.
-A cut must have helped: another one, with the gap no wider than at the last, is made
-only if the gap's error fell since (a knee's falls as the gap closes; the alternation
-of a ringing junction, which does not shrink with the step, grows instead, and cutting
-on would drive the step to ``hmin`` — the eSim clipper did). A retaken try is not
-retaken a second time, no gap is judged across a breakpoint or a switching instant (the
-interpolant does not cross those), and no try is retaken from a compiled call's earlier
-buffer. (The sparse host
+A signal alternating from centre to centre is left out of the check: that is a stiff
+junction mode ringing under the midpoint rule, whose amplitude grows as the step
+shrinks (cut for it, the eSim clipper's 1N4148 drove the step to ``hmin``). A retaken
+try is not retaken a second time, no gap is judged across a breakpoint or a switching
+instant (the interpolant does not cross those), and no try is retaken from a compiled
+call's earlier buffer. (The sparse host
 loop for linear circuits, :mod:`~diracvi.driver.adaptive_sparse`, has no junction to
 turn on and no such check.)
 
@@ -200,10 +199,9 @@ def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estim
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
     e_m = diff_m / (share * rtol * m_peak + atol_m)
-    # a rate's tolerance is at least its integral's over the step (SPICE's
-    # max(current tol, charge tol / h)): a mode ringing at the midpoint's amplification
-    # −1 (a stiff junction) moves the end state by a fixed amount whatever H, which
-    # read as a rate grows as 1/H and would drive the step to hmin
+    # a rate is judged as its mean over TMAX (hmax): a mode ringing at the midpoint's
+    # amplification −1 (a stiff junction) moves the end state by a fixed amount whatever
+    # H, which read as a plain rate grows as 1/H and would drive the step to hmin
     e_v = xp.minimum(e_v, e_v * h_try / hmax)
     e_m = xp.minimum(e_m, e_m * h_try / hmax)
     err = xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
@@ -235,7 +233,12 @@ def gap_error(xs, ys):
     points = list(zip(xs, ys, strict=True))
     left = abs(second(*points[:3])) * 0.25 * (xs[1] - xs[0]) ** 2
     right = abs(second(*points[1:])) * 0.25 * (xs[2] - xs[1]) ** 2
-    return jnp.maximum(left, right)
+    # a signal alternating from centre to centre (its differences − + − or + − +) is a
+    # stiff mode ringing under the midpoint rule, whose amplitude no shorter step
+    # reduces (it grows as 1/h): not an interpolation error a cut could mend
+    d1, d2, d3 = ys[1] - ys[0], ys[2] - ys[1], ys[3] - ys[2]
+    ringing = (d1 * d2 < 0.0) & (d2 * d3 < 0.0)
+    return jnp.where(ringing, 0.0, jnp.maximum(left, right))
 
 
 def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
@@ -311,12 +314,7 @@ def _march(system, rule, solver, capacity, x):
         e_gap_v = gap_v / (rtol * v_peak + atol_v)
         e_gap_m = gap_m / (rtol * m_peak + x["atol_m"])
         e_gap = jnp.max(jnp.concatenate([e_gap_v, e_gap_m]), initial=0.0)
-        # a cut must have helped: a second one while the gap is no wider than at the last
-        # cut only if its error fell since (a knee's falls as the gap closes; a ringing
-        # junction's alternation, which does not shrink with the step, rises instead)
-        gap = 0.5 * h_last + 0.25 * h_try
-        helped = (e_gap < c["gap_seen"]) | (gap > c["gap_width"] * (1.0 + 1e-9))
-        coarse = passes & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0) & helped
+        coarse = passes & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0)
         # this try's own share of the gap first (down to the last try's spacing), then
         # the last try's
         own = coarse & (h_try > 2.0 * h_last * (1.0 + 1e-9))
@@ -382,10 +380,6 @@ def _march(system, rule, solver, capacity, x):
         new["h"] = jnp.where(back, c["was_h"] * shrink, new["h"])
         new["back_ok"] = jnp.where(back, False, new["back_ok"])
         new["gap_ok"] = jnp.where(back, False, new["gap_ok"])
-        cut = own | back
-        resolved = accept & (e_gap <= 1.0)
-        new["gap_seen"] = jnp.where(cut, e_gap, jnp.where(resolved, jnp.inf, c["gap_seen"]))
-        new["gap_width"] = jnp.where(cut, gap, jnp.where(resolved, 0.0, c["gap_width"]))
         new["redone"] = jnp.where(back, True, new["redone"])
         new["aimed"] = jnp.where(back, False, new["aimed"])
         return new
@@ -414,8 +408,6 @@ def _march(system, rule, solver, capacity, x):
         "phi_prev": x["phi_prev"],
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
         "gap_ok": jnp.asarray(False),
-        "gap_seen": jnp.asarray(jnp.inf, dtype),
-        "gap_width": jnp.asarray(0.0, dtype),
         "redone": jnp.asarray(False),
         **{"was_" + key: x[key] for key in _UNDO},
         "was_h": x["h"],
