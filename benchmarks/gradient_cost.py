@@ -12,8 +12,8 @@ a long call is preempted where a short one is not.
 
 from __future__ import annotations
 
+import argparse
 import functools
-import sys
 import time
 
 import jax
@@ -78,4 +78,6 @@ def main(repeats: int = 15) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 15)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("repeats", nargs="?", type=int, default=15, help="timing rounds")
+    main(parser.parse_args().repeats)

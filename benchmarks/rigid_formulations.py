@@ -17,7 +17,7 @@ Printed: warm wall time per step (best of 3), max ‖RᵀR − I‖, the relativ
 
 from __future__ import annotations
 
-import sys
+import argparse
 import time
 
 import jax
@@ -112,4 +112,6 @@ def _timed(fn) -> float:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 100_000)
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("n", nargs="?", type=int, default=100_000, help="steps")
+    main(parser.parse_args().n)

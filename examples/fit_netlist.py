@@ -85,7 +85,8 @@ def main(out="fit_netlist.png"):
     ax.set_title(
         "Netlist fit: "
         + ", ".join(
-            f"{n} = {e:.4g} ± {s:.2g}" for n, e, s in zip(NAMES, estimate, errors, strict=True)
+            f"{n} = {e:.4g} ± {s:.2g} {u}"
+            for n, u, e, s in zip(NAMES, ("Ω", "A"), estimate, errors, strict=True)
         )
     )
     ax.legend(fontsize=7)

@@ -98,14 +98,14 @@ def main(out="identify_rlc.png"):
     for j, label in enumerate(("inductor charge $q^L$", "capacitor charge $q^C$")):
         ax.plot(t, data[:, j], ".", ms=3, alpha=0.5, label=f"{label}, noisy data")
         ax.plot(t, fitted[:, j], "-", label=f"{label}, fit")
-    ax.set_xlabel("t")
-    ax.set_title(
-        "RLC identification: "
+    ax.set(xlabel="time t", ylabel="charge q")  # the paper's circuit: no units
+    ax.set_title(  # two lines: on one the fitted values ran past the figure's right edge
+        "RLC identification\n"
         + ", ".join(
             f"{n} = {e:.3f} ± {s:.3f}" for n, e, s in zip("RLC", estimate, errors, strict=True)
         )
     )
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, ncols=2, loc="upper right")  # two rows: clear of the curves
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     print(f"wrote {out}")

@@ -33,9 +33,9 @@ print(f"final angle {theta[-1]:.4f} rad; torque balance predicts {balance:.4f}")
 
 fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(10, 3.6), layout="constrained")
 ax1.plot(traj.t, w["v(vp)"], label="v(vp) source")
-ax1.plot(traj.t, w["v(c)"], label="v(c) back-emf K θ̇")
+ax1.plot(traj.t, w["v(c)"], label=r"v(c) back-emf $K\dot\theta$")  # mathtext: θ̇'s dot shows
 ax1.plot(traj.t, w["i(R1)"], label="i(R1) armature current")
-ax1.set(xlabel="t [s]", title="electrical side")
+ax1.set(xlabel="t [s]", ylabel="v [V], i [A]", title="electrical side")
 ax1.legend(fontsize=8)
 ax2.plot(traj.t, theta, color="C3")
 ax2.axhline(balance, color="0.6", ls="--", label="torque balance")

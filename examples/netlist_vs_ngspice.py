@@ -44,6 +44,6 @@ for ax, name, probes, dt in (
         got = np.interp(t_ref, result.time, result[probe])
         err = np.max(np.abs(got - ref[probe])[1:]) / np.max(np.abs(ref[probe]))
         print(f"  {probe}: max |diracvi − ngspice| / peak = {err:.1e}  (h = {dt:g})")
-    ax.set(xlabel="t [s]", ylabel="V", title=netlist.splitlines()[0])
+    ax.set(xlabel="t [s]", ylabel="node voltage [V]", title=netlist.splitlines()[0])
     ax.legend(fontsize=8)
 fig.savefig(figure_path("netlist_vs_ngspice.png"), dpi=100)

@@ -43,7 +43,7 @@ def pendulum(controls):
     return dv.LagrangeDiracSystem(("theta",), lagrangian, force=torque, name="pendulum")
 
 
-def run(controls, steps=STEPS):
+def run(controls, steps=STEPS, throw=True):
     return dv.simulate(
         pendulum(controls),
         jnp.zeros(1),
@@ -51,12 +51,19 @@ def run(controls, steps=STEPS):
         dt=T / steps,
         steps=steps,
         discretization="midpoint",
+        throw=throw,
     )
 
 
 def cost(controls, steps=STEPS):
-    traj = run(controls, steps)
-    return (traj.q[-1, 0] - TARGET) ** 2 + traj.p[-1, 0] ** 2 + EPS * jnp.sum(controls**2) * (T / N)
+    # throw=False: a failed step gives J = inf (the line search rejects that trial point)
+    # instead of equinox's host-callback check, whose callbacks JAX 0.10 lowers partly as
+    # untyped XLA custom calls inside optax's jitted L-BFGS step, so that step does not
+    # compile ("No registered implementation for untyped custom call to
+    # xla_ffi_python_cpu_callback"; docs/gradients.md)
+    traj = run(controls, steps, throw=False)
+    j = (traj.q[-1, 0] - TARGET) ** 2 + traj.p[-1, 0] ** 2 + EPS * jnp.sum(controls**2) * (T / N)
+    return jnp.where(jnp.all(traj.status == 0), j, jnp.inf)
 
 
 def optimize(iterations=15, steps=STEPS):

@@ -109,3 +109,39 @@ def operating_point(netlist: str) -> dict:
     if not values:
         raise RuntimeError(f"ngspice .op gave nothing:\n{out[-2000:]}")
     return values
+
+
+def dc_sweep(netlist: str, sweep: str, probes):
+    """ngspice's ``.dc`` of ``netlist`` (its analyses replaced by ``sweep``, e.g. ``"vd 0 5
+    0.5 vg -3 0 0.5"``), 15 digits: ``{probe: values}`` over the sweep's points, the first
+    source varying fastest (``"sweep"`` holds its values)."""
+    import subprocess
+    import tempfile
+
+    body, _, _ = netlist.rpartition(".end")
+    lines = [ln for ln in body.strip().splitlines() if not ln.lower().startswith((".tran", ".op"))]
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "out.txt"
+        deck = "\n".join(
+            [
+                *lines,
+                ".options reltol=1e-12 abstol=1e-18 vntol=1e-15",
+                ".control",
+                "set wr_singlescale",
+                "set wr_vecnames",
+                "option numdgt=15",
+                f"dc {sweep}",
+                f"wrdata {out} {' '.join(probes)}",
+                ".endc",
+                ".end",
+                "",
+            ]
+        )
+        (Path(tmp) / "deck.cir").write_text(deck)
+        proc = subprocess.run(
+            ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=120
+        )
+        if not out.exists():
+            raise RuntimeError(f"ngspice .dc failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+        data = np.loadtxt(out, skiprows=1, ndmin=2)
+    return {"sweep": data[:, 0], **{p: data[:, 1 + j] for j, p in enumerate(probes)}}

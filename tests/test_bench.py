@@ -14,7 +14,15 @@ from typer.testing import CliRunner
 
 import diracvi as dv
 from diracvi import problems
-from diracvi.bench import BENCHMARKS, BenchmarkError, Settings, chain_scaling, rlc, spring_chain
+from diracvi.bench import (
+    BENCHMARKS,
+    BenchmarkError,
+    Settings,
+    chain_scaling,
+    rlc,
+    spring_chain,
+    work_precision,
+)
 from diracvi.bench._core import Row, Target, interleaved, relative_difference
 from diracvi.bench._paper import AGREEMENT, check_agreement, in_order
 from diracvi.bench._worker import WorkerFailed, run_child
@@ -167,3 +175,25 @@ def test_table_on_an_80_column_console_breaks_no_word():
     lines = text.splitlines()
     for word in (label + " " + notes).split():  # every word whole on some line
         assert any(word in line for line in lines), word
+
+
+@pytest.mark.parametrize("name", list(work_precision.CASES))
+def test_work_precision_reference_starts_where_the_model_does(name):
+    """Each work–precision case's reduced ODE (hand-written NumPy, no diracvi) starts at
+    the model's state: ``to_q(y₀) = q₀``, and the reduced velocity at t = 0 (a centred
+    difference of a DOP853 run) has the model's momentum ``∂L/∂v(q₀, v₀) = p₀``."""
+    from scipy.integrate import solve_ivp
+
+    case = work_precision.CASES[name]()
+    np.testing.assert_allclose(case.to_q(case.y0), case.q0, rtol=0, atol=1e-12)
+    eps = 1e-5
+
+    def q_at(t):
+        sol = solve_ivp(case.rhs, (0.0, t), case.y0, method="DOP853", rtol=1e-13, atol=1e-13)
+        return case.to_q(sol.y[:, -1])
+
+    velocity = (q_at(eps) - q_at(-eps)) / (2 * eps)
+    momentum = dv.momenta(case.system, case.q0, velocity)
+    np.testing.assert_allclose(
+        momentum, case.p0, rtol=0, atol=1e-7 * max(1.0, np.abs(case.p0).max())
+    )

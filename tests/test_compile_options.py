@@ -13,7 +13,7 @@ from diracvi import problems
 from diracvi.driver.plan import clear_cache
 from diracvi.runtime import compile as _compile
 from diracvi.runtime import store as _stored
-from diracvi.runtime.compile import FAST_COMPILE_ENV, fast_compile, run_once_options
+from diracvi.runtime.compile import FAST_COMPILE_ENV, fast_compile, loop_options, run_once_options
 
 
 def test_fast_compiled_chunks_give_the_default_trajectory(monkeypatch, tmp_path):
@@ -64,16 +64,18 @@ def test_run_once_options_drop_an_option_this_jaxlib_refuses(monkeypatch):
             raise RuntimeError("INVALID_ARGUMENT: No such compile option")
         return jit(fn, compiler_options=compiler_options, **kwargs)
 
-    run_once_options.cache_clear()
+    assert loop_options() == {"xla_cpu_use_fusion_emitters": False}
+    _compile._older_fusion_known.cache_clear()
     monkeypatch.setattr(_compile.jax, "jit", refusing)
     try:
-        refused = run_once_options()
+        refused, loop_refused = run_once_options(), loop_options()
     finally:
-        run_once_options.cache_clear()
+        _compile._older_fusion_known.cache_clear()
     assert refused == {
         "xla_backend_optimization_level": 0,
         "xla_llvm_disable_expensive_passes": True,
     }
+    assert loop_refused == {}
     monkeypatch.undo()
     x = np.linspace(-3.0, 3.0, 101)
     fused = _compile.jax.jit(lambda x: jnp.sin(x) * x**3 + x, compiler_options=run_once_options())

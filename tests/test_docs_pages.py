@@ -22,7 +22,10 @@ How a page is read (``page_steps``), in order of its fenced blocks:
 Inline commands in prose (```` `diracvi bench --only gradients` ````) are not run (most
 name a command, or take minutes); ``test_inline_commands_parse`` checks each against the
 command line itself: the command exists, every option does, and a value of a choice
-option is one of its choices (``a|b`` spans: each alternative).
+option is one of its choices (``a|b`` spans: each alternative). Inline script runs
+(```` `python benchmarks/corpus.py --markdown` ````) are checked alike by
+``test_inline_scripts_parse``: the script exists, and its own ``argparse`` parser accepts
+the arguments (the script runs up to its ``parse_args`` and is stopped there).
 
 The page runs are marked ``docs`` (deselected by default, run in CI by ``.ci/run``: a page
 takes seconds to a minute); ``test_every_command_is_run_or_listed`` is in the default run
@@ -225,14 +228,17 @@ def test_shell_blocks_are_read_as_written():
 # ------------------------------------------------------------------ inline commands
 
 INLINE = re.compile(r"`(diracvi(?: [^`]*)?)`")
+#: ```` `python SCRIPT.py …` ```` spans, an environment prefix (``PYTHONPATH=src``) allowed
+INLINE_SCRIPT = re.compile(r"`((?:[A-Za-z_]\w*=\S* )*python3? [^`\s]+\.py(?: [^`]*)?)`")
 
 
-def inline_commands(page: Path) -> list[tuple[int, str]]:
-    """The ```` `diracvi …` ```` spans of ``page``'s prose (fenced blocks left out), each
-    ``a|b`` word expanded into its alternatives: ``(line, command)``."""
+def inline_commands(page: Path, pattern: re.Pattern = INLINE) -> list[tuple[int, str]]:
+    """The spans of ``page``'s prose (fenced blocks left out) that ``pattern`` finds —
+    ```` `diracvi …` ```` by default —, each ``a|b`` word expanded into its alternatives:
+    ``(line, command)``."""
     text = FENCE.sub(lambda m: "\n" * m.group(0).count("\n"), page.read_text(encoding="utf-8"))
     found = []
-    for m in INLINE.finditer(text):
+    for m in pattern.finditer(text):
         line = text.count("\n", 0, m.start()) + 1
         variants = [[]]
         for word in m.group(1).split():
@@ -325,6 +331,82 @@ def test_a_wrong_inline_command_is_caught(tmp_path):
     assert check_inline("diracvi run deck.cir --steps-per 3", tmp_path) is not None
     assert check_inline("diracvi cache wipe", tmp_path) is not None
     assert check_inline("diracvi simulate rlc", tmp_path) is not None
+
+
+class _Parsed(BaseException):
+    """Raised in place of a script's work once its parser has accepted the arguments."""
+
+
+def check_inline_script(command: str) -> str | None:
+    """``None`` if ``command`` — ``[VAR=value …] python SCRIPT.py ARGS`` — names a script of
+    this checkout that accepts ``ARGS``, else what is wrong. A script with an ``argparse``
+    parser is run in this process, as ``__main__`` with ``sys.argv`` set, up to its
+    ``parse_args``, which parses (an unknown option, a missing or mistyped argument exits
+    with argparse's message) and then stops the script before it does any work. A script
+    without a parser may be named only without arguments (nothing could check them)."""
+    import argparse
+    import ast
+    import runpy
+
+    words = shlex.split(command)
+    while words and re.fullmatch(r"[A-Za-z_]\w*=.*", words[0]):
+        words.pop(0)  # PYTHONPATH=src
+    name, args = words[1], words[2:]
+    script = ROOT / name
+    if not script.is_file():
+        return f"{name}: no such script in the repository"
+    calls = {
+        node.func.attr
+        for node in ast.walk(ast.parse(script.read_text(encoding="utf-8")))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)
+    }
+    if "parse_args" not in calls:
+        return None if not args else f"{name} has no argparse parser: its arguments {args} " \
+            "cannot be checked (give it one)"  # fmt: skip
+    parse = argparse.ArgumentParser.parse_args
+
+    def parse_and_stop(self, args=None, namespace=None):
+        parse(self, args, namespace)
+        raise _Parsed
+
+    saved = sys.argv, list(sys.path), dict(os.environ)
+    errors = io.StringIO()
+    argparse.ArgumentParser.parse_args = parse_and_stop
+    sys.argv = [str(script), *args]
+    sys.path.insert(0, str(script.parent))  # as `python SCRIPT` puts it
+    try:
+        with contextlib.redirect_stderr(errors), contextlib.redirect_stdout(io.StringIO()):
+            runpy.run_path(str(script), run_name="__main__")
+    except _Parsed:
+        return None
+    except SystemExit as exit:  # --help exits 0; a refused argument 2, with the message
+        return None if exit.code in (0, None) else errors.getvalue().strip().splitlines()[-1]
+    finally:
+        argparse.ArgumentParser.parse_args = parse
+        sys.argv, sys.path[:] = saved[0], saved[1]
+        os.environ.clear()
+        os.environ.update(saved[2])
+    return f"{name} ran to its end without parsing its arguments"
+
+
+def test_inline_scripts_parse():
+    spans = [(p, line, c) for p in PAGES for line, c in inline_commands(p, INLINE_SCRIPT)]
+    assert len(spans) >= 5
+    bad = [f"{p.name}:{line}: `{c}`: {problem}" for p, line, c in spans
+           if (problem := check_inline_script(c))]  # fmt: skip
+    assert not bad, "inline script runs that would fail:\n" + "\n".join(bad)
+
+
+def test_a_wrong_inline_script_is_caught():
+    assert check_inline_script("python benchmarks/corpus.py --markdown --only rc") is None
+    assert check_inline_script("PYTHONPATH=src python benchmarks/gradient_cost.py 15") is None
+    assert check_inline_script("python examples/rolling_disk_long_run.py") is None
+    assert "no such script" in check_inline_script("python benchmarks/corpse.py --markdown")
+    assert "--markdwn" in check_inline_script("python benchmarks/corpus.py --markdwn")
+    assert "invalid int" in check_inline_script("python benchmarks/rigid_formulations.py 1e5")
+    assert "argument" in check_inline_script("python benchmarks/chunk_program.py --rounds")
+    assert "no argparse" in check_inline_script("python examples/rolling_disk_long_run.py 5")
+    assert INLINE_SCRIPT.fullmatch("`PYTHONPATH=src python benchmarks/ladder_step.py 100`")
 
 
 # ------------------------------------------------------------------ running a page

@@ -16,3 +16,37 @@ def test_importing_diracvi_leaves_the_optional_stacks_unimported():
         [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
     )
     assert out.stdout.strip() == "", f"imported with diracvi: {out.stdout.strip()}"
+
+
+def test_importing_diracvi_leaves_what_a_call_may_not_need_unimported():
+    """The public names are imported at their first use: ``import diracvi`` alone loads
+    no Dirac structures, sweeps, ensembles or step solvers, and a name brings its module."""
+    probe = (
+        "import sys, diracvi as dv\n"
+        "before = sorted(m for m in sys.modules if m.startswith(("
+        "'diracvi.dirac', 'diracvi.sweeps', 'diracvi.driver', 'diracvi.solvers')))\n"
+        "dv.sweep, dv.dirac\n"
+        "print(' '.join(before), '|', 'diracvi.sweeps.run' in sys.modules, "
+        "'diracvi.dirac' in sys.modules, sorted(set(dv.__all__) - set(dir(dv))))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=120, check=True
+    )
+    assert out.stdout.split() == ["|", "True", "True", "[]"], out.stdout
+
+
+def test_a_netlist_run_writes_its_file_without_xarray(tmp_path):
+    """A variable-step netlist result is written with h5netcdf alone (``spice/_netcdf.py``):
+    a ``diracvi run deck.cir --out`` does not pay for importing xarray and pandas."""
+    deck = tmp_path / "rc.cir"
+    deck.write_text("RC\nV1 in 0 DC 1\nR1 in out 1k\nC1 out 0 1u\n.tran 0.5m 5m uic\n.end\n")
+    probe = (
+        "import sys\nfrom diracvi import spice\n"
+        f"spice.run({str(deck)!r}).save({str(tmp_path / 'rc.nc')!r})\n"
+        "print(' '.join(m for m in ('xarray', 'pandas') if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe], capture_output=True, text=True, timeout=300, check=True
+    )
+    assert out.stdout.strip() == "", f"imported by the run: {out.stdout.strip()}"
+    assert (tmp_path / "rc.nc").exists()

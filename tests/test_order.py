@@ -127,11 +127,13 @@ def lobatto_errors(problem, horizon, hs=LOBATTO_HS):
         # three Newton compilations each (≈ 10 s): with -m slow
         pytest.param("cartesian-pendulum", marks=pytest.mark.slow),
         pytest.param("rolling-disk", marks=pytest.mark.slow),
+        pytest.param("chaplygin-sleigh", marks=pytest.mark.slow),
     ],
 )
 def test_lobatto_is_fourth_order(name):
     """Regular (spring chain), forced and driven (forced oscillator), nonholonomic
-    (rolling disk) and holonomic (Cartesian pendulum, vs DOP853) models: slope 4."""
+    (rolling disk; Chaplygin sleigh, vs its closed-form heading and DOP853 for the contact
+    point) and holonomic (Cartesian pendulum, vs DOP853) models: slope 4."""
     errors = lobatto_errors(problems.get(name), 2.0).max(axis=1)
     assert abs(loglog_slope(LOBATTO_HS, errors) - 4.0) < 0.3, errors
     assert errors[-1] < 1e-7  # far below the midpoint rule's error at this h (≈ 1e-5)

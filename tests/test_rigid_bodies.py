@@ -18,6 +18,7 @@ import pytest
 import scipy.linalg
 
 import diracvi as dv
+from _kkt import constrained_accelerations
 from conftest import loglog_slope
 from diracvi.components import Multibody, RigidBody
 from diracvi.components.joints import JOINTS
@@ -160,28 +161,6 @@ def test_unknown_frame_and_joint_kind():
         mb.joint("hinge", "b.origin", "world")
 
 
-def _constrained_accelerations(system, q, v, mass):
-    r"""The continuous model's ``a = q̈``: ``[M Gᵀ; G 0] [a; λ] = [∂L/∂q − (∂²L/∂v∂q) v;
-    −d²g(q + s v)/ds²]`` with the constant mass matrix ``M`` and ``G = ∂g/∂q`` (no step,
-    no rule). Directional derivatives only: one compile of a few passes."""
-
-    def g(x):
-        return system.position_constraints(x, 0.0)
-
-    @jax.jit
-    def solve(q, v):
-        grad_v = jax.grad(system.lagrangian, argnums=1)
-        mixed_v = jax.jvp(lambda x: grad_v(x, v, 0.0), (q,), (v,))[1]
-        rhs = jax.grad(system.lagrangian, argnums=0)(q, v, 0.0) - mixed_v
-        jac = jax.jacfwd(g)(q)
-        curvature = jax.jvp(lambda x: jax.jvp(g, (x,), (v,))[1], (q,), (v,))[1]
-        k = jac.shape[0]
-        kkt = jnp.block([[jnp.asarray(mass), jac.T], [jac, jnp.zeros((k, k))]])
-        return jnp.linalg.solve(kkt, jnp.concatenate([rhs, -curvature]))[: q.shape[0]]
-
-    return np.asarray(solve(jnp.asarray(q), jnp.asarray(v)))
-
-
 def test_double_pendulum_forward_dynamics_is_mujocos():
     """The director model's constrained accelerations at the initial state against MuJoCo's
     forward dynamics: the ball joint's body-axis angular acceleration ``R₁ᵀ ω̇₁`` and the
@@ -196,7 +175,7 @@ def test_double_pendulum_forward_dynamics_is_mujocos():
     links = [RigidBody(m, j, name=f"l{i}") for i, (m, j, _, _) in enumerate(LINKS)]
     mass = scipy.linalg.block_diag(*(np.kron(b.mbar, np.eye(3)) for b in links))
     v0 = np.linalg.solve(mass, prob.p0)
-    acc = _constrained_accelerations(model, prob.q0, v0, mass)
+    acc = constrained_accelerations(model, prob.q0, v0, mass)
 
     def omega_dot(i):
         d = prob.q0[12 * i + 3 : 12 * i + 12].reshape(3, 3)

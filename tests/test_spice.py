@@ -79,7 +79,8 @@ def test_reader_understands_the_supported_syntax():
     ("text", "match"),
     [
         ("X1 a b sub", r"line 2: subcircuit 'sub' is not defined"),
-        ("J1 d g s jmod", r"line 2: element 'J1': a JFET"),
+        ("Z1 d g s zmod", r"line 2: element 'Z1': a MESFET"),
+        ("J1 d g s jmod", r"line 2: model 'jmod' is not defined"),
         ("Q1 c b e npn", r"line 2: element 'Q1': no defined model"),
         (".subckt amp a b", r"line 2: '.subckt' without its '.ends'"),
         (".func f {x}", r"line 2: expected '.func NAME\(arg1, arg2, …\) = expr'"),

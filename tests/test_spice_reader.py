@@ -39,8 +39,8 @@ BROKEN = """a deck with a problem on many lines
 V1 in 0 PULSE(0 1 0 1u 1u 1m 2m) AC 1
 R1 in a {undefined*2}
 B1 a 0 V=2*V(in)*volume(1)
-J1 c b 0 mod1
-.model mod1 NJF(BETA=1m)
+Z1 c b 0 mod1
+.model mod1 NMF(BETA=1m)
 R1 a 0 1k
 C1 a 0 -1u
 .func f {x*2}
@@ -68,7 +68,7 @@ def test_every_problem_is_reported_at_once_with_line_text_and_fix():
     assert "element 'B1': unknown function 'volume' at column 9" in text
     assert "expected '.func NAME(arg1, arg2, …) = expr'" in text
     # the transistor is refused at its element line, naming its model's line
-    assert "element 'J1': a JFET, model 'mod1' (NJF, line 6)" in text
+    assert "element 'Z1': a MESFET, model 'mod1' (NMF, line 6)" in text
     assert "line 6:" not in text
     assert "element 'R1' is defined twice (first line 3)" in text
     assert "Capacitor 'C1'" in text

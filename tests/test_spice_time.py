@@ -390,6 +390,29 @@ def test_output_from_tstart():
         )
 
 
+def test_a_variable_step_file_reads_as_its_dataset(tmp_path):
+    """``Result.save`` writes a variable-step run with h5netcdf alone (no xarray import);
+    xarray reads from it the very dataset ``to_xarray`` builds and xarray would write:
+    values, coordinate, attributes and their types, fill values, variable order."""
+    import xarray as xr
+
+    result = spice.run(DECKS["rc-charge"][0])
+    ours, theirs = tmp_path / "ours.nc", tmp_path / "theirs.nc"
+    result.save(ours)
+    result.to_xarray().to_netcdf(theirs, engine="h5netcdf")
+    with (
+        xr.open_dataset(ours, engine="h5netcdf") as a,
+        xr.open_dataset(theirs, engine="h5netcdf") as b,
+    ):
+        assert a.identical(b) and list(a.variables) == list(b.variables)
+        assert {k: type(v) for k, v in a.attrs.items()} == {k: type(v) for k, v in b.attrs.items()}
+        for name in b.variables:
+            assert np.isnan(a[name].encoding["_FillValue"]) == np.isnan(
+                b[name].encoding["_FillValue"]
+            )
+        np.testing.assert_array_equal(a["v(out)"].values, result["v(out)"])
+
+
 def test_cli_dt_keeps_a_fixed_step_to_tstop(tmp_path):
     deck = tmp_path / "rc.cir"
     deck.write_text(DECKS["rc-charge"][0])

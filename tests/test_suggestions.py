@@ -5,6 +5,7 @@ the horizon" — that too). A message whose suggested value is wrong fails here.
 
 from __future__ import annotations
 
+import ast
 import math
 import re
 
@@ -213,3 +214,222 @@ C1 out 0 1u
         netlist = netlist.replace(".tran 0.1m 1m", ".tran 0.1m 1m UIC")
     grad = jax.grad(lambda r: spice.run(netlist, dt=dt, params={"rval": r})["v(out)"][-1])(1e3)
     assert np.isfinite(grad) and grad < 0  # a larger R charges the capacitor more slowly
+
+
+# ------------------------------------------------------------------ models and solvers
+
+
+def test_names_error_suggests_names_that_run():
+    energy = lambda q, v: 0.5 * v @ v - 0.5 * q @ q  # noqa: E731
+    with pytest.raises(ModelError, match="sequence of names") as err:
+        dv.LagrangeDiracSystem("xy", energy)
+    names = ast.literal_eval(suggestion(str(err.value), r"e\.g\. coords=(\(.*?\))\.$"))
+    traj = dv.simulate(dv.LagrangeDiracSystem(names, energy), [1.0, 0.0], [0.0, 1.0],
+                       dt=0.1, steps=10)  # fmt: skip
+    assert traj.status == 0 and traj.q.shape == (11, 2)
+
+
+def test_holonomic_shape_error_suggests_a_constraint_that_runs():
+    import jax.numpy as jnp
+
+    def lagrangian(q, v):  # a point mass in the plane under gravity
+        return 0.5 * v @ v - q[1]
+
+    with pytest.raises(ModelError, match="holonomic returned shape") as err:
+        dv.LagrangeDiracSystem(("x", "y"), lagrangian, holonomic=lambda q: q @ q - 1.0)
+    written = suggestion(str(err.value), r"e\.g\. (lambda q: .*)\.$")
+    system = dv.LagrangeDiracSystem(("x", "y"), lagrangian, holonomic=eval(written, {"jnp": jnp}))
+    traj = dv.simulate(system, [1.0, 0.0], [0.0, 0.0], dt=0.01, steps=50)
+    radius = np.sum(np.asarray(traj.q) ** 2, axis=1)  # the suggested g: a pendulum of length 1
+    assert traj.status == 0 and np.abs(radius - 1.0).max() < 1e-10
+    assert traj.q[-1, 1] < -0.01  # it swings down
+
+
+def test_partitioned_solver_errors_suggest_fixes_that_run():
+    with pytest.raises(ModelError, match="needs an interconnected system") as err:
+        dv.simulate(_pendulum(), [1.0], [0.0], dt=0.05, steps=10, solver=dv.PartitionedSolver())
+    written = suggestion(str(err.value), r"use solver=(dv\.\w+\(\))")
+    traj = dv.simulate(_pendulum(), [1.0], [0.0], dt=0.05, steps=10,
+                       solver=eval(written, {"dv": dv}))  # fmt: skip
+    assert traj.status == 0
+
+
+@pytest.mark.slow  # three compilations of the torn double pendulum: about 6 s
+def test_partitioned_midpoint_error_suggests_fixes_that_run():
+    from diracvi import problems
+
+    pendulum = problems.get("double-pendulum-torn")
+    run = dict(dt=pendulum.dt, steps=10)
+    args = (pendulum.system, pendulum.q0, pendulum.p0)
+    with pytest.raises(ModelError, match="do not split by subsystem") as err:
+        dv.simulate(*args, **run, discretization="midpoint", solver=dv.PartitionedSolver())
+    message = str(err.value)
+    solver = eval(suggestion(message, r"use solver=(dv\.\w+\(\))"), {"dv": dv})
+    rule = suggestion(message, r"or discretization='(\w+)'")
+    newton = dv.simulate(*args, **run, discretization="midpoint", solver=solver)
+    split = dv.simulate(*args, **run, discretization=rule, solver=dv.PartitionedSolver())
+    assert newton.status == 0 and split.status == 0
+    assert split.solver.startswith("partitioned") or "artition" in split.solver
+
+
+def test_affine_fallback_error_suggests_solvers_that_run():
+    with pytest.raises(ModelError, match="fallback must be a step solver") as err:
+        dv.AffineSolver(fallback="newton")
+    written = re.findall(r"(dv\.\w+\(\))", suggestion(str(err.value), r"e\.g\. (.*)\.$"))
+    assert len(written) == 2, err.value
+    solver = dv.AffineSolver(
+        fallback=eval(written[0], {"dv": dv})
+    )  # a nonlinear model: it falls back
+    traj = dv.simulate(_pendulum(), [1.0], [0.0], dt=0.05, steps=10, solver=solver)
+    assert traj.status == 0 and traj.solver.startswith("Newton")
+    assert isinstance(dv.AffineSolver(fallback=eval(written[1], {"dv": dv})), dv.AffineSolver)
+
+
+# ------------------------------------------------------------------ sweeps
+
+
+def _sweep_build(R=1.0, C=1.0):
+    """A damped oscillator: stiffness 1/C, damping R."""
+    system = dv.LagrangeDiracSystem(
+        ("x",), lambda q, v: 0.5 * v @ v - 0.5 * q @ q / C, force=lambda q, v: -R * v
+    )
+    return system, [1.0], [0.0]
+
+
+@pytest.mark.parametrize("which", ["params", "samples"])
+def test_sweep_table_error_suggests_a_table_that_runs(which):
+    with pytest.raises(ModelError, match="is not a mapping") as err:
+        dv.sweep(_sweep_build, **{which: [1.0, 2.0]}, dt=0.1, steps=5)
+    written = suggestion(str(err.value), rf"e\.g\. {which}=(\{{.*?\}}) \(")
+    table = eval(written, {"np": np})
+    ds = dv.sweep(_sweep_build, **{which: table}, dt=0.1, steps=5)
+    assert (ds.status == 0).all() and set(table) <= set(ds.coords) | set(ds.data_vars)
+
+
+def test_sweep_values_error_suggests_values_that_run():
+    with pytest.raises(ModelError, match="is not numeric") as err:
+        dv.sweep(_sweep_build, {"R": ["low", "high"]}, dt=0.1, steps=5)
+    values = eval(suggestion(str(err.value), r"e\.g\. (np\.linspace\(.*?\))\.$"), {"np": np})
+    ds = dv.sweep(_sweep_build, {"R": values}, dt=0.1, steps=5)
+    assert ds.sizes["R"] == len(values) and (ds.status == 0).all()
+
+
+@pytest.mark.parametrize("bad", ["R", "R=abc", "R=1:2:x"])
+def test_cli_param_errors_suggest_params_that_run(bad, tmp_path):
+    model = tmp_path / "damped.py"
+    model.write_text(
+        "import diracvi as dv\n\n"
+        "def build(R=1.0, C=1.0):\n"
+        "    system = dv.LagrangeDiracSystem(\n"
+        "        ('x',), lambda q, v: 0.5 * v @ v - 0.5 * q @ q / C, force=lambda q, v: -R * v\n"
+        "    )\n"
+        "    return system, [1.0], [0.0], {'dt': 0.1, 'steps': 5}\n"
+    )
+    refused = invoke("sweep", model, "--param", bad, "--out", tmp_path / "no.nc")
+    assert refused.exit_code != 0
+    message = " ".join(refused.output.split())
+    examples = re.findall(r"((?:R|C)=[0-9.:,]+[0-9])", suggestion(message, r"e\.g\. (.*)"))
+    assert len(examples) == 2, message
+    out = tmp_path / "sweep.nc"
+    ran = invoke("sweep", model, *[a for e in examples for a in ("--param", e)], "--out", out)
+    assert ran.exit_code == 0, ran.output
+    import xarray as xr
+
+    with xr.open_dataset(out) as ds:
+        assert ds.sizes["R"] == 20 and ds.sizes["C"] == 3 and int(ds.status.max()) == 0
+
+
+# ------------------------------------------------------------------ netlists
+
+RC = """RC
+V1 in 0 DC 1
+R1 in out 1
+C1 out 0 1
+.tran 0.1 1
+.end
+"""
+
+
+def test_dc_without_value_suggests_a_line_that_runs():
+    from diracvi import spice
+
+    bad = RC.replace("DC 1", "DC")
+    with pytest.raises(ModelError, match="without a value") as err:
+        spice.run(bad, dt=0.1)
+    written = suggestion(str(err.value), r"\(write (DC [0-9.]+)\)")
+    result = spice.run(bad.replace("DC\n", written + "\n"), dt=0.1)
+    assert result["v(in)"][-1] == pytest.approx(float(written.split()[1]))
+
+
+@pytest.mark.parametrize("line", [".temp 50", ".options temp=50"])
+def test_temperature_error_suggests_a_temperature_that_runs(line):
+    from diracvi import spice
+
+    with pytest.raises(ModelError, match="27 °C") as err:
+        spice.run(RC.replace(".end", f"{line}\n.end"), dt=0.1)
+    value = suggestion(str(err.value), r"remove it or set (\d+)")
+    fixed = spice.run(RC.replace(".end", f"{line.replace('50', value)}\n.end"), dt=0.1)
+    removed = spice.run(RC, dt=0.1)
+    assert np.array_equal(fixed["v(out)"], removed["v(out)"])
+
+
+DIODE = """half-wave
+V1 in 0 SIN(0 2 1k)
+D1 in out dmod
+R1 out 0 1k
+.model dmod D(IS=1e-14 TNOM=50)
+.tran 10u 1m
+.end
+"""
+
+
+@pytest.mark.slow  # a diode circuit compiled: seconds
+def test_diode_tnom_error_suggests_a_value_that_runs():
+    from diracvi import spice
+
+    with pytest.raises(ModelError, match="TNOM") as err:
+        spice.run(DIODE, dt=1e-5)
+    value = suggestion(str(err.value), r"set it to (\d+)\)")
+    result = spice.run(DIODE.replace("TNOM=50", f"TNOM={value}"), dt=1e-5)
+    out = np.asarray(result["v(out)"])
+    assert 1.0 < out.max() < 2.0 and out.min() > -1e-3  # rectified, a diode drop below 2 V
+
+
+@pytest.mark.parametrize(
+    ("options", "match"),
+    [({"discretization": "retraction"}, "midpoint"), ({"solver": "newton"}, "fixed-step")],
+)
+def test_variable_step_refusals_suggest_a_fixed_step_that_runs(options, match):
+    from diracvi import spice
+
+    if "solver" in options:
+        options = {"solver": dv.NewtonSolver()}
+    with pytest.raises(ModelError, match=match) as err:
+        spice.run(RC, **options)
+    assert "pass dt=" in str(err.value)
+    result = spice.run(RC, dt=0.1, **options)  # the netlist's TSTEP
+    assert np.all(np.isfinite(result["v(out)"])) and result["v(out)"][-1] > 0.5
+
+
+def test_cli_netlist_solver_refusal_suggests_an_option_that_runs(tmp_path):
+    deck = tmp_path / "rc.cir"
+    deck.write_text(RC)
+    refused = invoke("run", deck, "--solver", "newton")
+    assert refused.exit_code != 0
+    option = suggestion(" ".join(refused.output.split()), r"pass (--\w+) STEP")
+    ran = invoke("run", deck, "--solver", "newton", option, "0.1")  # the deck's TSTEP
+    assert ran.exit_code == 0, ran.output
+    assert "10 of 10" in ran.output  # the horizon kept: 1 s in steps of 0.1
+
+
+def test_thinned_netlist_runs_are_refused_with_a_fix_that_runs():
+    from diracvi import spice
+
+    for options in ({"save_every": 2}, {"save_states": False}):
+        with pytest.raises(ModelError, match="every state") as err:
+            spice.run(RC, dt=0.1, **options)
+    written = suggestion(str(err.value), r"thin the result \((result\[.*?\]\[.*?\])\)")
+    result = spice.run(RC, dt=0.1)  # the option left out
+    thinned = eval(written, {"result": result})
+    assert len(thinned) == 6  # t = 0, 0.2, …, 1: every other state of the 10 steps
+    np.testing.assert_array_equal(thinned, np.asarray(result["v(out)"])[::2])

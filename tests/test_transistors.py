@@ -619,6 +619,25 @@ def test_the_forward_diffusion_charge_is_no_lagrangians_momentum():
                     discretization="lobatto", solver=SOLVER)  # fmt: skip
 
 
+@pytest.mark.slow  # a BJT circuit compiled: seconds
+def test_the_charge_port_refusal_suggests_a_rule_that_runs():
+    """The message's suggested discretization, applied, runs the same circuit."""
+    import re
+
+    c = cp.Circuit("ce")
+    c.add(cp.VoltageSource(5.0, name="V1"), p="c", n="0")
+    c.add(cp.VoltageSource(0.7, name="V2"), p="b", n="0")
+    c.add(cp.BJT("npn", **PORTED, name="Q1"), c="c", b="b", e="0", s="0")
+    built = c.build()
+    run = dict(dt=1e-9, steps=2, solver=SOLVER)
+    with pytest.raises(dv.ModelError, match="charge port") as err:
+        dv.simulate(built.system, built.q0, built.p0, discretization="lobatto", **run)
+    rule = re.search(r"use discretization='(\w+)'", str(err.value))
+    assert rule, err.value
+    traj = dv.simulate(built.system, built.q0, built.p0, discretization=rule.group(1), **run)
+    assert traj.status == 0 and np.all(np.isfinite(traj.q))
+
+
 PORT_STAGE = """NPN stage whose B-E diffusion charge goes through the charge port
 vcc vcc 0 5
 vin in 0 SIN(0.8 0.15 20meg)

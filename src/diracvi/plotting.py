@@ -63,8 +63,10 @@ def plot_trajectory(
     else:
         for j, name in enumerate(traj.constraint_names):
             # exact zeros cannot be drawn on a log axis; they are below the plotted floor
+            # (the legend says so of a constraint that is 0 throughout: it has no line)
+            label = name if np.any(residual[:, j] > 0) else f"{name} (exactly 0)"
             ax_c.semilogy(
-                t_step, np.where(residual[:, j] > 0, residual[:, j], np.nan), lw=1.0, label=name
+                t_step, np.where(residual[:, j] > 0, residual[:, j], np.nan), lw=1.0, label=label
             )
         if residual.shape[1] <= LEGEND_LIMIT:
             ax_c.legend(fontsize=8, ncols=2)

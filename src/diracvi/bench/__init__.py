@@ -18,8 +18,9 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
 - :mod:`.cache` — first call in a second process (on-disk compilation cache) ÷ cold;
 - :mod:`.closure_chain` — a torn chain of loop-built closures ÷ the same of shared code;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
-- :mod:`.work_precision` — error against run time on the double pendulum for the three
-  rules (orders 1, 2, 4) and DOP853;
+- :mod:`.work_precision` — error against run time on the spherical pendulum, the double
+  pendulum and a four-bar linkage: midpoint and lobatto (orders 2, 4) beside DOP853 on
+  the reduced ODE;
 - :mod:`.circuits` — SPICE netlists against ngspice at matched accuracy, and the energy
   drift of a lossless LC tank over 10⁶ steps (midpoint against trapezoidal and Gear).
 

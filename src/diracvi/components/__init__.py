@@ -26,6 +26,7 @@ from .electrical import (
     VoltageSource,
 )
 from .electromechanical import EMF, VoiceCoil
+from .jfet import JFET
 from .mechanical import (
     Damper,
     Fixed,
@@ -39,10 +40,12 @@ from .mechanical import (
     TorsionSpring,
 )
 from .mosfet import MOSFET
+from .mosfet6 import MOSFET6
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
 from .rigid_body import RigidBody
 from .switch import CurrentSwitch, Relay, VoltageSwitch
+from .urdf import parse_urdf, read_urdf
 from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
@@ -51,7 +54,9 @@ __all__ = [
     "CCVS",
     "DC",
     "EMF",
+    "JFET",
     "MOSFET",
+    "MOSFET6",
     "PWL",
     "SPICE_PARAMETERS",
     "VCCS",
@@ -92,5 +97,7 @@ __all__ = [
     "VoltageSource",
     "VoltageSwitch",
     "Waveform",
+    "parse_urdf",
+    "read_urdf",
     "spice_diode",
 ]

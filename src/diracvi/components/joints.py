@@ -20,6 +20,7 @@ at a few isolated turned-over configurations, far from a continuous motion's rea
 from __future__ import annotations
 
 import jax.numpy as jnp
+import numpy as np
 
 from ..errors import ModelError
 
@@ -72,6 +73,20 @@ JOINTS = {
 }
 
 
+def revolute_angle(ea, eb):
+    r"""The turn ``θ`` of frame b about the common axis ``e₃ = f₃`` of a revolute joint:
+    ``f₁ = cos θ e₁ + sin θ e₂``, so ``θ = atan2(e₂·f₁, e₁·f₁)`` — from the two frames'
+    world axes (…, 3, 3) alone (the URDF joint angle, in (−π, π]; unwrap a time series)."""
+    ea, eb = np.asarray(ea), np.asarray(eb)
+    f1 = eb[..., :, 0]
+    return np.arctan2(np.sum(ea[..., :, 1] * f1, -1), np.sum(ea[..., :, 0] * f1, -1))
+
+
+def slide(ra, ea, rb):
+    """The slide ``(r_b − r_a)·e₃`` of a prismatic or cylindrical joint (…,)."""
+    return np.sum((np.asarray(rb) - np.asarray(ra)) * np.asarray(ea)[..., :, 2], -1)
+
+
 def joint_rows(kind: str):
     """``(rows(r_a, E_a, r_b, E_b), names)`` of the joint ``kind``, or a clear error."""
     try:
@@ -89,6 +104,8 @@ __all__ = [
     "joint_rows",
     "prismatic",
     "revolute",
+    "revolute_angle",
+    "slide",
     "spherical",
     "universal",
 ]

@@ -31,7 +31,7 @@ from ..model.interaction import connect
 from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._part import finite
-from .joints import joint_rows
+from .joints import joint_rows, revolute_angle, slide
 from .rigid_body import (
     COORDS,
     GRAM_PAIRS,
@@ -41,6 +41,7 @@ from .rigid_body import (
     rotation,
     vector,
 )
+from .rolling import check_contact, contact_rows, rolling_forms
 
 WORLD = "world"
 #: a joint's rows must vanish at the initial poses to this (absolute) tolerance
@@ -57,6 +58,7 @@ class MultibodyModel:
         q0, p0: initial coordinates and momenta.
         bodies: body name → the slice of its 12 coordinates ``(x, d₁, d₂, d₃)`` in ``q``.
         parts: body name → its :class:`~diracvi.components.RigidBody`.
+        joints: joint name → its kind and frames.
     """
 
     system: object
@@ -64,6 +66,7 @@ class MultibodyModel:
     p0: np.ndarray
     bodies: dict = field(default_factory=dict)
     parts: dict = field(default_factory=dict)
+    joints: dict = field(default_factory=dict)
 
     def body(self, q, name: str) -> np.ndarray:
         """The 12 coordinates of body ``name`` in ``q`` (…, n)."""
@@ -80,6 +83,39 @@ class MultibodyModel:
         pt, _ = self.parts[body].frame(local)
         y = self.body(q, body)
         return y[..., 0:3] + np.einsum("...ij,j->...i", self.rotation(q, body), pt)
+
+    def frame_pose(self, q, frame: _Frame):
+        """World ``(r, E)`` of a joint's frame at ``q`` (…, 3) and (…, 3, 3)."""
+        if frame.body is None:
+            shape = np.shape(q)[:-1]
+            return (
+                np.broadcast_to(frame.point, (*shape, 3)),
+                np.broadcast_to(frame.axes, (*shape, 3, 3)),
+            )
+        rot = self.rotation(q, frame.body)
+        r = self.body(q, frame.body)[..., 0:3] + np.einsum("...ij,j->...i", rot, frame.point)
+        return r, rot @ frame.axes
+
+    def joint_position(self, q, name: str) -> np.ndarray:
+        """The joint coordinate of joint ``name`` recovered from the bodies' directors at
+        ``q`` (…, n): a revolute joint's angle (unwrapped along the first axis of a time
+        series, so a continuous joint's turns accumulate), a prismatic or cylindrical
+        joint's slide along its axis."""
+        if name not in self.joints:
+            raise ModelError(
+                f"joint_position: no joint {name!r}; the joints are {sorted(self.joints)}."
+            )
+        conn = self.joints[name]
+        (ra, ea), (rb, eb) = self.frame_pose(q, conn.a), self.frame_pose(q, conn.b)
+        if conn.kind == "revolute":
+            angle = revolute_angle(ea, eb)
+            return np.unwrap(angle, axis=0) if np.ndim(angle) else angle
+        if conn.kind in ("prismatic", "cylindrical"):
+            return slide(ra, ea, rb)
+        raise ModelError(
+            f"joint_position: joint {name!r} is {conn.kind}; only revolute, prismatic and "
+            "cylindrical joints have one joint coordinate."
+        )
 
 
 @dataclass(frozen=True)
@@ -129,8 +165,22 @@ class _Ends:
         return {b: x[self.layout[b] : self.layout[b] + 12] for b in conn.bodies}
 
 
+def _holonomic(conn: _Connector):
+    """``(rows(r_a, E_a, r_b, E_b), names)`` of a joint or of a rolling contact."""
+    if conn.kind == "rolling":
+        shape, radius, upright = conn.params
+        return contact_rows(shape, radius, upright)
+    return joint_rows(conn.kind)
+
+
+def _forms(conn: _Connector, q):
+    """A rolling contact's two one-forms on its body's 12 coordinates ``q``."""
+    shape, radius, _ = conn.params
+    return rolling_forms(shape, radius, conn.a.point, conn.a.axes, q, jnp.asarray(conn.b.axes))
+
+
 def _rows(conn: _Connector, qs: dict):
-    fn, _ = joint_rows(conn.kind)
+    fn, _ = _holonomic(conn)
     ra, ea = _pose(conn.a, qs.get(conn.a.body))
     rb, eb = _pose(conn.b, qs.get(conn.b.body))
     return fn(ra, ea, rb, eb)
@@ -229,6 +279,36 @@ class Multibody:
         self._connectors.append(_Connector(name, fa, fb, kind))
         return name
 
+    def rolling(
+        self,
+        frame: str,
+        radius,
+        shape: str = "disk",
+        plane: str = WORLD,
+        upright: bool = False,
+        name: str | None = None,
+    ) -> str:
+        """Rolling without slipping of a disk (axis: the frame's third axis) or a ball
+        centred at body frame ``frame`` on the plane through world frame ``plane`` with
+        normal its third axis (``"world"``: z = 0, normal +z). ``upright=True`` also keeps
+        the disk's axis in the plane (the vertical rolling disk). See
+        :mod:`~diracvi.components.rolling`."""
+        name = name or f"rolling{len(self._connectors)}"
+        where = f"Multibody.rolling({frame!r}, plane={plane!r})"
+        rho = check_contact(where, shape, radius, upright)
+        fa = self._frame(frame, where)
+        if fa.body is None:
+            raise ModelError(f"{where}: {frame!r} is a world frame; name a body frame.")
+        if plane not in self._world:
+            raise ModelError(
+                f"{where}: plane={plane!r} is not a world frame; the world frames are "
+                f"{sorted(self._world)} (add one with mb.world_frame)."
+            )
+        self._connectors.append(
+            _Connector(name, fa, self._world[plane], "rolling", (shape, rho, bool(upright)))
+        )
+        return name
+
     def spring(
         self, a: str, b: str, stiffness, rest_length=0.0, damping=0.0, name: str | None = None
     ) -> str:
@@ -262,11 +342,14 @@ class Multibody:
                     bad.append(f"spring {conn.name!r}: its two points coincide (ℓ = 0)")
                 continue
             rows = np.asarray(_rows(conn, q0))
-            _, labels = joint_rows(conn.kind)
+            _, labels = _holonomic(conn)
             off = {lab: float(x) for lab, x in zip(labels, rows, strict=True) if abs(x) > TOLERANCE}
             if off:
                 bad.append(f"joint {conn.name!r} ({conn.kind}): rows {off} are not 0")
             vel = np.asarray(_joint_rate(conn, q0, v0))
+            if conn.kind == "rolling":  # and the contact point's velocity in the plane
+                body = conn.a.body
+                vel = np.concatenate([vel, np.asarray(_forms(conn, q0[body]) @ v0[body])])
             if np.max(np.abs(vel)) > TOLERANCE * max(
                 1.0, np.max(np.abs(np.concatenate(list(v0.values()))))
             ):
@@ -327,19 +410,36 @@ class Multibody:
             return out
 
         hol_names = [f"{b}.{r}" for b in names for r in ORTHONORMALITY]
-        hol_names += [f"{c.name}.{r}" for c in joints for r in joint_rows(c.kind)[1]]
+        hol_names += [f"{c.name}.{r}" for c in joints for r in _holonomic(c)[1]]
+        rolls = tuple(c for c in joints if c.kind == "rolling")
+        n = 12 * len(names)
+
+        def constraints(q):
+            rows = jnp.zeros((2 * len(rolls), n))
+            for i, conn in enumerate(rolls):
+                s = layout[conn.a.body]
+                rows = rows.at[2 * i : 2 * i + 2, s : s + 12].set(_forms(conn, q[s : s + 12]))
+            return rows
+
         system = LagrangeDiracSystem(
             tuple(f"{b}.{c}" for b in names for c in COORDS),
             lagrangian,
             force=force if (loaded or damped) else None,
             holonomic=holonomic,
             holonomic_names=tuple(hol_names),
+            constraints=constraints if rolls else None,
+            constraint_names=tuple(f"{c.name}.roll{i}" for c in rolls for i in (1, 2)) or None,
             name=self.name,
         )
         q = np.concatenate([q0[b] for b in names])
         p = np.concatenate([bodies[b].momenta(v0[b]) for b in names])
         return MultibodyModel(
-            system, q, p, {b: slice(layout[b], layout[b] + 12) for b in names}, dict(bodies)
+            system,
+            q,
+            p,
+            {b: slice(layout[b], layout[b] + 12) for b in names},
+            dict(bodies),
+            self._joints(),
         )
 
     def _torn(self, names, q0, v0) -> MultibodyModel:
@@ -364,7 +464,11 @@ class Multibody:
             np.concatenate(p_parts),
             {b: slice(layout[b], layout[b] + 12) for b in names},
             dict(self._bodies),
+            self._joints(),
         )
+
+    def _joints(self) -> dict:
+        return {c.name: c for c in self._connectors if c.kind != "spring"}
 
 
 def _joint_rate(conn: _Connector, q0: dict, v0: dict):
@@ -399,11 +503,14 @@ def _connector_system(conn: _Connector) -> LagrangeDiracSystem:
             force=force if damped else None,
             name=conn.name,
         )
+    rolling = conn.kind == "rolling"
     return LagrangeDiracSystem(
         coords,
         lambda q, v: 0.0 * jnp.sum(v) + 0.0 * jnp.sum(q),
         holonomic=lambda q: _rows(conn, split(q)),
-        holonomic_names=joint_rows(conn.kind)[1],
+        holonomic_names=_holonomic(conn)[1],
+        constraints=(lambda q: _forms(conn, q)) if rolling else None,
+        constraint_names=("roll1", "roll2") if rolling else None,
         name=conn.name,
     )
 

@@ -39,6 +39,7 @@ from ..discretization.rules import RULES, get_rule
 from ..errors import ModelError
 from ._discrete import InducedDiscrete, combine
 from ._staged import staged_parts
+from ._stagewise import stagewise_parts
 from ._tulczyjew import as_rule
 
 
@@ -59,7 +60,10 @@ class StepResiduals(NamedTuple):
             in the base point's ordering ``(q, p⁺)`` / ``(p⁻, q)``.
         fiber: the part of ``α − Ω^♭_{d±}(X_d^k)`` outside ``Δ°_{Q×Q*}`` (``Δ°_{Q*×Q}``),
             shape (K, 2n); for a staged rule the least-squares residual of the known
-            end's momentum line, the stage lines and the stage rows, (K, 3n + 2m).
+            end's momentum line, the stage lines and the stage rows, (K, 3n + 2m), or,
+            for a run that kept its stages, the Dirac condition at each of the three
+            nodes, (K, 3n) (:mod:`._stagewise`; ``constraint`` is then (K, 3m), the rows
+            at every node, and ``base`` the discrete step relation of the momenta).
         multipliers: the multipliers ``μ`` (least squares) in the library's convention
             ``p_k = P⁻ + A(q_k)ᵀμ`` (plus) or ``p_{k+1} = P⁺ + A(q_{k+1})ᵀμ`` (minus),
             shape (K, m); comparable with ``Trajectory.multipliers``.
@@ -112,8 +116,26 @@ def step_residuals(system, traj) -> StepResiduals:
         return StepResiduals(np.zeros(0), np.zeros((0, system.m)), empty, empty, empty[:, :0])
     t = np.asarray(traj.t)
     tk = t[:-1] if side == "plus" else t[1:]  # each step's earlier end
-    if rule.stages:  # the stages are re-solved from the stored states (see _staged)
-        parts = staged_parts(system, rule, side, h, q0, p0, q1, p1, tk)
+    if rule.stages:
+        stages = getattr(traj, "stages", None)
+        if stages is not None and getattr(type(system), "discrete_momenta", None) is None:
+            # the kept stages, checked node by node (see _stagewise)
+            parts = stagewise_parts(
+                system,
+                rule,
+                side,
+                h,
+                q0,
+                p0,
+                q1,
+                p1,
+                tk,
+                stages,
+                np.asarray(traj.multipliers),
+                traj.stage_multipliers,
+            )
+        else:  # the stages are re-solved from the stored states (see _staged)
+            parts = staged_parts(system, rule, side, h, q0, p0, q1, p1, tk)
         zeros = np.zeros_like(parts["base"])
         slot = [zeros, parts["base"]] if side == "plus" else [parts["base"], zeros]
         parts["base"] = np.concatenate(slot, axis=1)  # the base point's (q, p⁺) / (p⁻, q)
@@ -156,7 +178,8 @@ def trajectory_residual(system, traj) -> np.ndarray:
     multipliers); absolute, in the trajectory's units. A trajectory of the integrator
     gives round-off; see :class:`StepResiduals` for the pieces. Covers every rule: the
     two-point rules ``"retraction"`` and ``"midpoint"`` through the structure itself, and
-    ``"lobatto"`` through its stage-reduced relation, with the stages re-solved from the
-    stored states (:mod:`diracvi.dirac._staged`).
+    ``"lobatto"`` node by node from its kept stages (``simulate(..., keep_stages=True)``,
+    :mod:`diracvi.dirac._stagewise`) or, without them, through its stage-reduced relation
+    with the stages re-solved from the stored states (:mod:`diracvi.dirac._staged`).
     """
     return step_residuals(system, traj).total

@@ -144,6 +144,12 @@ class QuadratureRule(eqx.Module):
         (q_end, t_end), points = self.holonomic_points(side, qk, stage, qk1, h, tk)
         return held_at(q_end, t_end), jnp.stack([held_at(q, t) for q, t in points], axis=-1)
 
+    def tableau(self):
+        """``(a, â, b)``: the partitioned Runge–Kutta coefficients of a staged rule's
+        positions (``a``), momenta (``â``) and weights (``b``) over its nodes — the form in
+        which its step is checked stage by stage (:mod:`diracvi.dirac._stagewise`)."""
+        self._no_stages("tableau")
+
     def stage_from_unknowns(self, side: str, qk, qk1, unknowns):
         """The stage positions ``S`` (shape (n, stages)) from the step's stage unknowns;
         ``None`` for a two-point rule."""

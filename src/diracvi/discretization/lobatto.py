@@ -82,6 +82,12 @@ class Lobatto(CentredNodes, QuadratureRule):
         # the stage at the known end, Q_near, is within O(h³) of it
         return (0,)
 
+    def tableau(self):
+        """``(a, â, b) = (IIID, IIID, Simpson)``: IIID is its own symplectic partner
+        (``b_i â_ij + b_j a_ji = b_i b_j`` with ``â = a``), so the momenta of the variational
+        step follow the same coefficients as the positions."""
+        return IIID, IIID, WEIGHTS
+
     @staticmethod
     def stage_positions(qk, stage, qk1):
         """``(Q₁, Q₂, Q₃)`` from ``stage = [Q₁ Q₂]`` (shape (n, 2)) and the two ends."""

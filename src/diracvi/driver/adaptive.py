@@ -85,7 +85,13 @@ import numpy as np
 from ..discretization.equations import StepEquations, first_guess, split
 from ..discretization.rules import get_rule
 from ..errors import ModelError
-from ..runtime.compile import RUN_ONCE_REQUESTED, fast_compile, run_once_options
+from ..runtime.compile import (
+    LOOP_REQUESTED,
+    RUN_ONCE_REQUESTED,
+    fast_compile,
+    loop_options,
+    run_once_options,
+)
 from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
@@ -251,6 +257,37 @@ def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     return q1, p1, mu[: system.m], ok
 
 
+def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
+    """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
+    fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
+    guessed from the last velocity. ``(q ends, p ends, μ's, oks)``, stacked in that order.
+
+    One step solve in a loop of three iterations, each picking its inputs, rather than
+    three solves written out: the step (Newton, its Jacobian, the limiting) is then
+    traced, lowered and compiled once instead of three times — most of a first call's
+    compilation of this program (the steps run in the same order on the same values)."""
+    half = 0.5 * h_try
+    n, m = q.shape[0], mu_g.shape[0]
+
+    def one(k, out):
+        qs, ps, mus, oks = out
+        fine2 = k == 2
+        h = jnp.where(k == 0, h_try, half)
+        # the second fine step starts where the first ended, guessed on from there
+        start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
+        dq = jnp.where(fine2, qs[1] - q, h * vel)
+        guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
+        qk, pk, muk, okk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
+                                dq, guess_mu)  # fmt: skip
+        return qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk)
+
+    dtype = q.dtype
+    init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
+            jnp.zeros(3, bool))  # fmt: skip
+    qs, ps, mus, oks = jax.lax.fori_loop(0, 3, one, init)
+    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks
+
+
 def _march(system, rule, solver, capacity, x):
     """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
     TRACES["count"] += 1
@@ -282,11 +319,11 @@ def _march(system, rule, solver, capacity, x):
         # a first guess from the last velocity (linear models converge in one update)
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
-        qc, _, mu_c, ok_c = step(modes, h_try, t, q, p, h_try * vel, mu_g)
         half = 0.5 * h_try
-        q1, p1, mu1, ok1 = step(modes, half, t, q, p, half * vel, 0.5 * mu_g)
-        q2, p2, mu2, ok2 = step(modes, half, t + half, q1, p1, q1 - q, mu1)
-        ok = ok_c & ok1 & ok2
+        (qc, q1, q2), (_, p1, p2), (mu_c, mu1, mu2), oks = _three_steps(
+            step, modes, h_try, t, q, p, vel, mu_g
+        )
+        ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
@@ -421,13 +458,15 @@ def _march(system, rule, solver, capacity, x):
     return jax.lax.while_loop(cond, body, init)
 
 
-#: compiled like a marching chunk (XLA's default optimization, or the run-once options
-#: under DIRACVI_FAST_COMPILE=1) and kept in the program store: a later process loads it
+#: compiled with XLA's default optimization and its older fusion code generator (half
+#: the compilation, the same step speed: runtime/compile.py: loop_options), or the
+#: run-once options under DIRACVI_FAST_COMPILE=1, and kept in the program store: a
+#: later process loads it
 _program = StoredJit(
     _march,
     "diracvi.driver.adaptive._march",
-    run_once_options if fast_compile() else dict,
-    options_key=RUN_ONCE_REQUESTED if fast_compile() else {},
+    run_once_options if fast_compile() else loop_options,
+    options_key=RUN_ONCE_REQUESTED if fast_compile() else LOOP_REQUESTED,
 )
 
 

@@ -240,8 +240,10 @@ class Plan:
             self._packed = system
         return self._packed
 
-    def chunk(self, affine: bool, k: int, save_states: bool, blocks: int, batched=False):
-        key = (affine, k, save_states, blocks, batched)
+    def chunk(
+        self, affine: bool, k: int, save_states: bool, blocks: int, batched=False, stages=False
+    ):
+        key = (affine, k, save_states, blocks, batched, stages)
         if key not in self._chunks:
             method = self.step_map if affine else self.fallback
             system = self.system if affine else self.stepped_system
@@ -249,7 +251,16 @@ class Plan:
             # it, for the warm path of simulate (see _stepping.input_verdict)
             guard = self.checker.quick_test()
             self._chunks[key] = CompiledChunk(
-                system, self.rule, self.scheme, method, k, save_states, blocks, batched, guard
+                system,
+                self.rule,
+                self.scheme,
+                method,
+                k,
+                save_states,
+                blocks,
+                batched,
+                guard,
+                keep_stages=stages,
             )
         return self._chunks[key]
 

@@ -23,8 +23,11 @@ if TYPE_CHECKING:
 class March:
     """The run so far: host-side arrays of the saved states and the chunk carry."""
 
-    def __init__(self, system: Layout, q0, p0, k: int, save_states: bool, nodal: bool):
+    def __init__(
+        self, system: Layout, q0, p0, k: int, save_states: bool, nodal: bool, stages=False
+    ):
         self.system, self.k, self.save_states, self.nodal = system, k, save_states, nodal
+        self.stages: list | None = [] if stages else None  # each chunk's stage records
         self.index = [np.zeros(1, dtype=np.int64)]
         self.states = [(np.asarray(q0)[None], np.asarray(p0)[None])] if save_states else []
         # the given p0 is the momentum at t0 itself (no impulse lag)
@@ -67,6 +70,8 @@ class March:
             self.states.append((saved["q"][:keep], saved["p"][:keep]))
         if self.nodal:
             self.nodal_p.append(saved["p_node"][:keep])
+        if self.stages is not None:
+            self.stages.append(saved["stage"][:keep])
         diag = (saved["energy"], saved["violation"], saved["iterations"])
         if self.save_states:
             diag += (saved["mu"], saved["con"])
@@ -109,6 +114,7 @@ class March:
             q=q,
             p=p,
             p_nodal=np.concatenate(self.nodal_p) if self.nodal else None,
+            stage_record=np.concatenate(self.stages) if self.stages else None,
             multipliers=mu,
             energy=energy,
             constraint_residual=con,
@@ -163,6 +169,7 @@ _SAVED_AS = {
     "constraint_residual": "con",
     "constraint_violation": "violation",
     "_p_nodal": "p_node",
+    "_stage_record": "stage",
 }
 
 
@@ -183,6 +190,7 @@ class _Unpacked:
             "constraint_violation",
             "newton_iterations",
             "_p_nodal",
+            "_stage_record",
         )
     )
     __slots__ = ("_flat", "_layout", "_parts", "_run", "_t0", "_x")

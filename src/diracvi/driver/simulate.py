@@ -60,6 +60,7 @@ def simulate(
     checkpoint_every: int | None = None,
     project_initial: bool = False,
     adjoint: str = "checkpoint",
+    keep_stages: bool = False,
 ) -> Trajectory:
     r"""Integrate a Lagrange–Dirac system with a discrete Dirac variational integrator.
 
@@ -86,6 +87,12 @@ def simulate(
     iterations per saved interval) and the final state, so a long run of a large model
     needs O(n + steps/k) memory.
 
+    ``keep_stages=True`` (a staged rule such as ``"lobatto"``, every state saved) also
+    keeps each step's internal stages and stage multipliers, ``traj.stages`` and
+    ``traj.stage_multipliers``: what the stage-by-stage Dirac diagnostic
+    ``traj.dirac_residual(system)`` checks (``docs/dirac-structures.md``). Off by
+    default: ``s·(n + m)`` more numbers per step.
+
     Returns a :class:`Trajectory`. If a step fails, raises :class:`StepFailure` carrying the
     partial trajectory (or returns it with ``status != 0`` when ``throw=False``).
 
@@ -110,7 +117,9 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     key = None
-    if checkpoint is None and solver is None:
+    if keep_stages:
+        check_keep_stages(discretization, save_every, save_states, checkpoint)
+    elif checkpoint is None and solver is None:
         # a warm call of a configuration that ran whole before (see _WarmRun)
         key = (
             id(system),
@@ -141,6 +150,11 @@ def simulate(
     # transformation is then looked up)
     if run.shape.traced or is_traced(*(x for x in (q0, p0, t0) if type(x) not in CONCRETE_TYPES)):
         check_traced_options(checkpoint, project_initial)
+        if keep_stages:
+            raise ModelError(
+                "keep_stages=True is a host run's option (its stages go to the host for the "
+                "Dirac diagnostic); under jax.jit/grad/vmap pass keep_stages=False."
+            )
         return simulate_traced(
             system,
             q0,
@@ -162,7 +176,9 @@ def simulate(
     if not plan.checker.accepts(q0, p0):
         q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
     save_states = bool(save_states)
-    if plan.sparse is not None and checkpoint is None:  # a large linear interconnection
+    keep_stages = bool(keep_stages)
+    # a large linear interconnection (the sparse path keeps no stages)
+    if plan.sparse is not None and checkpoint is None and not keep_stages:
         traj = run_sparse(plan, run, q0, p0, t0, save_states)
         if traj is not None:
             return traj
@@ -171,7 +187,7 @@ def simulate(
         # the whole run is one compiled chunk; a run that took every step is returned
         # directly (the march below handles a failure or an affine fallback)
         affine = plan.step_map is not None
-        chunk = plan.chunk(affine, k, save_states, steps // k)
+        chunk = plan.chunk(affine, k, save_states, steps // k, stages=keep_stages)
         carry = (q0, p0, q0, np.zeros(shape.m))
         x = chunk.flat_input(h, (t0, 0.0), carry)
         flat = chunk.run(x)
@@ -182,7 +198,18 @@ def simulate(
             return whole_run(fields, run, t0, chunk.layout, flat, x)
         first = affine, chunk.layout.unpack(flat)
     traj = _march(
-        plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+        plan,
+        run,
+        system,
+        q0,
+        p0,
+        t0,
+        save_states,
+        solver,
+        checkpoint,
+        checkpoint_every,
+        first,
+        keep_stages,
     )
     if traj.status and throw:
         raise StepFailure(traj.message, traj)
@@ -275,13 +302,24 @@ def _remember(key, system, plan, run, chunk, fields) -> None:
 
 
 def _march(
-    plan, run, system, q0, p0, t0, save_states, solver, checkpoint, checkpoint_every, first
+    plan,
+    run,
+    system,
+    q0,
+    p0,
+    t0,
+    save_states,
+    solver,
+    checkpoint,
+    checkpoint_every,
+    first,
+    keep_stages=False,
 ) -> Trajectory:
     """Run chunk after chunk: checkpoints, a failed step, the affine map's fallback.
     ``first``: ``(affine, chunk output)`` of the whole run's chunk, already computed."""
     scheme, discretization, h, steps, k, shape = run
     nodal = save_states and plan.nodal_when_saved
-    march = March(shape, q0, p0, k, save_states, nodal)
+    march = March(shape, q0, p0, k, save_states, nodal, keep_stages)
     path, key, chunk = None, None, steps
     if checkpoint is not None:
         chunk = steps if checkpoint_every is None else check_checkpoint_every(checkpoint_every, k)
@@ -315,9 +353,8 @@ def _march(
             carry, fail, saved = first[1]
         else:
             clock = np.array([t0, march.done], dtype=np.float64)
-            carry, fail, saved = plan.chunk(affine, k, march.save_states, length // k)(
-                plan.h_array, clock, march.carry
-            )
+            chunk_of = plan.chunk(affine, k, march.save_states, length // k, stages=keep_stages)
+            carry, fail, saved = chunk_of(plan.h_array, clock, march.carry)
         first = None
         if affine and int(fail[0]) == SolveStatus.AFFINE_REJECTED:
             # the equations are not affine after all: redo this chunk with the fallback
@@ -404,6 +441,28 @@ def check_save_every(steps: int, save_every) -> int:
             f"or a save_every that divides {steps}."
         )
     return k
+
+
+def check_keep_stages(discretization, save_every, save_states, checkpoint) -> None:
+    """``keep_stages=True`` needs a staged rule, every state and no checkpoint file."""
+    rule = get_rule(discretization) if discretization in RULES else None
+    if rule is not None and not rule.stages:
+        raise ModelError(
+            f"keep_stages=True: discretization={discretization!r} has no internal stages "
+            "(its Dirac diagnostic needs none); pass keep_stages=False, or a staged rule "
+            "such as discretization='lobatto'."
+        )
+    if save_every != 1 or not save_states:
+        raise ModelError(
+            f"keep_stages=True keeps every step's stages beside its states, but this run "
+            f"has save_every={save_every!r}, save_states={save_states!r}: pass save_every=1 "
+            "and save_states=True, or keep_stages=False."
+        )
+    if checkpoint is not None:
+        raise ModelError(
+            "keep_stages=True is not written to checkpoint files: pass checkpoint=None, or "
+            "keep_stages=False (a resumed lobatto run is checked by re-solving its stages)."
+        )
 
 
 def check_checkpoint_every(checkpoint_every, k: int) -> int:

@@ -41,6 +41,7 @@ from ..discretization.equations import (
     nodal_momentum,
     ordered,
     split,
+    split_stage,
     stage_of,
 )
 from ..runtime.compile import stored_chunk_jit
@@ -202,6 +203,25 @@ def _checked(system, rule, scheme, method, h, q, p, raw, times, index, nodal: bo
     return energy, con, its, res, status, p_node
 
 
+def stage_record(system, rule, scheme, q, raw):
+    """Each raw step's internal stages and stage multipliers, flattened to one row of
+    ``s·(n + m)`` numbers: ``[Q₁ … Q_s]`` (shape (n, s), the rule's stages in time order,
+    see :func:`~diracvi.discretization.equations.stage_of`) then ``ν`` (shape (m, s)).
+    ``q`` is the state before the first step. What a run keeps with ``keep_stages=True``
+    (the Dirac diagnostic of a staged rule, :mod:`diracvi.dirac._stagewise`, reads it)."""
+    q1s, mus = raw[0], raw[2]
+    q_from = jnp.concatenate([q[None], q1s[:-1]])
+    qk, qk1 = ordered(scheme, q_from, q1s)
+    x = jnp.concatenate([q1s, mus], axis=1)
+
+    def one(a, b, xs):
+        stage = stage_of(system, rule, scheme, a, b, xs)
+        nu = split_stage(system, xs, rule.stages)[3]
+        return jnp.concatenate([stage.ravel(), nu.ravel()])
+
+    return jax.vmap(one)(qk, qk1, x)
+
+
 def _first_failure(raw, checked, fail):
     """Record the first failing step of the run (code, iterations, residual, state)."""
     q1s = raw[0]
@@ -245,8 +265,9 @@ def _saved(raw, checked, k: int, save_states: bool):
     return saved
 
 
-def _saved_every_step(raw, checked, save_states: bool):
-    """:func:`_saved` for ``k = 1``: every step is its own record."""
+def _saved_every_step(raw, checked, save_states: bool, stages=None):
+    """:func:`_saved` for ``k = 1``: every step is its own record (with ``stages``, the
+    :func:`stage_record` of every step)."""
     q1s, p1s, mus = raw[:3]
     energy, con, its, _, status, p_node = checked
     # 1 up to the first failing step, 0 from there on
@@ -258,10 +279,14 @@ def _saved_every_step(raw, checked, save_states: bool):
     }
     if save_states:
         saved.update(q=q1s, p=p1s, mu=mus, con=con, p_node=p_node)
+    if stages is not None:
+        saved["stage"] = stages
     return saved
 
 
-def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
+def chunk_runner(
+    system, rule, scheme, method, k: int, save_states: bool, blocks: int, keep_stages=False
+):
     """A function ``(h, clock, carry) ↦ (carry, fail, saved)`` for ``blocks`` blocks of
     ``k`` steps; ``clock = (t0, index of the chunk's first step)``,
     ``carry = (q, p, q_prev, μ_prev)``, ``fail`` the first failure's details.
@@ -271,9 +296,11 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
     keeps only one record per block, so memory stays O(blocks) beyond one block. A long
     ``k = 1`` chunk of a large model that saves no states runs as blocks of one step
     (:data:`FLAT_DIAGNOSTICS_VALUES`), so its memory stays O(n + steps).
+    ``keep_stages`` (a staged rule, ``k = 1``, states saved): ``saved["stage"]`` holds
+    every step's :func:`stage_record`.
     """
 
-    run = stateful_chunk_runner(system, rule, scheme, method, k, save_states, blocks)
+    run = stateful_chunk_runner(system, rule, scheme, method, k, save_states, blocks, keep_stages)
 
     def chunk(h, clock, carry):
         q, p = carry[:2]
@@ -294,7 +321,9 @@ def chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks
 FLAT_DIAGNOSTICS_VALUES = 1 << 22
 
 
-def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: bool, blocks: int):
+def stateful_chunk_runner(
+    system, rule, scheme, method, k: int, save_states: bool, blocks: int, keep_stages=False
+):
     """:func:`chunk_runner` with the solver state passed in and returned:
     ``(h, clock, carry, state, fail=None) ↦ (carry, state, fail, saved)``. Consecutive
     chunks that thread the state and the failure record repeat the arithmetic of one long
@@ -315,19 +344,21 @@ def stateful_chunk_runner(system, rule, scheme, method, k: int, save_states: boo
             checked = _checked(
                 system, rule, scheme, method, h, inner[0], inner[1], raw, times, index, nodal
             )
+            stages = stage_record(system, rule, scheme, inner[0], raw) if keep_stages else None
             raw = (*raw[:2], raw[2][..., : system.m], *raw[3:])  # saved: μ without stages
             fail = _first_failure(raw, checked, fail)
-            return new, fail, raw, checked
+            return new, fail, raw, checked, stages
 
         flat = blocks * system.n <= FLAT_DIAGNOSTICS_VALUES
         flat = flat and not getattr(method, "diagnostics_per_step", False)
         if k == 1 and (save_states or flat):
-            inner, fail, raw, checked = block(init, fail0, 0.0, blocks)
-            return inner[:4], inner[4], fail, _saved_every_step(raw, checked, save_states)
+            inner, fail, raw, checked, stages = block(init, fail0, 0.0, blocks)
+            saved = _saved_every_step(raw, checked, save_states, stages)
+            return inner[:4], inner[4], fail, saved
 
         def body(c, b):
             inner, fail = c
-            inner, fail, raw, checked = block(inner, fail, b * k, k)
+            inner, fail, raw, checked, _ = block(inner, fail, b * k, k)
             saved = _saved(*jax.tree.map(lambda a: a[None], (raw, checked)), k, save_states)
             return (inner, fail), jax.tree.map(lambda a: a[0], saved)
 
@@ -358,21 +389,37 @@ class CompiledChunk:
     """
 
     def __init__(
-        self, system, rule, scheme, method, k, save_states, blocks, batched=False, guard=None
+        self,
+        system,
+        rule,
+        scheme,
+        method,
+        k,
+        save_states,
+        blocks,
+        batched=False,
+        guard=None,
+        keep_stages=False,
     ):
         dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
         n, m = system.n, system.m
         nodal = keeps_nodal(system, rule, save_states)
+        # every step's stages are kept only when asked (a diagnostic's need)
+        stage_width = rule.stages * (n + m) if keep_stages else 0
 
         def packed(dynamic, h, clock, carry):
             system_, rule_, method_ = eqx.combine(dynamic, static)
-            chunk = chunk_runner(system_, rule_, scheme, method_, k, save_states, blocks)
+            chunk = chunk_runner(
+                system_, rule_, scheme, method_, k, save_states, blocks, bool(stage_width)
+            )
             (q, p, q_prev, mu), (code, its, res, q_bad), saved = chunk(h, clock, carry)
             cols = [saved["energy"][:, None], saved["violation"][:, None]]
             if save_states:
                 cols += [saved["q"], saved["p"], saved["mu"], saved["con"]]
             if nodal:
                 cols.append(saved["p_node"])
+            if stage_width:
+                cols.append(saved["stage"])
             steps_f = jnp.concatenate(cols, axis=1)
             steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
             final_f = jnp.concatenate([q, p, q_prev, mu, res[None], q_bad])
@@ -396,7 +443,7 @@ class CompiledChunk:
             self._dynamic, baked = None, dynamic
             packed = partial(_with_constants, packed, dynamic)
         guarded = guard is not None and not batched
-        self.layout = OutputLayout(n, m, blocks, save_states, nodal, guarded)
+        self.layout = OutputLayout(n, m, blocks, save_states, nodal, guarded, stage_width)
         code_at = self.layout.code
         self._batched = batched
         if not batched:
@@ -424,6 +471,8 @@ class CompiledChunk:
             fn, kind = jax.vmap(packed, in_axes=(None, None, None, 0)), "members vmapped"
         # kept on disk (diracvi.runtime.store) under everything the program closes over
         context = (kind, static, scheme, k, save_states, blocks, nodal, baked)
+        if stage_width:  # (a separate entry: the programs of every other run keep their keys)
+            context += ("stages", stage_width)
         if guarded:
             context += ("guard", *guard)
         self._fn = stored_chunk_jit(fn, "diracvi.driver.stepping.CompiledChunk", context)
@@ -484,14 +533,26 @@ class OutputLayout:
     axes allowed): ``blocks`` rows of :attr:`columns`, then the per-row
     ``(n_good, iterations)``, the final carry ``(q, p, q_prev, μ)``, the first failure's
     residual and state, its ``(code, iterations)``, and, in a guarded chunk, the
-    :func:`input_verdict` at :attr:`verdict` (else ``None``)."""
+    :func:`input_verdict` at :attr:`verdict` (else ``None``). ``stage_width > 0``: each
+    row ends with the step's :func:`stage_record` (column ``"stage"``)."""
 
-    def __init__(self, n: int, m: int, blocks: int, save_states: bool, nodal: bool, guarded=False):
+    def __init__(
+        self,
+        n: int,
+        m: int,
+        blocks: int,
+        save_states: bool,
+        nodal: bool,
+        guarded=False,
+        stage_width: int = 0,
+    ):
         names = [("energy", None), ("violation", None)]
         if save_states:
             names += [("q", n), ("p", n), ("mu", m), ("con", m)]
         if nodal:
             names.append(("p_node", n))
+        if stage_width:
+            names.append(("stage", stage_width))
         self.columns: dict = {}  # name → column (a scalar) or slice of columns
         width = 0
         for name, size in names:

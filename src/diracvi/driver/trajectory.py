@@ -18,6 +18,7 @@ _ARRAY_FIELDS = (
     "q",
     "p",
     "_p_nodal",
+    "_stage_record",
     "multipliers",
     "energy",
     "constraint_residual",
@@ -75,6 +76,9 @@ class Trajectory:
         message: a human-readable account of ``status``.
         solver: which stepping method ran (``"affine step map"``, a solver's repr, and
             any fallback).
+        stages, stage_multipliers: a staged rule's internal stages ``[Q₁ … Q_s]`` of each
+            step, shape (S, n, s), and the multipliers ``ν`` of its stage rows, (S, m, s);
+            kept only by ``simulate(..., keep_stages=True)`` (else ``None``).
     """
 
     def __init__(
@@ -85,6 +89,7 @@ class Trajectory:
         p,
         multipliers,
         p_nodal=None,
+        stage_record=None,
         energy,
         constraint_residual,
         newton_iterations,
@@ -109,6 +114,7 @@ class Trajectory:
         self.t = np.asarray(t, dtype=np.float64)
         self.q, self.p = arr(q), arr(p)
         self._p_nodal = arr(p_nodal)
+        self._stage_record = arr(stage_record)
         self.multipliers = arr(multipliers)
         self.energy = np.asarray(energy, dtype=np.float64)
         self.constraint_residual = arr(constraint_residual)
@@ -186,6 +192,32 @@ class Trajectory:
         """Momenta at the nodes to the rule's order (see the class documentation)."""
         return self.p if self._p_nodal is None else self._p_nodal
 
+    def _stage_parts(self):
+        """``(stages, stage_multipliers)`` from the kept records (rows ``[Q.ravel() ν.ravel()]``,
+        see :func:`~diracvi.driver.stepping.stage_record`), or ``(None, None)``."""
+        record = self._stage_record
+        if record is None:
+            return None, None
+        n, m = len(self.coords), len(self.constraint_names)
+        s = record.shape[-1] // (n + m)
+        lead = record.shape[:-1]
+        return (
+            record[..., : n * s].reshape(*lead, n, s),
+            record[..., n * s :].reshape(*lead, m, s),
+        )
+
+    @property
+    def stages(self):
+        """A staged rule's internal stage positions of every step, (S, n, s), in time order
+        (``None`` unless the run was made with ``keep_stages=True``)."""
+        return self._stage_parts()[0]
+
+    @property
+    def stage_multipliers(self):
+        """The multipliers ``ν`` of every step's stage rows, (S, m, s) (``None`` unless
+        ``keep_stages=True``)."""
+        return self._stage_parts()[1]
+
     @property
     def success(self) -> bool:
         return self.status == 0
@@ -246,8 +278,9 @@ class Trajectory:
         r"""Per-step residual of ``(X_d^k, 𝔇^±L_d) ∈ D^{d±}_Δ``, shape (steps,).
 
         ``system`` is the system that produced this trajectory; see
-        :func:`diracvi.dirac.trajectory_residual`. Covers every rule (a ``"lobatto"``
-        run's internal stages, which are not stored, are re-solved from its states).
+        :func:`diracvi.dirac.trajectory_residual`. Covers every rule: a ``"lobatto"``
+        run made with ``keep_stages=True`` is checked node by node from its kept stages,
+        one without them by re-solving its stages from its states.
         """
         from ..dirac import trajectory_residual  # imported here: dirac imports this module
 

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from ..errors import ModelError
 from ._problem import Problem
+from .chaplygin_sleigh import chaplygin_sleigh
 from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
 from .dc_motor import dc_motor, dc_motor_driven
 from .double_pendulum import double_pendulum_torn
@@ -28,6 +29,7 @@ from .linkages import FourBar, cart_pendulum_torn, cartesian_pendulum, four_bar
 from .oscillator import damped_oscillator
 from .rigid_bodies import free_rigid_body, heavy_top, spatial_double_pendulum
 from .rolling_disk import rolling_disk
+from .spherical_pendulum import spherical_pendulum
 from .spring_chain import chain_torn, spring_chain, spring_chain_torn
 
 #: name → factory (called with no arguments gives the source's parameters)
@@ -50,6 +52,8 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "cartesian-pendulum": cartesian_pendulum,
     "four-bar": four_bar,
     "cart-pendulum-torn": cart_pendulum_torn,
+    "chaplygin-sleigh": chaplygin_sleigh,
+    "spherical-pendulum": spherical_pendulum,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -89,6 +93,7 @@ __all__ = [
     "cart_pendulum_torn",
     "cartesian_pendulum",
     "chain_torn",
+    "chaplygin_sleigh",
     "damped_oscillator",
     "dc_motor",
     "dc_motor_driven",
@@ -109,6 +114,7 @@ __all__ = [
     "rlc_torn",
     "rolling_disk",
     "spatial_double_pendulum",
+    "spherical_pendulum",
     "spring_chain",
     "spring_chain_torn",
 ]

@@ -28,28 +28,29 @@ import jax.numpy as jnp
 import numpy as np
 
 
-def pnjlim(v_new, v_old, nvt, vcrit):
-    """SPICE's ``pnjlim``: the limited junction voltage of a Newton iterate."""
-    big = (v_new > vcrit) & (jnp.abs(v_new - v_old) > 2.0 * nvt)
+def pnjlim(v_new, v_old, nvt, vcrit, xp=jnp):
+    """SPICE's ``pnjlim``: the limited junction voltage of a Newton iterate (``xp``:
+    ``jax.numpy`` inside a compiled step, ``numpy`` in a host loop)."""
+    big = (v_new > vcrit) & (xp.abs(v_new - v_old) > 2.0 * nvt)
     arg = 1.0 + (v_new - v_old) / nvt
-    safe_arg = jnp.where(arg > 0.0, arg, 1.0)
-    from_on = jnp.where(arg > 0.0, v_old + nvt * jnp.log(safe_arg), vcrit)
-    from_off = nvt * jnp.log(jnp.maximum(v_new, nvt) / nvt)
-    forward = jnp.where(v_old > 0.0, from_on, from_off)
-    floor = jnp.where(v_old > 0.0, -v_old - 1.0, 2.0 * v_old - 1.0)
-    reverse = jnp.where(v_new < 0.0, jnp.maximum(v_new, floor), v_new)
-    return jnp.where(big, forward, reverse)
+    safe_arg = xp.where(arg > 0.0, arg, 1.0)
+    from_on = xp.where(arg > 0.0, v_old + nvt * xp.log(safe_arg), vcrit)
+    from_off = nvt * xp.log(xp.maximum(v_new, nvt) / nvt)
+    forward = xp.where(v_old > 0.0, from_on, from_off)
+    floor = xp.where(v_old > 0.0, -v_old - 1.0, 2.0 * v_old - 1.0)
+    reverse = xp.where(v_new < 0.0, xp.maximum(v_new, floor), v_new)
+    return xp.where(big, forward, reverse)
 
 
-def limit_junction(v_new, v_old, nvt, vcrit, bv):
+def limit_junction(v_new, v_old, nvt, vcrit, bv, xp=jnp):
     """``pnjlim`` of the forward junction and, past ``−BV + 10 nV_T``, of the breakdown
     junction (its voltage mirrored about ``−BV``), as ngspice's diode does."""
-    forward = pnjlim(v_new, v_old, nvt, vcrit)
-    finite_bv = jnp.isfinite(bv)
-    bv_ = jnp.where(finite_bv, bv, 0.0)
-    mirrored = -(pnjlim(-(v_new + bv_), -(v_old + bv_), nvt, vcrit) + bv_)
-    in_breakdown = finite_bv & (v_new < jnp.minimum(0.0, -bv_ + 10.0 * nvt))
-    return jnp.where(in_breakdown, mirrored, forward)
+    forward = pnjlim(v_new, v_old, nvt, vcrit, xp)
+    finite_bv = xp.isfinite(bv)
+    bv_ = xp.where(finite_bv, bv, 0.0)
+    mirrored = -(pnjlim(-(v_new + bv_), -(v_old + bv_), nvt, vcrit, xp) + bv_)
+    in_breakdown = finite_bv & (v_new < xp.minimum(0.0, -bv_ + 10.0 * nvt))
+    return xp.where(in_breakdown, mirrored, forward)
 
 
 def junctions(system):

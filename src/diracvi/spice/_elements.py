@@ -29,6 +29,7 @@ from ..components.diode import SPICE_ALIASES
 from ._behavioural import b_line
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
+from ._jfet import j_line
 from ._mos import m_line
 from ._resistor import r_line
 from ._sources import source
@@ -135,6 +136,7 @@ ELEMENTS = {
     "F": cccs,
     "G": vccs,
     "H": ccvs,
+    "J": j_line,
     "M": m_line,
     "Q": q_line,
     "S": s_line,
@@ -150,7 +152,6 @@ LATE = ("K", "F", "H", "W", "B")
 #: element letters ngspice knows and diracvi does not build yet: what each one is, and
 #: whether it names a model (refused at the element line, which names the model's line)
 UNSUPPORTED = {
-    "J": ("a JFET", True),
     "Z": ("a MESFET", True),
     "T": ("a lossless transmission line", False),
     "O": ("a lossy transmission line", True),
@@ -161,7 +162,7 @@ UNSUPPORTED = {
     "N": ("an OSDI (Verilog-A) device", True),
 }
 
-SUPPORTED = "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, M (level 1) and X (subcircuits)"
+SUPPORTED = "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1 and 6) and X (subcircuits)"
 
 
 def unsupported(ctx, pos, line):

@@ -1,4 +1,5 @@
-"""NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges).
+"""NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges, and
+level 6, Sakurai–Newton: :mod:`._mos6`).
 
 Parameter names, aliases, units and defaults are ngspice's ``mos1``: the process
 parameters (``TOX`` m, ``U0`` cm²/V·s, ``NSUB`` cm⁻³, ``NSS`` cm⁻², ``TPG``) derive KP,
@@ -7,7 +8,8 @@ capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times 
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
 ``MJ``, ``MJSW``, ``FC``. Other levels (MOS2, MOS3, BSIM …) and ngspice's VDMOS are
-refused at the element line, by name, naming the model's line.
+refused at the element line, by name, naming the model's line. Level 6 shares all of this
+but the drain current's parameters (:mod:`._mos6`).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components._mos1 import process_parameters
 from ..errors import ModelError
+from ._mos6 import law, read_mos6_model
 
 _DEFAULTS = {
     "lambda": 0.0, "is": 1e-14, "ld": 0.0, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
@@ -45,13 +48,16 @@ def level_name(level: float, version=None) -> str:
 def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
     ``_DEFAULTS``, the ``_OPTIONAL`` and ``_PROCESS`` ones only where given, and
-    ``"level"``. Raises ``fail(why)`` naming the level of a card that is not level 1."""
+    ``"level"``. Raises ``fail(why)`` naming the level of a card that is neither level 1
+    nor level 6 (:func:`~._mos6.read_mos6_model`)."""
     kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
     level = kw.get("level", 1.0)
+    if level == 6.0:
+        return read_mos6_model(kind, kw, fail, notes)
     if level != 1.0:
         raise fail(
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
-            "has level 1 (Shichman–Hodges) only"
+            "has levels 1 (Shichman–Hodges) and 6 (Sakurai–Newton)"
         )
     values = dict(_DEFAULTS)
     for key, x in kw.items():
@@ -107,14 +113,20 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
     d, g, s, b = pos[1:5]
     vg = ic.get(g, 0.0)
     v0 = (vg - ic.get(s, 0.0), vg - ic.get(d, 0.0), vg - ic.get(b, 0.0))  # ngspice's getic
-    part = cp.MOSFET(
-        kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
-        process["gamma"], process["phi"], ld=v["ld"], is_=i_s, m=geo["m"], cgso=v["cgso"],
-        cgdo=v["cgdo"], cgbo=v["cgbo"], cox=process["cox"], rd=resistance("rd", "nrd"),
-        rs=resistance("rs", "nrs"), cbd=bottom("cbd", "ad"), cbs=bottom("cbs", "as"),
-        cbdsw=v["cjsw"] * geo["pd"], cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"],
-        mjsw=v["mjsw"], fc=v["fc"], v0=v0, name=name,
+    common = dict(
+        ld=v["ld"], is_=i_s, m=geo["m"], cgso=v["cgso"], cgdo=v["cgdo"], cgbo=v["cgbo"],
+        cox=process["cox"], rd=resistance("rd", "nrd"), rs=resistance("rs", "nrs"),
+        cbd=bottom("cbd", "ad"), cbs=bottom("cbs", "as"), cbdsw=v["cjsw"] * geo["pd"],
+        cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"], mjsw=v["mjsw"], fc=v["fc"],
+        v0=v0, name=name,
     )  # fmt: skip
+    if v.get("level") == 6.0:
+        part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
+    else:
+        part = cp.MOSFET(
+            kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
+            process["gamma"], process["phi"], **common,
+        )  # fmt: skip
     return part, {"d": d, "g": g, "s": s, "b": b}
 
 
@@ -129,13 +141,14 @@ class _IC:
 
 
 def m_line(ctx, name, pos, kw, line):
-    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (level 1)."""
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1 and 6)."""
     found = ctx.find_model(pos[4:6])
     if found is not None and found[1] == "VDMOS":
         raise line.fail(
             f"element {name!r}: model {found[0]!r} ({found[2]}) is a VDMOS (ngspice's "
             "vertical power MOSFET, 'Mname d g s model') and is not supported; diracvi's M "
-            "line is level 1 (Shichman–Hodges): 'Mname d g s b model' with an NMOS/PMOS card"
+            "line is 'Mname d g s b model' with an NMOS/PMOS card of level 1 "
+            "(Shichman–Hodges) or 6 (Sakurai–Newton)"
         )
     if len(pos) < 6:
         raise line.fail("expected 'Mname d g s b model [L=… W=…]'")

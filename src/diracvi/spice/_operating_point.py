@@ -35,7 +35,6 @@ changes (a control inside a hysteresis window keeps the given state).
 
 from __future__ import annotations
 
-import copy
 import dataclasses
 from dataclasses import dataclass
 
@@ -45,6 +44,7 @@ import numpy as np
 
 from ..driver import events
 from ..errors import ModelError
+from ..runtime.compile import run_once_jit
 from ..solvers.limiting import junctions, limit_junction
 
 
@@ -81,6 +81,45 @@ class OperatingPoint:
         raise KeyError(f"{key!r} is not a node voltage or branch current of this circuit")
 
 
+def _static(system, t, q, v, mu):
+    """The static equations' two blocks at ``(q, v, μ)``: the balance of the n
+    Euler–Lagrange lines and the one-forms' velocity rows (module docstring)."""
+    dp_v = jax.jvp(lambda qq: system.momentum(qq, v, t), (q,), (v,))[1]
+    dl_dq = jax.grad(system.lagrangian, argnums=0)(q, v, t)
+    force = system.force(q, v, t) if system.has_force else 0.0 * v
+    balance = dp_v - dl_dq - force - system.multiplier_force(q, mu, t)
+    forms = system.constraint_forms(q, t)
+    offset = system.constraint_offset(q, t)
+    velocity = forms @ v + (0.0 if offset is None else offset)
+    return balance, velocity
+
+
+def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, source, gmin):
+    """The static equations at ``(v, μ, q)`` with the held nodes' currents ``hold_i`` and
+    the homotopies' ``source`` and ``gmin`` — the balance, the one-forms' rows and the
+    held rows ``φ_n − s·V_ic`` — their Jacobians in ``v``, ``μ``, every ``q`` and
+    ``hold_i``, and ``p = ∂L/∂v``: one program for the dependence probe (the nonzero
+    ``q`` columns) and every Newton iterate (which keeps only those columns)."""
+    stepped = events.with_modes(system, modes)
+
+    def equations(v, mu, q, hold_i):
+        balance, velocity = _static(stepped, t, q, v, mu)
+        velocity = velocity.at[kcl].add(gmin * mu[kcl])
+        velocity = velocity.at[held].add(hold_i)
+        fixed = mu[held] - source * held_values
+        r = jnp.concatenate([balance, velocity, fixed])
+        return r, r
+
+    jac, r = jax.jacfwd(equations, argnums=(0, 1, 2, 3), has_aux=True)(v, mu, q, hold_i)
+    return r, *jac, stepped.momentum(q, v, t)
+
+
+# run once or a few times per circuit: compiled without optimization and kept in the
+# on-disk store, so a later process loads it untraced (the eager JAX calls it replaces
+# compiled a program per operation: ~120 for an RC circuit)
+_linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._linearized")
+
+
 class _Equations:
     """The static equations of ``assembly.system`` at ``t₀`` as functions of ``x``."""
 
@@ -91,9 +130,9 @@ class _Equations:
                 "operating point: the system has holonomic (position) constraints; the DC "
                 "analysis handles circuits (one-forms only). Start it from a given state."
             )
-        self.assembly, self.system, self.t0 = assembly, system, float(t0)
+        self.assembly, self.system, self.t0 = assembly, system, np.float64(t0)
         self.n, self.m = system.n, system.m
-        self.q0 = jnp.asarray(assembly.q0, dtype=jnp.float64)
+        self.q0 = np.asarray(assembly.q0, dtype=np.float64)
         rows = {name: j for j, name in enumerate(system.constraint_names)}
         self.kcl = np.asarray(
             [rows[assembly.kcl_rows[node]] for node in assembly.nodes], dtype=np.int64
@@ -105,68 +144,71 @@ class _Equations:
                 f"(nodes: {list(assembly.nodes)})."
             )
         self.held = np.asarray([rows[assembly.kcl_rows[node]] for node in hold], dtype=np.int64)
-        self.held_values = jnp.asarray(list(hold.values()), dtype=jnp.float64)
+        self.held_values = np.asarray(list(hold.values()), dtype=np.float64)
         self.dep = self._dependent()
         self.size = self.n + self.m + len(self.dep) + len(self.held)
         found = junctions(system)
         self.junction_index, self.junction_limits = (
-            (np.zeros(0, np.int64), jnp.zeros((0, 3))) if found is None else found
-        )
-
-    def with_modes(self, modes):
-        """These equations with the switches in the states ``modes`` (traceable)."""
-        if not len(modes):
-            return self
-        out = copy.copy(self)
-        out.system = events.with_modes(self.system, modes)
-        return out
+            (np.zeros(0, np.int64), np.zeros((0, 3))) if found is None else
+            (found[0], np.asarray(found[1], dtype=np.float64))
+        )  # fmt: skip
 
     def split(self, x):
         n, m, k = self.n, self.m, len(self.dep)
         return x[:n], x[n : n + m], x[n + m : n + m + k], x[n + m + k :]
 
-    def _static(self, q, v, mu):
-        system, t = self.system, self.t0
-        dp_v = jax.jvp(lambda qq: system.momentum(qq, v, t), (q,), (v,))[1]
-        dl_dq = jax.grad(system.lagrangian, argnums=0)(q, v, t)
-        force = system.force(q, v, t) if system.has_force else 0.0 * v
-        balance = dp_v - dl_dq - force - system.multiplier_force(q, mu, t)
-        forms = system.constraint_forms(q, t)
-        offset = system.constraint_offset(q, t)
-        velocity = forms @ v + (0.0 if offset is None else offset)
-        return balance, velocity
+    def _program(self, modes, v, mu, q, hold_i, source, gmin):
+        data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
+        out = _linearized(
+            self.system, self.t0, *data, *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+            np.float64(source), np.float64(gmin),
+        )  # fmt: skip
+        return tuple(np.asarray(a) for a in out)
 
     def _dependent(self) -> np.ndarray:
         """The coordinates whose value enters the static equations (a capacitor's charge):
         nonzero columns of their Jacobian in ``q`` at a generic probe."""
         rng = np.random.default_rng(0)
-        v = jnp.asarray(rng.standard_normal(self.n))
-        mu = jnp.asarray(rng.standard_normal(self.m))
-        q = self.q0 + jnp.asarray(rng.standard_normal(self.n)) * 1e-3
+        v = rng.standard_normal(self.n)
+        mu = rng.standard_normal(self.m)
+        q = self.q0 + rng.standard_normal(self.n) * 1e-3
+        modes = events.initial_modes(self.system)
+        _, _, _, jac_q, _, _ = self._program(modes, v, mu, q, np.zeros(len(self.held)), 1.0, 0.0)
+        rows = self.n + self.m  # the balance and the one-forms (the held rows are φ's)
+        return np.nonzero(np.any(np.abs(jac_q[:rows]) > 0.0, axis=0))[0]
 
-        def stacked(qq):
-            return jnp.concatenate(self._static(qq, v, mu))
+    def linearized(self, modes):
+        """``x, source, gmin ↦ (r, ∂r/∂x, q, p)`` as NumPy arrays, the switches in the
+        states ``modes`` (data: one compilation serves every state tried):
 
-        jac = np.asarray(jax.jacfwd(stacked)(q))
-        return np.nonzero(np.any(np.abs(jac) > 0.0, axis=0))[0]
+            r = (balance, one-form rows, v_dep, held rows),  x = (v, μ, q_dep, hold_i)."""
+        n, m, dep = self.n, self.m, self.dep
+        rows = n + m
+        pick = np.zeros((len(dep), n))  # the rows v_j = 0 of the position-dependent j
+        pick[np.arange(len(dep)), dep] = 1.0
 
-    def residual(self, x, source, gmin):
-        v, mu, qd, hold_i = self.split(x)
-        q = self.q0.at[self.dep].set(qd)
-        balance, velocity = self._static(q, v, mu)
-        velocity = velocity.at[self.kcl].add(gmin * mu[self.kcl])
-        velocity = velocity.at[self.held].add(hold_i)
-        held = mu[self.held] - source * self.held_values
-        return jnp.concatenate([balance, velocity, v[self.dep], held])
+        def call(x, source, gmin):
+            v, mu, qd, hold_i = self.split(np.asarray(x, np.float64))
+            q = self.q0.copy()
+            q[dep] = qd
+            r, j_v, j_mu, j_q, j_h, p = self._program(modes, v, mu, q, hold_i, source, gmin)
+            r = np.concatenate([r[:rows], v[dep], r[rows:]])
+            jac = np.block(
+                [
+                    [j_v[:rows], j_mu[:rows], j_q[:rows][:, dep], j_h[:rows]],
+                    [pick, np.zeros((len(dep), m + len(dep) + len(self.held)))],
+                    [j_v[rows:], j_mu[rows:], j_q[rows:][:, dep], j_h[rows:]],
+                ]
+            )
+            return r, jac, q, p
+
+        return call
 
     def start(self, off):
         """The first iterate: every junction at ``V_crit`` as SPICE seeds it, except
         those of the parts named in ``off`` (``True``: all), which start at 0 V."""
-        x = (
-            jnp.zeros(self.size)
-            .at[self.n + self.m : self.n + self.m + len(self.dep)]
-            .set(self.q0[self.dep])
-        )
+        x = np.zeros(self.size)
+        x[self.n + self.m : self.n + self.m + len(self.dep)] = self.q0[self.dep]
         if len(self.junction_index):
             coords = self.system.coords
             seeded = np.asarray(
@@ -175,24 +217,24 @@ class _Equations:
                     for j in self.junction_index
                 ]
             )
-            seed = jnp.where(seeded, self.junction_limits[:, 1], 0.0)
-            x = x.at[self.junction_index].set(seed)
+            x[self.junction_index] = np.where(seeded, self.junction_limits[:, 1], 0.0)
         return x
 
     def limit(self, x_old, x_new):
         if not len(self.junction_index):
             return x_new
         j, lim = self.junction_index, self.junction_limits
-        v = limit_junction(x_new[j], x_old[j], lim[:, 0], lim[:, 1], lim[:, 2])
-        return x_new.at[j].set(v)
+        v = limit_junction(x_new[j], x_old[j], lim[:, 0], lim[:, 1], lim[:, 2], xp=np)
+        x_new = x_new.copy()
+        x_new[j] = v
+        return x_new
 
 
-def _newton(eqs, residual, jacobian, x, max_iterations=100):
+def _newton(eqs, linearized, x, max_iterations=100):
     """Newton with junction limiting; ``(x, converged, iterations)``."""
     polish = 0
     for it in range(1, max_iterations + 1):
-        r = np.asarray(residual(x))
-        jac = np.asarray(jacobian(x))
+        r, jac = linearized(x)
         if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
             return x, False, it
         try:
@@ -239,22 +281,9 @@ def operating_point(
     found = events.relays(assembly.system)
     modes = events.initial_modes(assembly.system)
     eqs = _Equations(assembly, t0, dict(hold or {}))
-
-    # the switch states are an argument: one compilation serves every state tried
-    @jax.jit
-    def residual(x, source, gmin, modes):
-        return eqs.with_modes(modes).residual(x, source, gmin)
-
-    jacobian = jax.jit(jax.jacfwd(residual))
     iterations = 0
     for _ in range(2 * len(found) + 2):  # each switch flips at most twice on the way
-        op, v = _solve(
-            eqs,
-            lambda x, s, g, m=modes: residual(x, s, g, m),
-            lambda x, s, g, m=modes: jacobian(x, s, g, m),
-            off,
-            methods,
-        )
+        op, v = _solve(eqs, eqs.linearized(modes), off, methods)
         iterations += op.iterations
         u = events.static_controls(assembly.system, v)
         new = np.array([float(r.next(modes[j], u[j])) for j, (_, r) in enumerate(found)])
@@ -267,10 +296,10 @@ def operating_point(
     )
 
 
-def _solve(eqs, residual, jacobian, off, methods):
+def _solve(eqs, linearized, off, methods):
     """The point with the switches in one state: ``(OperatingPoint, branch velocities)``."""
     assembly = eqs.assembly
-    zero = np.asarray(residual(jnp.zeros(eqs.size), 1.0, 0.0))
+    zero = linearized(np.zeros(eqs.size), 1.0, 0.0)[0]
     x0 = eqs.start(off)
     total = 0
 
@@ -278,12 +307,11 @@ def _solve(eqs, residual, jacobian, off, methods):
         nonlocal total
         shift = (1.0 - source) * zero  # source stepping: the source terms scaled by s
 
-        x, ok, it = _newton(
-            eqs,
-            lambda y: residual(y, source, gmin) - shift,
-            lambda y: jacobian(y, source, gmin),
-            x,
-        )
+        def shifted(y):
+            r, jac, _, _ = linearized(y, source, gmin)
+            return r - shift, jac
+
+        x, ok, it = _newton(eqs, shifted, x)
         total += it
         return x, ok
 
@@ -303,7 +331,7 @@ def _solve(eqs, residual, jacobian, off, methods):
                 break
     if not ok and "source stepping" in methods:  # the increment shrinks on failure
         method = "source stepping"
-        x, s, step = jnp.zeros(eqs.size), 0.0, 0.1
+        x, s, step = np.zeros(eqs.size), 0.0, 0.1
         ok = True
         while s < 1.0:
             trial = min(1.0, s + step)
@@ -316,7 +344,7 @@ def _solve(eqs, residual, jacobian, off, methods):
                     ok = False
                     break
     if not ok:
-        jac = np.asarray(jacobian(x0, 1.0, 0.0))
+        jac = linearized(x0, 1.0, 0.0)[1]
         singular = np.linalg.matrix_rank(jac) < jac.shape[0]
         why = (
             "its equations are singular: a node reached only through capacitors or current "
@@ -329,9 +357,8 @@ def _solve(eqs, residual, jacobian, off, methods):
             "Fix: add a DC path (a large resistor to ground), or give the initial state "
             "with UIC (.tran … uic) and .ic / IC=."
         )
-    v, mu, qd, _ = eqs.split(x)
-    q0 = np.asarray(eqs.q0.at[eqs.dep].set(qd))
-    p0 = np.asarray(assembly.system.momentum(jnp.asarray(q0), v, eqs.t0))
+    v, mu, _, _ = eqs.split(x)
+    _, _, q0, p0 = linearized(x, 1.0, 0.0)
     voltages = {node: float(mu[j]) for node, j in zip(assembly.nodes, eqs.kcl, strict=True)}
     index = {c: j for j, c in enumerate(assembly.system.coords)}
     currents = {label: float(v[index[c]]) for label, c in assembly.currents.items()}

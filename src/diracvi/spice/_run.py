@@ -33,6 +33,7 @@ from ..errors import ModelError, StepFailure
 from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
+from . import _netcdf
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
@@ -184,9 +185,14 @@ class Result(Mapping):
             ds.attrs["vectors"] = layout
             return ds
         ds = xr.Dataset(data, coords=coords)
-        ds.attrs["vectors"] = layout
+        ds.attrs.update(self._variable_attrs(layout))
+        return ds
+
+    def _variable_attrs(self, layout: str) -> dict:
+        """A variable-step run's file attributes: the layout, the run and its settings."""
         march, settings = self.trajectory, self.settings
-        ds.attrs.update(
+        return dict(
+            vectors=layout,
             title=self.netlist.title,
             scheme="plus",
             discretization="midpoint",
@@ -205,7 +211,6 @@ class Result(Mapping):
             vntol=settings.vntol,
             chgtol=settings.chgtol,
         )
-        return ds
 
     def save(self, path) -> Path:
         """Write :meth:`to_xarray` as NetCDF (atomically: a temporary file, then a rename)."""
@@ -217,8 +222,14 @@ class Result(Mapping):
                 f"path={str(path)!r}: folder {str(path.parent)!r} does not exist; create it first."
             )
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+        saved = self._saved()
         try:
-            self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
+            if len(saved) <= SEPARATE_MAX:  # the same file, without importing xarray
+                waves = {name: self.waveforms[key] for name, key in saved.items()}
+                attrs = self._variable_attrs("one variable per vector")
+                _netcdf.write(tmp, self.time, waves, attrs)
+            else:
+                self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
             os.replace(tmp, path)
         finally:
             if tmp.exists():
@@ -269,6 +280,18 @@ def run(
     solved), with ``UIC`` from the state the netlist gives (``.ic`` and ``IC=``, zero
     otherwise).
     """
+    thinned = {
+        k: v
+        for k, v in simulate_kwargs.items()
+        if (k == "save_every" and v != 1) or (k == "save_states" and v is not True)
+    }
+    if thinned:  # refused here: waveforms() would fail after the whole run, naming neither
+        options = ", ".join(f"{k}={v!r}" for k, v in thinned.items())
+        raise ModelError(
+            f"spice.run({options}): a netlist's waveforms are computed from every state. "
+            "Fix: leave it out and thin the result (result['v(out)'][::2]), or step "
+            "netlist.system with diracvi.simulate."
+        )
     netlist = source if isinstance(source, Netlist) else read(source, params=params)
     if dt is None and steps is None:
         if any(isinstance(v, jax.core.Tracer) for v in (params or {}).values()):

@@ -98,10 +98,16 @@ def sweep_points(params, samples) -> Points:
     elif getattr(getattr(table, "dtype", None), "names", None):
         columns = {n: table[n] for n in table.dtype.names}  # a structured array
     else:
+        # the example must itself be accepted: a grid's columns may differ in length, a
+        # table's may not (one value per parameter for every sample)
+        example = (
+            "{'R': np.linspace(0.1, 2, 20), 'C': [1.0, 3.0]}"
+            if which == "params"
+            else "{'R': [0.5, 1.0, 2.0], 'C': [1.0, 3.0, 2.0]}"
+        )
         raise ModelError(
             f"{which}={_short(table)} is not a mapping: pass {{name: values}}, e.g. "
-            f"{which}={{'R': np.linspace(0.1, 2, 20), 'C': [1.0, 3.0]}} (a pandas "
-            "DataFrame also works for samples=)."
+            f"{which}={example} (a pandas DataFrame also works for samples=)."
         )
     if not columns:
         raise ModelError(f"{which}={{}} is empty: name at least one parameter.")

@@ -1,0 +1,171 @@
+"""A small netlist's ``diracvi run`` as a circuit user first meets it, beside ngspice.
+
+python benchmarks/netlist_first_call.py [--decks ng_rc es_rc …] [--repeats N] [--phases]
+
+Each deck runs as a fresh ``diracvi run DECK --out FILE.nc`` process (the command a user
+types), twice: **cold** with an empty ``DIRACVI_CACHE_DIR`` (nothing compiled yet) and
+**warm** right after, with the cache the cold run filled; beside it ``ngspice -b`` on the
+same deck. Each side is timed by wall clock and by the CPU time of the child (user +
+system, from ``os.wait4``): on a shared machine the wall clock moves with the others'
+load, the CPU time much less. ``--repeats N`` takes the minimum of N rounds (each round:
+cold, warm, ngspice).
+
+``--phases`` adds, per deck, a breakdown of one process, cold then warm (a fresh process
+each, in this order): import of diracvi, reading the deck, the DC operating point, the
+variable-step march (loading or compiling its program and running it), resampling onto
+the TSTEP grid, writing the NetCDF file, and the XLA compilations in each phase
+(``jax_log_compiles``: a warm run that compiles nothing shows 0).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+NETLISTS = HERE.parent / "tests" / "data" / "netlists"
+DECKS = ("ng_rc", "liec_cap_charging", "liec_halfwave", "es_rc", "xy_rlc")
+
+
+def timed(command: list[str], env: dict, cwd: Path, check: bool = True) -> tuple[float, float]:
+    """``(wall, cpu)`` seconds of ``command`` as a child process (its CPU: user + system
+    of the child and its own children, from ``os.wait4``). ``check=False``: a failing
+    exit status is accepted (ngspice -b on a deck with text after ``.end`` runs the
+    deck, then fails on the rest as a second circuit)."""
+    start = time.perf_counter()
+    child = subprocess.Popen(
+        command, env=env, cwd=cwd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
+    _, status, usage = os.wait4(child.pid, 0)
+    wall = time.perf_counter() - start
+    err = child.stderr.read().decode(errors="replace")
+    child.stderr.close()
+    if check and os.waitstatus_to_exitcode(status) != 0:
+        raise SystemExit(f"{' '.join(command)} failed:\n{err}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+
+def diracvi_command(deck: Path, out: Path) -> list[str]:
+    return [sys.executable, "-m", "diracvi.cli.main", "run", str(deck), "--out", str(out)]
+
+
+def measure(deck: Path, work: Path) -> dict:
+    """One round on ``deck``: cold, warm, ngspice."""
+    cache = work / "cache"
+    shutil.rmtree(cache, ignore_errors=True)
+    env = {**os.environ, "DIRACVI_CACHE_DIR": str(cache)}
+    row = {}
+    row["cold"] = timed(diracvi_command(deck, work / "cold.nc"), env, work)
+    row["warm"] = timed(diracvi_command(deck, work / "warm.nc"), env, work)
+    row["ngspice"] = timed(["ngspice", "-b", str(deck)], env, work, check=False)
+    return row
+
+
+PHASES = r"""
+import logging, os, sys, time
+
+def cpu():
+    t = os.times()
+    return t.user + t.system
+
+compiled = [0]
+
+class Count(logging.Handler):
+    def emit(self, record):
+        compiled[0] += "Finished XLA compilation" in record.getMessage()
+
+marks = []
+def mark(name):
+    marks.append((name, time.perf_counter(), cpu(), compiled[0]))
+
+mark("start")
+import jax
+jax.config.update("jax_log_compiles", True)
+log = logging.getLogger("jax")
+log.addHandler(Count()); log.setLevel(logging.WARNING); log.propagate = False
+from diracvi import spice
+from diracvi.spice import _run
+mark("import")
+netlist = spice.read(sys.argv[1])
+netlist.system
+mark("read")
+netlist.initial_state()
+mark("operating point")
+settings = _run.tran_settings(netlist)
+march = _run._march(netlist, settings, _run.breakpoints(netlist.system, 0.0, settings.stop))
+mark("march")
+result = spice.run(netlist)  # the march again (its program is in memory) and resampling
+mark("resample (+march)")
+result.save(sys.argv[2])
+mark("write NetCDF")
+previous = marks[0]
+for name, wall, cpu_, n in marks[1:]:
+    print(f"{name}\t{wall - previous[1]:.2f}\t{cpu_ - previous[2]:.2f}\t{n - previous[3]}")
+    previous = (name, wall, cpu_, n)
+print(f"total\t{marks[-1][1] - marks[0][1]:.2f}\t{marks[-1][2] - marks[0][2]:.2f}\t{compiled[0]}")
+"""
+
+
+def phases(deck: Path, work: Path) -> list[tuple[str, list]]:
+    """Per phase ``(name, [cold wall, cold cpu, cold compiles, warm wall, warm cpu,
+    warm compiles])`` of one cold and one warm process on ``deck``."""
+    cache = work / "cache"
+    shutil.rmtree(cache, ignore_errors=True)
+    env = {**os.environ, "DIRACVI_CACHE_DIR": str(cache)}
+    runs = []
+    for label in ("cold", "warm"):
+        out = subprocess.run(
+            [sys.executable, "-c", PHASES, str(deck), str(work / f"{label}.nc")],
+            env=env,
+            cwd=work,
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+        runs.append([line.split("\t") for line in out.stdout.strip().splitlines()])
+    return [(cold[0], [*cold[1:], *warm[1:]]) for cold, warm in zip(runs[0], runs[1], strict=True)]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--decks", nargs="+", default=list(DECKS))
+    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--phases", action="store_true")
+    args = parser.parse_args()
+    if shutil.which("ngspice") is None:
+        raise SystemExit("ngspice is not on PATH: it is the baseline of this benchmark.")
+    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)")
+    print("| deck | diracvi cold | diracvi warm | ngspice -b | cold/ngspice | warm/ngspice |")
+    print("|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory(prefix="diracvi-first-call-") as tmp:
+        work = Path(tmp)
+        for name in args.decks:
+            deck = NETLISTS / f"{name}.cir"
+            rounds = [measure(deck, work) for _ in range(args.repeats)]
+            best = {k: min(r[k][0] for r in rounds) for k in rounds[0]}
+            cpu = {k: min(r[k][1] for r in rounds) for k in rounds[0]}
+            print(
+                f"| {name} | {best['cold']:.2f} s ({cpu['cold']:.2f} CPU) "
+                f"| {best['warm']:.2f} s ({cpu['warm']:.2f} CPU) "
+                f"| {best['ngspice']:.3f} s | {best['cold'] / best['ngspice']:.0f}× "
+                f"| {best['warm'] / best['ngspice']:.0f}× |",
+                flush=True,
+            )
+        if args.phases:
+            for name in args.decks:
+                print(f"\n{name}: seconds per phase, wall (CPU), XLA compilations")
+                print("| phase | cold | cold compiles | warm | warm compiles |")
+                print("|---|---|---|---|---|")
+                for phase, (cw, cc, cn, ww, wc, wn) in phases(NETLISTS / f"{name}.cir", work):
+                    print(f"| {phase} | {cw} ({cc}) | {cn} | {ww} ({wc}) | {wn} |", flush=True)
+    print(f"load average at end: {os.getloadavg()[0]:.2f}")
+
+
+if __name__ == "__main__":
+    main()

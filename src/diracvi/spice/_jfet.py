@@ -1,0 +1,99 @@
+"""NJF/PJF ``.model`` cards and the ``J`` line (ngspice 39's JFET, level 1).
+
+Parameter names, aliases and defaults are ngspice's (``jfet.c``, ``jfetset.c``): VTO
+(VT0), BETA, LAMBDA, B, IS, RD, RS, CGS, CGD, PB, FC are used
+(:func:`diracvi.components.JFET`). The temperature coefficients (TCV, VTOTC, BEX,
+BETATCE, XTI, EG) only act away from the nominal 27 °C and the noise parameters (KF, AF,
+NLEV, GDSNOI) only in noise analyses: they are accepted with a note. TNOM must be 27 °C,
+and other levels (ngspice's level 2, Parker–Skellern) are refused naming the model's line.
+"""
+
+from __future__ import annotations
+
+from .. import components as cp
+
+_DEFAULTS = {
+    "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
+    "rs": 0.0, "cgs": 0.0, "cgd": 0.0, "pb": 1.0, "fc": 0.5,
+}  # fmt: skip
+_ALIAS = {"vt0": "vto"}
+_INERT = {
+    "tcv": "temperature only", "vtotc": "temperature only", "bex": "temperature only",
+    "betatce": "temperature only", "xti": "temperature only", "eg": "temperature only",
+    "kf": "noise only", "af": "noise only", "nlev": "noise only", "gdsnoi": "noise only",
+}  # fmt: skip
+FORM = "Jname d g s model [area] [AREA=a] [M=m] [OFF]"
+
+
+def read_jfet_model(kind: str, kw: dict, fail, notes: list) -> dict:
+    """The values of an NJF/PJF card (ngspice names, defaults filled in), checked."""
+    values = dict(_DEFAULTS)
+    for key, x in kw.items():
+        key = _ALIAS.get(key, key)
+        if key in values:
+            values[key] = x
+        elif key in _INERT:
+            notes.append(f"{kind} {key.upper()} ignored ({_INERT[key]})")
+        elif key == "level":
+            if x != 1.0:
+                raise fail(
+                    f"{kind} LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not supported; "
+                    "diracvi has level 1 (Shichman–Hodges with B) only"
+                )
+        elif key == "tnom":
+            if x != 27.0:
+                raise fail(f"{kind} TNOM={x:g} is not supported; only 27 °C (drop it)")
+        else:
+            raise fail(
+                f"{kind} parameter {key.upper()!r} is not a parameter of ngspice's JFET; it "
+                f"reads {', '.join(k.upper() for k in _DEFAULTS)}"
+            )
+    return values
+
+
+def j_line(ctx, name, pos, kw, line):
+    """``Jname d g s model [area] [AREA=a] [M=m] [OFF]`` (ngspice's level-1 JFET)."""
+    flags = [t for t in pos[5:] if t.lower() == "off"]
+    rest = [t for t in pos[5:] if t.lower() != "off"]
+    if len(pos) < 5 or len(rest) > 1:
+        raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
+    kind, params, where = ctx.model(pos[4], line)
+    if kind not in ("NJF", "PJF"):
+        raise line.fail(f"model {pos[4]!r} ({where}) is a {kind} model; a J line needs NJF/PJF")
+
+    def fail(why):  # a problem of the card, reported at the element line that uses it
+        return line.fail(f"model {pos[4]!r} ({where}): {why}")
+
+    notes: list[str] = []
+    v = read_jfet_model(kind, params, fail, notes)
+    area = ctx.value(rest[0], line, f"{pos[0]} area") if rest else 1.0
+    mult = 1.0
+    for key, token in kw.items():
+        if key == "area":
+            area = ctx.value(token, line, f"{pos[0]} AREA")
+        elif key == "m":
+            mult = ctx.value(token, line, f"{pos[0]} M")
+        elif key in ("temp", "dtemp"):
+            x = ctx.value(token, line, f"{pos[0]} {key.upper()}")
+            if x != (27.0 if key == "temp" else 0.0):
+                raise line.fail(
+                    f"element {pos[0]!r}: {key.upper()}={token} is not supported (diracvi "
+                    "simulates at ngspice's nominal 27 °C; drop it)"
+                )
+        else:
+            raise line.fail(
+                f"element {pos[0]!r}: parameter {key.upper()} is not supported on J lines "
+                f"(form '{FORM}')"
+            )
+    if flags:
+        notes.append(f"{pos[0]} OFF ignored (it only seeds ngspice's DC solve)")
+    for note in notes:
+        ctx.note(line, note)
+    d, g, s = pos[1:4]
+    vg = ctx.ic(g)
+    part = cp.JFET(
+        kind.lower(), v["vto"], v["beta"], v["lambda"], b=v["b"], is_=v["is"], rd=v["rd"],
+        rs=v["rs"], cgs=v["cgs"], cgd=v["cgd"], pb=v["pb"], fc=v["fc"], area=area, m=mult,
+        v0=(vg - ctx.ic(s), vg - ctx.ic(d)), name=name,
+    )  # fmt: skip
+    return part, {"d": d, "g": g, "s": s}
