@@ -19,17 +19,45 @@ peak, so a waveform passing through zero is not stepped ever finer there) and ``
 :data:`SAFETY` (local errors add up over many steps); and per constraint on the
 step-centred multiplier ``φ = −c/h`` (a circuit's node potential; ``c_k = 2μ_k − c_{k−1}``
 is the step's own impulse, see :mod:`diracvi.spice._resample`), the coarse step's against
-the mean of the two fine ones, with ``atol_m``, and likewise held to at most
-``H/hmax`` times itself. A rate is thus judged no stricter than its integral over the
-step (SPICE's tolerance ``max(current tol, charge tol / h)``): a stiff mode ringing
-under the midpoint rule (amplification → −1, e.g. a junction capacitance behind its
-series resistance, excited where a diode switches) moves the end state by an amount
-that does not shrink with ``H``; judged as a rate it grew as ``1/H`` and drove the step
-to ``hmin``. ``e = max_j`` of all of them; ``e ≤ 1``
+the mean of the two fine ones, with ``atol_m``. A rate (``e_v``, ``e_m``) is judged
+at the run's resolution TMAX = ``hmax``: a step shorter than ``hmax`` has its rate
+error held to ``hmax/H`` times the tolerance, i.e. the rate's mean over ``hmax`` to the
+tolerance (``e ← e·min(1, H/hmax)``). A stiff mode ringing under the midpoint rule
+(amplification → −1, e.g. a junction capacitance behind its series resistance, excited
+where a diode switches) moves the end state by an amount that does not shrink with
+``H``; judged as a plain rate it grew as ``1/H`` and drove the step to ``hmin``. (The
+rates were once held only to the charge tolerance over the step, ``e_v ≤ e_q``,
+SPICE's ``max(current tol, charge tol / h)``: with a branch charge's running peak
+``Q ≫ V·hmax`` that left a diode's current at its knee ~10⁻² of its peak off at the
+steps the knee takes.) ``e = max_j`` of all of them; ``e ≤ 1``
 accepts the two fine steps (they are what is recorded: every recorded step is a plain
 Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
 ``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
 (so that no recorded step is longer than ``hmax``).
+
+**The gap between tries.** The output is a quadratic through the step centres
+(:mod:`diracvi.spice._resample`); step doubling checks it inside a try (the coarse
+centre against the fine ones' mean is the linear interpolant's error there), not
+between the last try's second centre ``x₋₁`` and this try's first ``x₁``. There a diode
+turning on is an exponential rising from below every tolerance — invisible to the last
+try — to its full current, and a try ``H`` long before it leaves a gap the interpolant
+overshoots (the bridge rectifier's source current: ~10⁻³ of its peak, at centres
+correct to 10⁻⁵). So an accepted try also estimates the interpolant's error in the two
+gaps its first centre closes (:func:`gap_error`: the quadratic the output draws there
+against the straight line), judged as an output, at ``rtol`` of the signal's running
+peak (the deck's own tolerance, with no share: an interpolation error is not carried
+to the next step). Above it, this try's share of the gap (``H/4``) is cut first: it is
+retried shorter by ``clip(0.9 e^{−1/3}, 0.2, 0.5)``, but not below twice the last
+try's steps (``H = 2h₋₁``: the centres evenly spaced); then the *last* try's share
+(``h₋₁/2``): that try is taken again from its own start, shorter by the same factor.
+A signal alternating from centre to centre is left out of the check: that is a stiff
+junction mode ringing under the midpoint rule, whose amplitude grows as the step
+shrinks (cut for it, the eSim clipper's 1N4148 drove the step to ``hmin``). A retaken
+try is not retaken a second time, no gap is judged across a breakpoint or a switching
+instant (the interpolant does not cross those), and no try is retaken from a compiled
+call's earlier buffer. (The sparse host
+loop for linear circuits, :mod:`~diracvi.driver.adaptive_sparse`, has no junction to
+turn on and no such check.)
 
 **Breakpoints.** A step never crosses one of the given times: it is shortened to end
 exactly on it (and the last two steps before it share the remaining interval evenly, so
@@ -96,6 +124,9 @@ SAFETY = 0.03
 #: the order this error control is written for (the midpoint rule's)
 _ORDER = 2
 
+
+#: the loop's state at a try's start, kept to take an accepted try again (gap_error)
+_UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
 
 #: names this path in ``AdaptiveRun.solver``
 DESCRIBE = "variable steps, Newton in one compiled loop (dense Jacobians)"
@@ -174,11 +205,10 @@ def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estim
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
     e_m = diff_m / (share * rtol * m_peak + atol_m)
-    # a rate's tolerance is at least its integral's over the step (SPICE's
-    # max(current tol, charge tol / h)): a mode ringing at the midpoint's amplification
-    # −1 (a stiff junction) moves the end state by a fixed amount whatever H, which
-    # read as a rate grows as 1/H and would drive the step to hmin
-    e_v = xp.minimum(e_v, e_q)
+    # a rate is judged as its mean over TMAX (hmax): a mode ringing at the midpoint's
+    # amplification −1 (a stiff junction) moves the end state by a fixed amount whatever
+    # H, which read as a plain rate grows as 1/H and would drive the step to hmin
+    e_v = xp.minimum(e_v, e_v * h_try / hmax)
     e_m = xp.minimum(e_m, e_m * h_try / hmax)
     err = xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
     return Estimate(err, q_peak, v_peak, m_peak, c2)
@@ -187,6 +217,34 @@ def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estim
 def growth(xp, err):
     """The next try's size over this one's: ``clip(0.9 e^{−1/3}, 0.2, 2)``."""
     return xp.clip(0.9 * xp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
+
+
+def gap_error(xs, ys):
+    """How far the output's interpolant may be off in the gaps a try's first step centre
+    closes (:mod:`diracvi.spice._resample`): with ``xs = (x₋₂, x₋₁, x₁, x₂)`` — the last
+    try's two centres and this try's — and ``ys`` the values there (arrays, one entry
+    per signal), the quadratic the output draws through ``(x₋₂, x₋₁, x₁)`` on
+    ``(x₋₂, x₋₁)`` and through ``(x₋₁, x₁, x₂)`` on ``(x₋₁, x₁)``, each against the
+    straight line between the gap's ends, at the gap's middle:
+
+        max( |f[x₋₂, x₋₁, x₁]| (x₋₁ − x₋₂)²/4,  |f[x₋₁, x₁, x₂]| (x₁ − x₋₁)²/4 ).
+
+    Two interpolants of different order that disagree say the signal is not resolved
+    there (the difference of two stencils of the same order can miss a knee: both
+    quadratics cut a diode's turn-off alike)."""
+
+    def second(a, b, c):  # the divided difference f[a, b, c]
+        return ((c[1] - b[1]) / (c[0] - b[0]) - (b[1] - a[1]) / (b[0] - a[0])) / (c[0] - a[0])
+
+    points = list(zip(xs, ys, strict=True))
+    left = abs(second(*points[:3])) * 0.25 * (xs[1] - xs[0]) ** 2
+    right = abs(second(*points[1:])) * 0.25 * (xs[2] - xs[1]) ** 2
+    # a signal alternating from centre to centre (its differences − + − or + − +) is a
+    # stiff mode ringing under the midpoint rule, whose amplitude no shorter step
+    # reduces (it grows as 1/h): not an interpolation error a cut could mend
+    d1, d2, d3 = ys[1] - ys[0], ys[2] - ys[1], ys[3] - ys[2]
+    ringing = (d1 * d2 < 0.0) & (d2 * d3 < 0.0)
+    return jnp.where(ringing, 0.0, jnp.maximum(left, right))
 
 
 def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
@@ -279,12 +337,33 @@ def _march(system, rule, solver, capacity, x):
             found, modes, (q, q1, q2), (p, p1, p2), c["e_last"], h_try, x["event_tol"], hmin
         )
         aim = ok & (err <= 1.0) & ~located  # retried at the switching instant
-        accept = ok & (err <= 1.0) & located
+        passes = ok & (err <= 1.0) & located
+        # the interpolant between the last try's second centre and this try's first (the
+        # gap no estimate above sees, see the module doc): too coarse there, this try is
+        # retried shorter, or the last one taken again (once: a ringing junction's
+        # alternation does not shrink with the step)
+        h_last = c["h_last"]
+        xs = (t - 1.5 * h_last, t - 0.5 * h_last, t + 0.25 * h_try, t + 0.75 * h_try)
+        phi_last = -c["c_last"] / h_last
+        phi1, phi2 = -(2.0 * mu1 - c_prev) / half, -c2 / half
+        gap_v = gap_error(xs, (c["u_prev"], c["v_last"], (q1 - q) / half, v2))
+        gap_m = gap_error(xs, (c["phi_prev"], phi_last, phi1, phi2))
+        e_gap_v = gap_v / (rtol * v_peak + atol_v)
+        e_gap_m = gap_m / (rtol * m_peak + x["atol_m"])
+        e_gap = jnp.max(jnp.concatenate([e_gap_v, e_gap_m]), initial=0.0)
+        coarse = passes & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0)
+        # this try's own share of the gap first (down to the last try's spacing), then
+        # the last try's
+        own = coarse & (h_try > 2.0 * h_last * (1.0 + 1e-9))
+        back = coarse & ~own & c["back_ok"] & (c["i"] >= 2)
+        accept = passes & ~own & ~back
         grow = growth(jnp, err)
         h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
         # a step shortened to land on a breakpoint says little about the next one
         h_next = jnp.where(accept & (h_try < h0), jnp.maximum(h_next, h0), h_next)
         h_next = jnp.where(aim, h_event, h_next)
+        shrink = jnp.clip(0.9 * jnp.maximum(e_gap, 1.0) ** (-1.0 / (_ORDER + 1)), 0.2, 0.5)
+        h_next = jnp.where(own, jnp.maximum(h_try * shrink, 2.0 * h_last), h_next)
         i = c["i"]
         t_new = jnp.where(land, target, t + h_try)
 
@@ -306,6 +385,8 @@ def _march(system, rule, solver, capacity, x):
         new["q"] = jnp.where(accept, q2, q)
         new["p"] = jnp.where(accept, p2, p)
         new["v_last"] = jnp.where(accept, v2, c["v_last"])
+        new["u_prev"] = jnp.where(accept, (q1 - q) / half, c["u_prev"])
+        new["phi_prev"] = jnp.where(accept, phi1, c["phi_prev"])
         new["mu_last"] = jnp.where(accept, mu2, c["mu_last"])
         new["h_last"] = jnp.where(accept, half, c["h_last"])
         new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
@@ -315,10 +396,29 @@ def _march(system, rule, solver, capacity, x):
         passed = accept & land & (target == breaks[c["ib"]])
         new["ib"] = jnp.where(passed, c["ib"] + 1, c["ib"])
         new["h"] = jnp.minimum(h_next, 2.0 * hmax)
+        # a try that may be taken again: not itself a repeat, not ending on a breakpoint
+        # or at a switching instant (the interpolant does not cross those)
+        plain = ~land & jnp.all(modes_new == modes)
+        new["gap_ok"] = jnp.where(accept, plain, c["gap_ok"])
+        new["back_ok"] = jnp.where(accept, plain & ~c["redone"], c["back_ok"])
+        new["redone"] = jnp.where(accept, False, c["redone"])
+        for key in _UNDO:
+            new["was_" + key] = jnp.where(accept, c[key], c["was_" + key])
+        new["was_h"] = jnp.where(accept, h_try, c["was_h"])
         new["tries"] = c["tries"] + 1
         new["rejected"] = c["rejected"] + jnp.where(accept, 0, 1)
-        small = ~accept & (h_next < hmin)
+        small = ~accept & ~back & (h_next < hmin)
         new["status"] = jnp.where(small, jnp.where(ok, TOO_SMALL, FAILED_SOLVE), OK)
+        # taking the last try again: its start state back, its two rows to be rewritten
+        # (the gap before it is not checked again: the retaken try starts a new record)
+        for key in _UNDO:
+            new[key] = jnp.where(back, c["was_" + key], new[key])
+        new["i"] = jnp.where(back, i - 2, new["i"])
+        new["h"] = jnp.where(back, c["was_h"] * shrink, new["h"])
+        new["back_ok"] = jnp.where(back, False, new["back_ok"])
+        new["gap_ok"] = jnp.where(back, False, new["gap_ok"])
+        new["redone"] = jnp.where(back, True, new["redone"])
+        new["aimed"] = jnp.where(back, False, new["aimed"])
         return new
 
     init = {
@@ -341,6 +441,13 @@ def _march(system, rule, solver, capacity, x):
         "modes": x["modes"],
         "e_last": x["e_last"],
         "aimed": jnp.asarray(False),
+        "u_prev": x["u_prev"],
+        "phi_prev": x["phi_prev"],
+        "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
+        "gap_ok": jnp.asarray(False),
+        "redone": jnp.asarray(False),
+        **{"was_" + key: x[key] for key in _UNDO},
+        "was_h": x["h"],
         "T": jnp.zeros(capacity + 1, dtype).at[0].set(x["t"]),
         "H": jnp.zeros(capacity, dtype),
         "Q": jnp.zeros((capacity + 1, n), dtype).at[0].set(x["q"]),
@@ -424,6 +531,8 @@ def adaptive(
         "modes": events.initial_modes(system) if modes is None else np.asarray(modes, float),
         "e_last": np.zeros(len(events.relays(system))),  # as c_last: no lag in p0
         "aimed": np.asarray(False),
+        "u_prev": np.zeros(n),
+        "phi_prev": np.zeros(m),
     }
     fixed = {
         "rtol": np.float64(controls.rtol),
