@@ -21,12 +21,20 @@ from matplotlib.ticker import LogLocator
 from diracvi.bench.work_precision import CASES, curves
 
 data = curves(quick=True, repeats=3, points=2)
+# one colour and marker per method in every panel (the panels do not all have the same
+# methods, so cycling the defaults would draw DOP853 green in one panel and red in another)
+STYLE = {
+    "retraction": {"marker": "o", "color": "tab:gray"},
+    "midpoint": {"marker": "s", "color": "tab:blue"},
+    "lobatto": {"marker": "D", "color": "tab:orange"},
+    "dop853": {"marker": "^", "color": "tab:green"},
+}
 fig, axes = plt.subplots(1, len(CASES), figsize=(13, 4.2), layout="constrained")
 for ax, (name, curve) in zip(axes, data.items(), strict=True):
     kinds = [k for k in curve if k not in ("horizon", "reference_rtol")]
-    for kind, marker in zip(kinds, "osD^", strict=False):
+    for kind in kinds:
         points = np.asarray(curve[kind])
-        ax.loglog(points[:, 2], points[:, 1], marker=marker, label=kind)
+        ax.loglog(points[:, 2], points[:, 1], label=kind, **STYLE[kind])
         for value, error, seconds in curve[kind]:
             print(f"{name:18s} {kind:10s} {value:9.3g}  error {error:.1e}  {seconds * 1e3:7.2f} ms")
     ax.set(
