@@ -440,7 +440,7 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=2 VTO=1)",
             r"line 5: model 'nch' \(line 6\): NMOS level 2 \(MOS2, Grove–Frohman\) is not "
-            r"supported; diracvi has level 1 \(Shichman–Hodges\)",
+            r"supported; diracvi has levels 1 \(Shichman–Hodges\) and 6 \(Sakurai–Newton\)",
         ),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=49 VERSION=3.3)",
