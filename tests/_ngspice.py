@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from diracvi.spice._ngspice import CIRCUITS, available, ngspice  # noqa: F401  (re-exported)
+from diracvi.spice._ngspice import CIRCUITS, available, batch, ngspice  # noqa: F401  (re-exported)
 
 DATA = Path(__file__).parent / "data" / "ngspice"
 POINTS = 101
@@ -115,33 +115,8 @@ def dc_sweep(netlist: str, sweep: str, probes):
     """ngspice's ``.dc`` of ``netlist`` (its analyses replaced by ``sweep``, e.g. ``"vd 0 5
     0.5 vg -3 0 0.5"``), 15 digits: ``{probe: values}`` over the sweep's points, the first
     source varying fastest (``"sweep"`` holds its values)."""
-    import subprocess
-    import tempfile
-
     body, _, _ = netlist.rpartition(".end")
     lines = [ln for ln in body.strip().splitlines() if not ln.lower().startswith((".tran", ".op"))]
-    with tempfile.TemporaryDirectory() as tmp:
-        out = Path(tmp) / "out.txt"
-        deck = "\n".join(
-            [
-                *lines,
-                ".options reltol=1e-12 abstol=1e-18 vntol=1e-15",
-                ".control",
-                "set wr_singlescale",
-                "set wr_vecnames",
-                "option numdgt=15",
-                f"dc {sweep}",
-                f"wrdata {out} {' '.join(probes)}",
-                ".endc",
-                ".end",
-                "",
-            ]
-        )
-        (Path(tmp) / "deck.cir").write_text(deck)
-        proc = subprocess.run(
-            ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=120
-        )
-        if not out.exists():
-            raise RuntimeError(f"ngspice .dc failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-        data = np.loadtxt(out, skiprows=1, ndmin=2)
+    options = ".options reltol=1e-12 abstol=1e-18 vntol=1e-15"
+    data = batch(lines, options, f"dc {sweep}", probes, timeout=120)
     return {"sweep": data[:, 0], **{p: data[:, 1 + j] for j, p in enumerate(probes)}}

@@ -103,17 +103,25 @@ def ngspice(netlist: str, probes, tmax: float, method: str = "trap", options: st
     uic = " uic" if "uic" in (f.lower() for f in fields) else ""
     step, stop = fields[1], fields[2]
     lines[tran] = f".tran {step} {stop} 0 {tmax!r}{uic}"
+    data = batch(lines, f"{options} method={method}", "run", probes, timeout=600)
+    return data[:, 0], {p: data[:, 1 + j] for j, p in enumerate(probes)}
+
+
+def batch(lines, options: str, analysis: str, probes, timeout: float = 600) -> np.ndarray:
+    """Run ``lines`` (a deck without its ``.end``) with ``options`` under ``ngspice -b``,
+    ``analysis`` given in a ``.control`` block (``"run"``, ``"dc vd 0 5 0.5"``), and the
+    ``probes`` written at 15 digits: the table, the analysis variable in column 0."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out.txt"
         deck = "\n".join(
             [
                 *lines,
-                f"{options} method={method}",
+                options,
                 ".control",
                 "set wr_singlescale",
                 "set wr_vecnames",
                 "option numdgt=15",
-                "run",
+                analysis,
                 f"wrdata {out} {' '.join(probes)}",
                 ".endc",
                 ".end",
@@ -122,9 +130,10 @@ def ngspice(netlist: str, probes, tmax: float, method: str = "trap", options: st
         )
         (Path(tmp) / "deck.cir").write_text(deck)
         proc = subprocess.run(
-            ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=600
+            ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=timeout
         )
         if not out.exists():
-            raise RuntimeError(f"ngspice failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
-        data = np.loadtxt(out, skiprows=1, ndmin=2)
-    return data[:, 0], {p: data[:, 1 + j] for j, p in enumerate(probes)}
+            raise RuntimeError(
+                f"ngspice ({analysis}) failed:\n{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}"
+            )
+        return np.loadtxt(out, skiprows=1, ndmin=2)
