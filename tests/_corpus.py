@@ -18,10 +18,15 @@ currents of voltage sources and inductors (:func:`kept`). An element inside a su
 which ngspice 39 calls ``<letter>.<instance>.<name>`` (``i(v.x1.vm)``), is also looked up
 as ``i(<instance>.<name>)``.
 
-Agreement: for each reference signal ``s``, ``max_k |diracvi(t_k) − s(t_k)| ≤ TOL · max_k
-|s(t_k)|`` over the reference's points ``t_k`` (the peak too is taken over them), with
-diracvi's waveform sampled at ``t_k`` by its own interpolant (``Result.at``: quadratic
-through its step centres between corners, as it fills the TSTEP grid).
+Agreement: for each reference signal ``s``, ``max_k |diracvi(t_k) − s(t_k)| ≤ TOL · max(max_k
+|s(t_k)|, floor)`` over the reference's points ``t_k`` (the peak too is taken over them),
+with diracvi's waveform sampled at ``t_k`` by its own interpolant (``Result.at``: quadratic
+through its step centres between corners, as it fills the TSTEP grid). The floor is
+SPICE's default absolute resolution of the signal's kind — ``VNTOL`` = 1 µV for a node
+voltage, ``ABSTOL`` = 1 pA for a current — so that a signal which is zero to within
+what any SPICE resolves (a node ngspice reports at 8.9e-16 V and diracvi at exactly 0)
+is not judged relative to its own round-off; a signal whose peak is above the floor is
+judged exactly as before.
 """
 
 from __future__ import annotations
@@ -43,6 +48,8 @@ DATA = Path(__file__).parent / "data" / "netlists"
 REFERENCES = DATA / "reference"
 EXPECTED = DATA / "EXPECTED.toml"
 TOL = 1e-3
+VNTOL = 1e-6  # SPICE's default absolute tolerance of node voltages (V) ...
+ABSTOL = 1e-12  # ... and of branch currents (A): the floor of a signal's "peak"
 MAX_POINTS = 2001
 RELTOL = 1e-7
 TMAX_DIVISOR = 50
@@ -299,7 +306,7 @@ def diracvi_keys(vector: str) -> list[str]:
 def compare(result, t: np.ndarray, ref: dict[str, np.ndarray]):
     """Worst relative error over the reference signals: ``(worst, {vector: error}, missing)``.
 
-    ``error = max |diracvi − ngspice| / peak |ngspice|`` over the reference's times ``t``,
+    ``error = max |diracvi − ngspice| / max(peak |ngspice|, floor)`` over the reference's times ``t``,
     diracvi sampled there by its own interpolant (``result.at``); ``missing`` lists the
     reference vectors diracvi does not report."""
     span = np.asarray(result.trajectory.t, dtype=float)  # the run's own span
@@ -333,9 +340,9 @@ def compare_sampled(have: dict, span: tuple[float, float], t: np.ndarray, ref):
         if t[-1] > span[1] * (1 + 1e-9) or t[0] < span[0] * (1 - 1e-9) - 1e-300:
             errors[vector] = np.inf  # the run does not cover the reference's times
             continue
-        peak = float(np.max(np.abs(values)))
-        err = float(np.max(np.abs(mine - values)))
-        errors[vector] = err / peak if peak > 0 else (0.0 if err <= 1e-12 else np.inf)
+        floor = ABSTOL if vector.lower().startswith("i(") else VNTOL
+        peak = max(float(np.max(np.abs(values))), floor)
+        errors[vector] = float(np.max(np.abs(mine - values))) / peak
     worst = max(errors.values(), default=np.inf)
     return worst, errors, missing
 
