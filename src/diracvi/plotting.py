@@ -97,3 +97,37 @@ def plot_waveforms(t, waves: dict, path, title: str = "") -> Path:
     ax_i.set_xlabel("time")
     fig.savefig(path, dpi=110)
     return path
+
+
+def plot_joints(t, joints: dict, kinds: dict, path, title: str = "") -> Path:
+    """Write a PNG of a robot's joint coordinates against time: revolute angles (rad)
+    above, prismatic and cylindrical slides (m) below (``diracvi run robot.urdf --plot``)."""
+    path = Path(path)
+    panels = [
+        (label, [j for j in joints if (kinds[j] == "revolute") == turn])
+        for label, turn in (("joint angle (rad)", True), ("joint slide (m)", False))
+    ]
+    panels = [(label, names) for label, names in panels if names] or [("joint", [])]
+    fig = Figure(figsize=(8.0, 3.2 * len(panels)), layout="constrained")
+    FigureCanvasAgg(fig)
+    axes = np.atleast_1d(fig.subplots(len(panels), 1, sharex=True))
+    for ax, (label, names) in zip(axes, panels, strict=True):
+        for name in names:
+            ax.plot(t, joints[name], label=name, lw=1.2)
+        if not names:
+            ax.text(
+                0.5,
+                0.5,
+                "no joint with a coordinate",
+                ha="center",
+                va="center",
+                transform=ax.transAxes,
+            )
+        elif len(names) <= LEGEND_LIMIT:
+            ax.legend(fontsize=8, ncols=2)
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+    axes[0].set_title(title, fontsize=10)
+    axes[-1].set_xlabel("time (s)")
+    fig.savefig(path, dpi=110)
+    return path

@@ -1,4 +1,5 @@
-"""``diracvi list`` and ``diracvi run``: the built-in problems, and one simulation summarized."""
+"""``diracvi list`` and ``diracvi run``: the built-in problems, and one simulation (a problem, a
+model file, a SPICE netlist or a URDF robot) summarized."""
 
 from __future__ import annotations
 
@@ -44,7 +45,9 @@ def run(
             "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
             "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt; "
             "run as SPICE does: variable steps, output every TSTEP from TSTART, or a fixed "
-            "step with --dt; the NetCDF holds v(<node>) and i(<element>)).",
+            "step with --dt; the NetCDF holds v(<node>) and i(<element>)), or a URDF robot "
+            "(.urdf; fixed base, released from rest under gravity, 2000 steps of 1 ms by "
+            "default; the NetCDF holds joint_position, body_position, body_orientation).",
             show_default=False,
         ),
     ],
@@ -105,6 +108,13 @@ def run(
             _fail(
                 f"{flag} {str(target)!r}: folder {str(target.parent)!r} does not exist.", EXIT_USAGE
             )
+    if Path(problem).suffix.lower() == ".urdf":  # a robot: released from rest under gravity
+        if raw is not None:
+            _fail(
+                f"--raw writes a SPICE netlist's vectors; {problem!r} is a URDF robot.", EXIT_USAGE
+            )
+        _run_urdf(Path(problem), dt, steps, scheme, discretization, out, plot, solver)
+        return
     model = _resolve_model(problem)
     if raw is not None and not hasattr(model, "assembly"):
         _fail(f"--raw writes a SPICE netlist's vectors; {problem!r} is not a netlist.", EXIT_USAGE)
@@ -152,6 +162,72 @@ def run(
 
         png = out.with_suffix(".png") if out is not None else Path(f"{model.name}.png")
         plot_trajectory(traj, png, name=model.name)
+        _out().print(f"wrote {png}", markup=False, soft_wrap=True)
+
+
+#: ``diracvi run robot.urdf``: the robot on its fixed base, every joint at 0 and at rest,
+#: falls under MuJoCo's gravity for 2000 steps of 1 ms (2 s, the MuJoCo check's span)
+URDF_DT, URDF_STEPS = 1e-3, 2000
+#: the rules a URDF robot steps with (the retraction rule drifts in a rigid body's energy)
+URDF_RULES = ("midpoint", "lobatto")
+
+
+def _run_urdf(path: Path, dt, steps, scheme, discretization, out, plot, solver) -> None:
+    """Read, build and simulate ``path``; print the summary and the final joint values."""
+    if not path.is_file():
+        _fail(f"URDF file {str(path)!r} does not exist.", EXIT_USAGE)
+    rule = discretization or URDF_RULES[0]
+    if rule not in URDF_RULES:
+        _fail(
+            f"--discretization {rule}: a URDF robot steps with {' or '.join(URDF_RULES)} "
+            "(the retraction rule does not keep a rigid body's energy bounded).",
+            EXIT_USAGE,
+        )
+    from .. import simulate
+    from ..components.urdf import read_urdf
+
+    with _library_errors():
+        robot = read_urdf(path, quiet=True)
+        model = robot.build()
+    with _library_errors(partial_out=out):
+        traj = simulate(
+            model.system,
+            model.q0,
+            model.p0,
+            dt=URDF_DT if dt is None else dt,
+            steps=URDF_STEPS if steps is None else steps,
+            scheme=scheme,
+            discretization=rule,
+            solver=_solver_option(solver),
+        )
+    name = robot.urdf.name
+    _print_summary(name, traj)
+    joints = model.coordinate_joints()
+    if joints and traj.q is not None:
+        final = ", ".join(f"{j} {float(model.joint_position(traj.q, j)[-1]):.6g}" for j in joints)
+        _out().print(f"final joints: {final}", markup=False, soft_wrap=True)
+    for note in robot.urdf.notes:
+        _note(f"note: {note} (diracvi models no joint limits, friction or coupling)")
+    if out is None and not plot:
+        return
+    with _library_errors():
+        ds = model.dataset(traj)  # the motion by name: joints, body positions, orientations
+    if out is not None:
+        with _library_errors():
+            traj.save(out, dataset=ds)
+        _out().print(f"wrote {out}", markup=False, soft_wrap=True)
+    if plot:
+        from ..plotting import plot_joints
+
+        png = out.with_suffix(".png") if out is not None else Path(f"{name}.png")
+        kinds = {j: model.joints[j].kind for j in joints}
+        plot_joints(
+            traj.t,
+            {j: ds["joint_position"].sel(joint=j).values for j in joints},
+            kinds,
+            png,
+            title=f"{name} ({path.name}): released from rest",
+        )
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 

@@ -117,6 +117,46 @@ class MultibodyModel:
             "cylindrical joints have one joint coordinate."
         )
 
+    def coordinate_joints(self) -> tuple[str, ...]:
+        """The joints with one joint coordinate (revolute, prismatic, cylindrical), in the
+        order they were added."""
+        kinds = ("revolute", "prismatic", "cylindrical")
+        return tuple(n for n, c in self.joints.items() if c.kind in kinds)
+
+    def dataset(self, traj):
+        """The trajectory's ``xarray.Dataset`` with the motion by name: ``joint_position``
+        (time, joint) — a revolute joint's angle in rad, a prismatic or cylindrical
+        joint's slide in m, as :meth:`joint_position` recovers them —, ``body_position``
+        (time, body, xyz) the body origin in world axes, and ``body_orientation`` (time,
+        body, row, col) the rotation ``R = [d₁ d₂ d₃]`` taking body axes to world axes."""
+        if traj.q is None:
+            raise ModelError(
+                "dataset: the trajectory keeps no states (saved with keep_states=False); "
+                "simulate with the states kept to name the motion."
+            )
+        ds = traj.to_xarray()
+        names = list(self.bodies)
+        joints = list(self.coordinate_joints())
+        ds.coords["body"] = names
+        ds.coords["xyz"] = ["x", "y", "z"]
+        ds["body_position"] = (
+            ("time", "body", "xyz"),
+            np.stack([self.body(traj.q, b)[:, 0:3] for b in names], axis=1),
+        )
+        ds["body_orientation"] = (
+            ("time", "body", "row", "col"),
+            np.stack([self.rotation(traj.q, b) for b in names], axis=1),
+        )
+        ds["body_orientation"].attrs["description"] = "R = [d1 d2 d3]: body axes -> world axes"
+        if joints:
+            ds.coords["joint"] = joints
+            ds["joint_position"] = (
+                ("time", "joint"),
+                np.stack([self.joint_position(traj.q, j) for j in joints], axis=1),
+            )
+            ds["joint_kind"] = (("joint",), [self.joints[j].kind for j in joints])
+        return ds
+
 
 @dataclass(frozen=True)
 class _Frame:
