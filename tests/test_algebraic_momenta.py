@@ -32,17 +32,22 @@ V1 1 0 SIN(0 20 1k)
 
 
 def test_mask_is_the_fluxes_of_junctions_without_charge():
-    """The flux linkages of diodes without junction charge are marked; a diode with CJO
-    (its ``w`` has a co-energy: ``p_w`` = the junction charge) and every branch charge
-    (each in a KCL row, or with a velocity in ``L``) are not."""
-    netlist = spice.read(ZENER.replace("D2 4 2 diode", "D2 4 2 dcap\n.model dcap d cjo=1p"))
+    """The flux linkage of a diode without junction charge is marked. Not marked: a diode
+    with CJO (its ``w`` has a co-energy: ``p_w`` is the junction charge), every branch
+    charge (each in a KCL row), a behavioural source's sensing flux (a velocity in ``L``
+    through the hold term) and its ``ddt`` position ``y`` — no velocity in ``L``, no
+    row, ``p = 0``, but held by ``g = ȳ/τ``, a line that reads ``y`` itself: holding its
+    momentum would not damp ``y``'s own −1 mode. A planted momentum is not zero in exact
+    arithmetic: that coordinate is left alone too."""
+    text = ZENER.replace("D2 4 2 diode", "D2 4 2 dcap\n.model dcap d cjo=1p")
+    netlist = spice.read(text.replace(".tran", "B3 5 0 v = ddt(V(1))\n.tran"))
     system = netlist.system
+    coords = list(system.coords)
+    assert "B3.y0" in coords
     mask = algebraic_mask(system, netlist.q0, netlist.p0)
-    marked = {c for c, m in zip(system.coords, mask, strict=True) if m}
-    assert marked == {"D1.w"}, marked
-    # a planted momentum is not "zero in exact arithmetic": that coordinate is left alone
+    assert {c for c, m in zip(coords, mask, strict=True) if m} == {"D1.w"}
     p0 = np.array(netlist.p0, dtype=float)
-    p0[list(system.coords).index("D1.w")] = 1e-20
+    p0[coords.index("D1.w")] = 1e-20
     assert not algebraic_mask(system, netlist.q0, p0).any()
 
 

@@ -24,6 +24,12 @@ step (:func:`algebraic_mask`): each step then satisfies its algebraic line itsel
 ``E_j(q̄_k, v_k) = 0``, as SPICE solves a junction's law at every time point. It removes
 round-off only — with ``p_{0,j} = 0`` the exact (+) steps have ``p_{k,j} = 0`` — so the
 constraints, the step's discrete power balance and everything exact are untouched.
+
+Only lines free of their own coordinate (``∂E_j/∂q_j ≡ 0``: the diode's law reads ``ẇ``,
+not ``w``) are held. A line that reads ``q_j`` itself fixes only the midpoint
+``q̄_j = (q_{j,k} + q_{j,k+1})/2``, so ``q_j`` keeps a −1 mode of its own,
+``q_{j,k+1} = 2q̄_j − q_{j,k}``, whatever its momentum (a behavioural source's ``ddt``
+position ``y``, held by ``g = ȳ/τ``): holding its momentum would not damp it.
 """
 
 from __future__ import annotations
@@ -38,23 +44,33 @@ _PROBES = 3
 
 
 def algebraic_mask(system, q0, p0, t0=0.0, seed=0) -> np.ndarray:
-    """A boolean per coordinate: ``∂L/∂v_j`` and the column ``j`` of ``Aᵀ`` vanish at
-    every probe (exactly, as autodiff gives them), and ``p0_j = 0`` — the coordinates whose
-    momentum the (+) steps keep at zero in exact arithmetic (module docstring)."""
+    """A boolean per coordinate: ``∂L/∂v_j``, the column ``j`` of ``Aᵀ`` and
+    ``∂E_j/∂q_j`` (``E = ∂L/∂q + F``) vanish at every probe (exactly, as autodiff gives
+    them), and ``p0_j = 0`` — the coordinates whose momentum the (+) steps keep at zero
+    in exact arithmetic and whose line then holds on each step (module docstring)."""
     n, m = system.n, system.m
     q0 = np.asarray(q0, dtype=np.float64)
     rng = np.random.default_rng(seed)
     scale = np.maximum(np.abs(q0), 1.0)
-    dldv = jax.jit(jax.grad(lambda q, v: system.lagrangian(q, v, t0), argnums=1))
-    forms = jax.jit(jax.jacfwd(lambda q, mu: system.multiplier_force(q, mu, t0), argnums=1))
+
+    def line(q, v):  # E(q, v) = ∂L/∂q + F: the Euler–Lagrange line without ṗ
+        e = jax.grad(lambda a: system.lagrangian(a, v, t0))(q)
+        return e + system.force(q, v, t0) if system.has_force else e
+
+    def probe(q, v):
+        """``(∂L/∂v, diag ∂E/∂q, Aᵀ)`` at one point: one program for all three."""
+        dldv = jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
+        own = jnp.diagonal(jax.jacfwd(line)(q, v))
+        rows = jax.jacfwd(lambda mu: system.multiplier_force(q, mu, t0))(jnp.zeros(m))
+        return dldv, own, rows
+
+    qs = q0 + 1e-3 * scale * rng.standard_normal((_PROBES, n))
+    vs = rng.standard_normal((_PROBES, n))
+    dldv, own, rows = (np.asarray(a) for a in jax.jit(jax.vmap(probe))(qs, vs))
     free = np.asarray(p0, dtype=np.float64) == 0.0
-    for _ in range(_PROBES):
-        q = q0 + 1e-3 * scale * rng.standard_normal(n)
-        v = rng.standard_normal(n)
-        free &= np.asarray(dldv(jnp.asarray(q), jnp.asarray(v))) == 0.0
-        if m:
-            columns = np.asarray(forms(jnp.asarray(q), jnp.zeros(m)))  # Aᵀ: (n, m)
-            free &= np.all(columns == 0.0, axis=1)
+    free &= np.all(dldv == 0.0, axis=0) & np.all(own == 0.0, axis=0)
+    if m:
+        free &= np.all(rows == 0.0, axis=(0, 2))  # Aᵀ: (probes, n, m)
     return free
 
 
