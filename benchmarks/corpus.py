@@ -7,7 +7,8 @@ print one table (deck, elements, what it needs beyond R C L K V I D, status, dir
 ngspice wall times) and a summary.
 
     --references        first regenerate every reference with ngspice 39 (reltol 1e-7,
-                        TMAX = TSTEP/50; a few minutes, one deck takes ~80 s)
+                        TMAX = TSTEP/50 or the deck's reference_tmax_divisor; a few
+                        minutes, one deck takes ~80 s)
     --only NAME         these decks only (repeatable)
     --markdown          the table as Markdown (docs/circuits.md)
     --write-expected    rewrite EXPECTED.toml's statuses from this run (keeps file/blob)

@@ -59,6 +59,10 @@ call's earlier buffer. (The sparse host
 loop for linear circuits, :mod:`~diracvi.driver.adaptive_sparse`, has no junction to
 turn on and no such check.)
 
+**Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
+constraint row (a diode's flux without junction charge) are held at their exact value 0
+after each step: their round-off would alternate undamped (:mod:`.algebraic`).
+
 **Breakpoints.** A step never crosses one of the given times: it is shortened to end
 exactly on it (and the last two steps before it share the remaining interval evenly, so
 no sliver step is left).
@@ -96,6 +100,7 @@ from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
 from . import events
+from .algebraic import algebraic_mask
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -299,7 +304,10 @@ def _march(system, rule, solver, capacity, x):
 
     def step(modes, h, t, q, p, dq, mu):
         stepped = events.with_modes(system, modes)
-        return _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        q1, p1, mu1, ok = _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        # the momenta of algebraic coordinates held at their exact value 0 (their
+        # round-off would alternate undamped: driver/algebraic.py)
+        return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok
 
     def cond(c):
         return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
@@ -545,6 +553,7 @@ def adaptive(
         "t_stop": np.float64(t_stop),
         "breaks": padded,
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
+        "algebraic": algebraic_mask(system, q, p, t0),
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []

@@ -1,0 +1,77 @@
+r"""Coordinates whose momentum the midpoint step carries only as an undamped −1 mode.
+
+A coordinate ``j`` on which the Lagrangian has no velocity dependence (``∂L/∂v_j ≡ 0``)
+and which no constraint row touches (``(Aᵀμ)_j ≡ 0``) — a diode's flux linkage ``w``
+without junction charge, whose velocity is the junction voltage — has the continuous
+momentum ``p_j = ∂L/∂v_j = 0``: its Euler–Lagrange line is algebraic,
+``E_j = ∂L/∂q_j + F_j = 0`` (the diode's law ``q̇ = i_D(ẇ)``). The (+) midpoint step
+puts half of the step's ``h E_j`` on each end,
+
+    p_{k,j} = −(h/2) E_j(q̄_k, v_k),      p_{k+1,j} = (h/2) E_j(q̄_k, v_k),
+
+so ``p_{k+1,j} = −p_{k,j}``: the algebraic line holds only as the mean of two consecutive
+steps, and its defect ``ε_k = h E_j`` alternates undamped, ``ε_k = −ε_{k−1}`` (the
+midpoint's amplification −1 at infinite stiffness). In exact arithmetic from a start
+with ``p_{0,j} = 0`` it is zero at every step; in floating point each step adds its
+round-off (a breakdown junction's ``i_D(V)`` is evaluated to ~``|V|/nV_T`` ulps), the
+defects add up as a random walk, and as a current ``ε/h`` the walk grows as the step
+shrinks: at a floating node held by picosiemens (two nearly-off diodes, the zener deck
+near its zero crossings) a stored ``ε ≈ 3·10⁻²¹ C`` alternated the node by 0.06 V at
+10 ns steps, and the error control, seeing it, cut the steps further.
+
+The variable-step driver therefore holds these momenta at their value ``0`` after every
+step (:func:`algebraic_mask`): each step then satisfies its algebraic line itself,
+``E_j(q̄_k, v_k) = 0``, as SPICE solves a junction's law at every time point. It removes
+round-off only — with ``p_{0,j} = 0`` the exact (+) steps have ``p_{k,j} = 0`` — so the
+constraints, the step's discrete power balance and everything exact are untouched.
+
+Only lines free of their own coordinate (``∂E_j/∂q_j ≡ 0``: the diode's law reads ``ẇ``,
+not ``w``) are held. A line that reads ``q_j`` itself fixes only the midpoint
+``q̄_j = (q_{j,k} + q_{j,k+1})/2``, so ``q_j`` keeps a −1 mode of its own,
+``q_{j,k+1} = 2q̄_j − q_{j,k}``, whatever its momentum (a behavioural source's ``ddt``
+position ``y``, held by ``g = ȳ/τ``): holding its momentum would not damp it.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+#: random points at which ∂L/∂v and Aᵀ are probed (a dependence that vanishes at all
+#: of them by chance is not a concern: autodiff gives exact zeros only for no dependence)
+_PROBES = 3
+
+
+def algebraic_mask(system, q0, p0, t0=0.0, seed=0) -> np.ndarray:
+    """A boolean per coordinate: ``∂L/∂v_j``, the column ``j`` of ``Aᵀ`` and
+    ``∂E_j/∂q_j`` (``E = ∂L/∂q + F``) vanish at every probe (exactly, as autodiff gives
+    them), and ``p0_j = 0`` — the coordinates whose momentum the (+) steps keep at zero
+    in exact arithmetic and whose line then holds on each step (module docstring)."""
+    n, m = system.n, system.m
+    q0 = np.asarray(q0, dtype=np.float64)
+    rng = np.random.default_rng(seed)
+    scale = np.maximum(np.abs(q0), 1.0)
+
+    def line(q, v):  # E(q, v) = ∂L/∂q + F: the Euler–Lagrange line without ṗ
+        e = jax.grad(lambda a: system.lagrangian(a, v, t0))(q)
+        return e + system.force(q, v, t0) if system.has_force else e
+
+    def probe(q, v):
+        """``(∂L/∂v, diag ∂E/∂q, Aᵀ)`` at one point: one program for all three."""
+        dldv = jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
+        own = jnp.diagonal(jax.jacfwd(line)(q, v))
+        rows = jax.jacfwd(lambda mu: system.multiplier_force(q, mu, t0))(jnp.zeros(m))
+        return dldv, own, rows
+
+    qs = q0 + 1e-3 * scale * rng.standard_normal((_PROBES, n))
+    vs = rng.standard_normal((_PROBES, n))
+    dldv, own, rows = (np.asarray(a) for a in jax.jit(jax.vmap(probe))(qs, vs))
+    free = np.asarray(p0, dtype=np.float64) == 0.0
+    free &= np.all(dldv == 0.0, axis=0) & np.all(own == 0.0, axis=0)
+    if m:
+        free &= np.all(rows == 0.0, axis=(0, 2))  # Aᵀ: (probes, n, m)
+    return free
+
+
+__all__ = ["algebraic_mask"]
