@@ -91,6 +91,16 @@ print(json.dumps({"marks": marks, "split": split, "steps": len(march.h),
 """
 
 
+def deck_path(name: str) -> Path:
+    """The deck of a corpus name (its ``file`` in ``EXPECTED.toml``)."""
+    import tomllib
+
+    expected = tomllib.loads((NETLISTS / "EXPECTED.toml").read_text())
+    if name not in expected:
+        raise SystemExit(f"--decks {name}: not a corpus deck (see {NETLISTS / 'EXPECTED.toml'})")
+    return NETLISTS / expected[name]["file"]
+
+
 def child(deck: Path, env: dict, cwd: Path) -> dict:
     out = subprocess.run(
         [sys.executable, "-c", CHILD, str(deck)],
@@ -149,7 +159,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="diracvi-small-") as tmp:
         work = Path(tmp)
         for name in args.decks:
-            deck = NETLISTS / f"{name}.cir"
+            deck = deck_path(name)
             cache = work / "cache"
             if not args.warm_only:
                 shutil.rmtree(cache, ignore_errors=True)

@@ -505,8 +505,12 @@ def adaptive(
     rule with error-controlled steps, ending a step exactly on every breakpoint.
 
     ``controls``: :class:`Controls`; ``solver``: a :class:`~diracvi.NewtonSolver`
-    (default: Newton with a fresh Jacobian every iteration, which a changing ``h``
-    needs anyway). ``event_atol``: the absolute tolerance of each switch's control
+    (default: the simplified Newton of :class:`~diracvi.NewtonSolver`, its factors
+    formed afresh at each solve's first iterate — a changing ``h`` changes the
+    Jacobian — and kept while the updates contract: forming and factoring the dense
+    Jacobian is most of an iteration's cost, ~4 of 5 on ng_rtlinv, and full Newton's
+    last iterate, whose update is already at round-off, formed one for nothing).
+    ``event_atol``: the absolute tolerance of each switch's control
     (:func:`~diracvi.driver.events.tolerances`), one number or one per switch;
     ``modes``: the switches' states at ``t0`` (default: as the system holds them). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
@@ -516,7 +520,7 @@ def adaptive(
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
     rule = get_rule("midpoint")
-    solver = NewtonSolver(reuse_jacobian=False) if solver is None else solver
+    solver = NewtonSolver(reuse_jacobian=True) if solver is None else solver
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)
     p = np.asarray(p0, dtype=np.float64).reshape(n)
