@@ -16,8 +16,14 @@ ngspice wall times) and a summary.
     --rows FILE         append each deck's row to FILE as one JSON line when it is done
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
-include reading, building, compiling and stepping (a first call; the suite's cache is not
-used); ngspice's include process start-up, at the deck's own tolerances and TMAX. "ngspice's own
+include reading, building, compiling and stepping (a first call in this process; programs
+already in the on-disk cache, ``DIRACVI_CACHE_DIR`` or the user cache, are loaded rather
+than compiled), not the import of diracvi; ngspice's include process start-up, at the
+deck's own tolerances and TMAX. On a shared machine wall time grows with the others'
+load (at a load average of 12 on 2 cores a call's wall time is several times its CPU
+time), so each deck's line on stderr and its ``--rows`` record also give CPU seconds:
+diracvi's process CPU over the call (all its threads, compilation included) and
+ngspice's child CPU. "ngspice's own
 error" is that ngspice run (at the deck's own settings, linear between its points) against
 the same fine reference, by the same measure as diracvi's.
 """
@@ -28,6 +34,7 @@ import argparse
 import json
 import math
 import re
+import resource
 import sys
 import time
 from pathlib import Path
@@ -51,23 +58,30 @@ def run_deck(name: str, entry: dict, *, references: bool) -> dict:
     t, ref = corpus.load_reference(name)
     from diracvi import spice
 
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     try:
         result = spice.run(deck)
     except Exception as exc:  # every failure is a row of the table
         row["seconds"] = time.perf_counter() - t0
+        row["cpu_seconds"] = time.process_time() - c0
         row["status"] = "refused"
         row["message"] = f"{type(exc).__name__}: {exc}"
     else:
         row["seconds"] = time.perf_counter() - t0
+        row["cpu_seconds"] = time.process_time() - c0
         worst, _, missing = corpus.compare(result, t, ref)
         row["error"], row["missing"] = worst, missing
         row["status"] = "agrees" if worst <= corpus.TOL and not missing else "disagrees"
     try:
+        before = resource.getrusage(resource.RUSAGE_CHILDREN)
         names, data, row["ngspice_seconds"] = corpus.run_ngspice(deck, fine=False)
+        after = resource.getrusage(resource.RUSAGE_CHILDREN)
+        row["ngspice_cpu_seconds"] = (after.ru_utime + after.ru_stime) - (
+            before.ru_utime + before.ru_stime
+        )
         row["ngspice_error"] = corpus.compare_ngspice(names, data, t, ref)[0]
     except Exception:
-        row["ngspice_seconds"] = row["ngspice_error"] = math.nan
+        row["ngspice_seconds"] = row["ngspice_error"] = row["ngspice_cpu_seconds"] = math.nan
     return row
 
 
@@ -195,7 +209,9 @@ def main(argv=None) -> int:
                 f.write(json.dumps(rows[-1]) + "\n")
         print(
             f"{name}: {rows[-1]['status']} {reason(rows[-1])}; ngspice's own "
-            f"{rows[-1]['ngspice_error']:.2g}",
+            f"{rows[-1]['ngspice_error']:.2g}; wall {rows[-1]['seconds']:.2f} s "
+            f"(CPU {rows[-1]['cpu_seconds']:.2f}) against ngspice's "
+            f"{rows[-1]['ngspice_seconds']:.2f} s (CPU {rows[-1]['ngspice_cpu_seconds']:.3f})",
             file=sys.stderr,
             flush=True,
         )

@@ -167,6 +167,8 @@ class AdaptiveRun(NamedTuple):
     modes: np.ndarray | None = None
     #: which path stepped the run (as ``Trajectory.solver``)
     solver: str = DESCRIBE
+    #: Newton iterations over all tries (three solves per try); 0 where not counted
+    iterations: int = 0
 
     @property
     def message(self) -> str:
@@ -259,13 +261,14 @@ def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     q1, mu = split(system, res.x)
     p1 = solver.momentum(eqs, res.x, res.state)
     ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
-    return q1, p1, mu[: system.m], ok
+    return q1, p1, mu[: system.m], ok, res.iterations
 
 
 def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
-    guessed from the last velocity. ``(q ends, p ends, μ's, oks)``, stacked in that order.
+    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations)``, the
+    first four stacked in that order.
 
     One step solve in a loop of three iterations, each picking its inputs, rather than
     three solves written out: the step (Newton, its Jacobian, the limiting) is then
@@ -275,22 +278,23 @@ def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
     n, m = q.shape[0], mu_g.shape[0]
 
     def one(k, out):
-        qs, ps, mus, oks = out
+        qs, ps, mus, oks, its = out
         fine2 = k == 2
         h = jnp.where(k == 0, h_try, half)
         # the second fine step starts where the first ended, guessed on from there
         start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
         dq = jnp.where(fine2, qs[1] - q, h * vel)
         guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
-        qk, pk, muk, okk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
+        qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
                                 dq, guess_mu)  # fmt: skip
-        return qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk)
+        return (qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk),
+                its + itk)  # fmt: skip
 
     dtype = q.dtype
     init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
-            jnp.zeros(3, bool))  # fmt: skip
-    qs, ps, mus, oks = jax.lax.fori_loop(0, 3, one, init)
-    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks
+            jnp.zeros(3, bool), jnp.asarray(0))  # fmt: skip
+    qs, ps, mus, oks, its = jax.lax.fori_loop(0, 3, one, init)
+    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its
 
 
 def _march(system, rule, solver, capacity, x):
@@ -328,7 +332,7 @@ def _march(system, rule, solver, capacity, x):
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
-        (qc, q1, q2), (_, p1, p2), (mu_c, mu1, mu2), oks = _three_steps(
+        (qc, q1, q2), (_, p1, p2), (mu_c, mu1, mu2), oks, its = _three_steps(
             step, modes, h_try, t, q, p, vel, mu_g
         )
         ok = oks[0] & oks[1] & oks[2]
@@ -375,16 +379,21 @@ def _march(system, rule, solver, capacity, x):
         i = c["i"]
         t_new = jnp.where(land, target, t + h_try)
 
-        def put(buf, row, value):
-            return buf.at[row].set(jnp.where(accept, value, buf[row]))
+        def put(buf, row, first, second):
+            # the two rows written whether or not the try is accepted: rows past the
+            # record's count are not read (a rejected try's are overwritten by the next),
+            # and an unconditional write of a block is done in place where a
+            # read-select-write of each row made XLA copy the whole buffer every try
+            block = jnp.stack([first, second]).astype(buf.dtype)
+            return jax.lax.dynamic_update_slice_in_dim(buf, block, row, axis=0)
 
         new = dict(c)
-        new["T"] = put(put(c["T"], i + 1, t + half), i + 2, t_new)
-        new["H"] = put(put(c["H"], i, half), i + 1, half)
-        new["Q"] = put(put(c["Q"], i + 1, q1), i + 2, q2)
-        new["P"] = put(put(c["P"], i + 1, p1), i + 2, p2)
-        new["MU"] = put(put(c["MU"], i, mu1), i + 1, mu2)
-        new["S"] = put(put(c["S"], i, modes), i + 1, modes)
+        new["T"] = put(c["T"], i + 1, t + half, t_new)
+        new["H"] = put(c["H"], i, half, half)
+        new["Q"] = put(c["Q"], i + 1, q1, q2)
+        new["P"] = put(c["P"], i + 1, p1, p2)
+        new["MU"] = put(c["MU"], i, mu1, mu2)
+        new["S"] = put(c["S"], i, modes, modes)
         new["modes"] = jnp.where(accept, modes_new, modes)
         new["e_last"] = jnp.where(accept, e_new, c["e_last"])
         new["aimed"] = aim
@@ -414,6 +423,7 @@ def _march(system, rule, solver, capacity, x):
             new["was_" + key] = jnp.where(accept, c[key], c["was_" + key])
         new["was_h"] = jnp.where(accept, h_try, c["was_h"])
         new["tries"] = c["tries"] + 1
+        new["newton"] = c["newton"] + its
         new["rejected"] = c["rejected"] + jnp.where(accept, 0, 1)
         small = ~accept & ~back & (h_next < hmin)
         new["status"] = jnp.where(small, jnp.where(ok, TOO_SMALL, FAILED_SOLVE), OK)
@@ -444,6 +454,7 @@ def _march(system, rule, solver, capacity, x):
         "m_peak": x["m_peak"],
         "c_last": x["c_last"],
         "tries": jnp.asarray(0),
+        "newton": jnp.asarray(0),
         "rejected": jnp.asarray(0),
         "status": jnp.asarray(OK),
         "modes": x["modes"],
@@ -502,8 +513,12 @@ def adaptive(
     rule with error-controlled steps, ending a step exactly on every breakpoint.
 
     ``controls``: :class:`Controls`; ``solver``: a :class:`~diracvi.NewtonSolver`
-    (default: Newton with a fresh Jacobian every iteration, which a changing ``h``
-    needs anyway). ``event_atol``: the absolute tolerance of each switch's control
+    (default: the simplified Newton of :class:`~diracvi.NewtonSolver`, its factors
+    formed afresh at each solve's first iterate — a changing ``h`` changes the
+    Jacobian — and kept while the updates contract: forming and factoring the dense
+    Jacobian is most of an iteration's cost, ~4 of 5 on ng_rtlinv, and full Newton's
+    last iterate, whose update is already at round-off, formed one for nothing).
+    ``event_atol``: the absolute tolerance of each switch's control
     (:func:`~diracvi.driver.events.tolerances`), one number or one per switch;
     ``modes``: the switches' states at ``t0`` (default: as the system holds them). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
@@ -513,7 +528,7 @@ def adaptive(
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
     rule = get_rule("midpoint")
-    solver = NewtonSolver(reuse_jacobian=False) if solver is None else solver
+    solver = NewtonSolver(reuse_jacobian=True) if solver is None else solver
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)
     p = np.asarray(p0, dtype=np.float64).reshape(n)
@@ -557,7 +572,7 @@ def adaptive(
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
-    tries = rejected = 0
+    tries = rejected = newton = 0
     status = OK
     while True:
         out = _program(system, rule, solver, capacity, {**state, **fixed})
@@ -571,6 +586,7 @@ def adaptive(
         modes.append(out["S"][:k])
         tries += int(out["tries"])
         rejected += int(out["rejected"])
+        newton += int(out["newton"])
         status = int(out["status"])
         if status != OK or not out["t"] < t_stop:
             break
@@ -588,4 +604,5 @@ def adaptive(
         rejected,
         status,
         np.concatenate(modes) if modes else None,
+        iterations=newton,
     )
