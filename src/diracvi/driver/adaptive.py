@@ -308,10 +308,10 @@ def _march(system, rule, solver, capacity, x):
 
     def step(modes, h, t, q, p, dq, mu):
         stepped = events.with_modes(system, modes)
-        q1, p1, mu1, ok = _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        q1, p1, mu1, ok, its = _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
         # the momenta of algebraic coordinates held at their exact value 0 (their
         # round-off would alternate undamped: driver/algebraic.py)
-        return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok
+        return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok, its
 
     def cond(c):
         return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
