@@ -139,3 +139,25 @@ def test_offsets_of_every_row_give_the_same_run(monkeypatch):
         assert np.max(np.abs(a - b)) <= 1e-12 * scale, name
         if name != "constraint_residual":  # (round-off of different solvers)
             assert np.max(np.abs(a - c)) <= 1e-10 * scale, name
+
+
+@pytest.mark.slow
+def test_small_steps_keep_the_condensed_solve_accurate():
+    """A 6-stage ladder's step at h = TSTEP/16 (a size the variable-step path takes): its
+    rows span L/h = 1.6e4 to h/C = 0.06. Condensed on the equilibrated ``J_x`` the solve
+    equals SuperLU of the whole ``J_x`` to 1e-13 relative (formed on the raw scales it
+    was off by 3e-11)."""
+    import scipy.sparse.linalg as spla
+
+    from diracvi import spice
+    from diracvi.bench.ladders import ladder
+    from diracvi.discretization.rules import get_rule
+    from diracvi.solvers.sparse_affine import build
+
+    netlist = spice.read(ladder(6, steps=100))
+    system = netlist.system._packed()
+    q0, p0 = np.asarray(netlist.q0), np.asarray(netlist.p0)
+    found = build(system, get_rule("midpoint"), "plus", 1e-6 / 16, q0, p0, 0.0)
+    rhs = np.random.default_rng(0).standard_normal(found.size)
+    want = spla.splu(found.jx.tocsc()).solve(rhs)
+    assert np.max(np.abs(found.lu.solve(rhs) - want)) <= 1e-13 * np.max(np.abs(want))

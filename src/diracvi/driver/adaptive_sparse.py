@@ -13,8 +13,13 @@ exactly, the two fine steps recorded — so :mod:`diracvi.spice._resample` reads
 :class:`~diracvi.driver.adaptive.AdaptiveRun` unchanged. It differs in how a step is
 solved: the compiled loop runs Newton on the dense step equations (dense Jacobians,
 O(n²) memory, O(n³) per factorization; a 1000-stage ladder did not finish in 9 minutes
-at 10.5 GB), here each step is two sparse products and one sparse LU solve, O(n) for a
-ladder.
+at 10.5 GB), here each step is three sparse products accumulated in place and one solve
+of the node count, O(n) for a ladder: each size's ``J_x`` is condensed onto the nodes
+(:mod:`diracvi.solvers.condensed`: the parts' own unknowns eliminated by batched block
+inverses, the equilibrated node system factored by SuperLU) and stepped on the augmented
+state, as the fixed-step map does (``SparseAffineMap.one_step``). Factoring the whole
+``J_x`` instead solved 5002 unknowns a step on the 1000-stage ladder, against 2002
+(nnz(L + U) 22 002 against 8 011; see :mod:`diracvi.solvers.sparse_affine`).
 
 **Step sizes on a grid, factored only when needed.** ``J_x`` depends on ``h``, so each
 step size needs its own factorization. The controller's proposal is rounded *down* to
@@ -37,7 +42,8 @@ compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README
 
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
-vmapped over ``(h, t)`` pairs): no program is compiled per step size.
+vmapped over ``(h, t)`` pairs): no program is compiled per step size, and its arguments
+are flattened once per run, not per try (:class:`_Offsets`).
 
 **Verification.** ``build`` checks affinity (the Jacobians at two points agree and
 reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the
@@ -57,10 +63,10 @@ import numpy as np
 
 from ..discretization.rules import get_rule
 from ..errors import ModelError
-from ..runtime.compile import run_once_jit
 from ..runtime.config import ensure_float64
-from ..solvers.sparse_affine import NotSparseAffine, _own_offsets, _parts, build
-from ..solvers.sparse_pattern import structural_pattern
+from ..solvers.condensed import SingularStep, condense, own_unknowns
+from ..solvers.sparse_affine import NotSparseAffine, _offsets, build
+from ..solvers.sparse_pattern import _structure, structural_pattern
 from . import events
 from .adaptive import (
     FAILED_SOLVE,
@@ -78,7 +84,10 @@ from .adaptive import (
 CACHE_SIZE = 8
 
 #: names this path in ``AdaptiveRun.solver``
-DESCRIBE = "variable steps on the sparse affine map (SuperLU, step sizes on a 2^-k grid)"
+DESCRIBE = (
+    "variable steps on the sparse affine map (condensed to the nodes, SuperLU, step sizes on "
+    "a 2^-k grid)"
+)
 
 #: a sample of accepted steps is verified against the model's own residual: every this
 #: many steps of a map (and the first), at most :data:`VERIFY_MAX` per map
@@ -100,61 +109,54 @@ class SparseRun(NamedTuple):
     landings: int = 0
 
 
-def _offsets_fn(system, drivers, rule, scheme, hs, ts):
-    """``(r₀, P₀)`` of each pair ``(h, t)``: the driven parts' own rows (``drivers``) or,
-    with ``drivers=None``, the whole residual and momentum line at zero."""
-    import jax
-    import jax.numpy as jnp
+class _Offsets:
+    """The moving offsets ``u`` (``SparseAffineMap._augmented``) of a try's three steps
+    — sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)`` — from one call of the
+    compiled program: its arrays are gathered once (flattening the arguments at every
+    try cost more than the program's run), then each call passes only ``(h, t)``."""
 
-    if drivers is None:
-        from ..discretization.equations import unknown_count
+    def __init__(self, system, maps, rule):
+        self.system, self.maps, self.rule = system, maps, rule
+        self.mode = self.call = None
 
-        size = 2 * system.n + unknown_count(system, rule)
+    def _args(self, use):
+        return (None, self.maps.drivers, self.rule, "plus") if use else (
+            self.system, None, self.rule, "plus")  # fmt: skip
 
-        def one(h, t):
-            r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), t)
-            return r, pm
+    def __call__(self, h_try, half, t):
+        import equinox as eqx
 
-    else:
-
-        def one(h, t):
-            pieces = [_own_offsets(sub, rule, scheme, h, t) for sub in drivers]
-            return (
-                jnp.concatenate([r for r, _ in pieces]),
-                jnp.concatenate([pm for _, pm in pieces]),
-            )
-
-    return jax.vmap(one)(hs, ts)
-
-
-_offsets = run_once_jit(_offsets_fn, "diracvi.driver.adaptive_sparse._offsets")
+        hs = np.array([h_try, half, half])
+        ts = np.array([t, t, t + half])
+        use = self.maps.drivers is not None  # (the drivers alone: a few small parts)
+        if self.mode is not use:
+            args = self._args(use)
+            compiled, leaves = _offsets.program(*args, hs, ts)
+            if compiled is None:
+                self.call = lambda a, b: _offsets(*args, a, b)
+            else:
+                arrays = [leaf for leaf in leaves if eqx.is_array(leaf)][:-2]
+                self.call = lambda a, b: compiled(*arrays, a, b)
+            self.mode = use
+        r, pm = self.call(hs, ts)
+        return np.concatenate([np.asarray(r), np.asarray(pm)], axis=1)
 
 
 class _Map:
-    """One step size's map: ``J_x``'s factors and the products of a step. ``found``: the
-    :class:`~diracvi.solvers.sparse_affine.SparseAffineMap` whose ``_check_steps``
-    verifies its steps (``h`` and ``lu`` its own)."""
+    """One step size's map: ``found``, the
+    :class:`~diracvi.solvers.sparse_affine.SparseAffineMap` at this ``h`` (its ``J_x``
+    condensed onto the nodes and factored; its ``_check_steps`` verifies the steps)."""
 
-    def __init__(self, found, mats, lu, grid):
-        import scipy.sparse as sp
-
-        jz, jx, pz, px, r0, pm0 = mats
+    def __init__(self, found, grid):
         self.found, self.h, self.grid = found, found.h, grid
-        self.n, self.size = found.n, jx.shape[0]
-        self.zmap = sp.vstack([jz, pz]).tocsr()
-        self.px = px.tocsr()
-        self.solve = lu.solve
-        self.r0, self.pm0 = np.asarray(r0), np.asarray(pm0)
+        self.n, self.size = found.n, found.size
         self.samples = []  # (z, y, t) of accepted steps to verify
 
-    def step(self, z, r0, pm0):
-        """``(z_next, y)`` of one step from ``z`` with the offsets ``r₀``, ``P₀``."""
-        n, size = self.n, self.size
-        g = self.zmap @ z
-        y = self.solve(-(g[:size] + r0))
-        after = np.empty_like(z)
-        after[:n] = z[:n] + y[:n]
-        after[n:] = z[n:] + g[size:] + pm0 + self.px @ y
+    def step(self, z, u):
+        """``(z_next, y)`` of one step from ``z`` with the moving offsets ``u`` (the
+        driven rows of ``r₀``, ``P₀``; see ``SparseAffineMap._augmented``)."""
+        after, y = np.empty_like(z), np.empty(self.size)
+        self.found.one_step(z, u, after, y)
         return after, y
 
 
@@ -192,6 +194,9 @@ class _Maps:
         self.q0, self.p0, self.t0 = q0, p0, t0
         self.detect_rtol, self.verify_rtol = detect_rtol, verify_rtol
         self.pattern = structural_pattern(system, rule)
+        offsets, mu_start, mu_sizes, *_ = _structure(system)
+        self.groups = own_unknowns(offsets, mu_start, mu_sizes)  # the condensed blocks
+        self.drivers = None  # the driven parts whose rows give every map's offsets
         self.cache: OrderedDict = OrderedDict()
         self.builds = self.factorizations = 0
         self.levels: set = set()
@@ -225,7 +230,7 @@ class _Maps:
             worst = max(worst, _largest(got - want) / max(_largest(want), 1e-300))
         self.fit = worst <= FIT_RTOL
         for h, f in zip([*sizes, check_h], [*self.basis[1], found], strict=True):
-            self._store(float(h), f, _mats(f), f.lu, grid=True)
+            self._store(float(h), f, grid=True)
 
     def _combine(self, h):
         sizes, found = self.basis
@@ -238,8 +243,10 @@ class _Maps:
             out.append(total)
         return out
 
-    def _store(self, key, found, mats, lu, grid):
-        entry = _Map(found, mats, lu, grid)
+    def _store(self, key, found, grid):
+        if found.driven and (found.drivers is None) != (self.drivers is None):
+            self._no_drivers(found)  # every map takes its offsets the same way
+        entry = _Map(found, grid)
         self.cache[key] = entry
         while len(self.cache) > CACHE_SIZE:
             # off-grid maps (a landing's) go first, then the least recently used
@@ -248,11 +255,18 @@ class _Maps:
             self.retired.append(self.cache.pop(drop))
         return entry
 
+    def _no_drivers(self, found) -> None:
+        """Offsets of every row from the whole residual, for every map (one build's
+        drivers did not reproduce its offsets, or the first ones are stored)."""
+        if self.drivers is None and found.drivers is not None and not self.cache:
+            self.drivers = found.drivers  # the first map: its drivers are the run's
+            return
+        self.drivers = None
+        for f in [found, *(e.found for e in self.cache.values())]:
+            f.drivers = f.driver_rows = f.driver_coords = None
+            f._step = None
+
     def get(self, h: float, level: int | None) -> _Map:
-        import copy
-
-        import scipy.sparse.linalg as spla
-
         key = float(h)
         if level is not None:
             self.levels.add(level)
@@ -263,18 +277,15 @@ class _Maps:
             self.cache.move_to_end(key)
             return found
         if not self.fit:
-            built = self._build(key)
-            return self._store(key, built, _mats(built), built.lu, level is not None)
+            return self._store(key, self._build(key), level is not None)
         mats = self._combine(key)
-        jx = mats[1].tocsc()
         try:
-            lu = spla.splu(jx, permc_spec="COLAMD")
-        except RuntimeError as exc:
+            lu = condense(mats[1].tocsc(), self.groups)
+        except SingularStep as exc:
             raise NotSparseAffine(f"the step Jacobian at h = {key:g} is singular ({exc})") from None
         self.factorizations += 1
-        found = copy.copy(self.basis[1][0])  # its _check_steps, at this h with this LU
-        found.h, found.lu = key, lu
-        return self._store(key, found, mats, lu, level is not None)
+        found = self.basis[1][0].resized(key, mats, lu)
+        return self._store(key, found, level is not None)
 
     def all(self):
         return list(self.cache.values()) + self.retired
@@ -385,28 +396,8 @@ def adaptive_sparse(
     driven = bool(system.time_dependent)
     breaks = [float(b) for b in sorted(breakpoints) if t0 < b < t_stop]
 
-    def offsets(entries, hs, ts):
-        """Per step ``(r₀, P₀)`` of the given maps at sizes ``hs`` and times ``ts``."""
-        if not driven:
-            return [(e.r0, e.pm0) for e in entries]
-        drivers = first.found.drivers
-        use = drivers is not None and all(e.found.drivers is not None for e in entries)
-        # the drivers alone when they give the offsets (the packed system is a large
-        # PyTree: flattening it costs more than the program's run)
-        r, pm = _offsets(
-            None if use else system, drivers if use else None, rule, "plus",
-            np.asarray(hs, np.float64), np.asarray(ts, np.float64),
-        )  # fmt: skip
-        r, pm = np.asarray(r), np.asarray(pm)
-        if not use:
-            return list(zip(r, pm, strict=True))
-        out = []
-        for j, e in enumerate(entries):
-            full_r, full_p = e.r0.copy(), e.pm0.copy()
-            full_r[e.found.driver_rows] = r[j]
-            full_p[e.found.driver_coords] = pm[j]
-            out.append((full_r, full_p))
-        return out
+    offsets = _Offsets(system, maps, rule) if driven else None
+    no_offsets = np.zeros((3, 0))
 
     t, z = float(t0), np.concatenate([q, p])
     h = min(float(controls.h_first), top)
@@ -443,12 +434,10 @@ def adaptive_sparse(
         half = 0.5 * h_try
         coarse = maps.get(h_try, level)
         fine = maps.get(half, None if level is None else level + 1)
-        (rc, pc), (r1, p1o), (r2, p2o) = offsets(
-            [coarse, fine, fine], [h_try, half, half], [t, t, t + half]
-        )
-        zc, yc = coarse.step(z, rc, pc)
-        z1, y1 = fine.step(z, r1, p1o)
-        z2, y2 = fine.step(z1, r2, p2o)
+        u = no_offsets if offsets is None else offsets(h_try, half, t)
+        zc, yc = coarse.step(z, u[0])
+        z1, y1 = fine.step(z, u[1])
+        z2, y2 = fine.step(z1, u[2])
         tries += 1
         ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
         with np.errstate(divide="ignore", invalid="ignore"):

@@ -78,6 +78,7 @@ from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
 from .condensed import SingularStep, condense, own_unknowns
 from .sparse_pattern import NotSparseAffine, _pattern, _structure
+from .sparse_pattern import driving as parts_driving
 
 #: the initial-data check of a run on this path checks momenta (a dense O(n³)
 #: projector) up to this many coordinates; joined ports always
@@ -198,7 +199,34 @@ def _accumulate(a, x, y) -> None:
         matvec(a.shape[0], a.shape[1], a.indptr, a.indices, a.data, x, y)
 
 
+def _offsets_fn(system, drivers, rule, scheme, hs, ts):
+    """``(r₀, P₀)`` of each pair ``(h, t)``: the driven parts' own rows (``drivers``) or,
+    with ``drivers=None``, the whole residual and momentum line at zero (``h`` is data:
+    the variable-step path asks it for every step size)."""
+    import jax
+    import jax.numpy as jnp
+
+    if drivers is None:
+        size = 2 * system.n + unknown_count(system, rule)
+
+        def one(h, t):
+            r, pm, _ = _parts(system, rule, scheme, h, jnp.zeros(size), t)
+            return r, pm
+
+    else:
+
+        def one(h, t):
+            pieces = [_own_offsets(sub, rule, scheme, h, t) for sub in drivers]
+            return (
+                jnp.concatenate([r for r, _ in pieces]),
+                jnp.concatenate([pm for _, pm in pieces]),
+            )
+
+    return jax.vmap(one)(hs, ts)
+
+
 _probe = run_once_jit(_probe_fn, "diracvi.solvers.sparse_affine._probe")
+_offsets = run_once_jit(_offsets_fn, "diracvi.solvers.sparse_affine._offsets")
 _block = run_once_jit(_block_fn, "diracvi.solvers.sparse_affine._block")
 
 
@@ -263,6 +291,43 @@ class SparseAffineMap:
         self._m_v = (q_of_y @ y_v).tocsr()
         self._nk = kept.size
         self._step = None  # the augmented maps (made at the first run: see _augmented)
+
+    def resized(self, h, mats, lu):
+        """This map at another step size: ``mats = (J_z, J_x, P_z, P_x, r₀, P₀)`` of size
+        ``h`` (combined from others, see :mod:`diracvi.driver.adaptive_sparse`) and
+        ``lu`` the :class:`~diracvi.solvers.condensed.CondensedSolve` of its ``J_x``; the
+        drivers, seeds and verification carry over."""
+        import copy
+
+        import scipy.sparse as sp
+
+        out = copy.copy(self)
+        jz, jx, pz, px, r0, pm0 = mats
+        out.h, out.lu = float(h), lu
+        out.jz, out.jx, out.pz, out.px = jz.tocsr(), jx, pz.tocsr(), px.tocsr()
+        out.r0, out.pm0 = np.asarray(r0), np.asarray(pm0)
+        out._con = sp.hstack([out.jz[self.n :], jx.tocsr()[self.n :]]).tocsr()
+        out._operators()
+        return out
+
+    def one_step(self, z, u, into, y):
+        """One step from ``z = (q, p)`` with the moving offsets ``u`` (see
+        :meth:`_augmented`): ``into`` gets ``z'``, ``y`` the step's unknowns (both
+        overwritten). Three products accumulated in place and one solve of the node
+        count."""
+        step = self._augmented()
+        width, n2 = step["width"], 2 * self.n
+        row = np.empty(width + self._nk)
+        row[:n2] = z
+        row[n2] = 1.0
+        row[n2 + 1 : width] = u
+        rhs = np.zeros(self._nk)
+        _accumulate(step["g_s"], row[:width], rhs)
+        row[width:] = self.lu.schur.solve(rhs)
+        into[:] = 0.0
+        _accumulate(step["g_z"], row, into)
+        y[:] = 0.0
+        _accumulate(step["y"], row, y)
 
     def _moving(self):
         """The entries of ``r₀`` and ``P₀`` that move with ``t`` (the driven parts' rows,
@@ -536,8 +601,7 @@ def build(
 def _use_drivers(out, system, values, t1) -> None:
     """Offsets from the time-dependent parts alone, if there are few and they give the
     interconnection's offsets at ``t1`` exactly (checked here; else the whole residual)."""
-    subs = system.subsystems
-    driving = [i for i, s in enumerate(subs) if s.time_dependent]
+    driving = parts_driving(system)
     if not driving or len(driving) > MAX_DRIVERS:
         return
     offsets, mu_start, mu_sizes, *_ = _structure(system)
@@ -548,8 +612,13 @@ def _use_drivers(out, system, values, t1) -> None:
     )  # fmt: skip
     out.drivers = tuple(system._member(i) for i in driving)
     out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
-    zeros = np.zeros((1, system.n))
-    r_t1, p_t1, _ = out._block(np.array([t1]), zeros, zeros, np.array([t1]))
+    # (the drivers' own program, not the block program: that one takes the whole
+    # system, whose key alone is seconds on a large circuit, and the variable-step
+    # path never runs it)
+    r_t1, p_t1 = _offsets(
+        None, out.drivers, out.rule, out.scheme, np.array([out.h]), np.array([t1])
+    )
+    r_t1, p_t1 = np.asarray(r_t1), np.asarray(p_t1)
     full_r, full_p = out.r0.copy(), out.pm0.copy()
     full_r[out.driver_rows], full_p[out.driver_coords] = r_t1[0], p_t1[0]
     same = np.array_equal(full_r, np.asarray(values[0][2])) and np.array_equal(

@@ -21,9 +21,38 @@ class NotSparseAffine(Exception):
     """The sparse path does not apply (the reason is the message)."""
 
 
+#: the last few systems' tables (keyed by identity; a build per step size asks again,
+#: and on a 10⁴-part circuit each walk of the parts costs a good fraction of a second)
+_TABLES: dict = {}
+
+
+def _by_identity(system, name, make):
+    """``make(system)``, kept for the few systems seen last (the system held with it, so
+    its id cannot be reused while the entry lives)."""
+    hit = _TABLES.get((id(system), name))
+    if hit is not None and hit[0] is system:
+        return hit[1]
+    value = make(system)
+    _TABLES[(id(system), name)] = (system, value)
+    while len(_TABLES) > 8:
+        _TABLES.pop(next(iter(_TABLES)))
+    return value
+
+
+def driving(system) -> list[int]:
+    """The indices of the time-dependent parts (sources) of an interconnection."""
+    return _by_identity(
+        system, "driving", lambda s: [i for i, sub in enumerate(s.subsystems) if sub.time_dependent]
+    )
+
+
 def _structure(system):
     """Host-side index tables: per part its columns in ``w = (q, p, y)`` and rows, per
     interaction row its multiplier's column and equation, and who touches whom."""
+    return _by_identity(system, "structure", _tables)
+
+
+def _tables(system):
     n = system.n
     subs = system.subsystems
     offsets = np.asarray(system._offsets)

@@ -22,17 +22,22 @@ same quadratic extrapolates, which keeps second order (a linear one would not).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import numpy as np
 
 
-def step_potentials(mu: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """``φ_{k+½} = −c_k/h_k`` per multiplier column, from ``c_k = 2μ_k − c_{k−1}``."""
-    c = np.empty_like(mu)
+def step_potentials(mu: np.ndarray, h: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``φ_{k+½} = −c_k/h_k`` per multiplier column, from ``c_k = 2μ_k − c_{k−1}``
+    (written into ``out`` when given: a view of a larger array of signals)."""
+    c = np.empty_like(mu) if out is None else out
     prev = np.zeros(mu.shape[1:])
     for k in range(mu.shape[0]):  # a recurrence: sequential by nature
-        prev = 2.0 * mu[k] - prev
-        c[k] = prev
-    return -c / h.reshape(-1, *([1] * (mu.ndim - 1)))
+        np.multiply(mu[k], 2.0, out=c[k])
+        c[k] -= prev
+        prev = c[k]
+    c /= -h.reshape(-1, *([1] * (mu.ndim - 1)))
+    return c
 
 
 class Sampler:
@@ -84,7 +89,66 @@ class Sampler:
         return index, w
 
     def __call__(self, values: np.ndarray, query: np.ndarray) -> np.ndarray:
-        """Step-centred ``values`` (N, …) sampled at ``query``."""
-        index, w = self.weights(query)
-        picked = values[index]  # (Q, 3, …)
-        return np.einsum("qj,qj...->q...", w, picked)
+        """Step-centred ``values`` (N, …) sampled at ``query``: one set of weights for
+        every column of ``values`` (a run's signals are sampled as one (N, S) array;
+        per signal, the weights cost more than the sampling)."""
+        return self.apply(values, *self.weights(query))
+
+    @staticmethod
+    def apply(values: np.ndarray, index: np.ndarray, w: np.ndarray) -> np.ndarray:
+        """``values`` sampled with the :meth:`weights` ``(index, w)`` of some times."""
+        extra = (slice(None),) + (None,) * (np.ndim(values) - 1)
+        out = w[:, 0][extra] * values[index[:, 0]]
+        for j in (1, 2):  # accumulated: no (Q, 3, S) intermediate
+            out += w[:, j][extra] * values[index[:, j]]
+        return out
+
+
+#: signals are sampled this many columns at a time
+COLUMNS = 512
+
+
+class Signals:
+    """A run's step-centred signals as one ``(N, S)`` array (``values``) with their
+    ``names`` (one column each): sampled at any times by one :class:`Sampler` call."""
+
+    def __init__(self, names, values: np.ndarray):
+        self.names = list(names)
+        self.values = values
+
+    def sample(self, sampler: Sampler, times: np.ndarray) -> dict[str, np.ndarray]:
+        """``{name: waveform at times}`` (columns of one ``(Q, S)`` array)."""
+        index, w = sampler.weights(np.asarray(times, dtype=np.float64))
+        block = np.empty((len(index), self.values.shape[1]))
+        for a in range(0, block.shape[1], COLUMNS):  # (small temporaries: see _run)
+            block[:, a : a + COLUMNS] = sampler.apply(self.values[:, a : a + COLUMNS], index, w)
+        return {name: block[:, j] for j, name in enumerate(self.names)}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.values[:, self.names.index(name)]
+
+
+class Sampled(Mapping):
+    """``{name: waveform}`` at ``times``, computed at the first access (a run's waveforms
+    at its own nodes are as large as its signals, and seldom asked for); ``pin`` maps
+    the computed dict once (the start values, see :mod:`._run`)."""
+
+    def __init__(self, signals: Signals, sampler: Sampler, times, pin=None):
+        self._args = (signals, sampler, times, pin)
+        self._waves = None
+
+    def _all(self) -> dict:
+        if self._waves is None:
+            signals, sampler, times, pin = self._args
+            waves = signals.sample(sampler, times)
+            self._waves = waves if pin is None else pin(waves)
+        return self._waves
+
+    def __getitem__(self, key):
+        return self._all()[key]
+
+    def __iter__(self):
+        return iter(self._args[0].names)
+
+    def __len__(self) -> int:
+        return len(self._args[0].names)

@@ -38,7 +38,7 @@ from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
 from ._probe import waveforms
-from ._resample import Sampler, step_potentials
+from ._resample import Sampled, Sampler, Signals, step_potentials
 from ._tran import TranSettings, breakpoints, tran_settings
 
 
@@ -49,7 +49,7 @@ class Internal:
 
     time: np.ndarray
     h: np.ndarray
-    waveforms: dict
+    waveforms: Mapping
 
     def __getitem__(self, key: str) -> np.ndarray:
         return _lookup(self.waveforms, key)
@@ -95,7 +95,7 @@ class Result(Mapping):
         times = np.asarray(times, dtype=np.float64)
         if self.centred is not None:
             sampler, signals, start = self.centred
-            return _pin_start({k: sampler(v, times) for k, v in signals.items()}, times, start)
+            return _pin_start(signals.sample(sampler, times), times, start)
         t = np.asarray(self.trajectory.t, dtype=np.float64)
         return {
             k: np.interp(times, t, np.asarray(v, dtype=float)) for k, v in self.waveforms.items()
@@ -413,15 +413,19 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         bounds = np.unique(np.concatenate([bounds, march.t[1:-1][changed]]))
     sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
     signals = _step_signals(netlist, march)
-    nodes = {k: sampler(v, march.t) for k, v in signals.items()}
     start = _start_values(netlist)
-    nodes = _pin_start(nodes, march.t, start)
+
+    def pinned(times):
+        return lambda waves: _pin_start(waves, times, start)
+
+    # the waveforms at the run's own nodes: computed when first asked for
+    nodes = Sampled(signals, sampler, march.t, pinned(march.t))
     inner = Internal(march.t, march.h, nodes)
     centred = (sampler, signals, start)
     if internal:
-        return Result(netlist, march, nodes, march.t, inner, settings, centred)
+        return Result(netlist, march, dict(nodes), march.t, inner, settings, centred)
     grid = settings.output_times()
-    waves = _pin_start({k: sampler(v, grid) for k, v in signals.items()}, grid, start)
+    waves = _pin_start(signals.sample(sampler, grid), grid, start)
     return Result(netlist, march, waves, grid, inner, settings, centred)
 
 
@@ -502,15 +506,31 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
     )
 
 
-def _step_signals(netlist: Netlist, march) -> dict[str, np.ndarray]:
+def _step_signals(netlist: Netlist, march) -> Signals:
     """``v(<node>)`` and ``i(<element>)`` at the step centres (see :mod:`._resample`)."""
     assembly = netlist.assembly
-    names = netlist.system.constraint_names
-    rows = [names.index(assembly.kcl_rows[node]) for node in assembly.nodes]
-    phi = step_potentials(march.mu[:, rows], march.h)
-    out = {f"v({node})": phi[:, j] for j, node in enumerate(assembly.nodes)}
+    # (dicts of positions: list.index per node was quadratic in the circuit's size)
+    row_of = {name: j for j, name in enumerate(netlist.system.constraint_names)}
+    rows = np.array([row_of[assembly.kcl_rows[node]] for node in assembly.nodes], dtype=np.int64)
     index = {c: j for j, c in enumerate(netlist.system.coords)}
     display = netlist.display  # ngspice's names of parts inside subcircuit instances
-    for label, coord in assembly.currents.items():
-        out[f"i({display.get(label, label)})"] = np.diff(march.q[:, index[coord]]) / march.h
-    return out
+    currents = list(assembly.currents.items())
+    names = [f"v({node})" for node in assembly.nodes]
+    names += [f"i({display.get(label, label)})" for label, _ in currents]
+    values = np.empty((len(march.h), len(names)))
+    count = len(rows)
+    cols = np.array([index[coord] for _, coord in currents], dtype=np.int64)
+    # a few columns at a time: whole gathers of the records were temporaries as large
+    # as the signals themselves (the peak memory of a large circuit's run)
+    for a in range(0, count, SIGNAL_COLUMNS):
+        b = min(a + SIGNAL_COLUMNS, count)
+        step_potentials(march.mu[:, rows[a:b]], march.h, out=values[:, a:b])
+    for a in range(0, len(cols), SIGNAL_COLUMNS):
+        part, out = cols[a : a + SIGNAL_COLUMNS], values[:, count + a : count + a + SIGNAL_COLUMNS]
+        np.subtract(march.q[1:, part], march.q[:-1, part], out=out)
+        out /= march.h[:, None]
+    return Signals(names, values)
+
+
+#: signals are formed this many columns at a time (see _step_signals)
+SIGNAL_COLUMNS = 512
