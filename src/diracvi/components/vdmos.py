@@ -8,8 +8,8 @@ inversion, slope ``KSUBTHRES``, offset ``SUBSHIFT``), then level 1's square law 
 ``β = KP`` (no W/L: a VDMOS card describes a whole device):
 
     V_ov = K ln(1 + exp((V_GS − VTO − SUBSHIFT)/K)),   K = KSUBTHRES
-    I_D  = β V_ov²/2                      V_ov ≤ MTR·V_DS   (saturation)
-         = β MTR V_DS (V_ov − MTR V_DS/2)  otherwise        (linear)
+    I_D  = β V_ov²/2                 V_ov ≤ V_DS   (saturation)
+         = β V_DS (V_ov − V_DS/2)     otherwise     (linear)
 
 The body has no terminal (the bulk pin of the shared part is tied to the source) and no
 body effect. :func:`VDMOS` builds this on the shared MOSFET part
@@ -105,26 +105,25 @@ def GateDrainCapacitance(kind, cgdmin, cgdmax, a, *, name: str, v0=0.0) -> Charg
     )
 
 
-def vdmos_law(vto, kp, ksubthres, subshift, mtr):
+def vdmos_law(vto, kp, ksubthres, subshift):
     """The channel's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, vdsat)`` of the module
     docstring (NMOS-oriented, ``V_DS ≥ 0``; ``vto`` is ``type·VTO``; ``V_BS`` unused)."""
 
     def forward(vgs, vds, vbs):
         # softplus written as K·logaddexp(0, x): no overflow for large overdrives
         vov = ksubthres * jnp.logaddexp(0.0, (vgs - vto - subshift) / ksubthres)
-        vdss = mtr * vds
         saturation = 0.5 * kp * vov * vov
-        linear = kp * vdss * (vov - 0.5 * vdss)
-        i = jnp.where(vov <= vdss, saturation, linear)
+        linear = kp * vds * (vov - 0.5 * vds)
+        i = jnp.where(vov <= vds, saturation, linear)
         return i, vto + 0.0 * vgs, jnp.maximum(vgs - vto, 0.0)
 
     return forward
 
 
-def drain_current(vgs, vds, *, kind, vto=0.0, kp=1.0, ksubthres=0.1, subshift=0.0, mtr=1.0):
+def drain_current(vgs, vds, *, kind, vto=0.0, kp=1.0, ksubthres=0.1, subshift=0.0):
     """The channel current into the drain for true (signed) ``V_GS``, ``V_DS``."""
     sign = KINDS[kind]
-    law = vdmos_law(sign * vto, kp, ksubthres, subshift, mtr)
+    law = vdmos_law(sign * vto, kp, ksubthres, subshift)
     return channel_current(vgs, vds, 0.0 * vgs, sign, law)
 
 
@@ -135,7 +134,6 @@ def VDMOS(
     *,
     ksubthres=0.1,
     subshift=0.0,
-    mtr=1.0,
     cgs=0.0,
     rd=0.0,
     rs=0.0,
@@ -145,7 +143,7 @@ def VDMOS(
 ):
     r"""The VDMOS channel with pins ``d g s b`` (``b`` to be tied to ``s``): the law of the
     module docstring (ngspice's defaults ``VTO = 0``, ``KP = 1`` A/V², ``KSUBTHRES = 0.1``
-    V, ``SUBSHIFT = 0``, ``MTR = 1``), the constant gate–source capacitance ``cgs`` and the
+    V, ``SUBSHIFT = 0``), the constant gate–source capacitance ``cgs`` and the
     drain and source resistances ``rd``, ``rs`` (0: none). The gate–drain capacitance
     (:func:`GateDrainCapacitance`), the gate resistance and the body diode are separate
     parts beside it. ``v0 = (V_GS, V_GD)``: initial gate voltages."""
@@ -154,8 +152,7 @@ def VDMOS(
         raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
     vto, kp = finite(where, "vto", vto), finite(where, "kp", kp)
     ksub = positive(where, "ksubthres", ksubthres)
-    law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift),
-                    finite(where, "mtr", mtr))  # fmt: skip
+    law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift))
     vgs, vgd = v0
     params = {"vto": vto, "kp": kp, "ksubthres": ksub}
     # the shared part's bulk junctions get I_S = 0 (a VDMOS has no bulk terminal; its

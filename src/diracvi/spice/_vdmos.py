@@ -19,7 +19,7 @@ from ..errors import ModelError
 
 #: the card's parameters diracvi reads, with ngspice's defaults
 DEFAULTS = {
-    "vto": 0.0, "kp": 1.0, "ksubthres": 0.1, "subshift": 0.0, "mtr": 1.0,
+    "vto": 0.0, "kp": 1.0, "ksubthres": 0.1, "subshift": 0.0,
     "rd": 0.0, "rs": 0.0, "rg": 0.0, "cgdmin": 0.0, "cgdmax": 0.0, "a": 1.0, "cgs": 0.0,
     "is": 1e-14, "n": 1.0, "rb": 0.0, "cjo": 0.0, "vj": 0.8, "m": 0.5, "fc": 0.5, "tt": 0.0,
 }  # fmt: skip
@@ -80,7 +80,7 @@ def vdmos_line(ctx, name, pos, kw, line):
     try:
         channel = VDMOS(
             kind, v["vto"], v["kp"], ksubthres=v["ksubthres"], subshift=v["subshift"],
-            mtr=v["mtr"], cgs=v["cgs"], v0=(vg - vs, vg - vd), name=name,
+            cgs=v["cgs"], v0=(vg - vs, vg - vd), name=name,
         )  # fmt: skip
         extra = [
             (cp.Resistor(v[r], name=f"{name}:{r}"), {"p": node, "n": inner[k]})
