@@ -26,7 +26,7 @@ DEFAULTS = {
 _ALIAS = {"vth0": "vto", "vt0": "vto"}
 _FLAGS = ("pchan", "nchan")
 #: parameters that only inform (ngspice ignores them too) or only act in noise
-_IGNORED = ("kf", "af", "vds", "ron", "qg", "mfg", "vendor")
+_IGNORED = ("kf", "af", "vds", "ron", "qg")
 #: parameters whose default is "off": given at their default they change nothing
 _OFF = {"lambda": 0.0, "theta": 0.0, "tnom": 27.0}
 
