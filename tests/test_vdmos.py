@@ -50,7 +50,7 @@ def terminal_current(net, vgs, vds):
         i_body = -body.force(jnp.zeros(2), jnp.array([0.0, vd]))[1]
         return f[idx["w"]] - f[idx["wbd"]] + (i_body if anode_is_drain else -i_body)
 
-    return np.asarray(jax.vmap(one)(jnp.asarray(vgs), jnp.asarray(vds)))
+    return np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(vgs), jnp.asarray(vds)))
 
 
 @needs_ngspice
@@ -80,12 +80,19 @@ def test_gate_drain_capacitance_is_ngspices_formula():
     s = (cmax - cmin) / (1.0 + math.pi / 2.0)
     y = cmax - s
     expected = np.where(v > 0.0, s * np.tanh(a * v) + y, s * np.arctan(a * v) + y)
-    c = np.asarray(gate_drain_capacitance(jnp.asarray(v), cmin, cmax, a))
+    # one compiled function for both (eager JAX compiles every primitive on its own)
+    both = jax.jit(
+        lambda x: (
+            gate_drain_capacitance(x, cmin, cmax, a),
+            jax.grad(lambda y: jnp.sum(gate_drain_charge(y, cmin, cmax, a)))(x),
+            gate_drain_charge(0.0 * x[0], cmin, cmax, a),
+        )
+    )
+    c, dq, q0 = (np.asarray(z) for z in both(jnp.asarray(v)))
     assert np.max(np.abs(c - expected)) <= 1e-15 * cmax
     assert cmin < c.min() < cmin * 1.1 and cmax * 0.999 < c.max() <= cmax
-    dq = jax.grad(lambda x: jnp.sum(gate_drain_charge(x, cmin, cmax, a)))(jnp.asarray(v))
     assert np.max(np.abs(np.asarray(dq) - expected)) <= 1e-14 * cmax
-    assert float(gate_drain_charge(0.0, cmin, cmax, a)) == 0.0
+    assert float(q0) == 0.0
 
 
 RAMP = """vdmos gate-drain ramp
