@@ -457,8 +457,8 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             r"line 5: model 'nch' \(line 6\): NMOS parameter 'FOO' is not a level-1",
         ),
         (
-            "m1 3 2 0 vd\n.model vd VDMOS (VTO=2)",
-            r"line 5: element 'm1': model 'vd' \(line 6\) is a VDMOS .* not supported",
+            "m1 3 2 0 vd\n.model vd VDMOS (VTO=2 RQ=1)",
+            r"line 5: model 'vd' \(line 6\): VDMOS parameter RQ=1 is not supported",
         ),
         ("m1 3 2 0 0 nch", r"line 5: model 'nch' is not defined"),
         (

@@ -46,6 +46,7 @@ from .network import Assembly, Circuit
 from .rigid_body import RigidBody
 from .switch import CurrentSwitch, Relay, VoltageSwitch
 from .urdf import parse_urdf, read_urdf
+from .vdmos import VDMOS, GateDrainCapacitance
 from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 __all__ = [
@@ -61,6 +62,7 @@ __all__ = [
     "SPICE_PARAMETERS",
     "VCCS",
     "VCVS",
+    "VDMOS",
     "Assembly",
     "BehaviouralSource",
     "Capacitor",
@@ -74,6 +76,7 @@ __all__ = [
     "Exp",
     "Fixed",
     "ForceSource",
+    "GateDrainCapacitance",
     "Ground",
     "IdealTransformer",
     "Inductor",

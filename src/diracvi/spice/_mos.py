@@ -7,8 +7,9 @@ PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's g
 capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
-``MJ``, ``MJSW``, ``FC``. Other levels (MOS2, MOS3, BSIM …) and ngspice's VDMOS are
-refused at the element line, by name, naming the model's line. Level 6 shares all of this
+``MJ``, ``MJSW``, ``FC``. Other levels (MOS2, MOS3, BSIM …) are refused at the element
+line, by name, naming the model's line; a ``VDMOS`` card makes the line ngspice's
+three-terminal VDMOS (:mod:`._vdmos`). Level 6 shares all of this
 but the drain current's parameters (:mod:`._mos6`).
 """
 
@@ -18,6 +19,7 @@ from .. import components as cp
 from ..components._mos1 import process_parameters
 from ..errors import ModelError
 from ._mos6 import law, read_mos6_model
+from ._vdmos import vdmos_line
 
 _DEFAULTS = {
     "lambda": 0.0, "is": 1e-14, "ld": 0.0, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
@@ -144,12 +146,7 @@ def m_line(ctx, name, pos, kw, line):
     """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1 and 6)."""
     found = ctx.find_model(pos[4:6])
     if found is not None and found[1] == "VDMOS":
-        raise line.fail(
-            f"element {name!r}: model {found[0]!r} ({found[2]}) is a VDMOS (ngspice's "
-            "vertical power MOSFET, 'Mname d g s model') and is not supported; diracvi's M "
-            "line is 'Mname d g s b model' with an NMOS/PMOS card of level 1 "
-            "(Shichman–Hodges) or 6 (Sakurai–Newton)"
-        )
+        return vdmos_line(ctx, name, pos, kw, line)
     if len(pos) < 6:
         raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
     kind, params, where = ctx.model(pos[5], line)

@@ -1,0 +1,143 @@
+"""ngspice's VDMOS (``M d g s model`` with a ``VDMOS`` card): its static currents against
+ngspice's ``.dc`` sweeps for both polarities, its gate–drain capacitance against
+ngspice's ``DevCapVDMOS`` formula and against ngspice's transient current through it, and
+the refusal of card parameters diracvi does not implement."""
+
+from __future__ import annotations
+
+import math
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import _ngspice as ng
+from diracvi import spice
+from diracvi.components.vdmos import gate_drain_capacitance, gate_drain_charge
+
+needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+
+SWEEP = """vdmos sweep
+vd d 0 0
+vg g 0 0
+m1 d g 0 q1
+.model q1 VDMOS ({card})
+.end
+"""
+CARDS = [
+    ("NMOS", "VTO=1.5 KP=0.8 KSUBTHRES=0.05 SUBSHIFT=0.1 IS=1e-12 N=1.3", 1.0),
+    ("PMOS", "VTO=-2 KP=2 PCHAN", -1.0),
+    # ng_inv_vdmos's card without RG and RB
+    pytest.param("deck", "cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p cjo=0.1p", 1.0,
+                 marks=pytest.mark.slow),
+]  # fmt: skip
+
+
+def terminal_current(net, vgs, vds):
+    """The current into the drain of ``m1`` of ``net`` (channel and body diode, no series
+    resistances) from the parts' forces."""
+    nodes = {p.name: (p, n) for p, n in spice.read(net).circuit._parts}
+    channel, (body, pins) = nodes["m1"][0], nodes["m1:body"]
+    idx = {c: j for j, c in enumerate(channel.coords)}
+    anode_is_drain = pins["p"] == "d"
+
+    def one(gs, ds):
+        v = jnp.zeros(len(channel.coords)).at[idx["wg"]].set(gs).at[idx["w"]].set(ds)
+        v = v.at[idx["wbd"]].set(-ds)
+        f = -channel.force(jnp.zeros(len(channel.coords)), v)
+        vd = ds if anode_is_drain else -ds  # the diode's anode-to-cathode voltage
+        i_body = -body.force(jnp.zeros(2), jnp.array([0.0, vd]))[1]
+        return f[idx["w"]] - f[idx["wbd"]] + (i_body if anode_is_drain else -i_body)
+
+    return np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(vgs), jnp.asarray(vds)))
+
+
+@needs_ngspice
+@pytest.mark.parametrize(("kind", "card", "s"), CARDS)
+def test_static_currents_are_ngspices(kind, card, s):
+    """The drain current over a (V_DS, V_GS) grid — cutoff, weak inversion, linear,
+    saturation, the inverse mode with the body diode forward — equals ngspice's ``.dc``
+    to 1e-9 relative + 1e-11 A (diracvi's channel part keeps level 1's G_min = 1e-12 S
+    across its bulk–drain branch, a leak ngspice's VDMOS has not)."""
+    net = SWEEP.format(card=card)
+    sweep = f"vd {-0.6 * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
+    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "i(vd)"))
+    mine = terminal_current(net, out["v(g)"], out["v(d)"])
+    excess = np.abs(mine + out["i(vd)"]) - 1e-9 * np.abs(mine) - 1e-11
+    assert np.max(excess) <= 0.0
+    i_d = s * mine
+    assert np.count_nonzero(np.abs(i_d) < 1e-9) >= 10  # cutoff
+    assert np.count_nonzero(i_d > 1e-3) >= 100 and np.count_nonzero(i_d < -1e-6) >= 10
+
+
+def test_gate_drain_capacitance_is_ngspices_formula():
+    """``C_GD`` equals ngspice's ``DevCapVDMOS`` closed form (tanh above 0 V, atan below,
+    between CGDMIN and CGDMAX), and the port's charge is its integral: ``dQ/dV = C``
+    (autodiff) and ``Q(0) = 0``."""
+    cmin, cmax, a = 0.2e-12, 1e-12, 2.0
+    v = np.linspace(-30.0, 30.0, 2001)
+    s = (cmax - cmin) / (1.0 + math.pi / 2.0)
+    y = cmax - s
+    expected = np.where(v > 0.0, s * np.tanh(a * v) + y, s * np.arctan(a * v) + y)
+    # one compiled function for both (eager JAX compiles every primitive on its own)
+    both = jax.jit(
+        lambda x: (
+            gate_drain_capacitance(x, cmin, cmax, a),
+            jax.grad(lambda y: jnp.sum(gate_drain_charge(y, cmin, cmax, a)))(x),
+            gate_drain_charge(0.0 * x[0], cmin, cmax, a),
+        )
+    )
+    c, dq, q0 = (np.asarray(z) for z in both(jnp.asarray(v)))
+    assert np.max(np.abs(c - expected)) <= 1e-15 * cmax
+    assert cmin < c.min() < cmin * 1.1 and cmax * 0.999 < c.max() <= cmax
+    assert np.max(np.abs(np.asarray(dq) - expected)) <= 1e-14 * cmax
+    assert float(q0) == 0.0
+
+
+RAMP = """vdmos gate-drain ramp
+vg g 0 pwl(0 -10 20u 10)
+vd d 0 0
+m1 d g 0 q1
+.model q1 VDMOS (cgdmin=0.2p cgdmax=1p a=2{pchan})
+.tran 10n 20u
+.end
+"""
+
+
+@needs_ngspice
+@pytest.mark.parametrize("pchan", ["", " pchan"])
+def test_gate_current_under_a_ramp_is_ngspices(pchan):
+    """A gate ramp of 1 V/µs from −10 V to 10 V with drain and source grounded: the gate
+    current is ``C_GD(type·V_G) dV/dt`` alone (no CGS, no channel or diode current at
+    ``V_DS = 0``); ngspice's transient gives it to 1e-3 of its peak away from the ramp's
+    start, and diracvi's closed form agrees."""
+    net = RAMP.format(pchan=pchan)
+    t, values = ng.fine_transient(net, ("i(vg)",), points=2000)
+    sign = -1.0 if pchan else 1.0
+    vg = -10.0 + 1e6 * t
+    expected = -1e6 * np.asarray(
+        gate_drain_capacitance(jnp.asarray(sign * vg), 0.2e-12, 1e-12, 2.0)
+    )
+    late = t > 0.5e-6
+    err = np.max(np.abs(values["i(vg)"][late] - expected[late]))
+    assert err <= 1e-3 * np.max(np.abs(expected))
+
+
+@pytest.mark.parametrize(
+    ("card", "match"),
+    [
+        ("RQ=0.1 VQ=2", r"line 4: model 'q1' \(line 5\): VDMOS parameter RQ=0.1 is not supported"),
+        ("RTHJC=1", r"VDMOS parameter RTHJC=1 is not supported"),
+        ("LAMBDA=0.01", r"VDMOS parameter LAMBDA=0.01 is not supported"),
+        ("MTR=2", r"VDMOS parameter MTR=2 is not supported"),
+    ],
+)
+def test_unimplemented_parameters_are_refused_by_name(card, match):
+    """A card parameter diracvi does not implement is refused at the element line, naming
+    the parameter, its value and the model's line."""
+    net = (
+        f"refusal\nvd d 0 1\nvg g 0 1\nm1 d g 0 q1\n.model q1 VDMOS ({card})\n.tran 1n 10n\n.end\n"
+    )
+    with pytest.raises(spice.NetlistError, match=match):
+        spice.read(net)
