@@ -321,8 +321,8 @@ def diracvi_keys(vector: str) -> list[str]:
 def compare(result, t: np.ndarray, ref: dict[str, np.ndarray]):
     """Worst relative error over the reference signals: ``(worst, {vector: error}, missing)``.
 
-    ``error = max |diracvi − ngspice| / max(peak |ngspice|, floor)`` over the reference's times ``t``,
-    diracvi sampled there by its own interpolant (``result.at``); ``missing`` lists the
+    ``error = max |diracvi − ngspice| / max(peak |ngspice|, floor)`` over the reference's
+    times ``t``, diracvi sampled there by its own interpolant (``result.at``); ``missing`` lists the
     reference vectors diracvi does not report."""
     span = np.asarray(result.trajectory.t, dtype=float)  # the run's own span
     return compare_sampled(result.at(t), (span[0], span[-1]), t, ref)
