@@ -34,6 +34,7 @@ from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
 from . import _netcdf
+from ._magnetic import potentials
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
@@ -513,4 +514,4 @@ def _step_signals(netlist: Netlist, march) -> dict[str, np.ndarray]:
     display = netlist.display  # ngspice's names of parts inside subcircuit instances
     for label, coord in assembly.currents.items():
         out[f"i({display.get(label, label)})"] = np.diff(march.q[:, index[coord]]) / march.h
-    return out
+    return potentials(out, netlist.potentials, display)
