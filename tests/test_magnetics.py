@@ -236,3 +236,51 @@ def test_transformer_agrees_with_ngspice(amp):
     for probe in PROBES:
         peak = np.max(np.abs(ref[probe]))
         assert np.max(np.abs(got[probe] - ref[probe])) <= 1e-3 * peak, probe
+
+
+# ------------------------------------------------------------------ refusals
+BASE = """refusals
+V1 in 0 SIN(0 1 50)
+R1 in p 10
+a1 (p 0) (m1 0) primary
+.model primary lcouple(num_turns=100)
+.model iron core(H_array=[-100 0 100] B_array=[-1 0 1] area=1e-4 length=0.1{extra})
+{rest}
+.tran 1m 20m
+.end
+"""
+REFUSED = {
+    "hysteresis": ("a3 (m1 0) iron", " mode=2",
+                   "mode=2 (hysteresis) is not supported; diracvi builds the core's PWL mode"),
+    "other model": ("a3 m1 0 amp\n.model amp gain(gain=2)", "",
+                    "the XSPICE code model 'gain' (model 'amp', line 8) is not supported"),
+    "two cores": ("a3 (m1 m2) iron\na4 (m2 0) iron", "", "holds two cores (a3, a4)"),
+    "parallel paths": ("a3 (m1 0) iron\nRleak m1 0 1k", "",
+                       "is not a single loop (node 'm1' joins 3 of its branches)"),
+    "core and gap": ("a3 (m1 m2) iron\nRgap m2 0 1meg", "",
+                     "holds a core (a3) in series with a reluctance (line 8 (Rgap))"),
+    "capacitor on an MMF node": ("a3 (m1 0) iron\nC1 m1 0 1u", "",
+                                 "line 8 (C1) joins its MMF node(s) ['m1']"),
+    "open path": ("", "", "the magnetic path is open at node 'm1'"),
+    "no reluctance": ("a2 (q 0) (0 m1) primary\nR2 q 0 1", "", "no core, no reluctance"),
+    "fraction": ("a3 (m1 0) iron", " fraction=maybe", "fraction='maybe' must be TRUE"),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", sorted(REFUSED))
+def test_unsupported_magnetic_circuits_are_refused_naming_the_line(case):
+    rest, extra, why = REFUSED[case]
+    deck = BASE.replace("{rest}", rest).replace("{extra}", extra)
+    with pytest.raises(spice.NetlistError) as error:
+        spice.read(deck)
+    assert why in str(error.value)
+
+
+def test_a_loop_off_ground_runs_its_windings_and_leaves_its_mmf_unreported():
+    """ngspice's own example draws the loop between nodes 40 and 45, away from ground:
+    its MMF potentials are undetermined (ngspice: 'singular matrix'); the windings are
+    built, the note says why ``v(40)`` is not reported."""
+    deck = BASE.replace("(m1 0)", "(40 45)").replace("{extra}", "")
+    n = spice.read(deck.replace("{rest}", "a3 40 45 iron"))
+    assert [p.role for p in n.circuit.parts].count("wound core") == 1
+    assert not n.potentials and any("does not reach ground" in x for x in n.notes)

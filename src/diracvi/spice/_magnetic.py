@@ -297,7 +297,7 @@ def _build(reader, loop, ground) -> None:
     blame = (windings or cores)[0][2] if windings or cores else None
     if blame is None:
         return  # resistors only, reached from no winding: not a magnetic loop
-    nodes = sorted({GROUND if ground(n) else n for a, b, _ in loop for n in (a, b)})
+    nodes = sorted({"0" if ground(n) else n for a, b, _ in loop for n in (a, b)})
     if not windings:
         raise _Refused(blame, f"no lcouple winding is on the magnetic path at {nodes}")
     degree: dict[str, int] = {}
@@ -307,6 +307,14 @@ def _build(reader, loop, ground) -> None:
             degree[n] = degree.get(n, 0) + 1
     odd = sorted(n for n, d in degree.items() if d != 2 and n != GROUND)
     at_ground = degree.get(GROUND, 0)
+    ends = [n for n in odd if degree[n] == 1]
+    if ends:
+        raise _Refused(
+            blame,
+            f"the magnetic path is open at node {ends[0]!r} (one branch reaches it): "
+            "nothing carries its flux; close the loop with a core (or a resistor as the "
+            "reluctance)",
+        )
     if odd or at_ground not in (0, 2):
         where = odd[0] if odd else "ground"
         count = degree[odd[0]] if odd else at_ground
