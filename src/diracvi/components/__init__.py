@@ -27,6 +27,7 @@ from .electrical import (
 )
 from .electromechanical import EMF, VoiceCoil
 from .jfet import JFET
+from .magnetic import CoreLaw, PiecewiseLinearCore, Reluctance, WoundCore
 from .mechanical import (
     Damper,
     Fixed,
@@ -68,6 +69,7 @@ __all__ = [
     "Capacitor",
     "ChargePortPart",
     "Circuit",
+    "CoreLaw",
     "CoupledInductors",
     "CurrentSource",
     "CurrentSwitch",
@@ -87,8 +89,10 @@ __all__ = [
     "MutualInductance",
     "Part",
     "Pendulum",
+    "PiecewiseLinearCore",
     "Pulse",
     "Relay",
+    "Reluctance",
     "Resistor",
     "RigidBody",
     "RotationalDamper",
@@ -100,6 +104,7 @@ __all__ = [
     "VoltageSource",
     "VoltageSwitch",
     "Waveform",
+    "WoundCore",
     "parse_urdf",
     "read_urdf",
     "spice_diode",

@@ -92,6 +92,17 @@ class Circuit:
         self._names.add(part.name)
         return part
 
+    def remove(self, name: str) -> tuple[Part, dict]:
+        """Take part ``name`` out again: ``(part, {pin: node})``. (A netlist reader uses
+        it when a line turns out to belong to another domain: a resistor between the
+        MMF nodes of XSPICE's magnetic models is a reluctance, not a resistor.)"""
+        for k, (part, nodes) in enumerate(self._parts):
+            if part.name == name:
+                del self._parts[k]
+                self._names.discard(name)
+                return part, nodes
+        raise ModelError(f"circuit {self.name!r} has no part {name!r} to remove.")
+
     def _add_other(self, part, nodes: dict):
         """:meth:`add` for a :class:`Ground` or a :class:`MutualInductance`."""
         if isinstance(part, Ground):

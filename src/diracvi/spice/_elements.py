@@ -30,6 +30,7 @@ from ._behavioural import b_line
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
+from ._magnetic import a_line
 from ._mos import m_line
 from ._resistor import r_line
 from ._sources import source
@@ -142,6 +143,7 @@ ELEMENTS = {
     "S": s_line,
     "W": w_line,
     "X": _x,
+    "A": a_line,
 }
 
 #: letters read after the other elements of their scope, because their lines name other
@@ -158,11 +160,13 @@ UNSUPPORTED = {
     "U": ("a uniform distributed RC line", True),
     "Y": ("a single lossy transmission line (TXL)", True),
     "P": ("a coupled multiconductor line", True),
-    "A": ("an XSPICE code model", True),
     "N": ("an OSDI (Verilog-A) device", True),
 }
 
-SUPPORTED = "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1 and 6) and X (subcircuits)"
+SUPPORTED = (
+    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1 and 6), A (XSPICE's "
+    "lcouple and core) and X (subcircuits)"
+)
 
 
 def unsupported(ctx, pos, line):

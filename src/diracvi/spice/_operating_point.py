@@ -46,6 +46,7 @@ from ..driver import events
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
 from ..solvers.limiting import junctions, limit_junction
+from ._magnetic import mmf_values
 
 
 @dataclass(frozen=True)
@@ -275,6 +276,7 @@ def operating_point(
         ModelError: when no method converges, or the static equations are singular (a
             node reached only through capacitors, a loop of inductors and voltage sources).
     """
+    mmf = getattr(assembly, "potentials", {})  # a netlist's MMF nodes (._magnetic)
     assembly = getattr(assembly, "assembly", assembly)
     if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(assembly.system)):
         raise ModelError("operating point: not available under jax transformations; use UIC.")
@@ -288,7 +290,8 @@ def operating_point(
         u = events.static_controls(assembly.system, v)
         new = np.array([float(r.next(modes[j], u[j])) for j, (_, r) in enumerate(found)])
         if np.array_equal(new, modes):
-            return dataclasses.replace(op, iterations=iterations, modes=modes)
+            voltages = {**op.voltages, **mmf_values(op.currents, mmf)}
+            return dataclasses.replace(op, voltages=voltages, iterations=iterations, modes=modes)
         modes = new
     raise ModelError(
         "operating point: the switches do not settle (each state found makes another "

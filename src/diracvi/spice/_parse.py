@@ -21,6 +21,7 @@ from ._behavioural import check_names
 from ._directives import DIRECTIVES
 from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
+from ._magnetic import assemble
 from ._save import select
 from ._scope import Scope, read_body
 
@@ -53,6 +54,9 @@ class Netlist:
             they hold their nodes during the operating point, as SPICE does).
         op: whether the netlist asks for ``.op``.
         off: diodes marked ``OFF`` (their junctions start the operating point at 0 V).
+        potentials: the MMF nodes of XSPICE's magnetic loops (no KCL row: their "voltage"
+            is an MMF, a sum of the windings' ampere-turns), node ->
+            ``((current label, turns), …)`` (:mod:`._magnetic`).
     """
 
     title: str
@@ -72,6 +76,7 @@ class Netlist:
     ic: dict = field(default_factory=dict)
     op: bool = False
     off: frozenset = frozenset()
+    potentials: dict = field(default_factory=dict)
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
     _op: object = field(default=None, repr=False)
@@ -101,7 +106,7 @@ class Netlist:
             from ._operating_point import operating_point
 
             try:
-                op = operating_point(self.assembly, hold=self.ic, off=self.off)
+                op = operating_point(self, hold=self.ic, off=self.off)
             except ModelError as exc:
                 raise NetlistError(f"netlist {self.title!r}: {exc}") from None
             self._start = (op.q0, op.p0)
@@ -170,6 +175,8 @@ class _Reader:
         self.display: dict[str, str] = {}
         self.funcs: dict[str, tuple] = {}  # .func name -> (argument names, body)
         self.name_checks: list = []  # B sources' nodes and sources, checked at the end
+        self.magnetics: list = []  # XSPICE lcouple and core lines (spice/_magnetic.py)
+        self.potentials: dict = {}  # MMF node -> its current coefficients
         self.top = Scope(self, params=dict(self.overrides))
 
     def note(self, line: Line, text: str) -> None:
@@ -199,6 +206,7 @@ class _Reader:
                 lines = [*lines, control[0].with_text("." + control[0].text)]
                 self.note(control[0], "the .control block's 'tran' is used as the .tran")
         read_body(self.top, lines)
+        assemble(self)  # XSPICE's windings and cores: one part per magnetic loop
         check_names(self)
         for model in self.all_models:
             if not model.used:
@@ -237,6 +245,7 @@ class _Reader:
             ic=dict(self.ic),
             op=self.op,
             off=frozenset(self.off),
+            potentials=dict(self.potentials),
         )
         netlist.vectors = select(netlist, self.saves, self.problems)
         self.problems.check()

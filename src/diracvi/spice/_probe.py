@@ -20,6 +20,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ._magnetic import potentials
 
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
@@ -43,6 +44,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     A traced trajectory (inside ``jax.grad``) gives JAX arrays, differentiable.
     """
     display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
+    mmf = getattr(assembly, "potentials", {})  # its MMF nodes (spice/_magnetic.py)
     assembly = getattr(assembly, "assembly", assembly)
     if traj.q is None or traj.save_every != 1:
         raise ValueError(
@@ -76,7 +78,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         ends = (_end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES))
         cur = xp.concatenate([xp.stack([ends[0]]), mid, xp.stack([ends[1]])])
         out[f"i({display.get(label, label)})"] = cur
-    return out
+    return potentials(out, mmf, display)
 
 
 def to_dataset(assembly, traj):

@@ -34,6 +34,7 @@ from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
 from . import _netcdf
+from ._magnetic import potentials
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
@@ -529,6 +530,12 @@ def _step_signals(netlist: Netlist, march) -> Signals:
         part, out = cols[a : a + SIGNAL_COLUMNS], values[:, count + a : count + a + SIGNAL_COLUMNS]
         np.subtract(march.q[1:, part], march.q[:-1, part], out=out)
         out /= march.h[:, None]
+    if netlist.potentials:  # XSPICE's MMF nodes: sums of winding currents (._magnetic)
+        flows = {n: values[:, j] for j, n in enumerate(names) if n.startswith("i(")}
+        mmf = potentials(dict(flows), netlist.potentials, display)
+        extra = [n for n in mmf if n not in flows]
+        names += extra
+        values = np.column_stack([values, *(mmf[n] for n in extra)])
     return Signals(names, values)
 
 

@@ -22,14 +22,21 @@ def select(netlist, saves, problems) -> tuple:
     assembly = netlist.assembly
     display = netlist.display
     roles = {p.name: p.role for p, _ in netlist.circuit._parts}
+    # an XSPICE winding's current is no vector of ngspice's (its ports are the A device's)
+    windings = {
+        k for p, _ in netlist.circuit._parts if p.role == "wound core" for k, _ in p.currents
+    }
     currents = {}  # ngspice name (lower) -> waveform key
     branch = []
     for label in assembly.currents:
         shown = display.get(label, label)
         currents[shown.lower()] = f"i({shown})"
+        if label in windings:
+            continue
         if roles.get(label) in BRANCH_ROLES or label not in roles:  # K: coupled inductors
             branch.append((f"i({shown.lower()})", f"i({shown})"))
-    nodes = [(f"v({n})", f"v({n})") for n in assembly.nodes]
+    every = (*assembly.nodes, *netlist.potentials)  # with the MMF nodes of magnetic loops
+    nodes = [(f"v({n})", f"v({n})") for n in every]
     default = nodes + branch
     if not saves:
         return tuple(default)
@@ -74,10 +81,8 @@ def select(netlist, saves, problems) -> tuple:
             )
         elif node in ("0", "gnd"):
             problems.add(line.fail(f"'.save {token}': ground is 0 V; remove it"))
-        elif node not in assembly.nodes:
-            problems.add(
-                line.fail(f"'.save {token}': no node {node!r} (nodes: {list(assembly.nodes)})")
-            )
+        elif node not in every:
+            problems.add(line.fail(f"'.save {token}': no node {node!r} (nodes: {list(every)})"))
         else:
             chosen.append((f"v({node})", f"v({node})"))
     return tuple(dict.fromkeys(chosen))
