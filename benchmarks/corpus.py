@@ -16,9 +16,10 @@ ngspice wall times) and a summary.
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
 include reading, building, compiling and stepping (a first call; the suite's cache is not
-used); ngspice's include process start-up, at the deck's own tolerances and TMAX. "ngspice's own
-error" is that ngspice run (at the deck's own settings, linear between its points) against
-the same fine reference, by the same measure as diracvi's.
+used; one BLAS thread, as the tests run); ngspice's include process start-up, at the
+deck's own tolerances and TMAX. "ngspice's own error" is that ngspice run (at the deck's
+own settings, linear between its points) against the same fine reference, by the same
+measure as diracvi's.
 """
 
 from __future__ import annotations
@@ -26,10 +27,20 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import sys
 import time
 from pathlib import Path
+
+# One BLAS thread, as the test suite runs (tests/conftest.py): the compiled loop's Newton
+# factors a small dense Jacobian per iteration, and OpenBLAS's threads spin while they
+# wait, so on a loaded machine each factorization takes tens of milliseconds instead of
+# half of one (measured: a 158x158 LU 63 ms CPU with the default threads against 0.53 ms
+# with one; ng_switch_osc's first 0.2 ns, 39 tries, 9.7 s against 0.31 s CPU). Set
+# before NumPy is imported, which is when OpenBLAS reads it.
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
