@@ -16,16 +16,16 @@ ngspice wall times) and a summary.
     --rows FILE         append each deck's row to FILE as one JSON line when it is done
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
-include reading, building, compiling and stepping (a first call in this process; programs
-already in the on-disk cache, ``DIRACVI_CACHE_DIR`` or the user cache, are loaded rather
-than compiled), not the import of diracvi; ngspice's include process start-up, at the
-deck's own tolerances and TMAX. On a shared machine wall time grows with the others'
-load (at a load average of 12 on 2 cores a call's wall time is several times its CPU
-time), so each deck's line on stderr and its ``--rows`` record also give CPU seconds:
-diracvi's process CPU over the call (all its threads, compilation included) and
-ngspice's child CPU. "ngspice's own
-error" is that ngspice run (at the deck's own settings, linear between its points) against
-the same fine reference, by the same measure as diracvi's.
+include reading, building, compiling and stepping (a first call in this process, with one
+BLAS thread as the tests run; programs already in the on-disk cache, ``DIRACVI_CACHE_DIR``
+or the user cache, are loaded rather than compiled), not the import of diracvi; ngspice's
+include process start-up, at the deck's own tolerances and TMAX. On a shared machine wall
+time grows with the others' load (at a load average of 12 on 2 cores a call's wall time is
+several times its CPU time), so each deck's line on stderr and its ``--rows`` record also
+give CPU seconds: diracvi's process CPU over the call (all its threads, compilation
+included) and ngspice's child CPU. "ngspice's own error" is that ngspice run (at the
+deck's own settings, linear between its points) against the same fine reference, by the
+same measure as diracvi's.
 """
 
 from __future__ import annotations
@@ -33,11 +33,21 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import resource
 import sys
 import time
 from pathlib import Path
+
+# One BLAS thread, as the test suite runs (tests/conftest.py): the compiled loop's Newton
+# factors a small dense Jacobian per iteration, and OpenBLAS's threads spin while they
+# wait, so on a loaded machine each factorization takes tens of milliseconds instead of
+# half of one (measured: a 158x158 LU 63 ms CPU with the default threads against 0.53 ms
+# with one; ng_switch_osc's first 0.2 ns, 39 tries, 9.7 s against 0.31 s CPU). Set
+# before NumPy is imported, which is when OpenBLAS reads it.
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))

@@ -21,7 +21,7 @@ import _corpus as corpus
 from diracvi import components as cp
 from diracvi import simulate, spice
 from diracvi.driver import events
-from diracvi.errors import ModelError
+from diracvi.errors import ModelError, StepFailure
 
 DATA = Path(__file__).parent / "data" / "switches"
 
@@ -215,3 +215,28 @@ def test_a_fixed_step_run_refuses_switches():
         simulate(part, np.zeros(3), np.zeros(3), dt=1e-3, steps=2)
     with pytest.raises(ModelError, match=r"has switches"):
         spice.run(RAMP, dt=1e-5)
+
+
+@pytest.mark.slow
+def test_retries_aimed_at_switching_instants_are_not_counted_against_the_tries_budget(
+    monkeypatch,
+):
+    """A switched run's budget of tries (``max_tries``) counts its ordinary tries, not
+    the retries that place each flip on its instant (a few per event: a ring oscillator
+    of switches has thousands of events, ng_switch_osc stopped on the budget with 3755 of
+    them). The relaxation oscillator in chunks of 256 steps, so the budget is checked
+    between chunks: with exactly its ordinary tries as the budget it runs to the end,
+    with half of them it stops on the budget."""
+    from diracvi.driver import adaptive as adaptive_module
+    from diracvi.spice import _run
+
+    monkeypatch.setattr(adaptive_module, "buffer_size", lambda n: 256)
+    free = spice.run(DATA / "relaxation.cir", internal=True).trajectory
+    assert free.status == 0 and free.aimed > 0 and len(free.h) > 3 * 256
+    ordinary = free.tries - free.aimed
+    monkeypatch.setattr(_run, "tries_budget", lambda settings: ordinary)
+    bounded = spice.run(DATA / "relaxation.cir", internal=True).trajectory
+    assert bounded.status == 0 and bounded.tries == free.tries
+    monkeypatch.setattr(_run, "tries_budget", lambda settings: ordinary // 2)
+    with pytest.raises(StepFailure, match="more step tries than its budget"):
+        spice.run(DATA / "relaxation.cir", internal=True)

@@ -381,7 +381,9 @@ def tries_budget(settings: TranSettings) -> int:
     """How many step tries a variable-step run may take: 10 000, and 10 per TMAX of the
     run (a circuit whose error estimate stalls just below its tolerance at a tiny step —
     a ringing junction — would otherwise creep on for hours; the corpus's diode decks
-    take 250 to 600 at their own .tran)."""
+    take 250 to 600 at their own .tran). The retries that place a switch's flip on its
+    instant are not counted (:func:`~diracvi.driver.adaptive.adaptive`: a few per event,
+    thousands in a switched ring oscillator)."""
     return 10_000 + 10 * math.ceil(settings.stop / settings.max_step)
 
 
