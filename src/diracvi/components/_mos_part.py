@@ -123,8 +123,12 @@ def build(
         raise ModelError(
             f"{where}: capacitances, cox, rd, rs and is_ must be ≥ 0 (got {values}, {is_})."
         )
-    if not (0.0 <= mj < 1.0 and 0.0 <= mjsw < 1.0 and 0.0 <= fc < 1.0):
-        raise ModelError(f"{where}: mj={mj}, mjsw={mjsw}, fc={fc} must lie in [0, 1).")
+    # the depletion charge divides by 1 − M and its co-energy by 2 − M (ngspice's level-2
+    # cards grade steeper than 1: xy_mosrect's MJ = 1.067)
+    if not (0.0 <= fc < 1.0 and all(0.0 <= x < 2.0 and x != 1.0 for x in (mj, mjsw))):
+        raise ModelError(
+            f"{where}: mj={mj}, mjsw={mjsw} must lie in [0, 2) but not be 1, fc={fc} in [0, 1)."
+        )
 
     # branches: name -> (coordinates, + node, − node); "D", "S" are the internal drain
     # and source behind RD and RS (the outer pins themselves when those are 0)
