@@ -21,8 +21,8 @@ von)`` with NFS):
 or, with VMAX, the smallest positive root ``x`` of Baum's quartic
 ``x⁴ + ⁴⁄₃γ_d x³ − 2(v₁+ξ) x² − 2γ_d ξ x + 2v₁(v₂+ξ) − v₂² − ⁴⁄₃γ_d s³ = 0``
 (``v₁ = (V_x − V_bin)/η + Φ − V_BS``, ``v₂ = Φ − V_BS``, ``ξ = VMAX·L/μ_eff``,
-``μ_eff = U0·f_u``) as ``V_DSAT = x² − v₂``, the root ngspice finds (:mod:`._quartic`). The channel shortens by
-``ΔL/L = λ V_DS`` with LAMBDA, or (NSUB given, LAMBDA not > 0) by
+``μ_eff = U0·f_u``) as ``V_DSAT = x² − v₂``, the root ngspice finds (:mod:`._quartic`).
+The channel shortens by ``ΔL/L = λ V_DS`` with LAMBDA, or (NSUB given, LAMBDA not > 0) by
 
     ΔL/L = X_D/L · √(a + √(1 + a²)),  a = (V_DS − V_DSAT)/4              (no VMAX)
     ΔL/L = X_D'/L · (√(ξ_L² + max(V_DS − V_DSAT, 0)) − ξ_L),
@@ -47,7 +47,6 @@ from typing import NamedTuple
 import jax.numpy as jnp
 
 from ._junction import THERMAL_VOLTAGE
-from ._mos1 import EPS_SI
 from ._quartic import baum_root
 
 

@@ -31,6 +31,12 @@ import jax
 import jax.numpy as jnp
 
 TOLERANCE = 1e-6
+#: the signs of A, of B and of the quadratic's root for the eight candidates
+_SIGNS = (
+    jnp.array([1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0]),
+    jnp.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0]),
+    jnp.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0]),
+)
 
 
 def _poly(x, a, b, c, d):
@@ -65,20 +71,19 @@ def baum_root(a, b, c, d):
     that passes ngspice's test (module docstring), and whether there is one (``x`` is 1
     where not). Arguments may be traced arrays of one shape."""
     args = [jnp.asarray(z, dtype=jnp.float64) for z in (a, b, c, d)]
-    fa, fb, fc, fd = frozen = [jax.lax.stop_gradient(z) for z in args]
+    frozen = [jax.lax.stop_gradient(z) for z in args]
     y = _resolvent_root(*frozen)
+    fa, fb, fc, fd = (z[..., None] for z in frozen)  # the candidates on a last axis
+    y = y[..., None]
     big, small = _sqrt(fa * fa / 4.0 - fb + y), _sqrt(y * y / 4.0 - fd)
-    best, found = jnp.inf, False
-    for s1, s2 in ((1.0, 1.0), (-1.0, 1.0), (1.0, -1.0), (-1.0, -1.0)):
-        lin, const = fa / 2.0 + s1 * big, y / 2.0 + s2 * small
-        disc = lin * lin / 4.0 - const
-        for sign in (1.0, -1.0):
-            x = -lin / 2.0 + sign * jnp.sqrt(jnp.maximum(disc, 0.0))
-            ok = (disc >= 0.0) & (x > 0.0) & (jnp.abs(_poly(x, *frozen)) <= TOLERANCE)
-            ok = ok & jnp.isfinite(x)
-            best = jnp.where(ok & (x < best), x, best)
-            found = found | ok
-    x = jnp.where(found, best, 1.0)
+    lin = fa / 2.0 + _SIGNS[0] * big  # the eight (A, B, ±) sign choices at once
+    const = y / 2.0 + _SIGNS[1] * small
+    disc = lin * lin / 4.0 - const
+    x = -lin / 2.0 + _SIGNS[2] * jnp.sqrt(jnp.maximum(disc, 0.0))
+    ok = (disc >= 0.0) & (x > 0.0) & (jnp.abs(_poly(x, fa, fb, fc, fd)) <= TOLERANCE)
+    ok = ok & jnp.isfinite(x)
+    found = jnp.any(ok, axis=-1)
+    x = jnp.where(found, jnp.min(jnp.where(ok, x, jnp.inf), axis=-1), 1.0)
     slope = _dpoly(x, *args[:3])
     flat = jnp.abs(slope) < 1e-300
     step = -jnp.where(flat, 0.0, _poly(x, *args) / jnp.where(flat, 1.0, slope))

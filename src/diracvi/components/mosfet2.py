@@ -132,6 +132,7 @@ def MOSFET2(
     return build(
         where, kind, level2(law), phi, width=width, leff=leff, mult=mult, is_=is_,
         cgso=cgso, cgdo=cgdo, cgbo=cgbo, cox=cox, rd=rd, rs=rs, cbd=cbd, cbs=cbs,
-        cbdsw=cbdsw, cbssw=cbssw, pb=pb, mj=mj, mjsw=mjsw, fc=fc, gmin=gmin, v0=v0,
-        params=params, name=name,
+        cbdsw=cbdsw, cbssw=cbssw, pb=pb, mj=mj, mjsw=mjsw, fc=fc,
+        gmin=gmin / mult,  # mos2load's junctions add GMIN unscaled by M (mos1load scales it)
+        v0=v0, params=params, name=name,
     )  # fmt: skip

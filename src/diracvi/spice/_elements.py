@@ -162,7 +162,9 @@ UNSUPPORTED = {
     "N": ("an OSDI (Verilog-A) device", True),
 }
 
-SUPPORTED = "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2 and 6) and X (subcircuits)"
+SUPPORTED = (
+    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2 and 6) and X (subcircuits)"
+)
 
 
 def unsupported(ctx, pos, line):
