@@ -438,9 +438,10 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
     ("lines", "match"),
     [
         (
-            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=2 VTO=1)",
-            r"line 5: model 'nch' \(line 6\): NMOS level 2 \(MOS2, Grove–Frohman\) is not "
-            r"supported; diracvi has levels 1 \(Shichman–Hodges\) and 6 \(Sakurai–Newton\)",
+            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=3 VTO=1)",
+            r"line 5: model 'nch' \(line 6\): NMOS level 3 \(MOS3, semi-empirical\) is not "
+            r"supported; diracvi has levels 1 \(Shichman–Hodges\), 2 \(Grove–Frohman\) and 6 "
+            r"\(Sakurai–Newton\)",
         ),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=49 VERSION=3.3)",
@@ -451,7 +452,7 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             r"line 5: .*NSUB=1e\+09.*intrinsic",
         ),
         ("m1 3 2 0 0 nch\n.model nch NMOS (TNOM=50)", r"line 5: model 'nch' .*TNOM=50.*27"),
-        ("m1 3 2 0 0 nch\n.model nch NMOS (MJ=1.2 CBD=1p)", r"line 5: .*mj=1\.2.*\[0, 1\)"),
+        ("m1 3 2 0 0 nch\n.model nch NMOS (MJ=2.2 CBD=1p)", r"line 5: .*mj=2\.2.*\[0, 2\)"),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (FOO=1)",
             r"line 5: model 'nch' \(line 6\): NMOS parameter 'FOO' is not a level-1",

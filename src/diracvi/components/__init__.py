@@ -41,6 +41,7 @@ from .mechanical import (
     TorsionSpring,
 )
 from .mosfet import MOSFET
+from .mosfet2 import MOSFET2
 from .mosfet6 import MOSFET6
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
@@ -58,6 +59,7 @@ __all__ = [
     "EMF",
     "JFET",
     "MOSFET",
+    "MOSFET2",
     "MOSFET6",
     "PWL",
     "SPICE_PARAMETERS",

@@ -49,6 +49,33 @@ def channel_current(vgs, vds, vbs, sign, forward):
     return sign * jnp.where(is_forward, i, -i)
 
 
+def _meyer(gs, gd, laws, phi, cox):
+    """Meyer's capacitances from the law's ``(von, vdsat)`` of the forward mode (source at
+    ``gs``) and of the inverse one, NMOS-oriented gate voltages (see
+    :func:`gate_capacitances`)."""
+    (von_f, sat_f), (von_i, sat_i) = laws
+    f_gs, f_gd, f_gb = meyer_half(gs, gd, von_f, sat_f, phi, cox)
+    i_gd, i_gs, i_gb = meyer_half(gd, gs, von_i, sat_i, phi, cox)
+    a = mode_weight(gs - gd)
+    return tuple(
+        2.0 * (a * f + (1.0 - a) * i) for f, i in ((f_gs, i_gs), (f_gd, i_gd), (f_gb, i_gb))
+    )
+
+
+def channel_and_gates(vgs, vds, vbs, gates, sign, forward, phi, cox):
+    """:func:`channel_current` at ``(vgs, vds, vbs)`` and :func:`gate_capacitances` at
+    ``gates = (V_GS, V_GD, V_GB)`` with the law evaluated once, on the three voltage
+    triples stacked (the channel's mode and Meyer's two): one copy of the law in the
+    compiled program instead of three."""
+    g, d, b, is_forward = _oriented(vgs, vds, vbs, sign)
+    gs, gd, gb = (sign * x for x in gates)
+    current, von, vdsat = forward(
+        jnp.stack([g, gs, gd]), jnp.stack([d, gs - gd, gd - gs]), jnp.stack([b, gs - gb, gd - gb])
+    )
+    i = sign * jnp.where(is_forward, current[0], -current[0])
+    return i, _meyer(gs, gd, ((von[1], vdsat[1]), (von[2], vdsat[2])), phi, cox)
+
+
 def gate_capacitances(vgs, vgd, vgb, sign, forward, phi, cox):
     """Meyer's ``(C_GS, C_GD, C_GB)`` at the true terminal voltages (``cox`` = ``C'_ox W
     L_eff``): twice :func:`~diracvi.components._mos1.meyer_half` of each mode, with that
@@ -56,17 +83,9 @@ def gate_capacitances(vgs, vgd, vgb, sign, forward, phi, cox):
     and drain), the two modes blended across ``V_DS = 0`` by
     :func:`~diracvi.components._mos1.mode_weight`."""
     gs, gd, gb = sign * vgs, sign * vgd, sign * vgb
-
-    def half(g_source, g_drain):  # a mode: the source is the side at g_source
-        _, von, vdsat = forward(g_source, g_source - g_drain, g_source - gb)
-        return meyer_half(g_source, g_drain, von, vdsat, phi, cox)
-
-    f_gs, f_gd, f_gb = half(gs, gd)
-    i_gd, i_gs, i_gb = half(gd, gs)
-    a = mode_weight(gs - gd)
-    return tuple(
-        2.0 * (a * f + (1.0 - a) * i) for f, i in ((f_gs, i_gs), (f_gd, i_gd), (f_gb, i_gb))
-    )
+    # a mode: the source is the side at g_source
+    laws = [forward(g, g - other, g - gb)[1:] for g, other in ((gs, gd), (gd, gs))]
+    return _meyer(gs, gd, laws, phi, cox)
 
 
 def build(
@@ -123,8 +142,12 @@ def build(
         raise ModelError(
             f"{where}: capacitances, cox, rd, rs and is_ must be ≥ 0 (got {values}, {is_})."
         )
-    if not (0.0 <= mj < 1.0 and 0.0 <= mjsw < 1.0 and 0.0 <= fc < 1.0):
-        raise ModelError(f"{where}: mj={mj}, mjsw={mjsw}, fc={fc} must lie in [0, 1).")
+    # the depletion charge divides by 1 − M and its co-energy by 2 − M (ngspice's level-2
+    # cards grade steeper than 1: xy_mosrect's MJ = 1.067)
+    if not (0.0 <= fc < 1.0 and all(0.0 <= x < 2.0 and x != 1.0 for x in (mj, mjsw))):
+        raise ModelError(
+            f"{where}: mj={mj}, mjsw={mjsw} must lie in [0, 2) but not be 1, fc={fc} in [0, 1)."
+        )
 
     # branches: name -> (coordinates, + node, − node); "D", "S" are the internal drain
     # and source behind RD and RS (the outer pins themselves when those are 0)
@@ -185,7 +208,14 @@ def build(
     def force(q, v):
         vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
         f = jnp.zeros(len(coords), dtype=v.dtype)
-        f = f.at[idx["w"]].set(-channel_current(vgs, vds, vbs, sign, forward))
+        if meyer_on:  # Meyer's currents i_x = C_x(y) ẏ_x: a port on each gate flux
+            y = [q[idx[f"y{k}"]] / TAU for k in meyer_branches]
+            i_ch, cs = channel_and_gates(vgs, vds, vbs, y, sign, forward, phi, c_ox)
+            for k, c in zip(meyer_branches, cs, strict=True):
+                f = f.at[idx[flux[k]]].add(-c * v[idx[f"y{k}"]] / TAU)
+        else:
+            i_ch = channel_current(vgs, vds, vbs, sign, forward)
+        f = f.at[idx["w"]].set(-i_ch)
         f = f.at[idx["wbs"]].set(
             -(sign * pn_current(sign * vbs, i_ss, reverse="constant") + g * vbs)
         )
@@ -195,11 +225,6 @@ def build(
         for k in "ds":
             if res[k] > 0.0:
                 f = f.at[idx[f"qr{k}"]].set(-res[k] * v[idx[f"qr{k}"]])
-        if meyer_on:  # i_x = C_x(y) ẏ_x: Meyer's currents, a port on each gate flux
-            y = [q[idx[f"y{k}"]] / TAU for k in meyer_branches]
-            cs = gate_capacitances(*y, sign, forward, phi, c_ox)
-            for k, c in zip(meyer_branches, cs, strict=True):
-                f = f.at[idx[flux[k]]].add(-c * v[idx[f"y{k}"]] / TAU)
         return f
 
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)

@@ -1,5 +1,5 @@
-"""NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges, and
-level 6, Sakurai–Newton: :mod:`._mos6`).
+"""NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges; level
+2, Grove–Frohman: :mod:`._mos2`; level 6, Sakurai–Newton: :mod:`._mos6`).
 
 Parameter names, aliases, units and defaults are ngspice's ``mos1``: the process
 parameters (``TOX`` m, ``U0`` cm²/V·s, ``NSUB`` cm⁻³, ``NSS`` cm⁻², ``TPG``) derive KP,
@@ -7,10 +7,10 @@ PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's g
 capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
-``MJ``, ``MJSW``, ``FC``. Other levels (MOS2, MOS3, BSIM …) are refused at the element
-line, by name, naming the model's line; a ``VDMOS`` card makes the line ngspice's
-three-terminal VDMOS (:mod:`._vdmos`). Level 6 shares all of this
-but the drain current's parameters (:mod:`._mos6`).
+``MJ``, ``MJSW``, ``FC``. Other levels (MOS3, BSIM …) are refused at the element line, by
+name, naming the model's line; a ``VDMOS`` card makes the line ngspice's three-terminal
+VDMOS (:mod:`._vdmos`). Levels 2 and 6 share all of this but the drain current's
+parameters (:mod:`._mos2`, :mod:`._mos6`).
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ from __future__ import annotations
 from .. import components as cp
 from ..components._mos1 import process_parameters
 from ..errors import ModelError
+from ._mos2 import law as law2
+from ._mos2 import read_mos2_model
 from ._mos6 import law, read_mos6_model
 from ._vdmos import vdmos_line
 
@@ -51,15 +53,17 @@ def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
     ``_DEFAULTS``, the ``_OPTIONAL`` and ``_PROCESS`` ones only where given, and
     ``"level"``. Raises ``fail(why)`` naming the level of a card that is neither level 1
-    nor level 6 (:func:`~._mos6.read_mos6_model`)."""
+    nor level 2 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos6.read_mos6_model`)."""
     kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
     level = kw.get("level", 1.0)
     if level == 6.0:
         return read_mos6_model(kind, kw, fail, notes)
+    if level == 2.0:
+        return read_mos2_model(kind, kw, fail, notes)
     if level != 1.0:
         raise fail(
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
-            "has levels 1 (Shichman–Hodges) and 6 (Sakurai–Newton)"
+            "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman) and 6 (Sakurai–Newton)"
         )
     values = dict(_DEFAULTS)
     for key, x in kw.items():
@@ -124,6 +128,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
     )  # fmt: skip
     if v.get("level") == 6.0:
         part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
+    elif v.get("level") == 2.0:
+        del common["cox"]  # level 2 always has an oxide: C'ox from TOX (or 0.1 µm)
+        part = cp.MOSFET2(kind, w=geo["w"], l=geo["l"], **law2(v, process), **common)
     else:
         part = cp.MOSFET(
             kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
@@ -143,7 +150,7 @@ class _IC:
 
 
 def m_line(ctx, name, pos, kw, line):
-    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1 and 6)."""
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2 and 6)."""
     found = ctx.find_model(pos[4:6])
     if found is not None and found[1] == "VDMOS":
         return vdmos_line(ctx, name, pos, kw, line)
