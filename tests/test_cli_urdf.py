@@ -21,6 +21,7 @@ def invoke(*args):
     return runner.invoke(app, [str(a) for a in args])
 
 
+@pytest.mark.slow  # ~30 s of compiling (two builds of the arm); the refusals below stay default
 def test_run_urdf_writes_the_motion_by_name(tmp_path):
     out = tmp_path / "arm.nc"
     result = invoke("run", ARM, "--dt", "2e-3", "--steps", 40, "--out", out, "--plot")
