@@ -331,6 +331,10 @@ def test_discrete_power_balance_accounts_for_every_watt():
 
 
 # --------------------------------------------------------------- parts and errors
+# 12 s, in `-m slow` (the default suite's time on CI): by default a B source is simulated in
+# test_subcircuit_b_source_reads_its_local_nodes_and_sources, its expressions checked
+# against ngspice in test_expression_table_is_what_ngspice_computes
+@pytest.mark.slow
 def test_part_built_directly_matches_the_netlist():
     c = cp.Circuit("direct")
     c.add(cp.VoltageSource(cp.Sine(0, 1, 1e3), name="V1"), p="0", n="in")

@@ -131,6 +131,10 @@ def test_bench_rejects_an_unknown_benchmark():
     assert "no such benchmark" in result.output
 
 
+# 19 s, in `-m slow` (CI time): CI's docs tests run the README's `diracvi bench --quick
+# --only rlc`; the table's parts are checked by default (test_targets_and_rows, the
+# 80-column test below)
+@pytest.mark.slow
 def test_bench_quick_prints_one_table_and_writes_json(tmp_path):
     out = tmp_path / "bench.json"
     only = [

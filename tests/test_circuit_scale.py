@@ -213,6 +213,9 @@ def test_sparse_kcl_rows_equal_the_dense_ones():
     _assert_same(one, two, rtol=1e-12)
 
 
+# 16 s, in `-m slow` (the default suite's time on CI): a run in several blocks equals the
+# whole by default in tests/test_fast_paths.py (test_affine_fallback_midway_in_a_chunked_...)
+@pytest.mark.slow
 def test_short_blocks_give_the_same_run(monkeypatch):
     """A large circuit's run goes in shorter blocks (its buffers bounded): with blocks
     of 8 steps (the last one partial, saves every 5 steps across their ends) the sparse

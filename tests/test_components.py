@@ -53,6 +53,10 @@ def motor_from_parts(prm):
     return c.build()
 
 
+# 23 s, in `-m slow` (the default suite's time on CI): part-built equals hand-built by
+# default on the paper's RLC (test_part_built_rlc_equals_the_paper_model); the DC motor's
+# coupling by tests/test_interconnect.py's theorem on "dc-motor"
+@pytest.mark.slow
 def test_part_built_dc_motor_equals_the_hand_built_one():
     hand = dc_motor()
     built = motor_from_parts(hand.parameters)

@@ -180,6 +180,8 @@ def test_which_vectors_are_compared_and_their_diracvi_names():
     assert corpus.diracvi_keys("V(Out)") == ["v(out)"]
 
 
+# 15 s, in `-m slow` (CI time): the reference's own check; the deck agrees with it by default
+@pytest.mark.slow
 def test_the_xy_vpwl_reference_is_its_sources_waveforms_at_every_point():
     """Each V source of xy_vpwl sits across a resistor, so v(n) is the PWL waveform
     itself (TD=, R= repeats): at ngspice's own points the reference is the source's

@@ -5,6 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+import pytest
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "getting-started.md"
 BLOCK = re.compile(r"^```python\n(.*?)^```", re.S | re.M)
 
@@ -13,6 +15,9 @@ def python_blocks(text: str) -> list[str]:
     return BLOCK.findall(text)
 
 
+# 19 s, in `-m slow`: CI's docs tests run every block of getting-started.md top to bottom
+# (tests/test_docs_pages.py, `pytest -m docs`)
+@pytest.mark.slow
 def test_getting_started_snippets_run(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # the walk saves chain.nc in the working folder
     blocks = python_blocks(DOC.read_text(encoding="utf-8"))

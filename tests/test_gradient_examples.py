@@ -19,6 +19,9 @@ def _load(name):
     return module
 
 
+# 32 s, in `-m slow` (CI time): gradients through the RLC by default in tests/test_gradients.py
+# (test_linear_model_gradients_match_finite_differences); the example's statistics here
+@pytest.mark.slow
 def test_rlc_identification_recovers_values_within_three_standard_errors():
     example = _load("identify_rlc")
     estimate, errors, data, fitted = example.identify(steps=100, seed=1)

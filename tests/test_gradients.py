@@ -240,8 +240,12 @@ def torn_chain(theta):
     return dv.interconnect([left, right], [dv.connect("left.q2", "right.q2bar")])
 
 
+# in `-m slow` (18 s; the default suite's time on CI): by default, gradients through the
+# Newton path (test_newton_gradients_match_finite_differences) and the sparse netlist path
+# (tests/test_components.py's traced parts)
 @pytest.mark.parametrize(
-    "discretization,scheme", [("retraction", "plus"), pytest.param("midpoint", "minus", marks=SLOW)]
+    "discretization,scheme",
+    [pytest.param("retraction", "plus", marks=SLOW), pytest.param("midpoint", "minus", marks=SLOW)],
 )
 def test_torn_model_partitioned_gradients_match_finite_differences(discretization, scheme):
     q0 = jnp.array([0.1, 0.5, 0.5, 1.0])
@@ -264,6 +268,9 @@ def test_torn_model_partitioned_gradients_match_finite_differences(discretizatio
     _fd_check(loss, (q0, jnp.array([1.0, 0.5])))
 
 
+# 9 s, in `-m slow` (CI time): parameters as traced leaves are differentiated by default in
+# test_newton_gradients_match_finite_differences and tests/test_components.py
+@pytest.mark.slow
 def test_equinox_module_parameters_and_filter_grad():
     """An equinox.Module Lagrangian: its arrays are leaves of the system."""
 

@@ -39,8 +39,13 @@ def interconnected_vs_monolithic(problem, discretization, steps):
 PAPER_TORN = ("spring-chain-torn", "rlc-torn")
 
 
+# The n-mass chain (15 s) and the driven RLC (8 s) with -m slow too: by default the chain
+# torn into pieces is test_n_mass_chain_torn_into_m_pieces, the driven RLC test_driven.py's.
+_THEOREM_SLOW = {"dc-motor-driven", "chain-torn", "rlc-sine-torn"}
+
+
 def _theorem_slow(name, rule):
-    return name == "dc-motor-driven" or (name not in PAPER_TORN and rule == "retraction")
+    return name in _THEOREM_SLOW or (name not in PAPER_TORN and rule == "retraction")
 
 
 THEOREM_CASES = [
@@ -154,6 +159,9 @@ def test_chain_torn_shared_names_pair_each_mass_once():
         assert missing not in shared
 
 
+# 9 s, in `-m slow` (CI time): interconnections of interconnections are stepped by default
+# in test_controlled.py's subcircuits and tests/test_spice_reader.py's nested .subckt
+@pytest.mark.slow
 def test_hierarchical_interconnection_equals_the_flat_one():
     flat = problems.chain_torn(9, 3, steps=300)
     s0, s1, s2 = flat.system.subsystems

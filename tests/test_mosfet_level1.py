@@ -99,7 +99,9 @@ def _devqmeyer(vgs, vgd, von, vdsat, phi, cox):
     return cox * (1 - (vdsat - vds) ** 2 / d2) / 3, cox * (1 - vdsat**2 / d2) / 3, 0.0
 
 
-@pytest.mark.parametrize("kind", ["nmos", "pmos"])
+# the PMOS in `-m slow` (the default suite's time on CI): the same law with signs flipped,
+# whose signs tests/test_transistors.py's CMOS inverter checks against ngspice by default
+@pytest.mark.parametrize("kind", ["nmos", pytest.param("pmos", marks=pytest.mark.slow)])
 def test_meyer_capacitances_are_ngspices_in_every_region(kind):
     """Twice DEVqmeyer in each region and both modes (source/drain swapped for V_DS < 0,
     ``von`` from V_BS or V_BD, ``vdsat = max(V_GST, 0)``), to 1e-12 away from the C¹

@@ -165,23 +165,37 @@ def _worst(netlist, probes, divisor, include_start=False):
     return worst
 
 
+# The bridge's variants, the half-wave and the current source are in `-m slow` (the
+# default suite's time on CI's two cores): the bridge and the doubler (the issue's
+# acceptance) and the zener, the junction charge, RS and the .ic stay in the default suite.
+_SLOW_AGREEMENT = {"bridge with bleed", "bridge, 1 ohm return", "half-wave", "current source"}
+
+
 @needs_ngspice
-@pytest.mark.parametrize("name", list(CIRCUITS))
+@pytest.mark.parametrize(
+    "name",
+    [
+        pytest.param(name, marks=pytest.mark.slow) if name in _SLOW_AGREEMENT else name
+        for name in CIRCUITS
+    ],
+)
 def test_agrees_with_ngspice_to_1e3_of_peak(name):
     netlist, probes, divisor = CIRCUITS[name]
     worst = _worst(netlist, probes, divisor)
     assert max(worst.values()) < 1e-3, worst
 
 
-# TSTEP/2 in `-m slow`: TSTEP and TSTEP/4 (in the default suite) bracket it
+# TSTEP/2 in `-m slow`: TSTEP and TSTEP/4 (in the default suite) bracket it. The bridge's
+# variants and the half-wave are in `-m slow` too: the bridge and the doubler (the issue's
+# acceptance) keep the property in the default suite.
 @pytest.mark.parametrize("divisor", [1, pytest.param(2, marks=pytest.mark.slow), 4])
 @pytest.mark.parametrize(
     ("name", "probe"),
     [
-        ("bridge with bleed", "v(p)"),
+        pytest.param("bridge with bleed", "v(p)", marks=pytest.mark.slow),
         ("bridge", "v(p)"),
-        ("bridge, 1 ohm return", "v(p)"),
-        ("half-wave", "v(out)"),
+        pytest.param("bridge, 1 ohm return", "v(p)", marks=pytest.mark.slow),
+        pytest.param("half-wave", "v(out)", marks=pytest.mark.slow),
         ("doubler", "v(out)"),
     ],
 )
@@ -198,6 +212,9 @@ def test_runs_at_any_forced_step(name, probe, divisor):
     assert error < 0.05 * np.max(np.abs(fine[probe])) / divisor**2 + 1e-3
 
 
+# 20 s, in `-m slow` (the default suite's time on CI): a numerically singular first
+# Jacobian is also met by default in tests/test_algebraic_momenta.py and test_rectifiers.py
+@pytest.mark.slow
 def test_floating_bridge_is_solvable_and_charges_to_the_peak_less_two_junctions():
     """Capacitor and bleed floating between the bridge's + and − (tied to the rest only by
     diodes): every junction off at t = 0 leaves its common-mode potential held by G_min
@@ -222,6 +239,9 @@ R1 p m 1k
     assert np.max(np.abs(result.trajectory.constraint_residual)) < 1e-12
 
 
+# 11 s, in `-m slow`: by default, full Newton (tests/test_mosfet_level1.py, test_jfet.py)
+# and the default solver (test_agrees_with_ngspice_to_1e3_of_peak) each agree with ngspice
+@pytest.mark.slow
 def test_newton_without_limiting_or_reuse_agrees_with_the_default():
     """Limiting and the round-off test change the path, never the solution."""
     netlist = CIRCUITS["zener"][0]

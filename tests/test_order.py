@@ -122,9 +122,10 @@ def lobatto_errors(problem, horizon, hs=LOBATTO_HS):
 @pytest.mark.parametrize(
     "name",
     [
-        "spring-chain",
+        # three Newton compilations each (≈ 10 s): with -m slow; the spring chain too (the
+        # default suite's time on CI): the degenerate RLC's test below is regular too
+        pytest.param("spring-chain", marks=pytest.mark.slow),
         "forced-oscillator",
-        # three Newton compilations each (≈ 10 s): with -m slow
         pytest.param("cartesian-pendulum", marks=pytest.mark.slow),
         pytest.param("rolling-disk", marks=pytest.mark.slow),
         pytest.param("chaplygin-sleigh", marks=pytest.mark.slow),

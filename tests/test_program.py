@@ -5,6 +5,7 @@ White-box: reads internals of ``diracvi.runtime.program``."""
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import diracvi as dv
 from diracvi import problems
@@ -39,6 +40,9 @@ def _closure_chain(n: int, m: int):
     return dv.interconnect(pieces, joints, name="chain")
 
 
+# 12 s, in `-m slow` (CI time): grouping of alike pieces by default in tests/test_stacked.py
+# (test_packed_trajectory_matches_unpacked, test_chunk_program_does_not_grow_with_alike_pieces)
+@pytest.mark.slow
 def test_loop_closures_group_and_match_the_module_built_chain():
     ref = problems.chain_torn(24, 6)  # pieces of 4 masses: the wall end, 4 alike, the free end
     system = _closure_chain(24, 6)

@@ -61,8 +61,14 @@ def _child(cache, problem, store="on"):
     return json.loads(out.stdout.splitlines()[-1])
 
 
+# in `-m slow` (15 s; the default suite's time on CI): by default a second process reads
+# the first one's programs in tests/test_cache.py (test_second_process_reads_the_first_ones_...)
 @pytest.mark.parametrize(
-    "problem", ["double-pendulum-torn", pytest.param("rlc-torn", marks=pytest.mark.slow)]
+    "problem",
+    [
+        pytest.param("double-pendulum-torn", marks=pytest.mark.slow),
+        pytest.param("rlc-torn", marks=pytest.mark.slow),
+    ],
 )
 def test_a_later_process_loads_every_program_and_traces_nothing(tmp_path, problem):
     # JAX's cache already holds the programs (an earlier diracvi, or the store off): the

@@ -162,6 +162,9 @@ def test_bjt_currents_are_gummel_poon(kind, vbe, vce):
         assert 20 < ic / ib < 80  # forward active, beta rolled off by ISE and IKF
 
 
+# 9 s, in `-m slow` (CI time): series resistances of a diode (RS) agree with ngspice by
+# default (tests/test_nonlinear_circuits.py, "series resistance")
+@pytest.mark.slow
 def test_bjt_series_resistances_drop_their_currents():
     """RB, RC, RE as internal nodes: the terminal currents solve the Gummel–Poon law at
     the internal junction voltages ``V_B'E' = V_BE − R_B I_B − R_E I_E`` (checked by
@@ -333,14 +336,21 @@ cl out 0 20f
 }
 
 
+_SLOW_CIRCUITS = {
+    "pnp-common-emitter",
+    "bjt-rtl-inverter",
+    "bjt-rtl-inverter-charges",
+    "cmos-inverter-overlap",
+}
+
+
 @pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 @pytest.mark.parametrize(
     "name",
-    # the PNP stage takes ~45 s: in `pytest -m slow`
-    [
-        n if n != "pnp-common-emitter" else pytest.param(n, marks=pytest.mark.slow)
-        for n in sorted(CIRCUITS)
-    ],
+    # the PNP stage (~45 s), the RTL inverters and the overlap-capacitance inverter in
+    # `pytest -m slow` (the default suite's time on CI): by default one CMOS inverter, one
+    # NMOS and one BJT stage; the charge port by its power balance below
+    [n if n not in _SLOW_CIRCUITS else pytest.param(n, marks=pytest.mark.slow) for n in CIRCUITS],
 )
 def test_transistor_circuits_agree_with_ngspice(name):
     """Each circuit against a fine ngspice run (max step TSTOP/40000, from its DC
