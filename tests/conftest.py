@@ -1,4 +1,5 @@
 import os
+from pathlib import Path
 
 # One on-disk compilation cache for the whole run (diracvi's own, pointed away from the
 # user's cache directory), shared by the xdist workers and the CLI subprocesses: set
@@ -73,6 +74,36 @@ def loglog_slope(hs, errors) -> float:
 @pytest.fixture
 def rng():
     return np.random.default_rng(20261121)
+
+
+SLOW_FOR_TIME = Path(__file__).with_name("slow_for_time.txt")
+
+
+def slow_for_time() -> set[str]:
+    """The default tests moved behind ``slow`` for CI's time (``slow_for_time.txt``)."""
+    lines = SLOW_FOR_TIME.read_text(encoding="utf-8").splitlines()
+    return {line.split(None, 1)[1].strip() for line in lines if line and line[0] != "#"}
+
+
+@pytest.hookimpl(tryfirst=True)  # before `-m` deselects by marker
+def pytest_collection_modifyitems(session, config, items):
+    listed = slow_for_time()
+    seen = set()
+    for item in items:
+        if item.nodeid in listed:
+            item.add_marker(pytest.mark.slow)
+            seen.add(item.nodeid)
+    # a whole-suite collection must find every listed test: a renamed or removed test
+    # would otherwise leave a stale line, and its replacement would run by default unseen
+    whole = not config.args or [Path(a).resolve() for a in config.args] == [
+        Path(config.rootpath, "tests").resolve()
+    ]
+    stale = sorted(listed - seen)
+    if whole and stale and not config.getoption("keyword", ""):
+        raise pytest.UsageError(
+            f"{SLOW_FOR_TIME.name} names tests that were not collected: {', '.join(stale)}. "
+            "Fix: update or remove those lines."
+        )
 
 
 def pytest_unconfigure(config):

@@ -19,8 +19,8 @@ def _load(name):
     return module
 
 
-# 32 s, in `-m slow` (CI time): gradients through the RLC by default in tests/test_gradients.py
-# (test_linear_model_gradients_match_finite_differences); the example's statistics here
+# 32 s, in `-m slow` (CI time): gradients through a run by default in tests/test_gradients.py
+# (test_forward_and_reverse_mode_agree_with_central_differences); the example's statistics here
 @pytest.mark.slow
 def test_rlc_identification_recovers_values_within_three_standard_errors():
     example = _load("identify_rlc")

@@ -39,8 +39,9 @@ def interconnected_vs_monolithic(problem, discretization, steps):
 PAPER_TORN = ("spring-chain-torn", "rlc-torn")
 
 
-# The n-mass chain (15 s) and the driven RLC (8 s) with -m slow too: by default the chain
-# torn into pieces is test_n_mass_chain_torn_into_m_pieces, the driven RLC test_driven.py's.
+# The n-mass chain (15 s) and the driven RLC (8 s) with -m slow too (the default suite's
+# time on CI): by default the chain torn into pieces is test_n_mass_chain_torn_into_m_pieces;
+# a driven torn model equals its monolithic one only under -m slow (test_driven.py's too).
 _THEOREM_SLOW = {"dc-motor-driven", "chain-torn", "rlc-sine-torn"}
 
 

@@ -212,8 +212,8 @@ def test_runs_at_any_forced_step(name, probe, divisor):
     assert error < 0.05 * np.max(np.abs(fine[probe])) / divisor**2 + 1e-3
 
 
-# 20 s, in `-m slow` (the default suite's time on CI): a numerically singular first
-# Jacobian is also met by default in tests/test_algebraic_momenta.py and test_rectifiers.py
+# 20 s, in `-m slow` (the default suite's time on CI); this floating common mode held by
+# G_min alone at t = 0 is checked only there
 @pytest.mark.slow
 def test_floating_bridge_is_solvable_and_charges_to_the_peak_less_two_junctions():
     """Capacitor and bleed floating between the bridge's + and − (tied to the rest only by
