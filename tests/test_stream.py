@@ -31,7 +31,9 @@ def test_streamed_sampling_is_the_whole_run_sampler_bit_for_bit(chunk):
     k = int(np.searchsorted(t, corners[5]))
     corners = np.unique(np.concatenate([corners, t[k + 1 : k + 3]]))
     bounds = np.concatenate([[0.0], corners, [t[-1]]])
-    times = np.unique(np.concatenate([np.linspace(0.0, t[-1], 97), corners, rng.uniform(0, t[-1], 50)]))
+    times = np.unique(
+        np.concatenate([np.linspace(0.0, t[-1], 97), corners, rng.uniform(0, t[-1], 50)])
+    )
     values = rng.standard_normal((len(h), 5))
     want = Sampler(t, h, bounds)(values, times)
     stream = _stream.StreamSampler(bounds, times, 5)
