@@ -155,9 +155,7 @@ class StreamSampler:
             index, w = sampler.weights(pending[:ready])
             block = self.out[self.done : self.done + ready]
             for a in range(0, block.shape[1], COLUMNS):
-                block[:, a : a + COLUMNS] = sampler.apply(
-                    self.values[:, a : a + COLUMNS], index, w
-                )
+                block[:, a : a + COLUMNS] = sampler.apply(self.values[:, a : a + COLUMNS], index, w)
             self.done += ready
         if final or self.done == len(self.times):
             return
