@@ -123,9 +123,16 @@ class Result(Mapping):
         for name, values in self.waveforms.items():
             if name.lower() == want:
                 return values
+        lean = self.centred is None and self.times is not None  # formed while stepping
+        hint = (
+            "; this run formed only the saved vectors (a large circuit's run: see "
+            "spice/_stream.py): name it on a .save line, or pass internal=True"
+            if lean
+            else ""
+        )
         raise KeyError(
             f"{key!r} is not a waveform of this circuit; the saved ones are "
-            f"{list(self._saved())}, others {sorted(self.waveforms)}"
+            f"{list(self._saved())}, others {sorted(self.waveforms)}{hint}"
         )
 
     def __contains__(self, key) -> bool:
@@ -423,10 +430,9 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
             march,
         )
     start = _start_values(netlist)
-    streamed = stream.grid_values is not None
-    if streamed and not stream.kept:  # a large circuit: the grid only, O(n) memory
-        names = stream.layout.names
-        waves = {name: stream.grid_values[:, j] for j, name in enumerate(names)}
+    if stream.grid_values is not None and not stream.kept:
+        # a large circuit: the saved vectors on the grid only, O(n) memory (._stream)
+        waves = {name: stream.grid_values[:, j] for j, name in enumerate(stream.names)}
         return Result(netlist, march, _pin_start(waves, grid, start), grid, None, settings)
     if march.modes is not None and march.modes.shape[1]:
         # a switching instant is a corner too: the nodes where a switch's state changes
@@ -444,11 +450,7 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
     centred = (sampler, signals, start)
     if internal:
         return Result(netlist, march, dict(nodes), march.t, inner, settings, centred)
-    if streamed:  # the same values as signals.sample(sampler, grid), bit for bit
-        names = stream.layout.names
-        waves = {name: stream.grid_values[:, j] for j, name in enumerate(names)}
-    else:
-        waves = signals.sample(sampler, grid)
+    waves = signals.sample(sampler, grid)
     return Result(netlist, march, _pin_start(waves, grid, start), grid, inner, settings, centred)
 
 

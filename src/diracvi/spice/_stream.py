@@ -19,7 +19,9 @@ output. It calls the same :class:`~._resample.Sampler` on the same centres, so t
 is the one the whole-run sampler gives, bit for bit (``tests/test_stream.py``).
 
 :class:`StreamRecord` is the recorder :func:`~diracvi.driver.adaptive_sparse.adaptive_sparse`
-calls: it streams the grid always, and keeps the whole run too — states, multipliers and
+calls: it streams the grid of the saved vectors (``.save``, else ngspice's default set:
+node voltages, source and inductor currents — what ngspice itself keeps) always, and
+keeps the whole run too — states, multipliers and
 step-centred signals, for ``result.at(times)``, ``result.internal`` and
 ``result.trajectory.q`` — when asked (``internal=True``) or while they stay under
 :data:`KEEP_MAX` numbers (every small deck: nothing changes for them).
@@ -170,12 +172,20 @@ class StreamRecord:
     while it fits :data:`KEEP_MAX` numbers, or always with ``keep=True``.
 
     Call with ``(capacity, n, m)`` as :func:`~diracvi.driver.adaptive_sparse.adaptive_sparse`
-    does (:meth:`__call__`); afterwards :attr:`grid_values` holds the grid's signals and
-    :attr:`kept` says whether the records are whole."""
+    does (:meth:`__call__`); afterwards :attr:`grid_values` holds the grid's values of
+    the saved vectors (:attr:`names`) and :attr:`kept` says whether the records are
+    whole (then every signal can be formed from them, as for a small circuit)."""
 
     def __init__(self, netlist, bounds, grid, keep: bool = False, keep_max: int | None = None):
         self.layout = Layout(netlist)
         self.bounds, self.grid = bounds, grid
+        # the grid is formed for the saved vectors only (.save, else ngspice's default
+        # set: node voltages, source and inductor currents), as ngspice keeps its plot
+        saved = {key for _, key in netlist.vectors} or set(self.layout.names)
+        self.select = np.array(
+            [j for j, name in enumerate(self.layout.names) if name in saved], dtype=np.int64
+        )
+        self.names = [self.layout.names[j] for j in self.select]
         self.keep, self.keep_max = keep, KEEP_MAX if keep_max is None else keep_max
         self.kept = True
         self.grid_values = None
@@ -186,7 +196,7 @@ class StreamRecord:
         self.n = n
         self.full = _Record(capacity, n, m)
         self.per_step = 2 * n + m + len(self.layout.names)
-        self.sampler = StreamSampler(self.bounds, self.grid, len(self.layout.names))
+        self.sampler = StreamSampler(self.bounds, self.grid, len(self.select))
         width = len(self.layout.base)
         self.rows_t, self.rows_h = np.empty(CHUNK), np.empty(CHUNK)
         self.rows = np.empty((CHUNK, width))
@@ -230,8 +240,8 @@ class StreamRecord:
 
     def _pass(self) -> None:
         k = self.count
-        values = self.layout.with_extra(self.rows[:k])
-        self.sampler.feed(self.rows_t[:k].copy(), self.rows_h[:k].copy(), values.copy())
+        values = self.layout.with_extra(self.rows[:k])[:, self.select]  # (a copy)
+        self.sampler.feed(self.rows_t[:k].copy(), self.rows_h[:k].copy(), values)
         self.count = 0
 
     def arrays(self):
