@@ -70,7 +70,8 @@ class Layout:
         self.extra = []
         if self.table:
             flows = {n: np.zeros(1) for n in names if n.startswith("i(")}
-            self.extra = [n for n in potentials(flows, self.table, self.display) if n not in flows]
+            mmf = potentials(dict(flows), self.table, self.display)  # (it adds to its dict)
+            self.extra = [n for n in mmf if n not in flows]
         self.names = names + self.extra
 
     def with_extra(self, values: np.ndarray) -> np.ndarray:
