@@ -2,7 +2,8 @@
 ``--dt`` (SPICE's variable steps; a linear circuit takes the sparse maps of
 :mod:`diracvi.driver.adaptive_sparse`), beside ``ngspice -b`` (issues 30, 28).
 
-    PYTHONPATH=src python benchmarks/ladder_variable.py 100 1000 10000
+    PYTHONPATH=src python benchmarks/ladder_variable.py 100 1000
+    PYTHONPATH=src python benchmarks/ladder_variable.py --probes --single 10000 100000
 
 For each ladder of N stages (:func:`diracvi.bench.ladders.ladder`): ngspice's wall and CPU
 seconds and peak RSS; ``diracvi run`` with the disk cache cold, then warm (a fresh
@@ -10,22 +11,59 @@ seconds and peak RSS; ``diracvi run`` with the disk cache cold, then warm (a fre
 in-process ``spice.run`` and its max error / peak against ngspice over the probes of
 :mod:`diracvi.bench.ladder_scaling` on the TSTEP grid, and the path that ran. CPU seconds
 are the figure to compare on a loaded machine.
+
+Options for the large ladders (minutes each, so not in the default run):
+
+- ``--probes``: a ``.save`` line of the probes in the deck, for both programs: each keeps
+  only those on its output (without it, every node voltage and inductor current on the
+  2001-point grid: 4.8 GB at 10⁵ stages, in ngspice as in diracvi);
+- ``--single``: one ``diracvi run`` (the disk cache of the environment's
+  ``DIRACVI_CACHE_DIR``, else a fresh one: cold) with ``--out``, and the agreement read
+  from its file instead of a second, in-process run.
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import numpy as np
+
 from diracvi.bench import ladder_scaling as bench
 from diracvi.bench.ladders import ladder
 
 
-def main(sizes: list[int]) -> None:
+def _deck(stages: int, probes: bool) -> str:
+    text = ladder(stages)
+    if probes:
+        body, _, tail = text.rpartition(".end")
+        text = body + f".save {' '.join(bench.PROBES)}\n.end" + tail
+    return text
+
+
+def _file_agreement(path: Path, t_ref, ref) -> float:
+    """Max error / peak vs ngspice over the probes, from ``diracvi run --out``'s file."""
+    import h5netcdf
+
+    worst = 0.0
+    with h5netcdf.File(path, "r") as f:
+        t = np.asarray(f.variables["time"][...])
+        names = {k.lower(): k for k in f.variables}
+        mask = t > 0
+        for p in bench.PROBES:
+            got = np.asarray(f.variables[names[p.lower()]][...])
+            peak = float(np.max(np.abs(ref[p])))
+            expect = np.interp(t[mask], t_ref, ref[p])
+            worst = max(worst, float(np.max(np.abs(got[mask] - expect))) / peak)
+    return worst
+
+
+def main(sizes: list[int], probes: bool = False, single: bool = False) -> None:
     for stages in sizes:
-        text = ladder(stages)
+        text = _deck(stages, probes)
         with tempfile.TemporaryDirectory() as name:
             tmp = Path(name)
             path = tmp / f"ladder{stages}.cir"
@@ -33,6 +71,15 @@ def main(sizes: list[int]) -> None:
             wall, mb, t_ref, ref = bench._ngspice(text, tmp)
             print(f"{stages} stages: ngspice -b wall {wall:.2f} s, CPU "
                   f"{bench._NGSPICE_CPU[0]:.2f} s, RSS {mb:.0f} MB", flush=True)  # fmt: skip
+            if single:
+                cache = Path(os.environ.get("DIRACVI_CACHE_DIR", tmp / "cache"))
+                cpu: list[float] = []
+                wall, mb = bench._diracvi_run(path, None, cache, tmp, out=True, cpu=cpu)
+                err = _file_agreement(tmp / "x.nc", t_ref, ref)
+                print(f"{stages} stages: diracvi run --out (no --dt): wall {wall:.1f} s, CPU "
+                      f"{cpu[-1]:.1f} s, RSS {mb:.0f} MB; max error / peak vs ngspice "
+                      f"{err:.2e}", flush=True)  # fmt: skip
+                continue
             cache, cpu = tmp / "cache", []
             for label in ("cold", "warm"):
                 wall, mb = bench._diracvi_run(path, None, cache, tmp, cpu=cpu)
@@ -46,4 +93,9 @@ def main(sizes: list[int]) -> None:
 
 
 if __name__ == "__main__":
-    main([int(a) for a in sys.argv[1:]] or [100, 1000])
+    flags = {a for a in sys.argv[1:] if a.startswith("--")}
+    unknown = flags - {"--probes", "--single"}
+    if unknown:
+        raise SystemExit(f"unknown options {sorted(unknown)}: --probes, --single")
+    sizes = [int(a) for a in sys.argv[1:] if not a.startswith("--")]
+    main(sizes or [100, 1000], probes="--probes" in flags, single="--single" in flags)

@@ -362,6 +362,7 @@ def adaptive_sparse(
     max_tries: int = 1_000_000,
     detect_rtol: float = 1e-12,
     verify_rtol: float = 1e-11,
+    record=None,
 ) -> tuple[AdaptiveRun, SparseRun]:
     """March a linear interconnection ``system`` (packed, see
     :meth:`~diracvi.model.interconnect.InterconnectedSystem._packed`) from ``(q0, p0)``
@@ -371,6 +372,13 @@ def adaptive_sparse(
     Raises :class:`~diracvi.solvers.sparse_affine.NotSparseAffine` when the path does not
     apply (not an interconnection, not affine, switches, a step that fails its
     verification). Returns the :class:`AdaptiveRun` and a :class:`SparseRun`.
+
+    ``record``: what receives the recorded steps — ``record(capacity, n, m)`` returns an
+    object with ``start(t, z)``, ``add(t, h, z, μ)`` (each recorded step's end node, size,
+    end state ``z = (q, p)`` and multipliers; ``z`` is not reused by the loop, so it may
+    be kept) and ``arrays()`` → ``(t, h, q, p, μ)``. Default: every step kept
+    (:class:`_Record`, O(n·steps)); a caller that needs only sampled waveforms passes one
+    that forms them while the run steps (:mod:`diracvi.spice._stream`: O(n) memory).
     """
     ensure_float64()
     if not t_stop > t0:
@@ -406,7 +414,8 @@ def adaptive_sparse(
     q_peak, v_peak, m_peak = np.abs(q), np.zeros(n), np.zeros(m)
     # the recorded steps, written in place (a guess of the count, grown if exceeded;
     # np.empty's pages are committed only when written, so the guess costs nothing)
-    rec = _Record(2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16, n, m)
+    capacity = 2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16
+    rec = (_Record if record is None else record)(capacity, n, m)
     rec.start(t, z)
     tries = rejected = landings = 0
     status = OK

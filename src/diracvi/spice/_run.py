@@ -34,12 +34,12 @@ from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
 from . import _netcdf
-from ._magnetic import potentials
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
 from ._probe import waveforms
-from ._resample import Sampled, Sampler, Signals, step_potentials
+from ._resample import Sampled, Sampler
+from ._stream import KEEP_MAX, StreamRecord, step_signals
 from ._tran import TranSettings, breakpoints, tran_settings
 
 
@@ -68,7 +68,9 @@ class Result(Mapping):
     case-insensitive.
     ``result.time`` is the TSTEP grid from TSTART for a variable-step run, the steps of a
     fixed-step one.
-    ``result.internal``: a variable-step run's own points (``None`` for a fixed step);
+    ``result.internal``: a variable-step run's own points (``None`` for a fixed step,
+    and for a large circuit's run that formed only the TSTEP grid, see :mod:`._stream`;
+    ``internal=True`` keeps them);
     ``result.trajectory``: the :class:`~diracvi.Trajectory` of a fixed-step run, the
     :class:`~diracvi.driver.adaptive.AdaptiveRun` of a variable-step one;
     ``result.settings``: the :class:`~diracvi.spice._tran.TranSettings` used.
@@ -94,6 +96,13 @@ class Result(Mapping):
         each interval between corners (what the TSTEP grid gets, see :mod:`._resample`),
         a fixed-step run linearly between its nodes."""
         times = np.asarray(times, dtype=np.float64)
+        if self.centred is None and self.times is not None:
+            raise ModelError(
+                f"result.at(): the step-centred signals of this run were not kept (a large "
+                f"circuit's are O(signals · steps); over {KEEP_MAX} numbers only the TSTEP "
+                "grid is formed, while the run steps). Fix: spice.run(..., internal=True) "
+                "keeps them, or read the waveforms on result.time."
+            )
         if self.centred is not None:
             sampler, signals, start = self.centred
             return _pin_start(signals.sample(sampler, times), times, start)
@@ -114,9 +123,16 @@ class Result(Mapping):
         for name, values in self.waveforms.items():
             if name.lower() == want:
                 return values
+        lean = self.centred is None and self.times is not None  # formed while stepping
+        hint = (
+            "; this run formed only the saved vectors (a large circuit's run: see "
+            "spice/_stream.py): name it on a .save line, or pass internal=True"
+            if lean
+            else ""
+        )
         raise KeyError(
             f"{key!r} is not a waveform of this circuit; the saved ones are "
-            f"{list(self._saved())}, others {sorted(self.waveforms)}"
+            f"{list(self._saved())}, others {sorted(self.waveforms)}{hint}"
         )
 
     def __contains__(self, key) -> bool:
@@ -146,9 +162,9 @@ class Result(Mapping):
     __str__ = __repr__
 
     def _steps(self) -> str:
-        if self.internal is None:
+        if self.times is None:
             return f"{len(self.time) - 1} steps of {float(self.trajectory.dt):g} s"
-        h = self.internal.h
+        h = self.trajectory.h
         return f"{len(h)} variable steps of {h.min():.3g} … {h.max():.3g} s"
 
     def to_xarray(self):
@@ -400,7 +416,11 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
         )
     settings = tran_settings(netlist)
     breaks = breakpoints(netlist.system, 0.0, settings.stop)
-    march = _march(netlist, settings, breaks)
+    bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
+    grid = settings.output_times()
+    # the sparse path's recorder: the grid formed while the run steps (._stream)
+    stream = StreamRecord(netlist, np.append(bounds, settings.stop), grid, keep=internal)
+    march = _march(netlist, settings, breaks, stream)
     if march.status != 0:
         at = march.t[-1]
         raise StepFailure(
@@ -409,14 +429,17 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
             ".options reltol/abstol.",
             march,
         )
-    bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
+    start = _start_values(netlist)
+    if stream.grid_values is not None and not stream.kept:
+        # a large circuit: the saved vectors on the grid only, O(n) memory (._stream)
+        waves = {name: stream.grid_values[:, j] for j, name in enumerate(stream.names)}
+        return Result(netlist, march, _pin_start(waves, grid, start), grid, None, settings)
     if march.modes is not None and march.modes.shape[1]:
         # a switching instant is a corner too: the nodes where a switch's state changes
         changed = np.any(np.diff(march.modes, axis=0) != 0.0, axis=1)
         bounds = np.unique(np.concatenate([bounds, march.t[1:-1][changed]]))
     sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
-    signals = _step_signals(netlist, march)
-    start = _start_values(netlist)
+    signals = step_signals(netlist, march)
 
     def pinned(times):
         return lambda waves: _pin_start(waves, times, start)
@@ -427,9 +450,8 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
     centred = (sampler, signals, start)
     if internal:
         return Result(netlist, march, dict(nodes), march.t, inner, settings, centred)
-    grid = settings.output_times()
-    waves = _pin_start(signals.sample(sampler, grid), grid, start)
-    return Result(netlist, march, waves, grid, inner, settings, centred)
+    waves = signals.sample(sampler, grid)
+    return Result(netlist, march, _pin_start(waves, grid, start), grid, inner, settings, centred)
 
 
 def _start_values(netlist: Netlist) -> dict[str, float]:
@@ -471,9 +493,10 @@ def _pin_start(waves: dict, times: np.ndarray, start: dict) -> dict:
 SPARSE_MIN_COORDINATES = 16
 
 
-def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
+def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=None):
     """The variable-step run: a linear circuit on the sparse step maps
-    (:mod:`diracvi.driver.adaptive_sparse`: O(n) per step and in memory), any other —
+    (:mod:`diracvi.driver.adaptive_sparse`: O(n) per step, and in memory with a
+    streaming ``record``, :class:`._stream.StreamRecord`), any other —
     nonlinear, with switches, or refused by the sparse path — in the compiled loop
     (:mod:`diracvi.driver.adaptive`); ``march.solver`` says which ran."""
     system = netlist.system
@@ -490,11 +513,13 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
         try:
             march, _ = adaptive_sparse(
                 system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
-                controls=ctl, breakpoints=breaks, max_tries=budget,
+                controls=ctl, breakpoints=breaks, max_tries=budget, record=record,
             )  # fmt: skip
             return march
         except NotSparseAffine:
-            pass  # not linear (or not verified): the compiled loop steps it
+            if record is not None:
+                record.grid_values = None  # (its rows, if any, were not a finished run)
+            # not linear (or not verified): the compiled loop steps it
     return adaptive(
         system,
         netlist.q0,
@@ -509,37 +534,5 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray):
     )
 
 
-def _step_signals(netlist: Netlist, march) -> Signals:
-    """``v(<node>)`` and ``i(<element>)`` at the step centres (see :mod:`._resample`)."""
-    assembly = netlist.assembly
-    # (dicts of positions: list.index per node was quadratic in the circuit's size)
-    row_of = {name: j for j, name in enumerate(netlist.system.constraint_names)}
-    rows = np.array([row_of[assembly.kcl_rows[node]] for node in assembly.nodes], dtype=np.int64)
-    index = {c: j for j, c in enumerate(netlist.system.coords)}
-    display = netlist.display  # ngspice's names of parts inside subcircuit instances
-    currents = list(assembly.currents.items())
-    names = [f"v({node})" for node in assembly.nodes]
-    names += [f"i({display.get(label, label)})" for label, _ in currents]
-    values = np.empty((len(march.h), len(names)))
-    count = len(rows)
-    cols = np.array([index[coord] for _, coord in currents], dtype=np.int64)
-    # a few columns at a time: whole gathers of the records were temporaries as large
-    # as the signals themselves (the peak memory of a large circuit's run)
-    for a in range(0, count, SIGNAL_COLUMNS):
-        b = min(a + SIGNAL_COLUMNS, count)
-        step_potentials(march.mu[:, rows[a:b]], march.h, out=values[:, a:b])
-    for a in range(0, len(cols), SIGNAL_COLUMNS):
-        part, out = cols[a : a + SIGNAL_COLUMNS], values[:, count + a : count + a + SIGNAL_COLUMNS]
-        np.subtract(march.q[1:, part], march.q[:-1, part], out=out)
-        out /= march.h[:, None]
-    if netlist.potentials:  # XSPICE's MMF nodes: sums of winding currents (._magnetic)
-        flows = {n: values[:, j] for j, n in enumerate(names) if n.startswith("i(")}
-        mmf = potentials(dict(flows), netlist.potentials, display)
-        extra = [n for n in mmf if n not in flows]
-        names += extra
-        values = np.column_stack([values, *(mmf[n] for n in extra)])
-    return Signals(names, values)
-
-
-#: signals are formed this many columns at a time (see _step_signals)
-SIGNAL_COLUMNS = 512
+#: the signals of a whole run (kept under this name for the tests)
+_step_signals = step_signals
