@@ -533,6 +533,3 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=
         max_tries=budget,
     )
 
-
-#: the signals of a whole run (kept under this name for the tests)
-_step_signals = step_signals
