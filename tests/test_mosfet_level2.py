@@ -15,9 +15,10 @@ import numpy as np
 import pytest
 
 import _ngspice as ng
+import test_mosfet_level6 as level6
 from diracvi import components as cp
 from diracvi import spice
-from test_mosfet_level6 import _ngspice_meyer, terminal_currents
+from test_mosfet_level6 import _excess, _ngspice_meyer, _part, terminal_currents
 
 needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 
@@ -59,25 +60,7 @@ CARDS = [
 
 
 def _sweep(kind, card, instance, vb):
-    s = -1.0 if kind == "PMOS" else 1.0
-    net = SWEEP.format(kind=kind, card=card, instance=instance, vb=s * vb)
-    # V_DS from V_BS − 0.6 V (inverse mode) to 5 V, V_GS from −1 V (cutoff) to 5 V
-    sweep = f"vd {(vb - 0.6) * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)"))
-    return out, _part(net)
-
-
-def _part(net):
-    return next(p for p in spice.read(net).circuit.parts if p.name == "m1")
-
-
-def _excess(mine, out):
-    """How far each current is outside 1e-9 relative + 1e-12 A of ngspice's."""
-    i_d, i_b = mine
-    return max(
-        np.max(np.abs(i_d + out["i(vd)"]) - 1e-9 * np.abs(i_d) - 1e-12),
-        np.max(np.abs(i_b + out["i(vb)"]) - 1e-9 * np.abs(i_b) - 1e-12),
-    )
+    return level6._sweep(kind, card, instance, vb, SWEEP)
 
 
 @needs_ngspice

@@ -57,18 +57,18 @@ def terminal_currents(part, vgs, vds, vbs):
     return tuple(np.asarray(x) for x in out)
 
 
-def _sweep(kind, card, instance, vb):
+def _sweep(kind, card, instance, vb, template=SWEEP):
+    """ngspice's ``.dc`` of an M line (``template``: the level's deck) and its part: V_DS
+    from V_BS − 0.6 V (inverse mode; its bulk–drain junction at most 0.6 V forward) to
+    5 V, V_GS from −1 V (cutoff) to 5 V."""
     s = -1.0 if kind == "PMOS" else 1.0
-    net = SWEEP.format(kind=kind, card=card, instance=instance, vb=s * vb)
-    # V_DS from V_BS − 0.6 V (inverse mode; its bulk–drain junction at most 0.6 V
-    # forward) to 5 V, V_GS from −1 V (cutoff) to 5 V
-    sweep = f"vd {(vb - 0.6) * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)"))
-    return out, _part(net)
+    net = template.format(kind=kind, card=card, instance=instance, vb=s * vb)
+    probes = ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)")
+    return ng.device_sweep(net, "m1", (vb - 0.6, 5, 0.1), (-1, 5, 0.25), probes, s)
 
 
 def _part(net):
-    return next(p for p in spice.read(net).circuit.parts if p.name == "m1")
+    return ng.netlist_part(net, "m1")
 
 
 def _excess(mine, out):
