@@ -2,7 +2,8 @@
 
 A benchmark's child process (``python -c`` source made by :func:`child_source`) creates
 :class:`Phases` first thing, calls :meth:`Phases.count_compiles` before importing
-diracvi, and :meth:`Phases.mark` at the end of each phase. The CPU time is the process's
+diracvi, and :meth:`Phases.mark` at the end of each phase (a netlist's first phases:
+:func:`netlist_start`). The CPU time is the process's
 user + system time (all its threads): on a shared machine the wall clock moves with the
 others' load, the CPU time much less. Compilations are counted from JAX's
 ``jax_log_compiles`` messages ("Finished XLA compilation"), one per compiled program.
@@ -54,11 +55,28 @@ class Phases:
         self._last = now
 
 
+def netlist_start(phases: Phases, deck: str):
+    """A netlist run's first phases, marked: ``import`` (diracvi), ``read`` (the deck and
+    its system), ``operating point`` (the DC start). Returns ``(netlist, settings,
+    breakpoints)`` for its variable-step march (``diracvi.spice._run._march``)."""
+    from diracvi import spice
+    from diracvi.spice import _run
+
+    phases.mark("import")
+    netlist = spice.read(deck)
+    netlist.system  # noqa: B018  (built here: its own phase)
+    phases.mark("read")
+    netlist.initial_state()
+    phases.mark("operating point")
+    settings = _run.tran_settings(netlist)
+    return netlist, settings, _run.breakpoints(netlist.system, 0.0, settings.stop)
+
+
 def child_source(body: str) -> str:
     """``python -c`` source: ``body`` after making ``phases`` (a :class:`Phases`, counting
     compilations), this module importable from the child (its folder last on the path)."""
     here = str(Path(__file__).resolve().parent)
     return (
-        f"import sys\nsys.path.append({here!r})\nfrom _phases import Phases\n"
+        f"import sys\nsys.path.append({here!r})\nfrom _phases import Phases, netlist_start\n"
         f"phases = Phases()\nphases.count_compiles()\n{body}"
     )

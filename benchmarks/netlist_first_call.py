@@ -70,17 +70,11 @@ def measure(deck: Path, work: Path) -> dict:
 
 
 PHASES = child_source(r"""
+netlist, settings, breaks = netlist_start(phases, sys.argv[1])
 from diracvi import spice
 from diracvi.spice import _run
 mark = phases.mark
-mark("import")
-netlist = spice.read(sys.argv[1])
-netlist.system
-mark("read")
-netlist.initial_state()
-mark("operating point")
-settings = _run.tran_settings(netlist)
-march = _run._march(netlist, settings, _run.breakpoints(netlist.system, 0.0, settings.stop))
+march = _run._march(netlist, settings, breaks)
 mark("march")
 result = spice.run(netlist)  # the march again (its program is in memory) and resampling
 mark("resample (+march)")

@@ -48,17 +48,10 @@ def listen(event, duration, **_):
     if event in names:
         split[names[event]] += duration
 jax.monitoring.register_event_duration_secs_listener(listen)
+netlist, settings, breaks = netlist_start(phases, sys.argv[1])
 from diracvi import spice
 from diracvi.spice import _run
 mark = phases.mark
-mark("import")
-netlist = spice.read(sys.argv[1])
-netlist.system
-mark("read")
-netlist.initial_state()
-mark("operating point")
-settings = _run.tran_settings(netlist)
-breaks = _run.breakpoints(netlist.system, 0.0, settings.stop)
 before = dict(split)
 march = _run._march(netlist, settings, breaks)
 mark("march")

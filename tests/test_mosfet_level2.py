@@ -14,22 +14,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import _ngspice as ng
 import test_mosfet_level6 as level6
 from diracvi import components as cp
 from diracvi import spice
-from test_mosfet_level6 import _excess, _ngspice_meyer, _part, terminal_currents
+from test_mosfet_level6 import _excess, _ngspice_meyer, _part, needs_ngspice, terminal_currents
 
-needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
-
-SWEEP = """mos2 sweep
-vd d 0 0
-vg g 0 0
-vb b 0 {vb}
-m1 d g 0 b mm {instance}
-.model mm {kind}(LEVEL=2 {card})
-.end
-"""
+SWEEP = level6.sweep_deck(2)
 # the corpus decks' cards: ng_mosamp's 'm' and xy_mosrect's 'nenh' and 'penh'
 MOSAMP = ("nsub=2.2e15 uo=575 ucrit=49k uexp=0.1 tox=0.11u xj=2.95u cgso=1.5n cgdo=1.5n "
           "cbd=4.5f cbs=4.5f ld=2.4485u nss=3.2e10 kp=2e-5 phi=0.6")  # fmt: skip

@@ -19,14 +19,21 @@ from diracvi.components.mosfet6 import sakurai_newton
 
 needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 
-SWEEP = """mos6 sweep
+
+def sweep_deck(level: int) -> str:
+    """An M line at ``LEVEL=level`` between the swept sources ``vd``, ``vg`` (fields
+    ``kind``, ``card``, ``instance`` and ``vb``, the bulk's constant voltage)."""
+    return f"""mos{level} sweep
 vd d 0 0
 vg g 0 0
-vb b 0 {vb}
-m1 d g 0 b mm {instance}
-.model mm {kind}(LEVEL=6 {card})
+vb b 0 {{vb}}
+m1 d g 0 b mm {{instance}}
+.model mm {{kind}}(LEVEL={level} {{card}})
 .end
 """
+
+
+SWEEP = sweep_deck(6)
 FULL = ("KC=3.9e-05 NC=1.17 KV=0.92 NV=0.87 LAMBDA0=0.013 LAMBDA1=0.0047 VT0=0.69 GAMMA=0.6 "
         "PHI=0.9 GAMMA1=0.05 SIGMA=0.02 IS=1e-13")  # fmt: skip
 # (kind, card, instance, V_BS): the corpus deck's P12L5 (TOX, LD, NSUB), a card that
