@@ -31,11 +31,6 @@ CARD = Card(
 FORM = "Jname d g s model [area] [AREA=a] [M=m] [OFF]"
 
 
-def read_jfet_model(kind: str, kw: dict, fail, notes: list) -> dict:
-    """The values of an NJF/PJF card (ngspice names, defaults filled in), checked."""
-    return CARD.read(kind, kw, fail, notes)
-
-
 def j_line(ctx, name, pos, kw, line):
     """``Jname d g s model [area] [AREA=a] [M=m] [OFF]`` (ngspice's level-1 JFET)."""
     flags = [t for t in pos[5:] if t.lower() == "off"]
@@ -44,7 +39,7 @@ def j_line(ctx, name, pos, kw, line):
         raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
     kind, params, _, fail = element_card(ctx, pos[4], line, ("NJF", "PJF"), "a J line")
     notes: list[str] = []
-    v = read_jfet_model(kind, params, fail, notes)
+    v = CARD.read(kind, params, fail, notes)
     area = ctx.value(rest[0], line, f"{pos[0]} area") if rest else 1.0
     mult = 1.0
     for key, token in kw.items():

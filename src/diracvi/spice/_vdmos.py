@@ -39,12 +39,6 @@ CARD = Card(
 )
 
 
-def read_card(params: dict, fail, notes: list) -> tuple[str, dict]:
-    """``(kind, values)`` of a VDMOS card: ``kind`` ``"nmos"``/``"pmos"`` and the values of
-    :data:`DEFAULTS`; a parameter diracvi does not implement raises ``fail(why)``."""
-    return "pmos" if "pchan" in params else "nmos", CARD.read("VDMOS", params, fail, notes)
-
-
 def vdmos_line(ctx, name, pos, kw, line):
     """``Mname d g s model`` with a VDMOS card: the channel part and its pins; the gate
     resistance, gate–drain capacitance and body diode are added to ``ctx.circuit``."""
@@ -55,7 +49,8 @@ def vdmos_line(ctx, name, pos, kw, line):
         )
     _, params, _, fail = element_card(ctx, pos[4], line, ("VDMOS",))
     notes: list[str] = []
-    kind, v = read_card(params, fail, notes)
+    kind = "pmos" if "pchan" in params else "nmos"
+    v = CARD.read("VDMOS", params, fail, notes)
     d, g, s = pos[1:4]
     # ngspice's internal nodes (vdmosset): g′ behind RG, d′ behind RD, s′ behind RS
     inner = {k: (f"{pos[0]}#{word}" if v[r] != 0.0 else node)
