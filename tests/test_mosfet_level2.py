@@ -106,19 +106,10 @@ def test_meyer_capacitances_take_level_2s_von_and_vdsat_as_ngspice():
     """Meyer's ``C_GS``, ``C_GD``, ``C_GB`` of the part against ngspice's own at biases in
     depletion, weak inversion, saturation, the linear region and the inverse mode (level
     2's ``von`` with NFS and its velocity-saturated ``V_DSAT``): within 1e-9 of ``C_ox``."""
-    from diracvi.components._mos_part import TAU
-
     cox = 3.9 * 8.854214871e-12 / 2e-8 * 5e-6 * 2e-6
     part = _part(MEYER.format(vg=0, vd=0))
-    idx = {c: j for j, c in enumerate(part.coords)}
     for vg, vd in ((0.3, 1.0), (0.9, 2.0), (2.5, 3.0), (2.5, 0.2), (2.0, -1.0)):
-        q = jnp.zeros(len(part.coords))
-        for k, volts in (("gs", vg), ("gd", vg - vd), ("gb", vg + 0.5)):
-            q = q.at[idx[f"y{k}"]].set(TAU * volts)
-        mine = []
-        for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
-            v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
-            mine.append(-float(part.force(q, v)[idx[flux]]))
+        mine = level6.part_meyer(part, vg, vg - vd, vg + 0.5)
         ref = _ngspice_meyer(MEYER.format(vg=vg, vd=vd))
         assert np.max(np.abs(np.subtract(mine, ref))) <= 1e-9 * cox, (vg, vd, mine, ref)
 

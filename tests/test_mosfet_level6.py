@@ -214,26 +214,33 @@ def _ngspice_meyer(net):
     return [float(found[k]) for k in ("cgs", "cgd", "cgb")]
 
 
+def part_meyer(part, vgs, vgd, vgb):
+    """The part's Meyer ``(C_GS, C_GD, C_GB)`` at the gate voltages ``(V_GS, V_GD,
+    V_GB)``: minus each gate port's force at unit ``dV/dt`` (its coordinate ``y = τ V``)."""
+    from diracvi.components._mos_part import TAU
+
+    idx = {c: j for j, c in enumerate(part.coords)}
+    q = jnp.zeros(len(part.coords))
+    for k, volts in (("gs", vgs), ("gd", vgd), ("gb", vgb)):
+        q = q.at[idx[f"y{k}"]].set(TAU * volts)
+    out = []
+    for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
+        v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
+        out.append(-float(part.force(q, v)[idx[flux]]))
+    return out
+
+
 @needs_ngspice
 def test_meyer_capacitances_take_level_6s_von_and_vdsat_as_ngspice():
     """Meyer's ``C_GS``, ``C_GD``, ``C_GB`` of the part (its gate ports' force at unit
     ``dV/dt``) against ngspice's own at biases in accumulation, depletion, saturation,
     the linear region and the inverse mode, with SIGMA and GAMMA1 moving ``von``: within
     1e-9 of ``C_ox``."""
-    from diracvi.components._mos_part import TAU
-
     cox = 3.9 * 8.854214871e-12 / 1.98e-8 * 5e-6 * 0.8e-6
     part = _part(MEYER.format(vg=0, vd=0))  # the bias is the sources', not the part's
-    idx = {c: j for j, c in enumerate(part.coords)}
     for vg in (0.3, 0.8, 2.0):
         for vd in (-1.0, 0.05, 0.3, 3.0):
             net = MEYER.format(vg=vg, vd=vd)
-            q = jnp.zeros(len(part.coords))
-            for k, volts in (("gs", vg), ("gd", vg - vd), ("gb", vg + 0.5)):
-                q = q.at[idx[f"y{k}"]].set(TAU * volts)
-            mine = []
-            for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
-                v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
-                mine.append(-float(part.force(q, v)[idx[flux]]))
+            mine = part_meyer(part, vg, vg - vd, vg + 0.5)
             ref = _ngspice_meyer(net)
             assert np.max(np.abs(np.subtract(mine, ref))) <= 1e-9 * cox, (vg, vd, mine, ref)
