@@ -28,6 +28,8 @@ import tempfile
 import time
 from pathlib import Path
 
+from _phases import child_source
+
 HERE = Path(__file__).resolve().parent
 NETLISTS = HERE.parent / "tests" / "data" / "netlists"
 DECKS = ("ng_rc", "liec_cap_charging", "liec_halfwave", "es_rc", "xy_rlc")
@@ -67,49 +69,22 @@ def measure(deck: Path, work: Path) -> dict:
     return row
 
 
-PHASES = r"""
-import logging, os, sys, time
-
-def cpu():
-    t = os.times()
-    return t.user + t.system
-
-compiled = [0]
-
-class Count(logging.Handler):
-    def emit(self, record):
-        compiled[0] += "Finished XLA compilation" in record.getMessage()
-
-marks = []
-def mark(name):
-    marks.append((name, time.perf_counter(), cpu(), compiled[0]))
-
-mark("start")
-import jax
-jax.config.update("jax_log_compiles", True)
-log = logging.getLogger("jax")
-log.addHandler(Count()); log.setLevel(logging.WARNING); log.propagate = False
+PHASES = child_source(r"""
+netlist, settings, breaks = netlist_start(phases, sys.argv[1])
 from diracvi import spice
 from diracvi.spice import _run
-mark("import")
-netlist = spice.read(sys.argv[1])
-netlist.system
-mark("read")
-netlist.initial_state()
-mark("operating point")
-settings = _run.tran_settings(netlist)
-march = _run._march(netlist, settings, _run.breakpoints(netlist.system, 0.0, settings.stop))
+mark = phases.mark
+march = _run._march(netlist, settings, breaks)
 mark("march")
 result = spice.run(netlist)  # the march again (its program is in memory) and resampling
 mark("resample (+march)")
 result.save(sys.argv[2])
 mark("write NetCDF")
-previous = marks[0]
-for name, wall, cpu_, n in marks[1:]:
-    print(f"{name}\t{wall - previous[1]:.2f}\t{cpu_ - previous[2]:.2f}\t{n - previous[3]}")
-    previous = (name, wall, cpu_, n)
-print(f"total\t{marks[-1][1] - marks[0][1]:.2f}\t{marks[-1][2] - marks[0][2]:.2f}\t{compiled[0]}")
-"""
+for name, (wall, cpu, n) in phases.marks.items():
+    print(f"{name}\t{wall:.2f}\t{cpu:.2f}\t{n}")
+wall, cpu, _ = (sum(x) for x in zip(*phases.marks.values()))
+print(f"total\t{wall:.2f}\t{cpu:.2f}\t{phases.compiled}")
+""")
 
 
 def phases(deck: Path, work: Path) -> list[tuple[str, list]]:

@@ -31,64 +31,40 @@ import tempfile
 import time
 from pathlib import Path
 
+from _phases import child_source
+
 HERE = Path(__file__).resolve().parent
 NETLISTS = HERE.parent / "tests" / "data" / "netlists"
 DECKS = ("ng_rtlinv", "ng_mos6_simpleinv", "ng_cntrl_sources", "ng_switches", "es_integrator")
 
-CHILD = r"""
-import json, logging, os, sys, time
-
-def cpu():
-    t = os.times()
-    return t.user + t.system
-
-compiled = [0]
-
-class Count(logging.Handler):
-    def emit(self, record):
-        compiled[0] += "Finished XLA compilation" in record.getMessage()
-
-marks = {}
-last = [cpu(), 0]
-def mark(name):
-    now = cpu()
-    marks[name] = (now - last[0], compiled[0] - last[1])
-    last[:] = [now, compiled[0]]
-
+CHILD = child_source(r"""
+import json
 import jax
-jax.config.update("jax_log_compiles", True)
-log = logging.getLogger("jax")
-log.addHandler(Count()); log.setLevel(logging.WARNING); log.propagate = False
-phases = {"trace": 0.0, "lower": 0.0, "compile": 0.0}
+split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}  # JAX's own event timings
 names = {"/jax/core/compile/jaxpr_trace_duration": "trace",
          "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
          "/jax/core/compile/backend_compile_duration": "compile"}
 def listen(event, duration, **_):
     if event in names:
-        phases[names[event]] += duration
+        split[names[event]] += duration
 jax.monitoring.register_event_duration_secs_listener(listen)
+netlist, settings, breaks = netlist_start(phases, sys.argv[1])
 from diracvi import spice
 from diracvi.spice import _run
-mark("import")
-netlist = spice.read(sys.argv[1])
-netlist.system
-mark("read")
-netlist.initial_state()
-mark("operating point")
-settings = _run.tran_settings(netlist)
-breaks = _run.breakpoints(netlist.system, 0.0, settings.stop)
-before = dict(phases)
+mark = phases.mark
+before = dict(split)
 march = _run._march(netlist, settings, breaks)
 mark("march")
-split = {k: phases[k] - before[k] for k in phases}
+split = {k: split[k] - before[k] for k in split}
 again = _run._march(netlist, settings, breaks)
 mark("march again")
 spice.run(netlist)
 mark("resample (+march)")
+marks = {k: (c, n) for k, (_, c, n) in phases.marks.items()}  # CPU seconds, compilations
 print(json.dumps({"marks": marks, "split": split, "steps": len(march.h),
                   "tries": int(again.tries), "rejected": int(again.rejected),
                   "newton": int(getattr(again, "iterations", 0)), "solver": march.solver}))
-"""
+""")
 
 
 def deck_path(name: str) -> Path:

@@ -120,3 +120,22 @@ def dc_sweep(netlist: str, sweep: str, probes):
     options = ".options reltol=1e-12 abstol=1e-18 vntol=1e-15"
     data = batch(lines, options, f"dc {sweep}", probes, timeout=120)
     return {"sweep": data[:, 0], **{p: data[:, 1 + j] for j, p in enumerate(probes)}}
+
+
+def netlist_part(netlist: str, name: str):
+    """diracvi's part ``name`` of ``netlist`` as the reader builds it."""
+    from diracvi import spice
+
+    return next(p for p in spice.read(netlist).circuit.parts if p.name == name)
+
+
+def device_sweep(netlist: str, part: str, vd, vg, probes, sign: float = 1.0):
+    """``(out, part)``: ngspice's :func:`dc_sweep` of ``netlist`` over its sources ``vd``
+    and ``vg``, each ``(start, stop, step)`` times ``sign`` (−1 mirrors the sweep for a
+    p-type device), and diracvi's part named ``part`` of the same netlist
+    (:func:`netlist_part`)."""
+    sweep = " ".join(
+        f"{source} {a * sign} {b * sign} {h * sign}"
+        for source, (a, b, h) in (("vd", vd), ("vg", vg))
+    )
+    return dc_sweep(netlist, sweep, probes), netlist_part(netlist, part)

@@ -59,10 +59,8 @@ def _sweep(kind, card, instance):
     net = SWEEP.format(kind=kind, card=card, instance=instance)
     # V_DS from −1.5 V (inverse mode, its gate–drain junction forward-biased up to 0.8 V)
     # to 6 V, V_GS from −3 V (cutoff, reverse gate) to −0.7 V
-    sweep = f"vd {-1.5 * s} {6 * s} {0.125 * s} vg {-3 * s} {-0.7 * s} {0.1 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "i(vd)", "i(vg)"))
-    part = next(p for p in spice.read(net).circuit.parts if p.name == "j1")
-    return net, out, part
+    probes = ("v(d)", "v(g)", "i(vd)", "i(vg)")
+    return ng.device_sweep(net, "j1", (-1.5, 6, 0.125), (-3, -0.7, 0.1), probes, s)
 
 
 def _errors(mine, out):
@@ -79,7 +77,7 @@ def test_static_currents_are_ngspices_in_every_region(kind, card, instance):
     """Drain and gate currents over a (V_DS, V_GS) grid covering cutoff, linear,
     saturation, the inverse mode and reverse and forward gate bias equal ngspice's
     ``.dc`` sweep to 1e-9 relative or 1e-12 A."""
-    _, out, part = _sweep(kind, card, instance)
+    out, part = _sweep(kind, card, instance)
     s = -1.0 if kind == "PJF" else 1.0
     vgs, vds = out["v(g)"], out["v(d)"]
     mine = terminal_currents(part, vgs, vds, s)
@@ -106,10 +104,10 @@ def test_every_model_parameter_changes_the_currents():
     tolerance above: the comparison sees each parameter (PB through B's
     ``(1 − B)/(PB − VTO)``)."""
     kind, card, instance = CARDS[0]
-    _, out, _ = _sweep(kind, card, instance)
+    out, _ = _sweep(kind, card, instance)
     for drop in ("LAMBDA", "B", "BETA", "VTO", "IS", "PB"):
         net = SWEEP.format(kind=kind, card=re.sub(rf"\b{drop}=\S+", "", card), instance=instance)
-        part = next(p for p in spice.read(net).circuit.parts if p.name == "j1")
+        part = ng.netlist_part(net, "j1")
         err_d, err_g = _errors(terminal_currents(part, out["v(g)"], out["v(d)"], 1.0), out)
         assert max(np.max(err_d), np.max(err_g)) > 1e-6, drop
 

@@ -14,21 +14,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-import _ngspice as ng
+import test_mosfet_level6 as level6
 from diracvi import components as cp
 from diracvi import spice
-from test_mosfet_level6 import _ngspice_meyer, terminal_currents
+from test_mosfet_level6 import _excess, _ngspice_meyer, _part, needs_ngspice, terminal_currents
 
-needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
-
-SWEEP = """mos2 sweep
-vd d 0 0
-vg g 0 0
-vb b 0 {vb}
-m1 d g 0 b mm {instance}
-.model mm {kind}(LEVEL=2 {card})
-.end
-"""
+SWEEP = level6.sweep_deck(2)
 # the corpus decks' cards: ng_mosamp's 'm' and xy_mosrect's 'nenh' and 'penh'
 MOSAMP = ("nsub=2.2e15 uo=575 ucrit=49k uexp=0.1 tox=0.11u xj=2.95u cgso=1.5n cgdo=1.5n "
           "cbd=4.5f cbs=4.5f ld=2.4485u nss=3.2e10 kp=2e-5 phi=0.6")  # fmt: skip
@@ -59,25 +50,7 @@ CARDS = [
 
 
 def _sweep(kind, card, instance, vb):
-    s = -1.0 if kind == "PMOS" else 1.0
-    net = SWEEP.format(kind=kind, card=card, instance=instance, vb=s * vb)
-    # V_DS from V_BS − 0.6 V (inverse mode) to 5 V, V_GS from −1 V (cutoff) to 5 V
-    sweep = f"vd {(vb - 0.6) * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)"))
-    return out, _part(net)
-
-
-def _part(net):
-    return next(p for p in spice.read(net).circuit.parts if p.name == "m1")
-
-
-def _excess(mine, out):
-    """How far each current is outside 1e-9 relative + 1e-12 A of ngspice's."""
-    i_d, i_b = mine
-    return max(
-        np.max(np.abs(i_d + out["i(vd)"]) - 1e-9 * np.abs(i_d) - 1e-12),
-        np.max(np.abs(i_b + out["i(vb)"]) - 1e-9 * np.abs(i_b) - 1e-12),
-    )
+    return level6._sweep(kind, card, instance, vb, SWEEP)
 
 
 @needs_ngspice
@@ -133,19 +106,10 @@ def test_meyer_capacitances_take_level_2s_von_and_vdsat_as_ngspice():
     """Meyer's ``C_GS``, ``C_GD``, ``C_GB`` of the part against ngspice's own at biases in
     depletion, weak inversion, saturation, the linear region and the inverse mode (level
     2's ``von`` with NFS and its velocity-saturated ``V_DSAT``): within 1e-9 of ``C_ox``."""
-    from diracvi.components._mos_part import TAU
-
     cox = 3.9 * 8.854214871e-12 / 2e-8 * 5e-6 * 2e-6
     part = _part(MEYER.format(vg=0, vd=0))
-    idx = {c: j for j, c in enumerate(part.coords)}
     for vg, vd in ((0.3, 1.0), (0.9, 2.0), (2.5, 3.0), (2.5, 0.2), (2.0, -1.0)):
-        q = jnp.zeros(len(part.coords))
-        for k, volts in (("gs", vg), ("gd", vg - vd), ("gb", vg + 0.5)):
-            q = q.at[idx[f"y{k}"]].set(TAU * volts)
-        mine = []
-        for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
-            v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
-            mine.append(-float(part.force(q, v)[idx[flux]]))
+        mine = level6.part_meyer(part, vg, vg - vd, vg + 0.5)
         ref = _ngspice_meyer(MEYER.format(vg=vg, vd=vd))
         assert np.max(np.abs(np.subtract(mine, ref))) <= 1e-9 * cox, (vg, vd, mine, ref)
 

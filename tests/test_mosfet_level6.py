@@ -19,14 +19,21 @@ from diracvi.components.mosfet6 import sakurai_newton
 
 needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 
-SWEEP = """mos6 sweep
+
+def sweep_deck(level: int) -> str:
+    """An M line at ``LEVEL=level`` between the swept sources ``vd``, ``vg`` (fields
+    ``kind``, ``card``, ``instance`` and ``vb``, the bulk's constant voltage)."""
+    return f"""mos{level} sweep
 vd d 0 0
 vg g 0 0
-vb b 0 {vb}
-m1 d g 0 b mm {instance}
-.model mm {kind}(LEVEL=6 {card})
+vb b 0 {{vb}}
+m1 d g 0 b mm {{instance}}
+.model mm {{kind}}(LEVEL={level} {{card}})
 .end
 """
+
+
+SWEEP = sweep_deck(6)
 FULL = ("KC=3.9e-05 NC=1.17 KV=0.92 NV=0.87 LAMBDA0=0.013 LAMBDA1=0.0047 VT0=0.69 GAMMA=0.6 "
         "PHI=0.9 GAMMA1=0.05 SIGMA=0.02 IS=1e-13")  # fmt: skip
 # (kind, card, instance, V_BS): the corpus deck's P12L5 (TOX, LD, NSUB), a card that
@@ -57,18 +64,18 @@ def terminal_currents(part, vgs, vds, vbs):
     return tuple(np.asarray(x) for x in out)
 
 
-def _sweep(kind, card, instance, vb):
+def _sweep(kind, card, instance, vb, template=SWEEP):
+    """ngspice's ``.dc`` of an M line (``template``: the level's deck) and its part: V_DS
+    from V_BS − 0.6 V (inverse mode; its bulk–drain junction at most 0.6 V forward) to
+    5 V, V_GS from −1 V (cutoff) to 5 V."""
     s = -1.0 if kind == "PMOS" else 1.0
-    net = SWEEP.format(kind=kind, card=card, instance=instance, vb=s * vb)
-    # V_DS from V_BS − 0.6 V (inverse mode; its bulk–drain junction at most 0.6 V
-    # forward) to 5 V, V_GS from −1 V (cutoff) to 5 V
-    sweep = f"vd {(vb - 0.6) * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)"))
-    return out, _part(net)
+    net = template.format(kind=kind, card=card, instance=instance, vb=s * vb)
+    probes = ("v(d)", "v(g)", "v(b)", "i(vd)", "i(vb)")
+    return ng.device_sweep(net, "m1", (vb - 0.6, 5, 0.1), (-1, 5, 0.25), probes, s)
 
 
 def _part(net):
-    return next(p for p in spice.read(net).circuit.parts if p.name == "m1")
+    return ng.netlist_part(net, "m1")
 
 
 def _excess(mine, out):
@@ -207,26 +214,33 @@ def _ngspice_meyer(net):
     return [float(found[k]) for k in ("cgs", "cgd", "cgb")]
 
 
+def part_meyer(part, vgs, vgd, vgb):
+    """The part's Meyer ``(C_GS, C_GD, C_GB)`` at the gate voltages ``(V_GS, V_GD,
+    V_GB)``: minus each gate port's force at unit ``dV/dt`` (its coordinate ``y = τ V``)."""
+    from diracvi.components._mos_part import TAU
+
+    idx = {c: j for j, c in enumerate(part.coords)}
+    q = jnp.zeros(len(part.coords))
+    for k, volts in (("gs", vgs), ("gd", vgd), ("gb", vgb)):
+        q = q.at[idx[f"y{k}"]].set(TAU * volts)
+    out = []
+    for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
+        v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
+        out.append(-float(part.force(q, v)[idx[flux]]))
+    return out
+
+
 @needs_ngspice
 def test_meyer_capacitances_take_level_6s_von_and_vdsat_as_ngspice():
     """Meyer's ``C_GS``, ``C_GD``, ``C_GB`` of the part (its gate ports' force at unit
     ``dV/dt``) against ngspice's own at biases in accumulation, depletion, saturation,
     the linear region and the inverse mode, with SIGMA and GAMMA1 moving ``von``: within
     1e-9 of ``C_ox``."""
-    from diracvi.components._mos_part import TAU
-
     cox = 3.9 * 8.854214871e-12 / 1.98e-8 * 5e-6 * 0.8e-6
     part = _part(MEYER.format(vg=0, vd=0))  # the bias is the sources', not the part's
-    idx = {c: j for j, c in enumerate(part.coords)}
     for vg in (0.3, 0.8, 2.0):
         for vd in (-1.0, 0.05, 0.3, 3.0):
             net = MEYER.format(vg=vg, vd=vd)
-            q = jnp.zeros(len(part.coords))
-            for k, volts in (("gs", vg), ("gd", vg - vd), ("gb", vg + 0.5)):
-                q = q.at[idx[f"y{k}"]].set(TAU * volts)
-            mine = []
-            for k, flux in (("gs", "wg"), ("gd", "wgd"), ("gb", "wgb")):
-                v = jnp.zeros(len(part.coords)).at[idx[f"y{k}"]].set(TAU)
-                mine.append(-float(part.force(q, v)[idx[flux]]))
+            mine = part_meyer(part, vg, vg - vd, vg + 0.5)
             ref = _ngspice_meyer(net)
             assert np.max(np.abs(np.subtract(mine, ref))) <= 1e-9 * cox, (vg, vd, mine, ref)

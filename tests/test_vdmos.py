@@ -61,8 +61,7 @@ def test_static_currents_are_ngspices(kind, card, s):
     to 1e-9 relative + 1e-11 A (diracvi's channel part keeps level 1's G_min = 1e-12 S
     across its bulk–drain branch, a leak ngspice's VDMOS has not)."""
     net = SWEEP.format(card=card)
-    sweep = f"vd {-0.6 * s} {5 * s} {0.1 * s} vg {-s} {5 * s} {0.25 * s}"
-    out = ng.dc_sweep(net, sweep, ("v(d)", "v(g)", "i(vd)"))
+    out, _ = ng.device_sweep(net, "m1", (-0.6, 5, 0.1), (-1, 5, 0.25), ("v(d)", "v(g)", "i(vd)"), s)
     mine = terminal_current(net, out["v(g)"], out["v(d)"])
     excess = np.abs(mine + out["i(vd)"]) - 1e-9 * np.abs(mine) - 1e-11
     assert np.max(excess) <= 0.0

@@ -16,6 +16,8 @@ described in :mod:`~diracvi.components.mosfet`.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -88,7 +90,63 @@ def gate_capacitances(vgs, vgd, vgb, sign, forward, phi, cox):
     return _meyer(gs, gd, laws, phi, cox)
 
 
-def build(
+#: the keywords every level takes beside its law's and ``W``, ``L``, with ngspice's
+#: defaults (:func:`~diracvi.components.MOSFET` says what each is)
+SHARED = {
+    "ld": 0.0, "m": 1.0, "is_": 1e-14, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0, "cox": 0.0,
+    "rd": 0.0, "rs": 0.0, "cbd": 0.0, "cbs": 0.0, "cbdsw": 0.0, "cbssw": 0.0, "pb": 0.8,
+    "mj": 0.5, "mjsw": 0.5, "fc": 0.5, "gmin": 1e-12, "v0": (0.0, 0.0, 0.0),
+}  # fmt: skip
+
+
+def polarity(where: str, kind: str) -> float:
+    """``type`` = +1 for ``"nmos"``, −1 for ``"pmos"``; another ``kind`` is refused."""
+    if kind not in KINDS:
+        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
+    return KINDS[kind]
+
+
+class Device(NamedTuple):
+    """A MOSFET's checked kind and size (``L_eff = L − 2·LD``, ``M``) and the rest of its
+    shared keywords (:data:`SHARED`), for :func:`build`."""
+
+    where: str
+    name: str
+    kind: str
+    width: float
+    leff: float
+    mult: float
+    shared: dict
+
+
+def device(label: str, kind, w, l, name: str, keywords: dict, defaults=SHARED) -> Device:  # noqa: E741
+    """The :class:`Device` of a level's function ``label`` called with ``keywords`` (its
+    ``**shared``) over the level's ``defaults``: a name not among them is refused as Python
+    refuses an unknown keyword; ``L_eff`` must be > 0."""
+    where = f"{label} {name!r}"
+    polarity(where, kind)
+    unknown = sorted(set(keywords) - set(defaults))
+    if unknown:
+        raise TypeError(f"{label}() got an unexpected keyword argument {unknown[0]!r}")
+    shared = defaults | keywords
+    width = positive(where, "w", w)
+    leff = positive(where, "l", l) - 2.0 * finite(where, "ld", shared.pop("ld"))
+    if leff <= 0.0:
+        raise ModelError(f"{where}: the effective length L − 2·LD = {leff:g} m must be > 0.")
+    return Device(where, name, kind, width, leff, positive(where, "m", shared.pop("m")), shared)
+
+
+def build(device: Device, forward, phi, params: dict, **override) -> ControlledPart:
+    """The part of ``device`` whose channel obeys ``forward`` (its parameters already
+    scaled by ``W/L_eff`` and ``M``); ``override``: shared keywords the level sets itself
+    (level 2's ``cox`` from ``TOX``), ``params`` the part's recorded parameters."""
+    return _assemble(
+        device.where, device.kind, forward, phi, width=device.width, leff=device.leff,
+        mult=device.mult, params=params, name=device.name, **(device.shared | override),
+    )  # fmt: skip
+
+
+def _assemble(
     where,
     kind,
     forward,
@@ -117,9 +175,7 @@ def build(
     params,
     name,
 ) -> ControlledPart:
-    """The part of a MOSFET with pins ``d g s b`` whose channel obeys ``forward`` (its
-    parameters already scaled by ``W/L_eff`` and ``M``); the other arguments as
-    :func:`~diracvi.components.MOSFET`'s, ``params`` the part's recorded parameters."""
+    """The part of a MOSFET with pins ``d g s b`` (:func:`build`'s)."""
     sign = KINDS[kind]
     pair = is_ if isinstance(is_, (tuple, list)) else (is_, is_)  # (bulk–drain, bulk–source)
     i_sd, i_ss = (mult * finite(where, "is_", x) for x in pair)

@@ -43,9 +43,8 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ..errors import ModelError
-from ._mos_part import KINDS, TAU, build, channel_current, gate_capacitances
-from ._part import finite, positive
+from ._mos_part import KINDS, TAU, build, channel_current, device, gate_capacitances
+from ._part import positive
 from .controlled import ControlledPart, coefficient
 
 __all__ = ["KINDS", "MOSFET", "TAU", "drain_current", "meyer_capacitances", "threshold"]
@@ -110,62 +109,35 @@ def MOSFET(
     gamma=0.0,
     phi=0.6,
     *,
-    ld=0.0,
-    is_=1e-14,
-    m=1.0,
-    cgso=0.0,
-    cgdo=0.0,
-    cgbo=0.0,
-    cox=0.0,
-    rd=0.0,
-    rs=0.0,
-    cbd=0.0,
-    cbs=0.0,
-    cbdsw=0.0,
-    cbssw=0.0,
-    pb=0.8,
-    mj=0.5,
-    mjsw=0.5,
-    fc=0.5,
-    gmin=1e-12,
-    v0=(0.0, 0.0, 0.0),
     name: str,
+    **shared,
 ) -> ControlledPart:
     r"""A level-1 MOSFET with pins ``d g s b`` (SPICE ``M``; defaults as ngspice's manual:
-    ``VTO = 0``, ``KP = 2e-5`` A/V², ``λ = 0``, ``γ = 0``, ``Φ = 0.6`` V, ``W = L = 100 µm``,
-    ``IS = 1e-14`` A (or a pair: bulk–drain, bulk–source), ``PB = 0.8`` V,
-    ``MJ = MJSW = FC = 0.5``).
+    ``VTO = 0``, ``KP = 2e-5`` A/V², ``λ = 0``, ``γ = 0``, ``Φ = 0.6`` V, ``W = L = 100 µm``).
 
-    ``kind`` is ``"nmos"`` or ``"pmos"``; ``m`` is the parallel multiplier. ``cox`` is the
-    oxide capacitance per area ``ε_ox/TOX`` (F/m²; 0: no Meyer capacitances), ``rd``,
-    ``rs`` the drain and source resistances (Ω, 0: none), ``cbd``, ``cbs`` the bulk
-    junctions' zero-bias bottom capacitances and ``cbdsw``, ``cbssw`` their sidewall ones
-    (F, graded by ``mj`` and ``mjsw``), all before ``m``. ``vto``, ``kp``, ``lambda_`` and
-    ``gamma`` may be traced JAX values (``jax.grad`` reaches them). ``v0 = (V_GS, V_GD,
+    ``kind`` is ``"nmos"`` or ``"pmos"``. ``vto``, ``kp``, ``lambda_`` and ``gamma`` may be
+    traced JAX values (``jax.grad`` reaches them).
+
+    ``shared``: the keywords every level takes (:data:`~diracvi.components._mos_part.SHARED`
+    holds them with ngspice's defaults): ``ld`` (the lateral diffusion, ``L_eff = L −
+    2 LD``), ``m`` the parallel multiplier, ``is_`` (``1e-14`` A, or a pair: bulk–drain,
+    bulk–source), ``cgso``, ``cgdo``, ``cgbo`` the overlap capacitances per width and
+    length, ``cox`` the oxide capacitance per area ``ε_ox/TOX`` (F/m²; 0: no Meyer
+    capacitances), ``rd``, ``rs`` the drain and source resistances (Ω, 0: none), ``cbd``,
+    ``cbs`` the bulk junctions' zero-bias bottom capacitances and ``cbdsw``, ``cbssw``
+    their sidewall ones (F, graded by ``mj`` and ``mjsw``, ``pb = 0.8`` V, ``mj = mjsw =
+    fc = 0.5``), all before ``m``, ``gmin`` across each junction, and ``v0 = (V_GS, V_GD,
     V_GB)``: the initial gate voltages (the overlap capacitors' charges and Meyer's
     voltage coordinates); see the module docstring for the coordinates.
     """
-    where = f"MOSFET {name!r}"
-    if kind not in KINDS:
-        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
+    dev = device("MOSFET", kind, w, l, name, shared)
+    where = dev.where
     vto = coefficient(where, "vto", vto)
     kp = coefficient(where, "kp", kp)
     lambda_ = coefficient(where, "lambda_", lambda_)
     gamma = coefficient(where, "gamma", gamma)
     phi = positive(where, "phi", phi)
-    width = positive(where, "w", w)
-    length = positive(where, "l", l)
-    ld = finite(where, "ld", ld)
-    leff = length - 2.0 * ld
-    if leff <= 0.0:
-        raise ModelError(f"{where}: the effective length L − 2·LD = {leff:g} m must be > 0.")
-    mult = positive(where, "m", m)
-    beta = kp * mult * width / leff
+    beta = kp * dev.mult * dev.width / dev.leff
     law = level1(KINDS[kind] * vto, beta, gamma, phi, lambda_)
     params = {"kp": kp, "vto": vto, "lambda": lambda_, "gamma": gamma, "phi": phi}
-    return build(
-        where, kind, law, phi, width=width, leff=leff, mult=mult, is_=is_, cgso=cgso,
-        cgdo=cgdo, cgbo=cgbo, cox=cox, rd=rd, rs=rs, cbd=cbd, cbs=cbs, cbdsw=cbdsw,
-        cbssw=cbssw, pb=pb, mj=mj, mjsw=mjsw, fc=fc, gmin=gmin, v0=v0, params=params,
-        name=name,
-    )  # fmt: skip
+    return build(dev, law, phi, params)

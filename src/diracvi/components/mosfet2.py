@@ -16,7 +16,7 @@ import math
 from ..errors import ModelError
 from ._grove_frohman import Level2, level2
 from ._mos1 import CHARGE, EPS_OX, EPS_SI
-from ._mos_part import KINDS, build
+from ._mos_part import KINDS, SHARED, build, device
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
 
@@ -24,6 +24,10 @@ from .controlled import ControlledPart, coefficient
 def _nonzero(x) -> bool:
     """ngspice's ``x != 0`` branch on a card value; a traced value takes the branch."""
     return not isinstance(x, float) or x != 0.0
+
+
+#: level 2's shared keywords: no ``cox`` (its oxide is ``TOX``'s), ``MJSW`` 0.33 (``mos2set``)
+SHARED2 = {k: x for k, x in SHARED.items() if k != "cox"} | {"mjsw": 0.33}
 
 
 def MOSFET2(
@@ -46,30 +50,14 @@ def MOSFET2(
     vmax=0.0,
     neff=1.0,
     nfs=0.0,
-    ld=0.0,
-    is_=1e-14,
-    m=1.0,
-    cgso=0.0,
-    cgdo=0.0,
-    cgbo=0.0,
-    rd=0.0,
-    rs=0.0,
-    cbd=0.0,
-    cbs=0.0,
-    cbdsw=0.0,
-    cbssw=0.0,
-    pb=0.8,
-    mj=0.5,
-    mjsw=0.33,
-    fc=0.5,
-    gmin=1e-12,
-    v0=(0.0, 0.0, 0.0),
     name: str,
+    **shared,
 ) -> ControlledPart:
     r"""A level-2 MOSFET with pins ``d g s b`` (defaults as ngspice's ``mos2set`` and
     ``mos2temp``: ``VTO = 0``, ``KP = U0 ε_ox/TOX``, ``λ = γ = 0``, ``Φ = 0.6`` V, ``TOX =
     0.1 µm``, ``U0 = 600`` cm²/V·s, ``UCRIT = 10⁴`` V/cm, ``UEXP = VMAX = NFS = DELTA = XJ =
-    0``, ``NEFF = 1``, ``MJSW = 0.33``; the rest as :func:`~diracvi.components.MOSFET`).
+    0``, ``NEFF = 1``; ``shared`` as :func:`~diracvi.components.MOSFET`'s, but for ``cox``
+    (``TOX``'s here) and ``mjsw`` (0.33: :data:`SHARED2`)).
 
     ``nsub`` (cm⁻³, 0: not given) sets the depletion width ``X_D = √(2ε_Si/(q NSUB))`` that
     the short-channel threshold (with ``xj``, m), the computed channel-length modulation
@@ -78,9 +66,8 @@ def MOSFET2(
     velocity saturation, ``nfs`` (cm⁻²) weak inversion. ``vto``, ``kp``, ``lambda_``,
     ``gamma``, ``uexp``, ``vmax``, ``nfs`` and ``delta`` may be traced JAX values.
     """
-    where = f"MOSFET2 {name!r}"
-    if kind not in KINDS:
-        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
+    dev = device("MOSFET2", kind, w, l, name, shared, SHARED2)
+    where, width, leff, mult = dev.where, dev.width, dev.leff, dev.mult
     traced = {
         k: coefficient(where, k, x)
         for k, x in (("vto", vto), ("lambda_", lambda_), ("gamma", gamma), ("uexp", uexp),
@@ -95,11 +82,6 @@ def MOSFET2(
     xj = finite(where, "xj", xj)
     if nsub < 0.0 or xj < 0.0:
         raise ModelError(f"{where}: nsub={nsub:g} and xj={xj:g} must be ≥ 0 (0: not given).")
-    width = positive(where, "w", w)
-    leff = positive(where, "l", l) - 2.0 * finite(where, "ld", ld)
-    if leff <= 0.0:
-        raise ModelError(f"{where}: the effective length L − 2·LD = {leff:g} m must be > 0.")
-    mult = positive(where, "m", m)
     cox = EPS_OX / tox
     kp = u0 * 1e-4 * cox if kp is None else coefficient(where, "kp", kp)
     sign = KINDS[kind]
@@ -120,7 +102,7 @@ def MOSFET2(
         u0=u0 * 1e-4,
         vmax=traced["vmax"],
         neff=neff,
-        pb=positive(where, "pb", pb),
+        pb=positive(where, "pb", dev.shared["pb"]),
         has_nfs=_nonzero(traced["nfs"]),
         has_vmax=not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
         has_nsub=nsub > 0.0,
@@ -129,10 +111,5 @@ def MOSFET2(
               "gamma": traced["gamma"], "tox": tox, "u0": u0, "nsub": nsub, "xj": xj,
               "delta": traced["delta"], "ucrit": ucrit, "uexp": traced["uexp"],
               "vmax": traced["vmax"], "neff": neff, "nfs": traced["nfs"]}  # fmt: skip
-    return build(
-        where, kind, level2(law), phi, width=width, leff=leff, mult=mult, is_=is_,
-        cgso=cgso, cgdo=cgdo, cgbo=cgbo, cox=cox, rd=rd, rs=rs, cbd=cbd, cbs=cbs,
-        cbdsw=cbdsw, cbssw=cbssw, pb=pb, mj=mj, mjsw=mjsw, fc=fc,
-        gmin=gmin / mult,  # mos2load's junctions add GMIN unscaled by M (mos1load scales it)
-        v0=v0, params=params, name=name,
-    )  # fmt: skip
+    # mos2load's junctions add GMIN unscaled by M (mos1load scales it)
+    return build(dev, level2(law), phi, params, cox=cox, gmin=dev.shared["gmin"] / mult)

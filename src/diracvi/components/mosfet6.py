@@ -23,8 +23,8 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..errors import ModelError
-from ._mos_part import KINDS, build
-from ._part import finite, positive
+from ._mos_part import KINDS, build, device
+from ._part import positive
 from .controlled import ControlledPart, coefficient
 
 
@@ -70,40 +70,20 @@ def MOSFET6(
     phi=0.6,
     lambda0=0.0,
     lambda1=0.0,
-    ld=0.0,
-    is_=1e-14,
-    m=1.0,
-    cgso=0.0,
-    cgdo=0.0,
-    cgbo=0.0,
-    cox=0.0,
-    rd=0.0,
-    rs=0.0,
-    cbd=0.0,
-    cbs=0.0,
-    cbdsw=0.0,
-    cbssw=0.0,
-    pb=0.8,
-    mj=0.5,
-    mjsw=0.5,
-    fc=0.5,
-    gmin=1e-12,
-    v0=(0.0, 0.0, 0.0),
     name: str,
+    **shared,
 ) -> ControlledPart:
     r"""A level-6 MOSFET with pins ``d g s b`` (defaults as ngspice 39's ``mos6set``:
     ``VTO = 0``, ``KC = 5e-5`` A/V^NC, ``NC = 1``, ``KV = 2`` V, ``NV = 0.5``, ``γ = γ₁ = σ
-    = λ₀ = λ₁ = 0``, ``Φ = 0.6`` V, ``W = L = 100 µm``, ``IS = 1e-14`` A, ``PB = 0.8`` V,
-    ``MJ = MJSW = FC = 0.5``).
+    = λ₀ = λ₁ = 0``, ``Φ = 0.6`` V, ``W = L = 100 µm``).
 
-    The law is the module docstring's; every other argument is
+    The law is the module docstring's; ``shared`` are the keywords every level takes, as
     :func:`~diracvi.components.MOSFET`'s (``cox`` = ``ε_ox/TOX`` gives Meyer's
     capacitances). ``vto``, ``kc``, ``nc``, ``kv``, ``nv``, ``gamma``, ``gamma1``,
     ``sigma``, ``lambda0`` and ``lambda1`` may be traced JAX values.
     """
-    where = f"MOSFET6 {name!r}"
-    if kind not in KINDS:
-        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
+    dev = device("MOSFET6", kind, w, l, name, shared)
+    where = dev.where
     law = {
         k: coefficient(where, k, x)
         for k, x in (("vto", vto), ("kc", kc), ("nc", nc), ("kv", kv), ("nv", nv),
@@ -113,20 +93,9 @@ def MOSFET6(
     if isinstance(law["kv"], float) and law["kv"] <= 0.0:
         raise ModelError(f"{where}: kv={kv!r} must be > 0 (V_DSAT = KV·V_GON^NV).")
     phi = positive(where, "phi", phi)
-    width = positive(where, "w", w)
-    length = positive(where, "l", l)
-    leff = length - 2.0 * finite(where, "ld", ld)
-    if leff <= 0.0:
-        raise ModelError(f"{where}: the effective length L − 2·LD = {leff:g} m must be > 0.")
-    mult = positive(where, "m", m)
     forward = sakurai_newton(
-        KINDS[kind] * law["vto"], law["kc"] * mult * width / leff, law["kv"], law["nv"],
-        law["nc"], law["gamma"], law["gamma1"], law["sigma"], phi, law["lambda0"],
+        KINDS[kind] * law["vto"], law["kc"] * dev.mult * dev.width / dev.leff, law["kv"],
+        law["nv"], law["nc"], law["gamma"], law["gamma1"], law["sigma"], phi, law["lambda0"],
         law["lambda1"],
     )  # fmt: skip
-    return build(
-        where, kind, forward, phi, width=width, leff=leff, mult=mult, is_=is_, cgso=cgso,
-        cgdo=cgdo, cgbo=cgbo, cox=cox, rd=rd, rs=rs, cbd=cbd, cbs=cbs, cbdsw=cbdsw,
-        cbssw=cbssw, pb=pb, mj=mj, mjsw=mjsw, fc=fc, gmin=gmin, v0=v0,
-        params=law | {"phi": phi}, name=name,
-    )  # fmt: skip
+    return build(dev, forward, phi, law | {"phi": phi})

@@ -41,7 +41,7 @@ import jax.numpy as jnp
 
 from ..errors import ModelError
 from ._charge_port import ChargePortPart
-from ._mos_part import KINDS, build, channel_current
+from ._mos_part import KINDS, build, channel_current, device, polarity
 from ._part import finite, positive
 
 __all__ = ["VDMOS", "GateDrainCapacitance", "gate_drain_capacitance", "gate_drain_charge"]
@@ -79,9 +79,7 @@ def GateDrainCapacitance(kind, cgdmin, cgdmax, a, *, name: str, v0=0.0) -> Charg
     ``w``-line (module docstring), so that the branch current is ``dQ/dt``. ``v0`` is the
     initial ``V_GD``."""
     where = f"VDMOS gate–drain capacitance {name!r}"
-    if kind not in KINDS:
-        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
-    sign = KINDS[kind]
+    sign = polarity(where, kind)
     cmin, cmax = finite(where, "cgdmin", cgdmin), finite(where, "cgdmax", cgdmax)
     a = positive(where, "a", a)
     if cmin < 0.0 or cmax < cmin:
@@ -147,18 +145,13 @@ def VDMOS(
     drain and source resistances ``rd``, ``rs`` (0: none). The gate–drain capacitance
     (:func:`GateDrainCapacitance`), the gate resistance and the body diode are separate
     parts beside it. ``v0 = (V_GS, V_GD)``: initial gate voltages."""
-    where = f"VDMOS {name!r}"
-    if kind not in KINDS:
-        raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
+    # the shared part's bulk junctions get I_S = 0 (a VDMOS has no bulk terminal; its
+    # body diode is a separate part): only their G_min remains, as in level 1
+    vgs, vgd = v0
+    dev = device("VDMOS", kind, 1.0, 1.0, name,
+                 dict(is_=0.0, cgso=cgs, rd=rd, rs=rs, gmin=gmin, v0=(vgs, vgd, vgs)))  # fmt: skip
+    where = dev.where
     vto, kp = finite(where, "vto", vto), finite(where, "kp", kp)
     ksub = positive(where, "ksubthres", ksubthres)
     law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift))
-    vgs, vgd = v0
-    params = {"vto": vto, "kp": kp, "ksubthres": ksub}
-    # the shared part's bulk junctions get I_S = 0 (a VDMOS has no bulk terminal; its
-    # body diode is a separate part): only their G_min remains, as in level 1
-    return build(
-        where, kind, law, 0.6, width=1.0, leff=1.0, mult=1.0, is_=0.0, cgso=cgs, cgdo=0.0,
-        cgbo=0.0, cox=0.0, rd=rd, rs=rs, cbd=0.0, cbs=0.0, cbdsw=0.0, cbssw=0.0, pb=0.8,
-        mj=0.5, mjsw=0.5, fc=0.5, gmin=gmin, v0=(vgs, vgd, vgs), params=params, name=name,
-    )  # fmt: skip
+    return build(dev, law, 0.6, {"vto": vto, "kp": kp, "ksubthres": ksub})

@@ -14,6 +14,7 @@ import re
 from dataclasses import dataclass, field
 
 from .. import components as cp
+from ._cards import NodeIC, element_card
 
 KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
 
@@ -132,27 +133,9 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
 
 
 # ------------------------------------------------ handlers on the element table
-class _IC:
-    """The ``.ic`` voltages of a line's nodes, as the device builders ask for them."""
-
-    def __init__(self, ctx):
-        self.ctx = ctx
-
-    def get(self, node, default=0.0):
-        return self.ctx.ic(node)
-
-
 def _card(ctx, token, line, kinds):
     """The transistor ``.model`` named ``token``, checked (its type among ``kinds``)."""
-    kind, params, where = ctx.model(token, line)
-    if kind not in kinds:
-        raise line.fail(
-            f"model {token!r} ({where}) is a {kind} model; this element needs {'/'.join(kinds)}"
-        )
-
-    def fail(why):  # a problem of the card, reported at the element line that uses it
-        return line.fail(f"model {token!r} ({where}): {why}")
-
+    kind, params, where, fail = element_card(ctx, token, line, kinds)
     model = read_model(kind, params, lambda x, what: x, fail, where)
     for note in model.notes:
         ctx.note(line, note)
@@ -173,7 +156,7 @@ def q_line(ctx, name, pos, kw, line):
     notes: list[str] = []
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = bjt(
-        name, pos, kw, model, value, line.fail, _IC(ctx), notes, line.where, {token.lower()}
+        name, pos, kw, model, value, line.fail, NodeIC(ctx), notes, line.where, {token.lower()}
     )
     for note in notes:
         ctx.note(line, note.split(": ", 1)[1])

@@ -11,44 +11,24 @@ and other levels (ngspice's level 2, Parker–Skellern) are refused naming the m
 from __future__ import annotations
 
 from .. import components as cp
+from ._cards import NOISE, TNOM, Card, element_card
 
 _DEFAULTS = {
     "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
     "rs": 0.0, "cgs": 0.0, "cgd": 0.0, "pb": 1.0, "fc": 0.5,
 }  # fmt: skip
-_ALIAS = {"vt0": "vto"}
-_INERT = {
-    "tcv": "temperature only", "vtotc": "temperature only", "bex": "temperature only",
-    "betatce": "temperature only", "xti": "temperature only", "eg": "temperature only",
-    "kf": "noise only", "af": "noise only", "nlev": "noise only", "gdsnoi": "noise only",
-}  # fmt: skip
+_TEMPERATURE = ("tcv", "vtotc", "bex", "betatce", "xti", "eg")
+CARD = Card(
+    defaults=_DEFAULTS,
+    alias={"vt0": "vto"},
+    ignored={k: "ignored (temperature only)" for k in _TEMPERATURE}
+    | NOISE,
+    fixed=TNOM | {"level": (1.0, "LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not "
+                                 "supported; diracvi has level 1 (Shichman–Hodges with B) only")},
+    unknown="parameter {key!r} is not a parameter of ngspice's JFET; it reads "
+    + ", ".join(k.upper() for k in _DEFAULTS),
+)  # fmt: skip
 FORM = "Jname d g s model [area] [AREA=a] [M=m] [OFF]"
-
-
-def read_jfet_model(kind: str, kw: dict, fail, notes: list) -> dict:
-    """The values of an NJF/PJF card (ngspice names, defaults filled in), checked."""
-    values = dict(_DEFAULTS)
-    for key, x in kw.items():
-        key = _ALIAS.get(key, key)
-        if key in values:
-            values[key] = x
-        elif key in _INERT:
-            notes.append(f"{kind} {key.upper()} ignored ({_INERT[key]})")
-        elif key == "level":
-            if x != 1.0:
-                raise fail(
-                    f"{kind} LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not supported; "
-                    "diracvi has level 1 (Shichman–Hodges with B) only"
-                )
-        elif key == "tnom":
-            if x != 27.0:
-                raise fail(f"{kind} TNOM={x:g} is not supported; only 27 °C (drop it)")
-        else:
-            raise fail(
-                f"{kind} parameter {key.upper()!r} is not a parameter of ngspice's JFET; it "
-                f"reads {', '.join(k.upper() for k in _DEFAULTS)}"
-            )
-    return values
 
 
 def j_line(ctx, name, pos, kw, line):
@@ -57,15 +37,9 @@ def j_line(ctx, name, pos, kw, line):
     rest = [t for t in pos[5:] if t.lower() != "off"]
     if len(pos) < 5 or len(rest) > 1:
         raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
-    kind, params, where = ctx.model(pos[4], line)
-    if kind not in ("NJF", "PJF"):
-        raise line.fail(f"model {pos[4]!r} ({where}) is a {kind} model; a J line needs NJF/PJF")
-
-    def fail(why):  # a problem of the card, reported at the element line that uses it
-        return line.fail(f"model {pos[4]!r} ({where}): {why}")
-
+    kind, params, _, fail = element_card(ctx, pos[4], line, ("NJF", "PJF"), "a J line")
     notes: list[str] = []
-    v = read_jfet_model(kind, params, fail, notes)
+    v = CARD.read(kind, params, fail, notes)
     area = ctx.value(rest[0], line, f"{pos[0]} area") if rest else 1.0
     mult = 1.0
     for key, token in kw.items():

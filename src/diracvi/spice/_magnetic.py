@@ -74,14 +74,8 @@ def a_line(ctx, name, pos, kw, line):
     tokens = _TOKEN.findall(line.text)
     if len(tokens) < 3:
         raise line.fail("expected 'Aname port… model' (an XSPICE code model instance)")
-    model = ctx.models.get(tokens[-1].lower())
-    if model is None:
-        known = sorted(ctx.models) or "none"
-        raise line.fail(
-            f"model {tokens[-1]!r} is not defined (models here: {known}); add a '.model "
-            f"{tokens[-1]} lcouple(num_turns=…)' or 'core(…)' line"
-        )
-    model.used = True
+    # XSPICE's parameters include vectors: read from the declaration (_lcouple, _core)
+    model = ctx.declared(tokens[-1], line, "lcouple(num_turns=…)' or 'core(…)")
     kind = model.kind.lower()
     if kind not in PORTS:
         raise line.fail(

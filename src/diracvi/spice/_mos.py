@@ -10,7 +10,7 @@ line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW
 ``MJ``, ``MJSW``, ``FC``. Other levels (MOS3, BSIM …) are refused at the element line, by
 name, naming the model's line; a ``VDMOS`` card makes the line ngspice's three-terminal
 VDMOS (:mod:`._vdmos`). Levels 2 and 6 share all of this but the drain current's
-parameters (:mod:`._mos2`, :mod:`._mos6`).
+parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos6`).
 """
 
 from __future__ import annotations
@@ -18,21 +18,15 @@ from __future__ import annotations
 from .. import components as cp
 from ..components._mos1 import process_parameters
 from ..errors import ModelError
+from ._cards import NodeIC, element_card
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
 from ._mos6 import law, read_mos6_model
+from ._mos_card import PROCESS, level_card
 from ._vdmos import vdmos_line
 
-_DEFAULTS = {
-    "lambda": 0.0, "is": 1e-14, "ld": 0.0, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0,
-    "rsh": 0.0, "cj": 0.0, "cjsw": 0.0, "js": 0.0, "pb": 0.8, "mj": 0.5, "mjsw": 0.5,
-    "fc": 0.5,
-}  # fmt: skip
-# given or not changes the answer (derived from the process, or RD over RSH·NRD …)
-_OPTIONAL = ("vto", "kp", "gamma", "phi", "rd", "rs", "cbd", "cbs")
-_PROCESS = ("tox", "u0", "nsub", "nss", "tpg")
 _ALIAS = {"vt0": "vto", "uo": "u0"}
-_NOISE = ("kf", "af", "nlev", "gdsnoi")
+CARD = level_card(1, "Shichman–Hodges", {"lambda": 0.0}, ("kp", *PROCESS))
 # ngspice's MOSFET levels, for refusals that name the model a card asks for
 LEVELS = {
     2: "MOS2, Grove–Frohman", 3: "MOS3, semi-empirical", 4: "BSIM1", 5: "BSIM2",
@@ -51,8 +45,8 @@ def level_name(level: float, version=None) -> str:
 
 def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
-    ``_DEFAULTS``, the ``_OPTIONAL`` and ``_PROCESS`` ones only where given, and
-    ``"level"``. Raises ``fail(why)`` naming the level of a card that is neither level 1
+    :data:`CARD` (:mod:`._mos_card`), its optional and process ones only where given.
+    Raises ``fail(why)`` naming the level of a card that is neither level 1
     nor level 2 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos6.read_mos6_model`)."""
     kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
     level = kw.get("level", 1.0)
@@ -65,24 +59,7 @@ def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
             "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman) and 6 (Sakurai–Newton)"
         )
-    values = dict(_DEFAULTS)
-    for key, x in kw.items():
-        if key == "level":
-            continue
-        if key in values or key in _OPTIONAL or key in _PROCESS:
-            values[key] = x
-        elif key in _NOISE:
-            notes.append(f"{kind} {key.upper()} ignored (noise only)")
-        elif key in ("l", "w"):
-            notes.append(f"{kind} {key.upper()} on the .model card ignored (ngspice's level "
-                         "1 reads L and W from the M line)")  # fmt: skip
-        elif key == "tnom":
-            if x != 27.0:
-                raise fail(f"{kind} TNOM={x:g} is not supported; only 27 °C (drop it)")
-        else:
-            raise fail(f"{kind} parameter {key.upper()!r} is not a level-1 (Shichman–Hodges) "
-                       "parameter of ngspice")  # fmt: skip
-    return values
+    return CARD.read(kind, kw, fail, notes)
 
 
 _INSTANCE = {"l": 100e-6, "w": 100e-6, "m": 1.0, "ad": 0.0, "as": 0.0, "pd": 0.0, "ps": 0.0,
@@ -139,16 +116,6 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
     return part, {"d": d, "g": g, "s": s, "b": b}
 
 
-class _IC:
-    """The ``.ic`` voltages of a line's nodes, as the device builder asks for them."""
-
-    def __init__(self, ctx):
-        self.ctx = ctx
-
-    def get(self, node, default=0.0):
-        return self.ctx.ic(node)
-
-
 def m_line(ctx, name, pos, kw, line):
     """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2 and 6)."""
     found = ctx.find_model(pos[4:6])
@@ -156,19 +123,11 @@ def m_line(ctx, name, pos, kw, line):
         return vdmos_line(ctx, name, pos, kw, line)
     if len(pos) < 6:
         raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
-    kind, params, where = ctx.model(pos[5], line)
-    if kind not in ("NMOS", "PMOS"):
-        raise line.fail(
-            f"model {pos[5]!r} ({where}) is a {kind} model; this element needs NMOS/PMOS"
-        )
-
-    def fail(why):  # a problem of the card, reported at the element line that uses it
-        return line.fail(f"model {pos[5]!r} ({where}): {why}")
-
+    kind, params, _, fail = element_card(ctx, pos[5], line, ("NMOS", "PMOS"))
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
-    part, nodes = mosfet(name, pos, kw, kind.lower(), values, value, line.fail, _IC(ctx), notes)
+    part, nodes = mosfet(name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes)
     for note in notes:
         ctx.note(line, note)
     return part, nodes

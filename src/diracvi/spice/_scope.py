@@ -84,16 +84,22 @@ class Scope:
         """``Xname n+ n- value [extra=…]``: ``(n+, n-, value)``."""
         return _two(self, pos, kw, line, form, extra)
 
-    def model(self, token: str, line: Line):
-        """The visible ``.model`` named ``token``: ``(kind, {param: value}, where)``."""
+    def declared(self, token: str, line: Line, example: str = "TYPE(…)"):
+        """The visible ``.model`` named ``token`` as declared (marked used); refused naming
+        the models here and the line to add (``.model token example``)."""
         model = self.models.get(token.lower())
         if model is None:
             known = sorted(self.models) or "none"
             raise line.fail(
                 f"model {token!r} is not defined (models here: {known}); add a '.model "
-                f"{token} TYPE(…)' line"
+                f"{token} {example}' line"
             )
         model.used = True
+        return model
+
+    def model(self, token: str, line: Line):
+        """The visible ``.model`` named ``token``: ``(kind, {param: value}, where)``."""
+        model = self.declared(token, line)
         params = {
             key: model.scope.value(tok, model.line, f".model {model.name} {key}")
             for key, tok in model.tokens.items()

@@ -16,6 +16,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components.vdmos import VDMOS, GateDrainCapacitance
 from ..errors import ModelError
+from ._cards import Card, element_card
 
 #: the card's parameters diracvi reads, with ngspice's defaults
 DEFAULTS = {
@@ -23,36 +24,19 @@ DEFAULTS = {
     "rd": 0.0, "rs": 0.0, "rg": 0.0, "cgdmin": 0.0, "cgdmax": 0.0, "a": 1.0, "cgs": 0.0,
     "is": 1e-14, "n": 1.0, "rb": 0.0, "cjo": 0.0, "vj": 0.8, "m": 0.5, "fc": 0.5, "tt": 0.0,
 }  # fmt: skip
-_ALIAS = {"vth0": "vto", "vt0": "vto"}
-_FLAGS = ("pchan", "nchan")
 #: parameters that only inform (ngspice ignores them too) or only act in noise
 _IGNORED = ("kf", "af", "vds", "ron", "qg")
-#: parameters whose default is "off": given at their default they change nothing
-_OFF = {"lambda": 0.0, "theta": 0.0, "tnom": 27.0}
-
-
-def read_card(params: dict, fail, notes: list) -> tuple[str, dict]:
-    """``(kind, values)`` of a VDMOS card: ``kind`` ``"nmos"``/``"pmos"`` and the values of
-    :data:`DEFAULTS`; a parameter diracvi does not implement raises ``fail(why)``."""
-    kind = "pmos" if "pchan" in params else "nmos"
-    values = dict(DEFAULTS)
-    for key, x in params.items():
-        key = _ALIAS.get(key, key)
-        if key in _FLAGS:
-            continue
-        if key in values:
-            values[key] = x
-        elif key in _IGNORED:
-            notes.append(f"VDMOS {key.upper()} ignored (informational or noise only)")
-        elif key in _OFF and x == _OFF[key]:
-            continue
-        else:
-            raise fail(
-                f"VDMOS parameter {key.upper()}={x:g} is not supported; diracvi's VDMOS reads "
-                f"{', '.join(k.upper() for k in DEFAULTS)} and PCHAN (remove it to run "
-                "without)"
-            )
-    return kind, values
+CARD = Card(
+    defaults=DEFAULTS,
+    alias={"vth0": "vto", "vt0": "vto"},
+    skip=("pchan", "nchan"),
+    ignored={k: "ignored (informational or noise only)" for k in _IGNORED},
+    # parameters whose default is "off": given at their default they change nothing
+    fixed={"lambda": (0.0, None), "theta": (0.0, None), "tnom": (27.0, None)},
+    unknown="parameter {key}={x:g} is not supported; diracvi's VDMOS reads "
+    + ", ".join(k.upper() for k in DEFAULTS)
+    + " and PCHAN (remove it to run without)",
+)
 
 
 def vdmos_line(ctx, name, pos, kw, line):
@@ -63,13 +47,10 @@ def vdmos_line(ctx, name, pos, kw, line):
             "expected 'Mname d g s model' for a VDMOS (thermal nodes and instance "
             f"parameters are not supported; got {' '.join(pos[1:])} {kw or ''})"
         )
-    _, params, where = ctx.model(pos[4], line)
-
-    def fail(why):
-        return line.fail(f"model {pos[4]!r} ({where}): {why}")
-
+    _, params, _, fail = element_card(ctx, pos[4], line, ("VDMOS",))
     notes: list[str] = []
-    kind, v = read_card(params, fail, notes)
+    kind = "pmos" if "pchan" in params else "nmos"
+    v = CARD.read("VDMOS", params, fail, notes)
     d, g, s = pos[1:4]
     # ngspice's internal nodes (vdmosset): g′ behind RG, d′ behind RD, s′ behind RS
     inner = {k: (f"{pos[0]}#{word}" if v[r] != 0.0 else node)

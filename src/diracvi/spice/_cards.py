@@ -1,0 +1,94 @@
+"""A semiconductor's ``.model`` card as its element line reads it (the ``M`` line's MOSFET
+levels and VDMOS, the ``J`` line's JFET; the ``Q`` line's BJT in :mod:`._devices`).
+
+A card parameter is either **read** (with ngspice's default, or only where given when
+given-or-not changes the answer), **ignored with a note** (noise coefficients, parameters
+ngspice itself reads but never uses), **fixed** (accepted at the one value diracvi
+simulates, e.g. ``TNOM = 27`` °C, refused at any other), or **refused by name**: a
+parameter diracvi does not implement stops the run at the element line that uses the
+card, naming the card's line, rather than being silently dropped.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+#: ngspice's nominal temperature, the only one diracvi simulates
+TNOM = {"tnom": (27.0, "TNOM={x:g} is not supported; only 27 °C (drop it)")}
+#: the noise coefficients (they act in noise analyses only)
+NOISE = {k: "ignored (noise only)" for k in ("kf", "af", "nlev", "gdsnoi")}
+
+
+@dataclass(frozen=True)
+class Card:
+    """What one device model reads from its card (names lower-case). Every message is
+    ``"{kind} …"``: ``ignored`` maps a name to its note's words after the name,
+    ``fixed`` to ``(the value accepted, the refusal at another value)`` (a refusal of
+    ``None``: the ``unknown`` one), ``unknown`` is the refusal of any other name; the
+    refusals are :meth:`str.format` templates of ``key`` (upper-case) and ``x``."""
+
+    defaults: Mapping[str, float]
+    unknown: str
+    optional: tuple[str, ...] = ()
+    ignored: Mapping[str, str] = field(default_factory=dict)
+    fixed: Mapping[str, tuple[float, str | None]] = field(default_factory=lambda: TNOM)
+    alias: Mapping[str, str] = field(default_factory=dict)
+    #: names read elsewhere (a MOS card's LEVEL, a VDMOS card's PCHAN): passed over
+    skip: tuple[str, ...] = ()
+
+    def read(self, kind: str, kw: dict, fail, notes: list) -> dict:
+        """``{name: value}``: :attr:`defaults` with the card's values over them, the
+        :attr:`optional` ones where given; a note in ``notes`` for each ignored name;
+        ``fail(why)`` raised for a name refused."""
+        values = dict(self.defaults)
+        for key, x in kw.items():
+            key = self.alias.get(key, key)
+            if key in self.skip:
+                continue
+            if key in values or key in self.optional:
+                values[key] = x
+            elif key in self.ignored:
+                notes.append(f"{kind} {key.upper()} {self.ignored[key]}")
+            elif key in self.fixed and x == self.fixed[key][0]:
+                continue
+            else:
+                refusal = self.fixed.get(key, (None, None))[1] or self.unknown
+                raise fail(f"{kind} " + refusal.format(key=key.upper(), x=x))
+        return values
+
+
+class ElementCard(NamedTuple):
+    """The ``.model`` an element line uses: ``fail(why)`` reports a problem of the card at
+    the element line, naming the card's own line (``where``)."""
+
+    kind: str
+    params: dict
+    where: str
+    fail: Callable[[str], Exception]
+
+
+def element_card(ctx, token: str, line, kinds: tuple[str, ...], needs: str = "this element"):
+    """The :class:`ElementCard` of the ``.model`` named ``token`` that an element line
+    uses, its type checked among ``kinds``."""
+    kind, params, where = ctx.model(token, line)
+    if kind not in kinds:
+        raise line.fail(
+            f"model {token!r} ({where}) is a {kind} model; {needs} needs {'/'.join(kinds)}"
+        )
+
+    def fail(why):
+        return line.fail(f"model {token!r} ({where}): {why}")
+
+    return ElementCard(kind, params, where, fail)
+
+
+class NodeIC:
+    """The ``.ic`` voltages of a line's nodes, as the device builders ask for them."""
+
+    def __init__(self, ctx):
+        self.ctx = ctx
+
+    def get(self, node, default=0.0):
+        return self.ctx.ic(node)

@@ -1,0 +1,40 @@
+"""What every MOSFET level's ``.model`` card shares (ngspice's ``mos1``, ``mos2`` and
+``mos6`` alike), and a level's card made of it and its law's own parameters.
+
+The shared parameters: the bulk junctions (``IS`` or ``JS`` times the line's ``AD``/``AS``,
+``CBD``/``CBS`` or ``CJ`` times ``AD``/``AS``, ``CJSW`` times ``PD``/``PS``, ``PB``, ``MJ``,
+``MJSW``, ``FC``), the overlaps ``CGSO``, ``CGDO``, ``CGBO`` and ``LD``, the resistances
+``RD``/``RS`` or ``RSH`` times ``NRD``/``NRS``, the process (``TOX``, ``U0``, ``NSUB``,
+``NSS``, ``TPG``: :func:`~diracvi.components._mos1.process_parameters`), the noise
+coefficients (a note), ``TNOM`` at 27 °C; any other name is refused naming the level.
+"""
+
+from __future__ import annotations
+
+from ._cards import NOISE, Card
+
+#: the junction, overlap and resistance parameters, with ngspice's defaults
+JUNCTIONS = {
+    "is": 1e-14, "ld": 0.0, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0, "rsh": 0.0, "cj": 0.0,
+    "cjsw": 0.0, "js": 0.0, "pb": 0.8, "mj": 0.5, "mjsw": 0.5, "fc": 0.5,
+}  # fmt: skip
+#: read only where given: given or not changes the answer (derived from the process, or
+#: RD over RSH·NRD …)
+OPTIONAL = ("vto", "gamma", "phi", "rd", "rs", "cbd", "cbs")
+PROCESS = ("tox", "u0", "nsub", "nss", "tpg")
+
+
+def level_card(level: int, law: str, defaults: dict, optional: tuple, ignored=None) -> Card:
+    """Level ``level``'s card (``law``: its name, for the refusal): ``defaults`` and
+    ``optional`` of its law over the shared ones, ``ignored`` beside the noise
+    coefficients (``None``: L and W on the card, which the level reads from the M line)."""
+    if ignored is None:
+        why = f"on the .model card ignored (ngspice's level {level} reads L and W from the M line)"
+        ignored = {"l": why, "w": why}
+    return Card(
+        defaults=JUNCTIONS | defaults,
+        optional=OPTIONAL + optional,
+        ignored=NOISE | ignored,
+        skip=("level",),
+        unknown=f"parameter {{key!r}} is not a level-{level} ({law}) parameter of ngspice",
+    )
