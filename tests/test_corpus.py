@@ -223,3 +223,28 @@ def test_ng_switches_agrees_away_from_the_switching_instants():
         if peak == 0.0:
             continue
         assert np.max(np.abs(have[vector.lower()] - values)[far]) <= 1e-9 * peak, vector
+
+
+def _rising(t, v, level):
+    """The instants at which ``v`` rises through ``level`` (linear between points)."""
+    k = np.flatnonzero((v[:-1] < level) & (v[1:] >= level))
+    return t[k] + (level - v[k]) * (t[k + 1] - t[k]) / (v[k + 1] - v[k])
+
+
+def test_the_switch_osc_reference_has_the_exact_period():
+    # ng_switch_osc's ring of 17 switch inverters is piecewise linear: between switchings
+    # each node relaxes exponentially, so its edges are known exactly (tests/_switch_ring.py:
+    # period 4.49384 ns). At TMAX = TSTEP/50 ngspice decided each switch at its own time
+    # points, which its step limit lets pass the level by up to 0.05 V, and its period
+    # came out 4.390 ns, 2.3 % short; at the deck's reference_tmax_divisor (50000: TMAX =
+    # 0.2 ps) it is 4.49385 ns at its own points (measured), and within 1e-3 over the
+    # thinned reference's points (40 ps apart, linear between them)
+    from _switch_ring import ring_edges
+
+    t, ref = corpus.load_reference("ng_switch_osc")
+    got = _rising(t, ref["v(osc_out)"], 1.5)
+    exact = ring_edges(t[-1])
+    assert len(got) == len(exact) == 18
+    period = (exact[-1] - exact[1]) / (len(exact) - 2)
+    assert abs(period - 4.49384e-9) <= 1e-5 * period  # the closed form's own value
+    assert abs((got[-1] - got[1]) / (len(got) - 2) - period) <= 1e-3 * period

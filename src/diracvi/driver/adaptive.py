@@ -334,7 +334,7 @@ def _march(system, rule, solver, capacity, x):
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
-        (qc, q1, q2), (_, p1, p2), (mu_c, mu1, mu2), oks, its = _three_steps(
+        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its = _three_steps(
             step, modes, h_try, t, q, p, vel, mu_g
         )
         ok = oks[0] & oks[1] & oks[2]
@@ -348,8 +348,9 @@ def _march(system, rule, solver, capacity, x):
         v2 = (q2 - q1) / half
         ok = ok & jnp.isfinite(err)
         modes_new, located, h_event, e_new = events.decide(
-            found, modes, (q, q1, q2), (p, p1, p2), c["e_last"], h_try, x["event_tol"], hmin
-        )
+            found, modes, (q, q1, q2, qc), (p, p1, p2, pc), c["e_last"], h_try, x["event_tol"],
+            hmin,
+        )  # fmt: skip
         aim = ok & (err <= 1.0) & ~located  # retried at the switching instant
         passes = ok & (err <= 1.0) & located
         # the interpolant between the last try's second centre and this try's first (the

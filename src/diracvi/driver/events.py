@@ -10,18 +10,22 @@ values (:func:`with_modes`: the same system with those leaves replaced, so one c
 program serves every state) and decides ``σ`` anew after each step.
 
 **Events are located.** A step over which a relay's law would flip ``σ`` does not simply
-flip it at its end (the flip would be late by up to a step). With the step's two halves
-(the adaptive driver's step doubling), the control's step-centred values ``u₁``, ``u₂``
-at ``t + H/4``, ``t + 3H/4`` give its line ``u(τ)`` over the try and the crossing time
+flip it at its end (the flip would be late by up to a step). The adaptive driver's try
+of size ``H`` has three steps (the whole one and its two halves, for the step
+doubling); the control's step-centred values on them, ``u_c``, ``u₁``, ``u₂``, are the
+means of its values at their ends, and the parabola ``u(τ)`` with those three means
+gives the control over the try to third order (:func:`decide`) and the crossing time
 ``τ*`` of the level crossed (``VT + VH`` going up, ``VT − VH`` going down). The try is
 accepted with the flip only if its end value ``u(H)`` is past the level by at most the
 event tolerance (:func:`tolerances`); otherwise it is retried with ``H = τ*`` (plus half
 the tolerance's worth of time, to land just past the level), but never below ``H/4``
 (a sharp drop of the step size excites the midpoint rule's alternating mode — the lag
 of the multipliers — which the step control then chases down to ``hmin``; the crossing
-is approached over a few steps instead). Each retry is a secant step on the crossing,
-exact for a control that is linear over the try, so a flip is placed within the
-tolerance of its instant in a few tries.
+is approached over a few steps instead). Each retry aims at the parabola's crossing, so
+a flip is placed within the tolerance of its instant in a few tries. (The line through
+``u₁`` and ``u₂`` alone, used before, misses ``u(H)`` by ``H²u''/16``: 7.5e-5 V,
+twice the tolerance, on a switched RC node; ``ng_switch_osc``'s 17 switch inverters
+added that up to a period 0.75 % short of the exact one, 0.14 % with the parabola.)
 
 **What an event does to the power balance.** Nothing discontinuous: every recorded step
 is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for which the
@@ -142,8 +146,18 @@ def tolerances(system, rtol: float, atol) -> np.ndarray:
 
 
 def decide(found, modes, q, p, e_prev, h, tol, hmin):
-    """After a try of size ``h`` (half steps ``q = (q0, q1, q2)``, ``p`` likewise) with
-    the states ``modes``; ``e_prev``: per relay, the last recorded step's impulse.
+    """After a try of size ``h`` with the states ``modes``: ``q = (q0, q1, q2, qc)`` its
+    start, its half steps' ends and its whole step's end, ``p`` likewise; ``e_prev``: per
+    relay, the last recorded step's impulse.
+
+    The control's three step-centred values — ``u₁``, ``u₂`` of the halves, ``u_c`` of
+    the whole step — are the means of its values at their steps' ends (exactly, for a
+    capacitor's node: the midpoint rule's potential is ``(q_k + q_{k+1})/2C``), so the
+    parabola ``u(τ) = a + bτ + cτ²`` that has those means is, with ``u₂ − u₁ + u_c =
+    u(h)``, the control over the try to third order; its end value and its crossing of
+    the level decide. (The line through ``u₁``, ``u₂`` alone misses ``u(h)`` by
+    ``h²u''/16``: on a node relaxing exponentially into a switch's level, a fraction of a
+    picosecond per switching, which a ring of switches adds up period after period.)
 
     ``(new modes, located, h_event, e2)``: the states the law gives at the try's end;
     whether the try may be accepted with them (no flip, or every flip within its
@@ -158,17 +172,29 @@ def decide(found, modes, q, p, e_prev, h, tol, hmin):
     # an impulse-read control: e_k = 2 Δp_k − e_{k−1}, u = e_k / h_k
     e1 = 2.0 * (p[1][index] - p[0][index]) - e_prev
     e2 = 2.0 * (p[2][index] - p[1][index]) - e1
+    ec = 2.0 * (p[3][index] - p[0][index]) - e_prev
     u1 = jnp.where(impulse, e1, q[1][index] - q[0][index]) / half
     u2 = jnp.where(impulse, e2, q[2][index] - q[1][index]) / half
-    u_end = u2 + 0.5 * (u2 - u1)
+    uc = jnp.where(impulse, ec, q[3][index] - q[0][index]) / h
+    # the means over [0, h/2], [h/2, h], [0, h] of the parabola a + bτ + cτ² at the
+    # ends: u1 = a + bh/4 + ch²/8, u2 = a + 3bh/4 + 5ch²/8, uc = a + bh/2 + ch²/2
+    c = 8.0 * (uc - 0.5 * (u1 + u2)) / (h * h)
+    b = 2.0 * (u2 - u1) / h - c * h
+    a = u1 - 0.25 * b * h - 0.125 * c * h * h
+    u_end = a + b * h + c * h * h
     new = jnp.stack([r.next(modes[j], u_end[j]) for j, (_, r) in enumerate(found)])
     level = jnp.stack([jnp.where(new[j] > modes[j], r.on, r.off) for j, (_, r) in enumerate(found)])
     flips = new != modes
-    slope = (u2 - u1) / half
+    slope = b + 2.0 * c * h  # at the end, where the flip was seen
     safe = jnp.where(slope == 0.0, 1.0, slope)
-    # the line through (h/4, u1), (3h/4, u2) meets the level at τ*; aim half a tolerance
-    # past it (in time: tolerance / slope) so that the retry ends beyond the level
-    tau = 0.25 * h + (level - u1) / safe + 0.5 * tol / jnp.abs(safe)
+    # the crossing τ*: Newton on the parabola from its end (two steps: the parabola is
+    # monotone over the try where a flip is located); aim half a tolerance past it (in
+    # time: tolerance / slope) so that the retry ends beyond the level
+    tau = h + (level - u_end) / safe
+    for _ in range(2):
+        d = b + 2.0 * c * tau
+        tau = tau - jnp.where(d * slope > 0.0, (a + b * tau + c * tau * tau - level) / d, 0.0)
+    tau = tau + 0.5 * tol / jnp.abs(safe)
     # at most a quarter of the try at once: a sharp drop of the step size excites the
     # midpoint rule's alternating mode (the lag of the multipliers), which the step
     # control would then chase; the crossing is approached in a few steps instead
