@@ -116,6 +116,18 @@ def test_a_fresh_ngspice_run_reproduces_the_committed_reference(name):
         assert np.max(np.abs(fresh[vector] - values)) <= 1e-8 * peak, vector
 
 
+def test_a_reference_divisor_reaches_decks_in_folders_of_their_own():
+    # es_integrator's deck is es_integrator/Integrator_LM_741.cir.out: looked up by the
+    # bare file name, which no entry holds, its TSTEP/500 was never applied and its fine
+    # reference was taken at TSTEP/50
+    divided = {n: e for n, e in EXPECTED.items() if "reference_tmax_divisor" in e}
+    assert any("/" in e["file"] for e in divided.values())
+    for name, entry in divided.items():
+        divisor = corpus.reference_divisor(corpus.DATA / entry["file"])
+        assert divisor == entry["reference_tmax_divisor"], name
+    assert corpus.reference_divisor(corpus.DATA / EXPECTED["ng_rc"]["file"]) == corpus.TMAX_DIVISOR
+
+
 def test_the_minductors_reference_is_the_exact_response():
     # Xyce's coupled inductors (L1 = L2 = 1 mH, k = 0.75, R1 = R2 = 1 k, 169.7 V at 60 Hz
     # from rest): i' = L⁻¹ (v(t) − R i), solved in closed form (the sine's particular
