@@ -271,3 +271,52 @@ def test_ng_switches_agrees_away_from_the_switching_instants():
         if peak == 0.0:
             continue
         assert np.max(np.abs(have[vector.lower()] - values)[far]) <= 1e-9 * peak, vector
+
+
+@pytest.mark.slow
+def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours():
+    """Why ng_transformers1 'disagrees' (0.021 of peak), also when tightened: at a few
+    isolated points of transformer 2 (XSPICE lcouple windings, which ngspice
+    differentiates by a backward difference) the fine reference departs from the
+    midpoint of its two neighbours (5 µs apart on a 1 kHz sine, where a smooth wave's
+    departure is ≤ 5e-4 of peak) by as much as diracvi differs from it: v(12) is 0.838 V at 8.07 ms
+    between 0.825 and 0.917 V. ngspice at the deck's own settings is off at the same
+    points by the same amounts. Wherever the reference is locally straight to 1e-3 of
+    peak, diracvi is within 1e-3 of it; the excursions are under 1% of the points."""
+    from diracvi import spice
+
+    t, ref = corpus.load_reference("ng_transformers1")
+    result = spice.run(corpus.DATA / "ng_transformers1.cir")
+    have = {k.lower(): v for k, v in result.at(t).items()}
+    for vector, values in ref.items():
+        key = next(k for k in corpus.diracvi_keys(vector) if k in have)
+        floor = corpus.ABSTOL if vector.startswith("i(") else corpus.VNTOL
+        peak = max(float(np.max(np.abs(values))), floor)
+        error = np.abs(have[key] - values) / peak
+        departs = np.zeros(len(t))
+        departs[1:-1] = np.abs(values[1:-1] - 0.5 * (values[:-2] + values[2:])) / peak
+        straight = departs <= corpus.TOL
+        assert np.count_nonzero(~straight) <= 0.01 * len(t), vector
+        assert np.max(error[straight]) <= corpus.TOL, vector
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_ng_schmitt_tightened_converges_to_where_ngspice_converges():
+    """Why ng_schmitt stays 2.6e-3 off its reference when tightened: the reference
+    (reltol 1e-7, TMAX = TSTEP/50) is itself that far from ngspice converged further
+    (reltol 1e-8, TMAX = TSTEP/500) in i(vin), the input's spike current (ngspice's own
+    sequence: 0.063 at reltol 1e-5, 5.0e-3 adding TSTEP/50, 1.7e-3 at 1e-6, 2.6e-3 at
+    1e-8 and TSTEP/500). diracvi at reltol 1e-5 is within TOL of that converged run
+    (3.1e-4 measured): both simulators converge to the same answer."""
+    from diracvi import spice
+
+    deck = corpus.DATA / "ng_schmitt.cir"
+    t, ref = corpus.load_reference("ng_schmitt")
+    names, data, _ = corpus.run_ngspice(deck, reltol=1e-8, divisor=500)
+    converged = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
+    span = (data[0, 0], data[-1, 0])
+    assert corpus.compare_sampled(converged, span, t, ref)[0] > corpus.TOL  # the reference's own
+    result = spice.run(deck, reltol=1e-5)
+    worst, errors, missing = corpus.compare(result, t, converged)
+    assert worst <= corpus.TOL and not missing, errors
