@@ -195,9 +195,9 @@ def summary(rows: list[dict]) -> str:
         f"{count['agrees']} agree to {tol:g} of peak at the deck's own settings, "
         f"{count['disagrees']} disagree, {count['refused']} refused. ngspice itself, at the "
         f"deck's own settings, is off the fine reference by more than {tol:g} of peak on "
-        f"{len(loose)}; of those diracvi agrees on {as_written} as written, and of the "
-        f"{len(others)} others, tightened (EXPECTED's `tightened`, the deck unedited), on "
-        f"{converged} of the {len(tried)} run so"
+        f"{len(loose)}; of those, diracvi agrees on {as_written} as written, and of the "
+        f"{len(others)} it does not, agrees when tightened (EXPECTED's `tightened`, the deck "
+        f"unedited) on {converged} of the {len(tried)} run so"
     )
 
 
