@@ -163,16 +163,23 @@ def strip_control(text: str) -> list[str]:
 
 
 def wrapper(
-    text: str, tran: Tran, raw_out: Path, *, fine: bool = True, divisor: float = TMAX_DIVISOR
+    text: str,
+    tran: Tran,
+    raw_out: Path,
+    *,
+    fine: bool = True,
+    divisor: float = TMAX_DIVISOR,
+    reltol: float = RELTOL,
 ) -> str:
     """A deck that runs ``text``'s circuit at its own ``.tran``, refined when ``fine``
-    (``reltol=RELTOL``, ``TMAX = min(TSTEP/divisor, deck's TMAX)``), and writes every
-    vector to an ASCII raw file. The deck's own ``.control`` blocks are left out."""
+    (``reltol``, by default RELTOL, and ``TMAX = min(TSTEP/divisor, deck's TMAX)``), and
+    writes every vector to an ASCII raw file. The deck's own ``.control`` blocks are left
+    out."""
     if fine:
         tmax = tran.step / divisor
         if tran.tmax:
             tmax = min(tmax, tran.tmax)
-        options = f"option reltol={RELTOL!r}"
+        options = f"option reltol={reltol!r}"
     else:
         tmax = tran.tmax
         options = ""
@@ -228,15 +235,24 @@ def reference_divisor(deck: Path) -> float:
     return TMAX_DIVISOR
 
 
-def run_ngspice(deck: Path, *, fine: bool = True, timeout: float = 900):
-    """Run ngspice 39 on ``deck`` (see :func:`wrapper`): ``(names, data, seconds)``."""
+def run_ngspice(
+    deck: Path,
+    *,
+    fine: bool = True,
+    timeout: float = 900,
+    reltol: float = RELTOL,
+    divisor: float | None = None,
+):
+    """Run ngspice 39 on ``deck`` (see :func:`wrapper`): ``(names, data, seconds)``;
+    ``reltol`` and ``divisor`` (default: the reference's) refine a ``fine`` run further."""
     text = deck.read_text(errors="replace")
     tran = find_tran(text)
-    divisor = reference_divisor(deck) if fine else TMAX_DIVISOR
+    if divisor is None:
+        divisor = reference_divisor(deck) if fine else TMAX_DIVISOR
     with tempfile.TemporaryDirectory() as tmp:
         raw = Path(tmp) / "out.raw"
         cir = Path(tmp) / "wrapper.cir"
-        cir.write_text(wrapper(text, tran, raw, fine=fine, divisor=divisor))
+        cir.write_text(wrapper(text, tran, raw, fine=fine, divisor=divisor, reltol=reltol))
         t0 = time.perf_counter()
         # run beside the deck, so that its relative .include files are found
         proc = subprocess.run(

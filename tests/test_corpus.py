@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import _corpus as corpus
+from diracvi.spice._tran import OVERRIDES
 
 EXPECTED = corpus.load_expected()
 
@@ -49,6 +50,11 @@ def test_the_corpus_is_large_enough_and_every_deck_is_recorded():
         assert entry["status"] in ("agrees", "disagrees", "refused"), name
         if entry["status"] == "refused":
             assert entry.get("match"), f"{name}: a refused deck needs the message's substring"
+        own = entry.get("ngspice_own")
+        assert isinstance(own, (int, float)) and own >= 0, f"{name}: ngspice_own is not recorded"
+        if "tightened" in entry:
+            tight = entry["tightened"]
+            assert set(tight) & set(OVERRIDES) and isinstance(tight.get("error"), float), name
 
 
 @pytest.mark.parametrize("name", list(EXPECTED))
@@ -126,6 +132,50 @@ def test_a_reference_divisor_reaches_decks_in_folders_of_their_own():
         divisor = corpus.reference_divisor(corpus.DATA / entry["file"])
         assert divisor == entry["reference_tmax_divisor"], name
     assert corpus.reference_divisor(corpus.DATA / EXPECTED["ng_rc"]["file"]) == corpus.TMAX_DIVISOR
+
+
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+@pytest.mark.parametrize(
+    "name",
+    [n if n in _QUICK_FRESH else pytest.param(n, marks=pytest.mark.slow) for n in EXPECTED],
+)
+def test_ngspice_at_the_decks_own_settings_is_off_by_the_recorded_error(name):
+    # what a SPICE user gets from the deck as written (its own .tran and .options), by the
+    # corpus's measure against the same fine reference: where it is above TOL, "agree to
+    # 1e-3 at the deck's own settings" asks of diracvi what ngspice itself does not do
+    entry = EXPECTED[name]
+    t, ref = corpus.load_reference(name)
+    names, data, _ = corpus.run_ngspice(corpus.DATA / entry["file"], fine=False)
+    worst, _, missing = corpus.compare_ngspice(names, data, t, ref)
+    assert not missing
+    # recorded to 3 digits; below 1e-9 of peak it is round-off, not a tolerance's error
+    assert worst == pytest.approx(entry["ngspice_own"], rel=6e-3, abs=1e-9), worst
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", [n for n, e in EXPECTED.items() if "tightened" in e])
+def test_a_deck_ngspice_misses_at_its_own_settings_converges_when_tightened(name):
+    """Where ngspice at the deck's own settings is itself more than TOL off the fine
+    reference, the target's intent is convergence to the same answer: diracvi with the
+    deck's tolerances tightened (``spice.run(deck, reltol=…, tmax=…)``, the deck
+    unedited) against the fine reference, to TOL of each signal's peak. A deck that does
+    not converge so records its error above TOL, and this test holds it there (a real
+    disagreement, not a loose tolerance)."""
+    from diracvi import spice
+
+    entry = EXPECTED[name]
+    tight = entry["tightened"]
+    settings = {k: v for k, v in tight.items() if k in OVERRIDES}
+    t, ref = corpus.load_reference(name)
+    result = spice.run(corpus.DATA / entry["file"], **settings)
+    worst, errors, missing = corpus.compare(result, t, ref)
+    detail = f"{settings}: worst {worst:.3g} of peak; " + ", ".join(
+        f"{k} {v:.2g}" for k, v in sorted(errors.items(), key=lambda kv: -kv[1])[:4]
+    )
+    if tight["error"] <= corpus.TOL:
+        assert worst <= corpus.TOL and not missing, f"{name} no longer converges: {detail}"
+    else:
+        assert worst > corpus.TOL, f"{name} now converges when tightened ({detail}): record it"
 
 
 def test_the_minductors_reference_is_the_exact_response():
@@ -260,3 +310,56 @@ def test_the_switch_osc_reference_has_the_exact_period():
     period = (exact[-1] - exact[1]) / (len(exact) - 2)
     assert abs(period - 4.49384e-9) <= 1e-5 * period  # the closed form's own value
     assert abs((got[-1] - got[1]) / (len(got) - 2) - period) <= 1e-3 * period
+
+
+@pytest.mark.slow
+def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours():
+    """Why ng_transformers1 'disagrees' (0.021 of peak), also when tightened: at a few
+    isolated points of transformer 2 (XSPICE lcouple windings, which ngspice
+    differentiates by a backward difference) the fine reference departs from the
+    straight line through its two neighbours (≤ 5.6 µs apart on a 1 kHz sine, where a
+    smooth wave departs by ≤ 6e-4 of peak) by as much as diracvi differs from it:
+    v(12) is 0.838 V at 8.07 ms between 0.825 and 0.917 V. ngspice at the deck's own
+    settings is off at the same points by the same amounts. Wherever the reference is
+    locally straight to 1e-3 of peak, diracvi is within 1e-3 of it; the excursions are
+    few (at most 24 of the 2000 points, in v(xtr2.pint2), 76 nV at its peak)."""
+    from diracvi import spice
+
+    t, ref = corpus.load_reference("ng_transformers1")
+    result = spice.run(corpus.DATA / "ng_transformers1.cir")
+    have = {k.lower(): v for k, v in result.at(t).items()}
+    for vector, values in ref.items():
+        key = next(k for k in corpus.diracvi_keys(vector) if k in have)
+        floor = corpus.ABSTOL if vector.startswith("i(") else corpus.VNTOL
+        peak = max(float(np.max(np.abs(values))), floor)
+        error = np.abs(have[key] - values) / peak
+        # the reference's departure from the straight line through its two neighbours
+        # (its points are unevenly spaced: the chord is taken at the point's own time)
+        w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
+        departs = np.zeros(len(t))
+        departs[1:-1] = np.abs(values[1:-1] - ((1 - w) * values[:-2] + w * values[2:])) / peak
+        straight = departs <= corpus.TOL
+        assert np.count_nonzero(~straight) <= 0.02 * len(t), vector  # measured: ≤ 24 of 2000
+        assert np.max(error[straight]) <= corpus.TOL, vector
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_ng_schmitt_tightened_converges_to_where_ngspice_converges():
+    """Why ng_schmitt stays 2.6e-3 off its reference when tightened: the reference
+    (reltol 1e-7, TMAX = TSTEP/50) is itself that far from ngspice converged further
+    (reltol 1e-8, TMAX = TSTEP/500) in i(vin), the input's spike current (ngspice's own
+    sequence: 0.063 at reltol 1e-5, 5.0e-3 adding TSTEP/50, 1.7e-3 at 1e-6, 2.6e-3 at
+    1e-8 and TSTEP/500). diracvi at reltol 1e-5 is within TOL of that converged run
+    (3.1e-4 measured): both simulators converge to the same answer."""
+    from diracvi import spice
+
+    deck = corpus.DATA / "ng_schmitt.cir"
+    t, ref = corpus.load_reference("ng_schmitt")
+    names, data, _ = corpus.run_ngspice(deck, reltol=1e-8, divisor=500)
+    converged = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
+    span = (data[0, 0], data[-1, 0])
+    assert corpus.compare_sampled(converged, span, t, ref)[0] > corpus.TOL  # the reference's own
+    result = spice.run(deck, reltol=1e-5)
+    worst, errors, missing = corpus.compare(result, t, converged)
+    assert worst <= corpus.TOL and not missing, errors

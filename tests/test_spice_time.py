@@ -25,6 +25,7 @@ from diracvi.cli import app
 from diracvi.discretization.maps import discrete_constraints
 from diracvi.discretization.rules import get_rule
 from diracvi.driver import adaptive as _adaptive
+from diracvi.errors import ModelError
 from diracvi.spice._resample import Sampler
 from diracvi.spice._tran import breakpoints, tran_settings
 
@@ -325,6 +326,53 @@ def test_a_new_step_size_or_tolerance_does_not_compile_again():
     assert second.settings.reltol == 1e-5 and second.settings.max_step == 3e-6
     assert len(second.trajectory.h) > len(first.trajectory.h)
     assert np.max(second.trajectory.h) <= 3e-6 * (1 + 1e-12)
+
+
+def test_keyword_tolerances_and_tmax_run_the_deck_as_if_it_said_so():
+    # the deck unedited, run as if its .options and .tran TMAX gave these: the same settings,
+    # the same steps and waveforms, bit for bit
+    deck, _ = DECKS["square-rc"]
+    written = deck.replace(
+        ".tran 10u 3m uic", ".tran 10u 3m 0 3u uic\n.options reltol=1e-5 vntol=1e-8"
+    )
+    said = spice.run(written)
+    given = spice.run(deck, reltol=1e-5, vntol=1e-8, tmax=3e-6)
+    assert given.settings == said.settings
+    np.testing.assert_array_equal(given.trajectory.t, said.trajectory.t)
+    np.testing.assert_array_equal(given["v(out)"], said["v(out)"])
+    # a keyword replaces what the deck says, whichever way
+    loose = spice.run(written, reltol=1e-3, tmax=1e-5)
+    assert (loose.settings.reltol, loose.settings.max_step, loose.settings.vntol) == (
+        1e-3,
+        1e-5,
+        1e-8,
+    )
+    assert len(loose.trajectory.h) < len(said.trajectory.h)
+
+
+def test_bad_keyword_tolerances_name_the_argument_and_the_fix(tmp_path):
+    deck = DECKS["rc-charge"][0]
+    fix = r"must be a finite number > 0 \(SPICE's \.options reltol\); e\.g\. reltol=1e-5"
+    for bad in (-1e-5, 0.0, float("nan"), float("inf"), "1e-5", True):
+        with pytest.raises(ModelError, match=rf"reltol={re.escape(repr(bad))}: {fix}"):
+            spice.run(deck, reltol=bad)
+    with pytest.raises(ModelError, match=r"tmax='1n': .*\.tran TMAX\); e\.g\. tmax=1e-9"):
+        spice.run(deck, tmax="1n")
+    with pytest.raises(ModelError, match=r"spice\.run\(reltol=1e-05\): .*fixed step"):
+        spice.run(deck, dt=1e-4, reltol=1e-5)
+    path = tmp_path / "rc.cir"
+    path.write_text(deck)
+    runner = CliRunner()
+    for args, says in [
+        ([str(path), "--reltol", "-1"], "not a finite number > 0"),
+        ([str(path), "--dt", "1e-4", "--vntol", "1u"], "a fixed step (--dt/--steps) has none"),
+        (["rlc", "--tmax", "1u"], "--tmax: a SPICE netlist's variable-step settings"),
+    ]:
+        result = runner.invoke(app, ["run", *args])
+        assert result.exit_code == 2 and says in " ".join(result.output.split()), result.output
+    done = runner.invoke(app, ["run", str(path), "--reltol", "1e-5", "--tmax", "20u"])
+    assert done.exit_code == 0, done.output
+    assert "TMAX 2e-05" in done.output and "reltol 1e-05, abstol 1e-12" in done.output
 
 
 def test_tran_settings_and_options():

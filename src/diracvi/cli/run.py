@@ -12,6 +12,7 @@ from rich.table import Table
 from ..discretization.rules import rule_names
 from .common import (
     EXIT_USAGE,
+    NETLIST_SUFFIXES,
     SOLVERS,
     _choice,
     _fail,
@@ -23,6 +24,15 @@ from .common import (
     _resolve_model,
     _solver_option,
 )
+
+
+def _tolerance(name: str, what: str):
+    """A ``--reltol``-like option: a netlist's ``.options`` value, replaced for this run."""
+    return typer.Option(
+        callback=_positive_float,
+        metavar="FLOAT",
+        help=f"A netlist's {what}, in place of its .options {name} (the deck unedited).",
+    )
 
 
 def list_problems() -> None:
@@ -101,8 +111,29 @@ def run(
             "Jacobian every iteration; partitioned suits large interconnections.",
         ),
     ] = None,
+    reltol: Annotated[str | None, _tolerance("reltol", "relative tolerance")] = None,
+    abstol: Annotated[str | None, _tolerance("abstol", "current tolerance (A)")] = None,
+    vntol: Annotated[str | None, _tolerance("vntol", "voltage tolerance (V)")] = None,
+    chgtol: Annotated[str | None, _tolerance("chgtol", "charge tolerance (C)")] = None,
+    tmax: Annotated[
+        str | None,
+        typer.Option(
+            callback=_positive_float,
+            metavar="FLOAT",
+            help="A netlist's largest step TMAX (s), in place of its .tran's (the deck "
+            "unedited); SPICE suffixes allowed (20p).",
+        ),
+    ] = None,
 ) -> None:
     """Simulate a built-in problem or a model file and print a short summary."""
+    tolerances = dict(reltol=reltol, abstol=abstol, vntol=vntol, chgtol=chgtol, tmax=tmax)
+    tolerances = {k: v for k, v in tolerances.items() if v is not None}
+    if tolerances and Path(problem).suffix.lower() not in NETLIST_SUFFIXES:
+        given = " ".join(f"--{k}" for k in tolerances)
+        _fail(
+            f"{given}: a SPICE netlist's variable-step settings; {problem!r} is not a netlist.",
+            EXIT_USAGE,
+        )
     for flag, target in (("--out", out), ("--raw", raw)):
         if target is not None and not target.parent.exists():
             _fail(
@@ -119,7 +150,7 @@ def run(
     if raw is not None and not hasattr(model, "assembly"):
         _fail(f"--raw writes a SPICE netlist's vectors; {problem!r} is not a netlist.", EXIT_USAGE)
     if hasattr(model, "assembly"):  # a netlist: SPICE's time semantics (see spice.run)
-        _run_netlist(model, dt, steps, scheme, discretization, out, plot, raw, solver)
+        _run_netlist(model, dt, steps, scheme, discretization, out, plot, raw, solver, tolerances)
         return
     h = dt if dt is not None else getattr(model, "dt", None)
     n_steps = steps if steps is not None else getattr(model, "steps", None)
@@ -231,9 +262,12 @@ def _run_urdf(path: Path, dt, steps, scheme, discretization, out, plot, solver) 
         _out().print(f"wrote {png}", markup=False, soft_wrap=True)
 
 
-def _run_netlist(netlist, dt, steps, scheme, discretization, out, plot, raw, solver) -> None:
-    """``diracvi run deck.cir``: variable steps and output every TSTEP from TSTART, or a
-    fixed step ``--dt`` to TSTOP (``--steps`` alone: the netlist's TSTEP, that many)."""
+def _run_netlist(
+    netlist, dt, steps, scheme, discretization, out, plot, raw, solver, tolerances
+) -> None:
+    """``diracvi run deck.cir``: variable steps and output every TSTEP from TSTART (at the
+    deck's tolerances and TMAX, or ``--reltol`` … ``--tmax``), or a fixed step ``--dt`` to
+    TSTOP (``--steps`` alone: the netlist's TSTEP, that many)."""
     from .. import spice
 
     if scheme != "plus":
@@ -245,7 +279,15 @@ def _run_netlist(netlist, dt, steps, scheme, discretization, out, plot, raw, sol
             "--dt STEP for a fixed-step run with this solver.",
             EXIT_USAGE,
         )
+    if tolerances and fixed:
+        given = " ".join(f"--{k}" for k in tolerances)
+        _fail(
+            f"{given}: tolerances and TMAX steer SPICE's variable steps; a fixed step "
+            "(--dt/--steps) has none. Leave out one or the other.",
+            EXIT_USAGE,
+        )
     options = {} if solver is None else {"solver": _solver_option(solver)}
+    options.update(tolerances)
     with _library_errors(partial_out=out if fixed else None):
         result = spice.run(
             netlist,

@@ -40,7 +40,7 @@ from ._parse import Netlist, read
 from ._probe import waveforms
 from ._resample import Sampled, Sampler
 from ._stream import KEEP_MAX, StreamRecord, step_signals
-from ._tran import TranSettings, breakpoints, tran_settings
+from ._tran import TranSettings, breakpoints, override, tran_settings
 
 
 @dataclass(frozen=True)
@@ -278,6 +278,11 @@ def run(
     steps=None,
     internal: bool = False,
     params=None,
+    reltol=None,
+    abstol=None,
+    vntol=None,
+    chgtol=None,
+    tmax=None,
     **simulate_kwargs,
 ) -> Result:
     """Read a netlist (path, text or :class:`Netlist`) and simulate its ``.tran``.
@@ -296,7 +301,15 @@ def run(
     DC operating point (SPICE's rule; ``.ic`` values hold their nodes while it is
     solved), with ``UIC`` from the state the netlist gives (``.ic`` and ``IC=``, zero
     otherwise).
+
+    ``reltol``, ``abstol``, ``vntol``, ``chgtol`` (SPICE's ``.options`` names) and
+    ``tmax`` (``.tran``'s TMAX, seconds) replace the deck's own values for the variable
+    steps, the deck left unedited: ``spice.run("deck.cir", reltol=1e-5, tmax=2e-11)``
+    runs a deck whose own settings are loose as a fine reference would. Each must be a
+    finite number > 0; a fixed step (``dt=``) has no tolerance and refuses them.
     """
+    overrides = dict(reltol=reltol, abstol=abstol, vntol=vntol, chgtol=chgtol, tmax=tmax)
+    overrides = {k: v for k, v in overrides.items() if v is not None}
     thinned = {
         k: v
         for k, v in simulate_kwargs.items()
@@ -322,7 +335,14 @@ def run(
                 "params=: traced values (jax.grad, jit, vmap) need a fixed step, because the "
                 f"variable steps are chosen on the host. Fix: {' and '.join(fixes)}."
             )
-        return _variable(netlist, discretization, internal, simulate_kwargs)
+        return _variable(netlist, discretization, internal, simulate_kwargs, overrides)
+    if overrides:
+        given = ", ".join(f"{k}={v!r}" for k, v in overrides.items())
+        raise ModelError(
+            f"spice.run({given}): tolerances and TMAX steer the variable steps; a fixed "
+            "step (dt= or steps=) has none. Fix: leave out dt= and steps= for SPICE's "
+            "variable steps, or leave these out."
+        )
     q0, p0 = netlist.initial_state()  # SPICE's: the operating point unless UIC
     h = dt if dt is not None else netlist.dt
     n = steps
@@ -403,7 +423,7 @@ def tries_budget(settings: TranSettings) -> int:
     return 10_000 + 10 * math.ceil(settings.stop / settings.max_step)
 
 
-def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Result:
+def _variable(netlist: Netlist, discretization, internal: bool, kwargs, overrides) -> Result:
     if discretization != "midpoint":
         raise ModelError(
             f"discretization={discretization!r}: variable steps are built on the midpoint "
@@ -414,7 +434,7 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs) -> Resul
             f"{sorted(kwargs)}: options of a fixed-step run (diracvi.simulate); pass dt= "
             "with them, or leave them out for SPICE's variable steps."
         )
-    settings = tran_settings(netlist)
+    settings = override(tran_settings(netlist), overrides)
     breaks = breakpoints(netlist.system, 0.0, settings.stop)
     bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
     grid = settings.output_times()

@@ -7,14 +7,21 @@ tolerances the step control meets (SPICE's names and defaults): ``reltol`` 1e-3,
 ``abstol`` 1e-12 A, ``vntol`` 1e-6 V, ``chgtol`` 1e-14 C, ``trtol`` 7 (read, and
 reported; the step-doubling estimate needs no safety factor for an over-estimating
 truncation error, which is what SPICE's ``trtol`` is).
+
+A caller may tighten (or loosen) a deck without editing it: :func:`override` replaces
+``reltol``, ``abstol``, ``vntol``, ``chgtol`` and TMAX by the values given
+(``spice.run(deck, reltol=1e-5, tmax=1e-9)``, ``diracvi run deck.cir --reltol 1e-5``).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
+from numbers import Real
 
 import numpy as np
 
+from ..errors import ModelError
 from ._lines import NetlistError
 
 #: SPICE's defaults of the tolerances used here
@@ -63,6 +70,32 @@ def tran_settings(netlist) -> TranSettings:
     options = {k: float(v) for k, v in netlist.options.items() if k in DEFAULT_OPTIONS}
     tmax = None if netlist.tmax is None or netlist.tmax == 0.0 else float(netlist.tmax)
     return TranSettings(netlist.dt, netlist.stop, float(netlist.start), tmax, **options)
+
+
+#: what :func:`override` replaces, by SPICE's names (``tmax`` is ``.tran``'s TMAX)
+OVERRIDES = ("reltol", "abstol", "vntol", "chgtol", "tmax")
+
+
+def override(settings: TranSettings, values: dict) -> TranSettings:
+    """``settings`` with the tolerances and TMAX of ``values`` (SPICE's names, see
+    :data:`OVERRIDES`; ``None`` keeps the deck's) in place of the deck's ``.options`` and
+    ``.tran`` TMAX. Each must be a finite number > 0 (the same check the reader makes of
+    ``.options``): anything else is refused naming the argument, its value and the fix."""
+    given = {}
+    for key, value in values.items():
+        if value is None:
+            continue
+        if key not in OVERRIDES:
+            raise ModelError(f"{key}=: not a run setting; the ones taken are {OVERRIDES}.")
+        ok = isinstance(value, Real) and not isinstance(value, bool)
+        if not ok or not math.isfinite(value) or value <= 0.0:
+            example = "1e-9 (seconds)" if key == "tmax" else "1e-5"
+            raise ModelError(
+                f"{key}={value!r}: must be a finite number > 0 (SPICE's "
+                f"{'.tran TMAX' if key == 'tmax' else '.options ' + key}); e.g. {key}={example}."
+            )
+        given[key] = float(value)
+    return replace(settings, **given) if given else settings
 
 
 def breakpoints(system, t_start: float, t_stop: float) -> np.ndarray:
