@@ -552,4 +552,3 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=
         modes=netlist.initial_modes(),
         max_tries=budget,
     )
-
