@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from ..errors import ModelError
 from ._problem import Problem
+from .andrews import andrews
 from .chaplygin_sleigh import chaplygin_sleigh
 from .circuits import build_rlc, lc_circuit, rlc_circuit, rlc_torn
 from .dc_motor import dc_motor, dc_motor_driven
@@ -54,6 +55,7 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "cart-pendulum-torn": cart_pendulum_torn,
     "chaplygin-sleigh": chaplygin_sleigh,
     "spherical-pendulum": spherical_pendulum,
+    "andrews": andrews,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -88,6 +90,7 @@ __all__ = [
     "REGISTRY",
     "FourBar",
     "Problem",
+    "andrews",
     "available",
     "build_rlc",
     "cart_pendulum_torn",
