@@ -201,3 +201,36 @@ def test_work_precision_reference_starts_where_the_model_does(name):
     np.testing.assert_allclose(
         momentum, case.p0, rtol=0, atol=1e-7 * max(1.0, np.abs(case.p0).max())
     )
+
+
+# ~5 s of CPU (the jit of the right-hand side, 2000 DOP853 steps): in `-m slow`
+@pytest.mark.slow
+def test_first_call_scipy_route_reaches_the_published_andrews_solution():
+    """The ``first-call`` baseline (jit index-1 ODE by autodiff of the model's L, F, g,
+    DOP853 at 1e-10) is Andrews' mechanism: at t = 0.03 it has the test set's angles."""
+    from diracvi.bench.first_call import scipy_route
+    from diracvi.problems.andrews import REFERENCE_Q, REFERENCE_T
+
+    q = scipy_route(problems.get("andrews"), REFERENCE_T)
+    np.testing.assert_allclose(q, REFERENCE_Q, rtol=0, atol=1e-7)  # measured 1.7e-9
+
+
+# each case compiles a lobatto run (4–30 s of CPU)
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("name", "tol"),  # measured 7.0e-7, 1.1e-7, 8.3e-7
+    [("four-bar", 2e-6), ("double-pendulum-torn", 1e-6), ("andrews", 2e-6)],
+)
+def test_first_call_scipy_route_agrees_with_diracvi_at_the_horizon(name, tol):
+    """diracvi's lobatto run (order 4) and the scipy route end at the same angles (the
+    torn pendulum's through its shared coordinates), within lobatto's own error."""
+    from diracvi.bench.first_call import reduced_model, scipy_route
+
+    problem = problems.get(name)
+    traj = dv.simulate(
+        problem.system, problem.q0, problem.p0, dt=problem.dt, steps=problem.steps,
+        discretization="lobatto",
+    )  # fmt: skip
+    pick = reduced_model(problem)[3]
+    q = scipy_route(problem, problem.t0 + problem.dt * problem.steps)
+    np.testing.assert_allclose(np.asarray(traj.q[-1])[pick], q, rtol=0, atol=tol)

@@ -15,6 +15,8 @@ one module exposing ``NAME``, ``DESCRIPTION`` and ``run(settings) -> Result``:
   ``dv.sweep`` embedded and on a 2-worker Dask ``LocalCluster``;
 - :mod:`.gradients` — gradient ÷ forward cost and reverse-mode memory of traced runs;
 - :mod:`.compile_latency` — first-call latency of every built-in problem;
+- :mod:`.first_call` — cold first call of mechanisms (four-bar, torn double pendulum,
+  Andrews' squeezer) against a jit right-hand side + DOP853, fresh processes;
 - :mod:`.cache` — first call in a second process (on-disk compilation cache) ÷ cold;
 - :mod:`.closure_chain` — a torn chain of loop-built closures ÷ the same of shared code;
 - :mod:`.driven` — a driven RLC circuit on the affine fast path against its autonomous twin;
@@ -42,6 +44,7 @@ from . import (
     compile_latency,
     driven,
     ensemble,
+    first_call,
     gradients,
     pendulum,
     rlc,
@@ -64,6 +67,7 @@ BENCHMARKS = {
         gradients,
         sweep,
         compile_latency,
+        first_call,
         cache,
         closure_chain,
         driven,
