@@ -3,8 +3,9 @@
 python benchmarks/first_call_phases.py [--problems four-bar andrews …] [--rules midpoint lobatto]
 
 Each (problem, rule) runs in a fresh process with no disk cache (``DIRACVI_CACHE_DIR=""``):
-import diracvi, build the problem, the first ``dv.simulate`` (its CPU split by JAX's own
-event timings into tracing, lowering and XLA compilation, and its compiled programs counted
+import diracvi, build the problem, the first ``dv.simulate`` (its CPU seconds, beside JAX's
+own event timings of tracing, lowering and XLA compilation — wall seconds, so under load they
+can exceed the CPU —, and its compiled programs counted
 and named from ``jax_log_compiles``), a second call with a new step count (a recompiled
 march shows here), and warm calls (min of 3, wall). CPU seconds are the process's user +
 system time: on a shared machine they move much less with the others' load than the wall.
@@ -75,7 +76,7 @@ def main() -> None:
     env = {**os.environ, "DIRACVI_CACHE_DIR": "", "OPENBLAS_NUM_THREADS": "1"}
     print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)")
     head = (
-        "| problem | rule | import CPU | first call CPU (trace/lower/XLA) | programs "
+        "| problem | rule | import CPU | first call CPU (trace/lower/XLA, wall) | programs "
         "| new steps CPU (programs) | warm wall |"
     )
     print(head)
