@@ -57,8 +57,8 @@ def _keyed(sub):
     leaves, treedef = jax.tree_util.tree_flatten(proxy)
     parts, arrays = [], []
     for leaf in leaves:
-        if eqx.is_array(leaf):
-            parts.append(("array", tuple(leaf.shape), str(leaf.dtype)))
+        if eqx.is_array(leaf):  # (a dtype is its own key: its str() costs microseconds)
+            parts.append(("array", leaf.shape, leaf.dtype))
             arrays.append(leaf)
         else:
             try:
@@ -112,9 +112,15 @@ def _placeholder(leaf):
     return leaf
 
 
+def _name(sub, default: str) -> str:
+    """``sub.name`` (``default`` if it has none), from its fields where it is one."""
+    own = _dict(sub)
+    return own["name"] if "name" in own else getattr(sub, "name", default)
+
+
 def _renamed(skeleton, name: str):
     """``skeleton`` with another ``name`` (a shallow copy: every other field is shared)."""
-    if getattr(skeleton, "name", name) == name:
+    if _name(skeleton, name) == name:
         return skeleton
     copy = object.__new__(type(skeleton))
     fields, own = _dict(copy), _dict(skeleton)
@@ -312,7 +318,7 @@ def pack(subsystems) -> tuple[Skeletons, Packing]:
         stacks.append(jax.tree.unflatten(treedef, _stack_leaves(columns)))
         rests.append(rest)
         skeleton = jax.tree.map(_placeholder, first)
-        for i in mem:
-            skeletons[int(i)] = _renamed(skeleton, subsystems[int(i)].name)
+        for i in mem.tolist():
+            skeletons[i] = _renamed(skeleton, _name(subsystems[i], ""))
     skeletons = Skeletons(skeletons)
     return skeletons, Packing(tuple(stacks), Tables(members, rests, skeletons))
