@@ -13,9 +13,6 @@ the KCL one-forms), the parts' Euler–Lagrange equations read
 
 from __future__ import annotations
 
-import dataclasses
-import functools
-
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -23,6 +20,7 @@ import numpy as np
 from jax.tree_util import GetAttrKey
 
 from ..errors import ModelError
+from ..model.stacked import ALIKE
 from ..model.validate import check_name
 from ._part import Part, finite, positive, traced
 from .waveforms import as_waveform
@@ -95,7 +93,7 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
     """A linear part of ``kind``: ``build()`` the first time, else the template copied
     with ``name``, the parameter leaf ``value`` and the static fields ``statics``."""
     template = _TEMPLATES.get(kind)
-    if traced(value) or any(traced(x) for v in statics.values() for x in _flat(v)):
+    if traced(value) or _any_traced(statics.values()):
         return build()  # a traced value is no template's copy (nor a template)
     if template is None:
         part = build()
@@ -107,10 +105,14 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
     template, path = template
     # copies of the objects on the path to the leaf only (a flatten and unflatten of the
     # whole part cost ~50 µs per element, most of a 10⁴-element netlist's reading)
-    part = _copy_with(template, path, _value(value))
+    leaf = _value(value)
+    part = _copy_with(template, path, leaf)
     fields = object.__getattribute__(part, "__dict__")
     fields["name"] = check_name("name", name)
     fields.update(statics)
+    # the copy says what it is, so that packing alike parts need not flatten it: its
+    # structure is the template's with these static fields, its one array leaf ``leaf``
+    fields[ALIKE] = ((kind, id(template), tuple(statics.items())), leaf)
     return part
 
 
@@ -120,25 +122,25 @@ def _copy_with(obj, path: tuple[str, ...], value):
     if not path:
         return value
     copy = object.__new__(type(obj))
-    # the dictionaries read past equinox's __getattribute__ (a Python hook per read)
+    # the dictionaries read past equinox's __getattribute__ (a Python hook per read);
+    # a dataclass keeps every field there, so one update copies them all
     fields = object.__getattribute__(copy, "__dict__")
     own = object.__getattribute__(obj, "__dict__")
-    for name in _field_names(type(obj)):
-        fields[name] = own[name] if name in own else getattr(obj, name)
+    fields.update(own)
     fields[path[0]] = _copy_with(own[path[0]], path[1:], value)
     return copy
 
 
-@functools.cache
-def _field_names(kind: type) -> tuple[str, ...]:
-    return tuple(f.name for f in dataclasses.fields(kind))
-
-
-def _flat(value):
-    """The scalars of a static field's value (tuples of numbers or of pairs)."""
-    if isinstance(value, tuple):
-        return [x for v in value for x in _flat(v)]
-    return [value]
+def _any_traced(values) -> bool:
+    """Whether a static field's value (tuples of numbers, or of name–number pairs)
+    holds a tracer."""
+    for v in values:
+        if type(v) is tuple:
+            if _any_traced(v):
+                return True
+        elif type(v) is not float and type(v) is not str and traced(v):
+            return True
+    return False
 
 
 class Ground:

@@ -15,6 +15,8 @@ row, ``dc − dq_element = 0``, tying its pin-less coordinate to the controlling
 
 from __future__ import annotations
 
+import functools
+import itertools
 from dataclasses import dataclass, field
 
 import equinox as eqx
@@ -25,7 +27,8 @@ from ..errors import ModelError
 from ..model.interaction import Interaction, connect
 from ..model.interconnect import interconnect
 from ..model.sparse_rows import SparseRows
-from ._part import Part, traced
+from ._part import Part, fields, traced
+from ._topology import GROUND, Graph
 from .electrical import CoupledInductors, Ground, MutualInductance
 
 GROUND_NAMES = ("0", "gnd")
@@ -78,18 +81,20 @@ class Circuit:
         # through equinox's __getattribute__ (a netlist adds 10⁴ parts)
         if not isinstance(part, Part):
             return self._add_other(part, nodes)
-        if part.name in self._names:  # (a set: a scan of the parts is O(N²) overall)
-            raise ModelError(f"circuit {self.name!r}: a part named {part.name!r} exists already.")
-        wanted = (*part.pin_names, *part.flange_names)
-        missing = [w for w in wanted if w not in nodes]
-        extra = [w for w in nodes if w not in wanted]
-        if missing or extra:
+        f = fields(part)
+        name = f["name"]
+        if name in self._names:  # (a set: a scan of the parts is O(N²) overall)
+            raise ModelError(f"circuit {self.name!r}: a part named {name!r} exists already.")
+        wanted, every = _joined(f["pins"], f["flanges"])
+        if nodes.keys() != every:
+            missing = [w for w in wanted if w not in nodes]
+            extra = [w for w in nodes if w not in wanted]
             raise ModelError(
-                f"part {part.name!r}: join every pin/flange {wanted} to a node "
+                f"part {name!r}: join every pin/flange {wanted} to a node "
                 f"(missing {missing}, unknown {extra})."
             )
-        self._parts.append((part, {k: str(v) for k, v in nodes.items()}))
-        self._names.add(part.name)
+        self._parts.append((part, {k: v if type(v) is str else str(v) for k, v in nodes.items()}))
+        self._names.add(name)
         return part
 
     def remove(self, name: str) -> tuple[Part, dict]:
@@ -180,68 +185,109 @@ class Circuit:
         parts = self._coupled()
         if not parts:
             raise ModelError(f"circuit {self.name!r} has no parts; add some before build().")
-        names = [p.name for p, _ in parts]
-        offsets = np.cumsum([0] + [p.n for p, _ in parts])
-        coords = [f"{p.name}.{c}" for p, _ in parts for c in p.coords]
-        index = {c: i for i, c in enumerate(coords)}
+        # every per-part read from the parts' fields, in one pass (see _part.fields)
+        table = [fields(p) for p, _ in parts]
+        names = [f["name"] for f in table]
+        offsets = np.cumsum([0] + [len(f["_coords"]) for f in table])
+        total = int(offsets[-1])
 
-        # electrical: branches (part, coordinate) -> the nodes of their + and − pins
-        incidence: dict[str, list[tuple[int, int]]] = {}
-        branches = []  # (part name, kind, node+, node−)
-        for part, nodes in parts:
+        # electrical: the nodes numbered (vertex 0: ground), each pin an incidence entry,
+        # each branch (part, coordinate) an edge between its + and − pins' nodes
+        vertex: dict[str, int] = {GROUND: 0}
+        labels = [GROUND]  # vertex -> node name
+        first: dict[str, None] = {}  # the nodes with a pin, in the order first joined
+        pin_vertex, pin_col, pin_sign = [], [], []
+        ea, eb, kinds, owners, written = [], [], [], [], []
+        for (_, nodes), f, start in zip(parts, table, offsets[:-1].tolist(), strict=True):
+            pins = f["pins"]
+            if not pins:
+                continue
+            at = _positions(f["_coords"])
             ends: dict[str, dict[int, str]] = {}
-            for pin, coord, sign in part.pins:
+            for pin, coord, sign in pins:
                 node = nodes[pin]
-                incidence.setdefault(node, []).append((index[f"{part.name}.{coord}"], sign))
+                v = vertex.get(node)
+                if v is None:
+                    v = vertex[node] = 0 if self._is_ground(node) else len(labels)
+                    if v:
+                        labels.append(node)
+                first[node] = None
+                pin_vertex.append(v)
+                pin_col.append(start + at[coord])
+                pin_sign.append(sign)
                 ends.setdefault(coord, {})[sign] = node
             # a branch end inside the part (a transistor's internal node b′, joined by the
             # part's own KCL constraint) counts as one part-internal node for the checks
-            inner = f"{part.name}\0internal"
+            name, inner = f["name"], None
+            roles = dict(f.get("branch_roles", ()))
             for coord, e in ends.items():
-                branches.append((part.name, _kind(part, coord), e.get(1, inner), e.get(-1, inner)))
-        mech_nodes = {n for part, nodes in parts for f in part.flange_names for n in [nodes[f]]}
-        clash = mech_nodes & set(incidence)
+                pair = []
+                for sign in (1, -1):
+                    node = e.get(sign)
+                    if node is None:
+                        if inner is None:
+                            inner = len(labels)
+                            labels.append(f"{name}\0internal")
+                        pair.append(labels[inner])
+                    else:
+                        pair.append(node)
+                ea.append(vertex.get(pair[0], inner))
+                eb.append(vertex.get(pair[1], inner))
+                kinds.append(roles.get(coord, f["role"]))
+                owners.append(name)
+                written.append(pair)
+        pairs = zip(parts, table, strict=True)
+        mech_nodes = {nodes[fl] for (_, nodes), f in pairs for fl, _, _ in f["flanges"]}
+        clash = mech_nodes & set(first)
         if clash:
             raise ModelError(
                 f"nodes {sorted(clash)} join both electrical pins and mechanical flanges; "
                 "use an EMF or VoiceCoil between the two domains and distinct node names."
             )
-        node_list = [n for n in incidence if not self._is_ground(n)]
-        if incidence:
-            self._check_topology(incidence, branches, node_list)
+        node_list = [n for n in first if vertex[n]]
+        if first:
+            graph = Graph(labels, ea, eb, kinds, owners, written)
+            self._check_topology(graph, len(node_list) < len(first), node_list, vertex)
         # the node–branch incidence matrix, sparse: 2 entries per branch, O(N) in memory
-        # (dense it would be nodes × coordinates: 4.8 GB for a ladder of 10⁴ stages)
-        entries = [(r, col, sign) for r, n in enumerate(node_list) for col, sign in incidence[n]]
-        rows, cols, signs = np.array(entries, dtype=np.float64).reshape(-1, 3).T
-        forms = SparseRows(rows, cols, signs, (len(node_list), len(coords)))
+        # (dense it would be nodes × coordinates: 4.8 GB for a ladder of 10⁴ stages);
+        # a node's row is its place in node_list (first joined), ground has none
+        row_of = np.full(len(labels), -1, dtype=np.int64)
+        row_of[[vertex[n] for n in node_list]] = np.arange(len(node_list))
+        rows = row_of[np.asarray(pin_vertex, dtype=np.int64)]
+        kept = rows >= 0
+        forms = SparseRows(
+            rows[kept],
+            np.asarray(pin_col, dtype=np.int64)[kept],
+            np.asarray(pin_sign, dtype=np.float64)[kept],
+            (len(node_list), total),
+        )
         kcl_rows = {n: f"KCL({n})" for n in node_list}
 
         # mechanical: flanges at a node -> connect(first, other)
-        at_node: dict[str, list[tuple[str, str]]] = {}
-        for part, nodes in parts:
-            for flange, coord, kind in part.flanges:
-                at_node.setdefault(nodes[flange], []).append((f"{part.name}.{coord}", kind))
+        at_node: dict[str, list[tuple[str, str, int]]] = {}
+        for (_, nodes), f, start in zip(parts, table, offsets[:-1].tolist(), strict=True):
+            for flange, coord, kind in f["flanges"]:
+                col = start + _positions(f["_coords"])[coord]
+                at_node.setdefault(nodes[flange], []).append((f"{f['name']}.{coord}", kind, col))
         ports = []
         for node, members in at_node.items():
-            kinds = {k for _, k in members}
+            kinds = {k for _, k, _ in members}
             if len(kinds) > 1:
                 raise ModelError(
                     f"mechanical node {node!r} joins translational and rotational flanges "
-                    f"({[c for c, _ in members]}); a joint needs one kind."
+                    f"({[c for c, _, _ in members]}); a joint needs one kind."
                 )
-            ports += [connect(members[0][0], c, name=f"{node}:{c}") for c, _ in members[1:]]
+            ports += [connect(members[0][0], c, name=f"{node}:{c}") for c, _, _ in members[1:]]
 
-        # a traced initial state (a differentiated capacitance, say) stays a JAX array
-        xp = jnp if any(traced(x) for p, _ in parts for x in p.initial_q + p.initial_v) else np
-        q0 = xp.concatenate([xp.asarray(p.initial_q, dtype=float) for p, _ in parts])
-        v0 = xp.concatenate([xp.asarray(p.initial_v, dtype=float) for p, _ in parts])
+        q0, v0 = _initial_state(table)
+        xp = np if isinstance(q0, np.ndarray) else jnp
         for node, members in at_node.items():
             x, v = self._initial.get(node, (0.0, 0.0))
-            for c, _ in members:
+            for _, _, col in members:
                 if xp is np:
-                    q0[index[c]], v0[index[c]] = x, v
+                    q0[col], v0[col] = x, v
                 else:
-                    q0, v0 = q0.at[index[c]].set(x), v0.at[index[c]].set(v)
+                    q0, v0 = q0.at[col].set(x), v0.at[col].set(v)
         unknown = set(self._initial) - set(at_node)
         if unknown:
             raise ModelError(
@@ -251,7 +297,7 @@ class Circuit:
         interactions = []
         if node_list:
             interactions.append(Interaction(forms, names=tuple(kcl_rows[n] for n in node_list)))
-        interactions += self._sense_rows(parts, index)
+        interactions += self._sense_rows(table, offsets)
         interactions += ports
         if len(parts) == 1 and not interactions:
             system = parts[0][0]
@@ -265,96 +311,57 @@ class Circuit:
             prefix = None
         p0 = _momenta(system, parts, q0, v0, offsets)
         currents = {}
-        for part, _ in parts:
-            for label, coord in part.currents:
-                key = label or part.name
-                currents[key] = f"{part.name}.{coord}" if prefix is None else coord
+        for f in table:
+            name = f["name"]
+            for label, coord in f["currents"]:
+                currents[label or name] = f"{name}.{coord}" if prefix is None else coord
         mechanical = {node: members[0][0] for node, members in at_node.items()}
         return Assembly(system, q0, p0, tuple(node_list), kcl_rows, currents, mechanical)
 
-    def _sense_rows(self, parts, index) -> list:
+    def _sense_rows(self, table, offsets) -> list:
         """One row ``dc − dq_element = 0`` per current-controlled source (``part.senses``):
         the pin-less coordinate ``c`` of the source follows the controlling element's
         branch charge. The source's ``c``-line is ``0 = ν`` (nothing in its ``L`` or ``F``
         depends on ``c``), so the row's multiplier vanishes and the controlling branch
         feels no reaction (see :mod:`~diracvi.components.controlled`)."""
-        branch = {}  # i(label) -> the full name of its coordinate
-        for part, _ in parts:
-            for label, coord in part.currents:
-                branch[label or part.name] = f"{part.name}.{coord}"
+        if not any(f.get("senses") for f in table):
+            return []
+        branch = {}  # i(label) -> the column of its coordinate
+        for f, start in zip(table, offsets[:-1].tolist(), strict=True):
+            for label, coord in f["currents"]:
+                branch[label or f["name"]] = start + _positions(f["_coords"])[coord]
         lower = {k.lower(): v for k, v in branch.items()}
         rows, names = [], []
-        for part, _ in parts:
-            for coord, element in getattr(part, "senses", ()):
+        for f, start in zip(table, offsets[:-1].tolist(), strict=True):
+            for coord, element in f.get("senses", ()):
                 target = branch.get(element, lower.get(element.lower()))
                 if target is None:
                     raise ModelError(
-                        f"{self._where(part.name)}: the controlling element {element!r} is "
+                        f"{self._where(f['name'])}: the controlling element {element!r} is "
                         f"not in circuit {self.name!r}; name an element whose current is "
                         f"reported, one of {sorted(branch)} (SPICE: a voltage source)."
                     )
                 r = len(names)
-                rows.append((r, index[f"{part.name}.{coord}"], 1.0))
-                rows.append((r, index[target], -1.0))
-                names.append(f"sense({part.name})")
-        if not rows:
-            return []
+                rows.append((r, start + _positions(f["_coords"])[coord], 1.0))
+                rows.append((r, target, -1.0))
+                names.append(f"sense({f['name']})")
         r, c, v = np.array(rows, dtype=np.float64).T
-        return [Interaction(SparseRows(r, c, v, (len(names), len(index))), names=tuple(names))]
+        shape = (len(names), int(offsets[-1]))
+        return [Interaction(SparseRows(r, c, v, shape), names=tuple(names))]
 
-    def _check_topology(self, incidence, branches, node_list) -> None:
-        grounds = [n for n in incidence if self._is_ground(n)]
-        if not grounds:
+    def _check_topology(self, graph: Graph, grounded: bool, node_list, vertex) -> None:
+        """No ground, floating nodes, cut-sets of current sources, loops of voltage
+        sources (:class:`~._topology.Graph`); a node with a single connection is allowed
+        (as in SPICE): KCL holds that branch's current at 0 — a voltage source's node
+        follows the source, a capacitor's keeps its charge; a lone current source is a
+        cut-set."""
+        if not grounded:
             raise ModelError(
                 f"circuit {self.name!r} has no ground node: name one node '0' or 'gnd' "
                 "(SPICE's reference, potential 0)."
             )
-        # a node with a single connection is allowed (as in SPICE): KCL holds that
-        # branch's current at 0 — a voltage source's node follows the source, a
-        # capacitor's keeps its charge; a lone current source is a cut-set (below)
-        gnd = "\0ground"
-
-        def canon(node):
-            return gnd if self._is_ground(node) else node
-
-        def components(kinds_out):
-            uf = _UnionFind()
-            for _name, kind, a, b in branches:
-                uf.find(canon(a)), uf.find(canon(b))
-                if kind not in kinds_out:
-                    uf.union(canon(a), canon(b))
-            return uf
-
-        uf = components(())
-        away = sorted(n for n in node_list if uf.find(n) != uf.find(gnd))
-        if away:
-            raise ModelError(
-                f"nodes {away} are floating: no path of elements joins them to ground "
-                "(node '0'); connect them to the rest of the circuit."
-            )
-        uf = components(("current",))
-        cut = sorted(n for n in node_list if uf.find(n) != uf.find(gnd))
-        if cut:
-            srcs = sorted(
-                self._where(b[0])
-                for b in branches
-                if b[1] == "current" and (canon(b[2]) in cut) != (canon(b[3]) in cut)
-            )
-            raise ModelError(
-                f"nodes {cut} reach ground only through current sources ({', '.join(srcs)}): "
-                "a cut-set of current sources, whose currents KCL cannot reconcile; add a "
-                "resistor to ground."
-            )
-        uf = _UnionFind()
-        for name, kind, a, b in branches:
-            if kind == "voltage":
-                if uf.find(canon(a)) == uf.find(canon(b)):
-                    raise ModelError(
-                        f"{self._where(name)} closes a loop of voltage sources (between "
-                        f"nodes {a!r} and {b!r}): their voltages over-determine the loop; "
-                        "add a series resistance or remove one source."
-                    )
-                uf.union(canon(a), canon(b))
+        nodes = np.array([vertex[n] for n in node_list], dtype=np.int64)
+        graph.check(nodes, self._where, self.name)
 
 
 #: from this many parts the initial momenta are one compiled call on the packed
@@ -386,26 +393,32 @@ def _momenta(system, parts, q0, v0, offsets):
     return p0 if traced(p0) else np.asarray(p0)
 
 
-def _kind(part: Part, coord: str) -> str:
-    """The topology role of one branch: a controlled source's own per-branch roles
-    (its sensing branch is an open circuit), else the part's role."""
-    return dict(getattr(part, "branch_roles", ())).get(coord, part.role)
+@functools.cache
+def _joined(pins, flanges) -> tuple[tuple[str, ...], frozenset]:
+    """A part's pins and flanges in order (``pin_names``, ``flange_names``), and as a
+    set: once per kind of part (its ``pins`` and ``flanges`` tuples are the key)."""
+    wanted = (*dict.fromkeys(p for p, _, _ in pins), *(f for f, _, _ in flanges))
+    return wanted, frozenset(wanted)
+
+
+@functools.cache
+def _positions(coords) -> dict:
+    """coordinate -> its position in a part's ``coords`` (once per tuple of names)."""
+    return {c: i for i, c in enumerate(coords)}
+
+
+def _initial_state(table):
+    """``(q0, v0)``: the parts' own initial coordinates and velocities, side by side
+    (NumPy; JAX's where one is traced, a differentiated capacitance, say)."""
+    q = list(itertools.chain.from_iterable(f["initial_q"] for f in table))
+    v = list(itertools.chain.from_iterable(f["initial_v"] for f in table))
+    # a part stores floats (or the tracers it was given): one type test per number
+    if all(type(x) is float for x in q) and all(type(x) is float for x in v):
+        return np.array(q, dtype=np.float64), np.array(v, dtype=np.float64)
+    if not any(traced(x) for x in (*q, *v)):
+        return np.asarray(q, dtype=np.float64), np.asarray(v, dtype=np.float64)
+    return jnp.asarray(q, dtype=float), jnp.asarray(v, dtype=float)
 
 
 def _inductance(part: Part):
     return dict(part.parameters).get("inductance") if part.role == "inductor" else None
-
-
-class _UnionFind:
-    def __init__(self):
-        self.parent: dict = {}
-
-    def find(self, x):
-        self.parent.setdefault(x, x)
-        while self.parent[x] != x:
-            self.parent[x] = self.parent[self.parent[x]]
-            x = self.parent[x]
-        return x
-
-    def union(self, a, b):
-        self.parent[self.find(a)] = self.find(b)

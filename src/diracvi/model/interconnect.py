@@ -40,9 +40,41 @@ from .validate import check_name, eval_shape
 _PACKED: dict = {}
 
 
-def _prefixed(system: DiracSystem, names: Sequence[str]) -> tuple[str, ...]:
-    prefix = system.name + "."  # once: an attribute of a Module costs a microsecond
+def _prefixed(name: str, names: Sequence[str]) -> tuple[str, ...]:
+    prefix = name + "."
     return tuple(prefix + n for n in names)
+
+
+def _described(sub) -> tuple[str, tuple[str, ...], tuple[str, ...]]:
+    """``(name, coords, constraint_names)`` of a subsystem: for diracvi's two classes
+    (and subclasses that keep their properties) read from the fields as stored, past
+    equinox's ``__getattribute__`` — a Python hook of about a microsecond per read, and
+    a property reads twice (an interconnection of 10⁵ parts read 10⁶ attributes here)."""
+    where = _FIELDS.get(type(sub))
+    if where is None:
+        where = _FIELDS.setdefault(type(sub), _fields_of(type(sub)))
+    if not where:
+        return sub.name, sub.coords, sub.constraint_names
+    f = object.__getattribute__(sub, "__dict__")
+    return f["name"], f[where[0]], f[where[1]]
+
+
+#: class -> the fields its ``coords`` and ``constraint_names`` properties return
+_FIELDS: dict = {}
+
+
+def _fields_of(kind: type) -> tuple[str, ...]:
+    for base, names in (
+        (LagrangeDiracSystem, ("_coords", "_constraint_names")),
+        (InterconnectedSystem, ("_coords", "_all_constraint_names")),
+    ):
+        if (
+            issubclass(kind, base)
+            and kind.coords is base.coords
+            and kind.constraint_names is base.constraint_names
+        ):
+            return names
+    return ()
 
 
 def _index_of(subsystems, full: str, where: str, index: dict[str, int]) -> int:
@@ -134,7 +166,8 @@ class InterconnectedSystem(DiracSystem):
                     f"systems[{i}]={sub!r} is not a diracvi system: build it with "
                     "dv.LagrangeDiracSystem(...) or dv.interconnect(...)."
                 )
-        counts = Counter(sub.name for sub in subsystems)
+        described = [_described(sub) for sub in subsystems]
+        counts = Counter(name for name, _, _ in described)
         dupes = sorted(n for n, c in counts.items() if c > 1)
         if dupes:
             raise ModelError(
@@ -144,10 +177,10 @@ class InterconnectedSystem(DiracSystem):
         self.subsystems = subsystems
         self._packing = None
         offsets = [0]
-        for sub in subsystems:
-            offsets.append(offsets[-1] + sub.n)
+        for _, coords, _ in described:
+            offsets.append(offsets[-1] + len(coords))
         self._offsets = StaticTuple(offsets)
-        self._coords = StaticTuple(c for sub in subsystems for c in _prefixed(sub, sub.coords))
+        self._coords = StaticTuple(c for name, cs, _ in described for c in _prefixed(name, cs))
         if isinstance(interactions, Interaction | Connection) or not isinstance(
             interactions, Sequence
         ):
@@ -155,7 +188,9 @@ class InterconnectedSystem(DiracSystem):
                 f"interactions={interactions!r} must be a list of dv.connect(...) or "
                 "dv.Interaction(...) objects."
             )
-        index = {c: i for i, c in enumerate(self._coords)}
+        # coordinate -> position, for the ports (only they name coordinates)
+        joined = any(isinstance(inter, Connection) for inter in interactions)
+        index = {c: i for i, c in enumerate(self._coords)} if joined else {}
         owner = np.repeat(np.arange(len(subsystems)), np.diff(offsets))
         everyone = tuple(range(len(subsystems)))
         general, inames, ports, port_rows, form_rows, involved = [], [], [], [], [], []
@@ -200,7 +235,7 @@ class InterconnectedSystem(DiracSystem):
         self._port_rows = StaticTuple(port_rows)
         self._form_rows = StaticTuple(form_rows)
         self._row_subsystems = StaticTuple(involved)
-        own = (c for sub in subsystems for c in _prefixed(sub, sub.constraint_names))
+        own = (c for name, _, rows in described if rows for c in _prefixed(name, rows))
         self._all_constraint_names = StaticTuple((*own, *inames))
 
     # ----------------------------------------------------------- construction

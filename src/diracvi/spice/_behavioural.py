@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from .. import components as cp
+from ..components._part import fields
 from ._expr import ExprError, compile_expression
 from ._values import number
 
@@ -115,15 +116,15 @@ def _build(ctx, name, line, kind, text, a, b, written, table=None):
 def check_names(reader) -> None:
     """Every node and source named in a B expression must exist: all the unknown ones of
     a line in one message."""
+    if not reader.name_checks:
+        return
     nodes = set()
-    for part, at in reader.circuit._parts:
-        for pin, _, _ in part.pins:
+    table = [(fields(part), at) for part, at in reader.circuit._parts]  # (see fields)
+    for f, at in table:
+        for pin, _, _ in f["pins"]:
             if not _SENSE_PIN.match(pin):  # a B source's sensing pins join no node
                 nodes.add(at[pin])
-    labels = {
-        (label or part.name).lower() for part, _ in reader.circuit._parts
-        for label, _ in part.currents
-    }  # fmt: skip
+    labels = {(label or f["name"]).lower() for f, _ in table for label, _ in f["currents"]}
     for line, scope, written, names, sources in reader.name_checks:
         bad_nodes = sorted({n for n in names if scope.node(n) not in nodes and not _ground(n)})
         bad_sources = sorted({s for s in sources if scope.ref(s).lower() not in labels})

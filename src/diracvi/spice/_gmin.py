@@ -12,7 +12,11 @@ each such node to ground, with a note naming it.
 
 from __future__ import annotations
 
+import numpy as np
+
 from .. import components as cp
+from ..components._part import fields
+from ..components._topology import GROUND, components
 
 #: ngspice's default GMIN (S)
 GMIN = 1e-12
@@ -24,47 +28,37 @@ def islands(circuit) -> list[str]:
     A node with no path to ground at all, a cut-set of current sources and a circuit
     without ground stay the topology errors :meth:`~diracvi.components.Circuit.build`
     reports (they are mistakes, not a missing DC path)."""
-    if not any(circuit._is_ground(n) for _, nodes in circuit._parts for n in nodes.values()):
-        return []
-    every, order = _components(circuit, ())
-    direct, _ = _components(circuit, ("capacitor",))
-    ground = "\0ground"
-    return [n for n in order if every(n) == every(ground) and direct(n) != direct(ground)]
-
-
-def _components(circuit, open_roles):
-    """``(find, nodes)``: the root of each node's connected component, branches of
-    ``open_roles`` left out, and the non-ground nodes in the order first named."""
-    parent: dict[str, str] = {}
-
-    def find(x):
-        parent.setdefault(x, x)
-        while parent[x] != x:
-            parent[x] = parent[parent[x]]
-            x = parent[x]
-        return x
-
-    ground = "\0ground"
-    order: list[str] = []
+    # the nodes numbered (0: ground), each branch's ends joined to its first end
+    vertex = {GROUND: 0}
+    order: list[str] = []  # vertex − 1 -> node
+    a, b, capacitor = [], [], []
     for part, nodes in circuit._parts:
-        roles = dict(getattr(part, "branch_roles", ()))
-        branches: dict[str, list[str]] = {}
-        for pin, coord, _ in part.pins:
+        f = fields(part)
+        roles = dict(f.get("branch_roles", ()))
+        branches: dict[str, list[int]] = {}
+        for pin, coord, _ in f["pins"]:
             node = nodes.get(pin)
             if node is None:
                 continue
-            node = ground if circuit._is_ground(node) else node
-            if node != ground and node not in parent:
-                order.append(node)
-            find(node)
-            branches.setdefault(coord, []).append(node)
+            v = vertex.get(node)
+            if v is None:
+                v = vertex[node] = 0 if circuit._is_ground(node) else len(order) + 1
+                if v:
+                    order.append(node)
+            branches.setdefault(coord, []).append(v)
         for coord, ends in branches.items():
-            if roles.get(coord, part.role) in open_roles:
-                continue
             for other in ends[1:]:
-                parent[find(other)] = find(ends[0])
-    find(ground)
-    return find, order
+                a.append(ends[0])
+                b.append(other)
+                capacitor.append(roles.get(coord, f["role"]) == "capacitor")
+    if len(vertex) == len(order) + 1:  # no ground node among them
+        return []
+    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
+    every = components(len(order) + 1, a, b)
+    direct = np.asarray(capacitor, dtype=bool)
+    direct = components(len(order) + 1, a[~direct], b[~direct])
+    alone = (every[1:] == every[0]) & (direct[1:] != direct[0])
+    return [order[k] for k in np.flatnonzero(alone)]
 
 
 def add_shunts(circuit, gmin: float, note) -> None:

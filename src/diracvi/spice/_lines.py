@@ -19,6 +19,8 @@ from pathlib import Path
 from ..errors import ModelError
 
 _TOKEN = re.compile(r"\{[^}]*\}|'[^']*'|=|[^\s,()={}']+")
+#: the characters other than blanks that separate or group a line's tokens
+_PLAIN = frozenset(",()={}'")
 
 
 class NetlistError(ModelError):
@@ -114,6 +116,8 @@ def split(line: Line) -> tuple[list[str], dict[str, str]]:
     """Positional tokens and ``key=value`` pairs (keys lower-case); parentheses and
     commas separate tokens, ``{…}`` and ``'…'`` stay whole."""
     text = line.text
+    if _PLAIN.isdisjoint(text):  # no separator but blanks (R1 a b 10): the words
+        return text.split(), {}
     if text.count("(") != text.count(")") or text.count("{") != text.count("}"):
         raise line.fail("unbalanced parentheses or braces (close every '(' and '{')")
     tokens = _TOKEN.findall(text)

@@ -67,6 +67,13 @@ def effective(value, model: dict, kw: dict) -> float:
 def r_line(ctx, name, pos, kw, line):
     """An R line (see the module docstring): ``(Resistor, pins)``, or ``(None, {})`` for
     an infinite resistance."""
+    if len(pos) == 4 and not kw and pos[3].lower() not in ctx.models:
+        # the plain line 'Rname n+ n- value' (most of a netlist), as the general reading
+        # below takes it: no model named, no instance parameter
+        return cp.Resistor(ctx.value(pos[3], line, f"{pos[0]} value"), name=name), {
+            "p": pos[1],
+            "n": pos[2],
+        }
     kw = dict(kw)
     for key in ("r", "resistance"):  # ngspice's keyword form of the value
         if key in kw and len(pos) == 3:

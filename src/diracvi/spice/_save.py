@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import re
 
+from ..components._part import fields
+
 #: part roles whose current is a branch unknown of ngspice's equations (saved by default)
 BRANCH_ROLES = ("voltage", "inductor")
 
@@ -21,11 +23,10 @@ def select(netlist, saves, problems) -> tuple:
     ``(token, line)`` of its ``.save`` lines; unknown names are added to ``problems``."""
     assembly = netlist.assembly
     display = netlist.display
-    roles = {p.name: p.role for p, _ in netlist.circuit._parts}
+    table = [fields(p) for p, _ in netlist.circuit._parts]  # (read once: see fields)
+    roles = {f["name"]: f["role"] for f in table}
     # an XSPICE winding's current is no vector of ngspice's (its ports are the A device's)
-    windings = {
-        k for p, _ in netlist.circuit._parts if p.role == "wound core" for k, _ in p.currents
-    }
+    windings = {k for f in table if f["role"] == "wound core" for k, _ in f["currents"]}
     currents = {}  # ngspice name (lower) -> waveform key
     branch = []
     for label in assembly.currents:

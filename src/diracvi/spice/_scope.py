@@ -288,11 +288,14 @@ def _element(scope: Scope, line: Line) -> None:
     key = pos[0].lower()
     if key in scope.names:
         raise line.fail(f"element {pos[0]!r} is defined twice (first {scope.names[key][1]})")
-    name = scope.part_name(pos[0])
-    scope.names[key] = (name, line.where)
+    display = scope.display(pos[0])
+    name = display.replace(".", ":")  # (scope.part_name)
+    where = line.where
+    scope.names[key] = (name, where)
     part, nodes = handler(scope, name, pos, kw, line)
-    scope.reader.circuit.origin[name] = f"{line.where} ({scope.display(pos[0])})"
+    circuit = scope.reader.circuit
+    circuit.origin[name] = f"{where} ({display})"
     if part is None:
         return
-    scope.reader.circuit.add(part, **{pin: scope.node(n) for pin, n in nodes.items()})
-    scope.reader.display[name] = scope.display(pos[0])
+    circuit.add(part, **{pin: scope.node(n) for pin, n in nodes.items()})
+    scope.reader.display[name] = display

@@ -8,6 +8,7 @@ parameter names, ``+ − * / ** ^``, parentheses and a fixed set of functions �
 from __future__ import annotations
 
 import ast
+import functools
 import math
 import operator
 import re
@@ -64,6 +65,7 @@ class ExpressionError(ValueError):
     """A number or expression that cannot be read (the parser adds the line)."""
 
 
+@functools.lru_cache(maxsize=4096)  # (a netlist repeats its values: 10⁵ × "1u" in a ladder)
 def number(token: str) -> float | None:
     """``4.7k`` → 4700.0; trailing letters after a scale (``1kOhm``) are ignored as in
     SPICE (note ``1F`` is one femto-unit, as SPICE reads it). ``None`` if not a number."""
