@@ -21,9 +21,11 @@ coordinate's velocity: a PMOS's bulk junctions are ``s = −1``) and the forward
 the operating point's Newton starts it from (SPICE's ``MODEINITJCT``: ``V_crit`` for a
 diode, −1 V for a MOSFET's reverse-biased bulk junctions). An interconnection gathers its
 members' junctions (:func:`junctions` pads three columns with ``s = 1``, start
-``V_crit``). The discrete velocity of a step is ``v_k = (q_{k+1} − q_k)/h`` under
-every rule here, so the junction voltage of an iterate is read from the unknown end
-``q_other`` as ``s (q_other − q)/h`` (``s = +1`` for the (+) scheme, ``−1`` for (−)).
+``V_crit``, when another member has five).
+
+The discrete velocity of a step is ``v_k = (q_{k+1} − q_k)/h`` under every rule here,
+so the junction voltage of an iterate is read from the unknown end ``q_other`` as
+``s (q_other − q)/h`` (``s = +1`` for the (+) scheme, ``−1`` for (−)).
 """
 
 from __future__ import annotations
@@ -60,8 +62,11 @@ def limit_junction(v_new, v_old, nvt, vcrit, bv, xp=jnp):
 
 def limit_rows(v_new, v_old, limits, xp=jnp):
     """:func:`limit_junction` of the coordinates' velocities with :func:`junctions`'s
-    five-column ``limits``: each junction's forward voltage is its polarity times the
-    velocity."""
+    ``limits``: with five columns each junction's forward voltage is its polarity times
+    the velocity; three columns are the plain case (the same program as before the
+    polarity existed)."""
+    if limits.shape[1] == 3:
+        return limit_junction(v_new, v_old, limits[:, 0], limits[:, 1], limits[:, 2], xp)
     s = limits[:, 3]
     lim = limit_junction(s * v_new, s * v_old, limits[:, 0], limits[:, 1], limits[:, 2], xp)
     return s * lim
@@ -75,16 +80,25 @@ def _five(limits):
     return jnp.concatenate([limits, jnp.ones_like(limits[:, :1]), limits[:, 1:2]], axis=1)
 
 
+def start_voltages(limits):
+    """The forward voltages the operating point starts each junction from (velocities:
+    polarity times the start), ``V_crit`` for a three-column table."""
+    if limits.shape[1] == 3:
+        return limits[:, 1]
+    return limits[:, 3] * limits[:, 4]
+
+
 def junctions(system):
     """``(indices, limits)`` of every junction coordinate of ``system`` (an
     interconnection gathers its members'), or ``None`` when it has none; ``limits`` has
-    five columns, ``(nV_T, V_crit, BV, polarity, start)`` (module docstring)."""
+    three columns, or five, ``(nV_T, V_crit, BV, polarity, start)``, when any part
+    declares those (module docstring)."""
     members = getattr(system, "_members", None)
     if members is None:
         found = tuple(getattr(system, "junctions", ()) or ())
         if not found:
             return None
-        return np.asarray(found, dtype=np.int64), _five(system.junction_limits)
+        return np.asarray(found, dtype=np.int64), jnp.asarray(system.junction_limits)
     kinds = system._kinds()
     if not any(getattr(k, "junctions", ()) for k in kinds):
         return None
@@ -93,7 +107,9 @@ def junctions(system):
         own = getattr(sub, "junctions", ()) or ()
         if own:
             index += [int(offset) + int(j) for j in own]
-            limits.append(_five(sub.junction_limits))
+            limits.append(jnp.asarray(sub.junction_limits))
+    if any(x.shape[1] == 5 for x in limits):
+        limits = [_five(x) for x in limits]
     return np.asarray(index, dtype=np.int64), jnp.concatenate(limits, axis=0)
 
 

@@ -46,7 +46,7 @@ import numpy as np
 from ..driver import events
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
-from ..solvers.limiting import junctions, limit_rows
+from ..solvers.limiting import junctions, limit_rows, start_voltages
 from ._magnetic import mmf_values
 
 
@@ -151,7 +151,7 @@ class _Equations:
         self.size = self.n + self.m + len(self.dep) + len(self.held)
         found = junctions(system)
         self.junction_index, self.junction_limits = (
-            (np.zeros(0, np.int64), np.zeros((0, 5))) if found is None else
+            (np.zeros(0, np.int64), np.zeros((0, 3))) if found is None else
             (found[0], np.asarray(found[1], dtype=np.float64))
         )  # fmt: skip
 
@@ -220,8 +220,8 @@ class _Equations:
                     for j in self.junction_index
                 ]
             )
-            lim = self.junction_limits
-            x[self.junction_index] = np.where(seeded, lim[:, 3] * lim[:, 4], 0.0)
+            start = start_voltages(self.junction_limits)
+            x[self.junction_index] = np.where(seeded, start, 0.0)
         return x
 
     def limit(self, x_old, x_new):
