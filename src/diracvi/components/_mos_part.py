@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ._junction import depletion_coenergy, pn_current
+from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
 from ._part import finite, positive
 from .controlled import ControlledPart
@@ -104,6 +104,24 @@ def polarity(where: str, kind: str) -> float:
     if kind not in KINDS:
         raise ModelError(f"{where}: kind={kind!r} must be 'nmos' or 'pmos'.")
     return KINDS[kind]
+
+
+def bulk_limits(sign, saturation: dict):
+    """The bulk junctions Newton limits as ngspice's ``mos1load``/``mos2load`` do
+    (``pnjlim`` on ``V_BS``, ``V_BD`` with ``V_T`` and ``V_crit = V_T ln(V_T/(√2 I_S))``),
+    as ``(coordinates, rows)`` for :mod:`diracvi.solvers.limiting`: polarity ``type``,
+    and the operating point starts them at −1 V (``MODEINITJCT``: ``V_BS = −1``,
+    ``V_DS = 0``). A junction with ``I_S = 0`` (a VDMOS's) is GMIN alone, linear: not
+    declared."""
+    names, rows = [], []
+    for name, i_s in saturation.items():
+        if isinstance(i_s, float) and i_s <= 0.0:
+            continue
+        vcrit = THERMAL_VOLTAGE * jnp.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
+        names.append(name)
+        rows.append(jnp.stack([jnp.asarray(x, float) for x in
+                               (THERMAL_VOLTAGE, vcrit, jnp.inf, sign, -1.0)]))  # fmt: skip
+    return tuple(names), (jnp.stack(rows) if rows else None)
 
 
 class Device(NamedTuple):
@@ -293,10 +311,13 @@ def _assemble(
         initial_v[idx[flux[k]]] = start[k]
     for k in meyer_branches:
         initial_q[idx[f"y{k}"]] = TAU * start[k]
+    junctions, limits = bulk_limits(sign, {"wbs": i_ss, "wbd": i_sd})
     return ControlledPart(
         tuple(coords),
         lagrangian,
         force=force,
+        junctions=junctions,
+        junction_limits=limits,
         constraints=np.array(rows) if rows else None,
         constraint_names=tuple(f"KCL({n.lower()}')" for n in internal) if rows else None,
         name=name,

@@ -15,10 +15,17 @@ same equations, and its derivative (implicit function theorem) does not see it.
 carry ``junctions`` — a static tuple of coordinate indices whose *velocity* is a junction
 voltage (the diode's flux linkage ``w``, whose velocity is ``V_j``) — and
 ``junction_limits``, an array of shape ``(len(junctions), 3)`` with rows
-``(nV_T, V_crit, BV)`` (``BV = inf`` without breakdown). An interconnection gathers its
-members' junctions. The discrete velocity of a step is ``v_k = (q_{k+1} − q_k)/h`` under
-every rule here, so the junction voltage of an iterate is read from the unknown end
-``q_other`` as ``s (q_other − q)/h`` (``s = +1`` for the (+) scheme, ``−1`` for (−)).
+``(nV_T, V_crit, BV)`` (``BV = inf`` without breakdown), or ``(len(junctions), 5)`` with
+two more columns: the junction's polarity ``s`` (its forward voltage is ``s`` times the
+coordinate's velocity: a PMOS's bulk junctions are ``s = −1``) and the forward voltage
+the operating point's Newton starts it from (SPICE's ``MODEINITJCT``: ``V_crit`` for a
+diode, −1 V for a MOSFET's reverse-biased bulk junctions). An interconnection gathers its
+members' junctions (:func:`junctions` pads three columns with ``s = 1``, start
+``V_crit``, when another member has five).
+
+The discrete velocity of a step is ``v_k = (q_{k+1} − q_k)/h`` under every rule here,
+so the junction voltage of an iterate is read from the unknown end ``q_other`` as
+``s (q_other − q)/h`` (``s = +1`` for the (+) scheme, ``−1`` for (−)).
 """
 
 from __future__ import annotations
@@ -53,9 +60,39 @@ def limit_junction(v_new, v_old, nvt, vcrit, bv, xp=jnp):
     return xp.where(in_breakdown, mirrored, forward)
 
 
+def limit_rows(v_new, v_old, limits, xp=jnp):
+    """:func:`limit_junction` of the coordinates' velocities with :func:`junctions`'s
+    ``limits``: with five columns each junction's forward voltage is its polarity times
+    the velocity; three columns are the plain case (the same program as before the
+    polarity existed)."""
+    if limits.shape[1] == 3:
+        return limit_junction(v_new, v_old, limits[:, 0], limits[:, 1], limits[:, 2], xp)
+    s = limits[:, 3]
+    lim = limit_junction(s * v_new, s * v_old, limits[:, 0], limits[:, 1], limits[:, 2], xp)
+    return s * lim
+
+
+def _five(limits):
+    """``(nV_T, V_crit, BV, s, start)`` rows of a part's three- or five-column table."""
+    limits = jnp.asarray(limits, dtype=float)
+    if limits.shape[1] == 5:
+        return limits
+    return jnp.concatenate([limits, jnp.ones_like(limits[:, :1]), limits[:, 1:2]], axis=1)
+
+
+def start_voltages(limits):
+    """The forward voltages the operating point starts each junction from (velocities:
+    polarity times the start), ``V_crit`` for a three-column table."""
+    if limits.shape[1] == 3:
+        return limits[:, 1]
+    return limits[:, 3] * limits[:, 4]
+
+
 def junctions(system):
     """``(indices, limits)`` of every junction coordinate of ``system`` (an
-    interconnection gathers its members'), or ``None`` when it has none."""
+    interconnection gathers its members'), or ``None`` when it has none; ``limits`` has
+    three columns, or five, ``(nV_T, V_crit, BV, polarity, start)``, when any part
+    declares those (module docstring)."""
     members = getattr(system, "_members", None)
     if members is None:
         found = tuple(getattr(system, "junctions", ()) or ())
@@ -71,6 +108,8 @@ def junctions(system):
         if own:
             index += [int(offset) + int(j) for j in own]
             limits.append(jnp.asarray(sub.junction_limits))
+    if any(x.shape[1] == 5 for x in limits):
+        limits = [_five(x) for x in limits]
     return np.asarray(index, dtype=np.int64), jnp.concatenate(limits, axis=0)
 
 
@@ -87,7 +126,7 @@ def junction_limiter(eqs):
     def limit(x, x_new):
         v_old = sign * (x[index] - known) / eqs.h
         v_new = sign * (x_new[index] - known) / eqs.h
-        v = limit_junction(v_new, v_old, limits[:, 0], limits[:, 1], limits[:, 2])
+        v = limit_rows(v_new, v_old, limits)
         return x_new.at[index].set(known + sign * eqs.h * v)
 
     return limit

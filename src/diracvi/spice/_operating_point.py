@@ -19,8 +19,9 @@ capacitor's, a diode's flux) keep their values.
 
 Newton's method solves it, with the junction voltages limited as in a transient step
 (:mod:`diracvi.solvers.limiting`). When plain Newton fails, SPICE's homotopies follow:
-**gmin stepping** (a conductance ``G`` from every node to ground, ``G = 10⁻² … 10⁻¹²``,
-then 0, each solve starting from the last) and **source stepping** (the equations'
+**gmin stepping** (a conductance ``G`` from every node to ground, ``G = 10⁻³ … 10⁻¹²``,
+then 0, each solve starting from the last; a failed solve retreats to a smaller factor,
+as ngspice's dynamic gmin stepping does) and **source stepping** (the equations'
 source terms — their value at the zero state — scaled by ``s`` from 0 to 1).
 
 ``.ic`` node values *hold* their nodes during the operating point (SPICE without UIC):
@@ -45,7 +46,7 @@ import numpy as np
 from ..driver import events
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
-from ..solvers.limiting import junctions, limit_junction
+from ..solvers.limiting import junctions, limit_rows, start_voltages
 from ._magnetic import mmf_values
 
 
@@ -206,8 +207,9 @@ class _Equations:
         return call
 
     def start(self, off):
-        """The first iterate: every junction at ``V_crit`` as SPICE seeds it, except
-        those of the parts named in ``off`` (``True``: all), which start at 0 V."""
+        """The first iterate: every junction at its declared start as SPICE seeds it
+        (``V_crit`` forward, a MOSFET's bulk junctions −1 V), except those of the parts
+        named in ``off`` (``True``: all), which start at 0 V."""
         x = np.zeros(self.size)
         x[self.n + self.m : self.n + self.m + len(self.dep)] = self.q0[self.dep]
         if len(self.junction_index):
@@ -218,14 +220,15 @@ class _Equations:
                     for j in self.junction_index
                 ]
             )
-            x[self.junction_index] = np.where(seeded, self.junction_limits[:, 1], 0.0)
+            start = start_voltages(self.junction_limits)
+            x[self.junction_index] = np.where(seeded, start, 0.0)
         return x
 
     def limit(self, x_old, x_new):
         if not len(self.junction_index):
             return x_new
-        j, lim = self.junction_index, self.junction_limits
-        v = limit_junction(x_new[j], x_old[j], lim[:, 0], lim[:, 1], lim[:, 2], xp=np)
+        j = self.junction_index
+        v = limit_rows(x_new[j], x_old[j], self.junction_limits, xp=np)
         x_new = x_new.copy()
         x_new[j] = v
         return x_new
@@ -299,6 +302,40 @@ def operating_point(
     )
 
 
+def _singular(jac) -> bool:
+    """Whether ``jac`` is singular once its rows and columns are scaled to unit largest
+    entry: the unknowns differ in units by many orders (a MOSFET's Meyer coordinates hold
+    ``τ·V`` with ``τ = 10⁻¹²``, their rows read ``y/τ``), and an unscaled rank test calls
+    a matrix whose singular values span 10²⁷ singular when it is not."""
+    a = np.asarray(jac, dtype=np.float64)
+    for axis in (1, 0):
+        peak = np.max(np.abs(a), axis=axis, keepdims=True)
+        a = a / np.where(peak > 0.0, peak, 1.0)
+    return np.linalg.matrix_rank(a) < a.shape[0]
+
+
+def _gmin_stepping(solve, x0, target=1e-12, factor=10.0):
+    """ngspice's dynamic gmin stepping (``cktop.c: dynamic_gmin``): ``G`` from every node
+    to ground, from 10⁻³ S down by ``factor`` to ``target``, then 0; each solve starts from
+    the last converged point. A failed solve retreats to the last good ``G`` and divides
+    it by a smaller factor (``factor ← factor^¼``, until it is below 1.00005); easy solves
+    let the factor grow back (to at most 10). ``solve(x, source, gmin) -> (x, ok)``."""
+    good, g_good, top, g = x0, None, factor, 1e-2 / factor
+    while True:
+        x, ok = solve(good, 1.0, g)
+        if ok:
+            good, g_good = x, g
+            if g <= target:
+                return solve(good, 1.0, 0.0)
+            factor = min(factor * np.sqrt(factor), top)
+            g = target if g < factor * target else g / factor
+        else:
+            if factor < 1.00005:
+                return good, False
+            factor = np.sqrt(np.sqrt(factor))
+            g = (1e-2 if g_good is None else g_good) / factor
+
+
 def _solve(eqs, linearized, off, methods):
     """The point with the switches in one state: ``(OperatingPoint, branch velocities)``."""
     assembly = eqs.assembly
@@ -306,7 +343,7 @@ def _solve(eqs, linearized, off, methods):
     x0 = eqs.start(off)
     total = 0
 
-    def solve(x, source, gmin):
+    def solve(x, source, gmin, iterations=100):
         nonlocal total
         shift = (1.0 - source) * zero  # source stepping: the source terms scaled by s
 
@@ -314,7 +351,7 @@ def _solve(eqs, linearized, off, methods):
             r, jac, _, _ = linearized(y, source, gmin)
             return r - shift, jac
 
-        x, ok, it = _newton(eqs, shifted, x)
+        x, ok, it = _newton(eqs, shifted, x, iterations)
         total += it
         return x, ok
 
@@ -327,11 +364,8 @@ def _solve(eqs, linearized, off, methods):
         method = "newton"
     if not ok and "gmin stepping" in methods:
         method = "gmin stepping"
-        x = x0
-        for gmin in [*(10.0**-k for k in range(2, 13)), 0.0]:
-            x, ok = solve(x, 1.0, gmin)
-            if not ok:
-                break
+        # each step gets ngspice's ITL2 (50 iterations), its first solve ITL1 (100)
+        x, ok = _gmin_stepping(lambda y, s, g: solve(y, s, g, 50 if g else 100), x0)
     if not ok and "source stepping" in methods:  # the increment shrinks on failure
         method = "source stepping"
         x, s, step = np.zeros(eqs.size), 0.0, 0.1
@@ -347,8 +381,7 @@ def _solve(eqs, linearized, off, methods):
                     ok = False
                     break
     if not ok:
-        jac = linearized(x0, 1.0, 0.0)[1]
-        singular = np.linalg.matrix_rank(jac) < jac.shape[0]
+        singular = _singular(linearized(x0, 1.0, 0.0)[1])
         why = (
             "its equations are singular: a node reached only through capacitors or current "
             "sources, or a loop of inductors and voltage sources, has no DC solution"
