@@ -61,7 +61,9 @@ turn on and no such check.)
 
 **Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
 constraint row (a diode's flux without junction charge) are held at their exact value 0
-after each step: their round-off would alternate undamped (:mod:`.algebraic`).
+after each step: their round-off would alternate undamped (:mod:`.algebraic`). The
+``pinned`` positions (a ``ddt``'s ``y``, whose line fixes only its midpoint) are re-pinned
+at each step's end from the last three steps' means (:mod:`.pinned`).
 
 **Breakpoints.** A step never crosses one of the given times: it is shortened to end
 exactly on it (and the last two steps before it share the remaining interval evenly, so
@@ -100,6 +102,7 @@ from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
 from . import events
+from . import pinned as pinned_positions
 from .algebraic import algebraic_mask
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
@@ -266,11 +269,18 @@ def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     return q1, p1, mu[: system.m], ok, res.iterations
 
 
-def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
+def _three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
-    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations)``, the
-    first four stacked in that order.
+    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations,
+    means)``, the first four stacked in that order; ``means``: each step's mean of its
+    ends as solved (for the pinned coordinates, :mod:`.pinned`).
+
+    ``pin = (mask, (m₋₂, m₋₁), h_last, use)``: the pinned coordinates, the means of the
+    last two recorded steps (each ``h_last`` long) and whether they may be used (no
+    corner since); each step's end is re-pinned from the two steps before it (the coarse
+    and the first fine one: the last two recorded; the second fine one: the last recorded
+    and the first fine one).
 
     One step solve in a loop of three iterations, each picking its inputs, rather than
     three solves written out: the step (Newton, its Jacobian, the limiting) is then
@@ -280,7 +290,7 @@ def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
     n, m = q.shape[0], mu_g.shape[0]
 
     def one(k, out):
-        qs, ps, mus, oks, its = out
+        qs, ps, mus, oks, its, means = out
         fine2 = k == 2
         h = jnp.where(k == 0, h_try, half)
         # the second fine step starts where the first ended, guessed on from there
@@ -289,14 +299,20 @@ def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
         guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
         qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
                                 dq, guess_mu)  # fmt: skip
+        mean = 0.5 * (start_q + qk)
+        if pin is not None:
+            mask, (m2, m1), h_last, use = pin
+            history = (jnp.where(fine2, m1, m2), jnp.where(fine2, means[1], m1))
+            sizes = (h_last, jnp.where(fine2, half, h_last), h)
+            qk, _ = pinned_positions.repin(mask & use, start_q, qk, history, sizes)
         return (qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk),
-                its + itk)  # fmt: skip
+                its + itk, means.at[k].set(mean))  # fmt: skip
 
     dtype = q.dtype
     init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
-            jnp.zeros(3, bool), jnp.asarray(0))  # fmt: skip
-    qs, ps, mus, oks, its = jax.lax.fori_loop(0, 3, one, init)
-    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its
+            jnp.zeros(3, bool), jnp.asarray(0), jnp.zeros((3, n), dtype))  # fmt: skip
+    qs, ps, mus, oks, its, means = jax.lax.fori_loop(0, 3, one, init)
+    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its, means
 
 
 def _march(system, rule, solver, capacity, x):
@@ -334,8 +350,11 @@ def _march(system, rule, solver, capacity, x):
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
-        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its = _three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g
+        # the pinned coordinates' history: the last try's two halves, unless a corner
+        # (a breakpoint, a switching instant) ended it (.pinned)
+        pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
+        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = _three_steps(
+            step, modes, h_try, t, q, p, vel, mu_g, pin
         )
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
@@ -408,6 +427,8 @@ def _march(system, rule, solver, capacity, x):
         new["u_prev"] = jnp.where(accept, (q1 - q) / half, c["u_prev"])
         new["phi_prev"] = jnp.where(accept, phi1, c["phi_prev"])
         new["mu_last"] = jnp.where(accept, mu2, c["mu_last"])
+        new["y_mean2"] = jnp.where(accept, means[1], c["y_mean2"])
+        new["y_mean1"] = jnp.where(accept, means[2], c["y_mean1"])
         new["h_last"] = jnp.where(accept, half, c["h_last"])
         new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
         new["v_peak"] = jnp.where(accept, v_peak, c["v_peak"])
@@ -467,6 +488,8 @@ def _march(system, rule, solver, capacity, x):
         "aimed": jnp.asarray(False),
         "u_prev": x["u_prev"],
         "phi_prev": x["phi_prev"],
+        "y_mean1": x["y_mean1"],
+        "y_mean2": x["y_mean2"],
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
         "gap_ok": jnp.asarray(False),
         "redone": jnp.asarray(False),
@@ -513,6 +536,7 @@ def adaptive(
     max_tries: int = 1_000_000,
     event_atol=1e-6,
     modes=None,
+    pinned=None,
 ) -> AdaptiveRun:
     """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
     rule with error-controlled steps, ending a step exactly on every breakpoint.
@@ -526,6 +550,8 @@ def adaptive(
     ``event_atol``: the absolute tolerance of each switch's control
     (:func:`~diracvi.driver.events.tolerances`), one number or one per switch;
     ``modes``: the switches' states at ``t0`` (default: as the system holds them).
+    ``pinned``: a boolean per coordinate, the positions re-pinned at each step's end
+    (:mod:`.pinned`: a behavioural source's ``ddt`` positions; default none).
     ``max_tries``: the budget of tries, the retries aimed at a switching instant left out
     (each event takes a few, and their number is bounded by the events'). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
@@ -563,6 +589,8 @@ def adaptive(
         "aimed": np.asarray(False),
         "u_prev": np.zeros(n),
         "phi_prev": np.zeros(m),
+        "y_mean1": np.zeros(n),
+        "y_mean2": np.zeros(n),
     }
     fixed = {
         "rtol": np.float64(controls.rtol),
@@ -576,6 +604,7 @@ def adaptive(
         "breaks": padded,
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
+        "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
