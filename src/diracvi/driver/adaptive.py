@@ -104,6 +104,7 @@ from ..solvers.newton import NewtonSolver
 from . import events
 from . import pinned as pinned_positions
 from .algebraic import algebraic_mask
+from .rebase import rebase_map
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -191,20 +192,21 @@ class Estimate(NamedTuple):
     c2: object
 
 
-def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estimate:
+def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax, base=0.0) -> Estimate:
     """The step-doubling error of one try (module docstring), for the compiled loop
     (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
 
     ``steps = (q_c, q₁, q₂)``: the coarse step's end and the two fine steps' ends from
     ``q``; ``mus = (μ_c, μ₁, μ₂)`` their multipliers; ``peaks = (Q, V, Φ)``;
-    ``tolerances = (share, rtol, atol_q, atol_v, atol_m)``."""
+    ``tolerances = (share, rtol, atol_q, atol_v, atol_m)``; ``base``: what the positions
+    are relative to (:mod:`.rebase`), added back for their running peaks."""
     qc, q1, q2 = steps
     mu_c, mu1, mu2 = mus
     share, rtol, atol_q, atol_v, atol_m = tolerances
     half = 0.5 * h_try
     diff = xp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
     v1, v2 = (q1 - q) / half, (q2 - q1) / half
-    q_peak = xp.maximum(peaks[0], xp.maximum(xp.abs(q1), xp.abs(q2)))
+    q_peak = xp.maximum(peaks[0], xp.maximum(xp.abs(q1 + base), xp.abs(q2 + base)))
     v_peak = xp.maximum(peaks[1], xp.maximum(xp.abs(v1), xp.abs(v2)))
     e_q = diff / (share * rtol * q_peak + atol_q)
     e_v = diff / h_try / (share * rtol * v_peak + atol_v)
@@ -335,7 +337,12 @@ def _march(system, rule, solver, capacity, x):
         return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
 
     def body(c):
-        t, q, p, h = c["t"], c["q"], c["p"], c["h"]
+        t, h = c["t"], c["h"]
+        # the try in the gauge of its start: growing coordinates from zero, the carried
+        # momentum p̃ that gauge's own (.rebase); q_abs = base + q (rounded) is recorded
+        q_abs, p = c["q"], c["p"]
+        base = jnp.where(x["rebase"], q_abs, 0.0)
+        q = q_abs - base
         target = jnp.minimum(breaks[c["ib"]], t_stop)
         rem = target - t
         # a try of H records two steps of H/2: each recorded step is at most hmax
@@ -361,7 +368,7 @@ def _march(system, rule, solver, capacity, x):
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]),
-            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax,
+            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax, base,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2 = est
         v2 = (q2 - q1) / half
@@ -412,8 +419,9 @@ def _march(system, rule, solver, capacity, x):
         new = dict(c)
         new["T"] = put(c["T"], i + 1, t + half, t_new)
         new["H"] = put(c["H"], i, half, half)
-        new["Q"] = put(c["Q"], i + 1, q1, q2)
-        new["P"] = put(c["P"], i + 1, p1, p2)
+        new["Q"] = put(c["Q"], i + 1, base + q1, base + q2)
+        shift = x["gauge"] @ base  # the recorded momenta: p = p_try + G·base
+        new["P"] = put(c["P"], i + 1, p1 + shift, p2 + shift)
         new["MU"] = put(c["MU"], i, mu1, mu2)
         new["S"] = put(c["S"], i, modes, modes)
         new["modes"] = jnp.where(accept, modes_new, modes)
@@ -421,8 +429,9 @@ def _march(system, rule, solver, capacity, x):
         new["aimed"] = aim
         new["i"] = jnp.where(accept, i + 2, i)
         new["t"] = jnp.where(accept, t_new, t)
-        new["q"] = jnp.where(accept, q2, q)
-        new["p"] = jnp.where(accept, p2, p)
+        new["q"] = jnp.where(accept, base + q2, q_abs)
+        # the new start's gauge momentum, from the increments alone: p̃ = p₂ − G·Δq
+        new["p"] = jnp.where(accept, p2 - x["gauge"] @ q2, p)
         new["v_last"] = jnp.where(accept, v2, c["v_last"])
         new["u_prev"] = jnp.where(accept, (q1 - q) / half, c["u_prev"])
         new["phi_prev"] = jnp.where(accept, phi1, c["phi_prev"])
@@ -571,10 +580,16 @@ def adaptive(
     padded = np.full(width, np.inf)
     padded[: len(breaks)] = breaks
     capacity = buffer_size(n)
+    # growing coordinates stepped from zero (.rebase); not with switches, whose states
+    # may change what the Lagrangian reads
+    if events.relays(system):
+        rebased, gauge = np.zeros(n, bool), np.zeros((n, n))
+    else:
+        rebased, gauge = rebase_map(system, q, t0)
     state = {
         "t": np.float64(t0),
         "q": q,
-        "p": p,
+        "p": p - gauge @ q,  # the gauge momentum p̃ = p − G q (.rebase)
         "h": np.float64(min(controls.h_first, 2.0 * controls.hmax)),
         "ib": np.asarray(0),
         "v_last": np.zeros(n),
@@ -605,6 +620,8 @@ def adaptive(
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
         "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
+        "rebase": rebased,
+        "gauge": gauge,
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
