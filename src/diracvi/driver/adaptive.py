@@ -454,6 +454,7 @@ def adaptive(
     event_atol=1e-6,
     modes=None,
     pinned=None,
+    rebase: bool = False,
 ) -> AdaptiveRun:
     """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
     rule with error-controlled steps, ending a step exactly on every breakpoint.
@@ -469,6 +470,8 @@ def adaptive(
     ``modes``: the switches' states at ``t0`` (default: as the system holds them).
     ``pinned``: a boolean per coordinate, the positions re-pinned at each step's end
     (:mod:`.pinned`: a behavioural source's ``ddt`` positions; default none).
+    ``rebase``: step the growing coordinates from zero in each try's gauge
+    (:mod:`.rebase`; off by default: on xy_sandler22 it moved the run off its reference).
     ``max_tries``: the budget of tries, the retries aimed at a switching instant left out
     (each event takes a few, and their number is bounded by the events'). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
@@ -490,7 +493,7 @@ def adaptive(
     capacity = buffer_size(n)
     # growing coordinates stepped from zero (.rebase); not with switches, whose states
     # may change what the Lagrangian reads
-    if events.relays(system):
+    if not rebase or events.relays(system):
         rebased, gauge = np.zeros(n, bool), np.zeros((n, n))
     else:
         rebased, gauge = rebase_map(system, q, t0)
