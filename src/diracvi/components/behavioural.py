@@ -123,4 +123,5 @@ def BehaviouralSource(
         branch_roles=tuple(roles),
         senses=tuple((f"c{j}", c) for j, c in enumerate(currents)),
         mirrors=tuple(f"y{k}" for k in range(len(derivatives))),
+        pinned=tuple(f"y{k}" for k in range(len(derivatives))),
     )

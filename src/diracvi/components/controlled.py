@@ -59,16 +59,22 @@ class ControlledPart(Part):
             variable step's error control leaves them out, as it controls the velocity
             they copy (their node values carry the midpoint rule's ±alternation, like
             node potentials, which step doubling would read as an error).
+        pinned: pin-less positions held by a line that fixes only their step midpoint
+            (a behavioural source's ``ddt`` position ``y``, ``ȳ = τ g``), whose node
+            values a variable-step driver re-pins between steps
+            (:mod:`diracvi.driver.pinned`): the midpoint leaves them an undamped −1 mode.
     """
 
     branch_roles: tuple[tuple[str, str], ...] = eqx.field(static=True)
     senses: tuple[tuple[str, str], ...] = eqx.field(static=True)
     mirrors: tuple[str, ...] = eqx.field(static=True)
+    pinned: tuple[str, ...] = eqx.field(static=True)
 
-    def __init__(self, *args, branch_roles=(), senses=(), mirrors=(), **kwargs):
+    def __init__(self, *args, branch_roles=(), senses=(), mirrors=(), pinned=(), **kwargs):
         self.branch_roles = tuple((str(c), str(r)) for c, r in branch_roles)
         self.senses = tuple((str(c), str(e)) for c, e in senses)
         self.mirrors = tuple(str(c) for c in mirrors)
+        self.pinned = tuple(str(c) for c in pinned)
         super().__init__(*args, **kwargs)
 
 

@@ -61,7 +61,9 @@ turn on and no such check.)
 
 **Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
 constraint row (a diode's flux without junction charge) are held at their exact value 0
-after each step: their round-off would alternate undamped (:mod:`.algebraic`).
+after each step: their round-off would alternate undamped (:mod:`.algebraic`). The
+``pinned`` positions (a ``ddt``'s ``y``, whose line fixes only its midpoint) are re-pinned
+at each step's end from the last three steps' means (:mod:`.pinned`).
 
 **Breakpoints.** A step never crosses one of the given times: it is shortened to end
 exactly on it (and the last two steps before it share the remaining interval evenly, so
@@ -100,7 +102,10 @@ from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
 from . import events
+from . import pinned as pinned_positions
 from .algebraic import algebraic_mask
+from .rebase import rebase_map
+from .step_error import _ORDER, SAFETY, estimate, gap_error, growth
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -116,19 +121,6 @@ MESSAGES = {
     TOO_MANY: "the run took more step tries than its budget (max_tries): the error "
     "estimate stalls at a tiny step (a ringing junction, or tolerances below round-off)",
 }
-
-#: the local error of a step is held at this share of the tolerance: errors accumulate
-#: over the steps (an oscillating circuit's phase error over many periods). Measured
-#: against fine ngspice runs at the decks' own settings (reltol 1e-3): with 1 a 1 ns-edge
-#: RLC was off by 2.4e-3 of its peak, with 0.1 the 3-stage ladder (2000 steps, 5
-#: periods) by 1.3e-3, with 0.03 every deck within 5.6e-4 for 1.1-1.7x the steps of 0.1
-#: (4.0e-4 once the node potentials were judged too).
-#: Passed to the program as data, like the tolerances (a change compiles nothing).
-SAFETY = 0.03
-
-#: the order this error control is written for (the midpoint rule's)
-_ORDER = 2
-
 
 #: the loop's state at a try's start, kept to take an accepted try again (gap_error)
 _UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
@@ -177,85 +169,6 @@ class AdaptiveRun(NamedTuple):
         return MESSAGES[self.status]
 
 
-class Estimate(NamedTuple):
-    """One try's error estimate (:func:`estimate`): the worst scaled error, the running
-    peaks with this try's values, and the second fine step's impulse ``c₂``."""
-
-    err: object
-    q_peak: object
-    v_peak: object
-    m_peak: object
-    c2: object
-
-
-def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax) -> Estimate:
-    """The step-doubling error of one try (module docstring), for the compiled loop
-    (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
-
-    ``steps = (q_c, q₁, q₂)``: the coarse step's end and the two fine steps' ends from
-    ``q``; ``mus = (μ_c, μ₁, μ₂)`` their multipliers; ``peaks = (Q, V, Φ)``;
-    ``tolerances = (share, rtol, atol_q, atol_v, atol_m)``."""
-    qc, q1, q2 = steps
-    mu_c, mu1, mu2 = mus
-    share, rtol, atol_q, atol_v, atol_m = tolerances
-    half = 0.5 * h_try
-    diff = xp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
-    v1, v2 = (q1 - q) / half, (q2 - q1) / half
-    q_peak = xp.maximum(peaks[0], xp.maximum(xp.abs(q1), xp.abs(q2)))
-    v_peak = xp.maximum(peaks[1], xp.maximum(xp.abs(v1), xp.abs(v2)))
-    e_q = diff / (share * rtol * q_peak + atol_q)
-    e_v = diff / h_try / (share * rtol * v_peak + atol_v)
-    # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
-    # (node potentials of a circuit), coarse against the mean of the two fine ones
-    c1 = 2.0 * mu1 - c_prev
-    c2 = 2.0 * mu2 - c1
-    phi_c = -(2.0 * mu_c - c_prev) / h_try
-    phi1, phi2 = -c1 / half, -c2 / half
-    diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
-    m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
-    e_m = diff_m / (share * rtol * m_peak + atol_m)
-    # a rate is judged as its mean over TMAX (hmax): a mode ringing at the midpoint's
-    # amplification −1 (a stiff junction) moves the end state by a fixed amount whatever
-    # H, which read as a plain rate grows as 1/H and would drive the step to hmin
-    e_v = xp.minimum(e_v, e_v * h_try / hmax)
-    e_m = xp.minimum(e_m, e_m * h_try / hmax)
-    err = xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
-    return Estimate(err, q_peak, v_peak, m_peak, c2)
-
-
-def growth(xp, err):
-    """The next try's size over this one's: ``clip(0.9 e^{−1/3}, 0.2, 2)``."""
-    return xp.clip(0.9 * xp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
-
-
-def gap_error(xs, ys):
-    """How far the output's interpolant may be off in the gaps a try's first step centre
-    closes (:mod:`diracvi.spice._resample`): with ``xs = (x₋₂, x₋₁, x₁, x₂)`` — the last
-    try's two centres and this try's — and ``ys`` the values there (arrays, one entry
-    per signal), the quadratic the output draws through ``(x₋₂, x₋₁, x₁)`` on
-    ``(x₋₂, x₋₁)`` and through ``(x₋₁, x₁, x₂)`` on ``(x₋₁, x₁)``, each against the
-    straight line between the gap's ends, at the gap's middle:
-
-        max( |f[x₋₂, x₋₁, x₁]| (x₋₁ − x₋₂)²/4,  |f[x₋₁, x₁, x₂]| (x₁ − x₋₁)²/4 ).
-
-    Two interpolants of different order that disagree say the signal is not resolved
-    there (the difference of two stencils of the same order can miss a knee: both
-    quadratics cut a diode's turn-off alike)."""
-
-    def second(a, b, c):  # the divided difference f[a, b, c]
-        return ((c[1] - b[1]) / (c[0] - b[0]) - (b[1] - a[1]) / (b[0] - a[0])) / (c[0] - a[0])
-
-    points = list(zip(xs, ys, strict=True))
-    left = abs(second(*points[:3])) * 0.25 * (xs[1] - xs[0]) ** 2
-    right = abs(second(*points[1:])) * 0.25 * (xs[2] - xs[1]) ** 2
-    # a signal alternating from centre to centre (its differences − + − or + − +) is a
-    # stiff mode ringing under the midpoint rule, whose amplitude no shorter step
-    # reduces (it grows as 1/h): not an interpolation error a cut could mend
-    d1, d2, d3 = ys[1] - ys[0], ys[2] - ys[1], ys[3] - ys[2]
-    ringing = (d1 * d2 < 0.0) & (d2 * d3 < 0.0)
-    return jnp.where(ringing, 0.0, jnp.maximum(left, right))
-
-
 def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     eqs = StepEquations(system, rule, "plus", h, q, p, t)
     guess = first_guess(system, rule, q, q_guess, mu_guess)
@@ -266,11 +179,18 @@ def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     return q1, p1, mu[: system.m], ok, res.iterations
 
 
-def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
+def _three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
-    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations)``, the
-    first four stacked in that order.
+    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations,
+    means)``, the first four stacked in that order; ``means``: each step's mean of its
+    ends as solved (for the pinned coordinates, :mod:`.pinned`).
+
+    ``pin = (mask, (m₋₂, m₋₁), h_last, use)``: the pinned coordinates, the means of the
+    last two recorded steps (each ``h_last`` long) and whether they may be used (no
+    corner since); each step's end is re-pinned from the two steps before it (the coarse
+    and the first fine one: the last two recorded; the second fine one: the last recorded
+    and the first fine one).
 
     One step solve in a loop of three iterations, each picking its inputs, rather than
     three solves written out: the step (Newton, its Jacobian, the limiting) is then
@@ -280,7 +200,7 @@ def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
     n, m = q.shape[0], mu_g.shape[0]
 
     def one(k, out):
-        qs, ps, mus, oks, its = out
+        qs, ps, mus, oks, its, means = out
         fine2 = k == 2
         h = jnp.where(k == 0, h_try, half)
         # the second fine step starts where the first ended, guessed on from there
@@ -289,14 +209,20 @@ def _three_steps(step, modes, h_try, t, q, p, vel, mu_g):
         guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
         qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
                                 dq, guess_mu)  # fmt: skip
+        mean = 0.5 * (start_q + qk)
+        if pin is not None:
+            mask, (m2, m1), h_last, use = pin
+            history = (jnp.where(fine2, m1, m2), jnp.where(fine2, means[1], m1))
+            sizes = (h_last, jnp.where(fine2, half, h_last), h)
+            qk, _ = pinned_positions.repin(mask & use, start_q, qk, history, sizes)
         return (qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk),
-                its + itk)  # fmt: skip
+                its + itk, means.at[k].set(mean))  # fmt: skip
 
     dtype = q.dtype
     init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
-            jnp.zeros(3, bool), jnp.asarray(0))  # fmt: skip
-    qs, ps, mus, oks, its = jax.lax.fori_loop(0, 3, one, init)
-    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its
+            jnp.zeros(3, bool), jnp.asarray(0), jnp.zeros((3, n), dtype))  # fmt: skip
+    qs, ps, mus, oks, its, means = jax.lax.fori_loop(0, 3, one, init)
+    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its, means
 
 
 def _march(system, rule, solver, capacity, x):
@@ -319,7 +245,12 @@ def _march(system, rule, solver, capacity, x):
         return (c["status"] == OK) & (c["t"] < t_stop) & (c["i"] + 2 <= capacity)
 
     def body(c):
-        t, q, p, h = c["t"], c["q"], c["p"], c["h"]
+        t, h = c["t"], c["h"]
+        # the try in the gauge of its start: growing coordinates from zero, the carried
+        # momentum p̃ that gauge's own (.rebase); q_abs = base + q (rounded) is recorded
+        q_abs, p = c["q"], c["p"]
+        base = jnp.where(x["rebase"], q_abs, 0.0)
+        q = q_abs - base
         target = jnp.minimum(breaks[c["ib"]], t_stop)
         rem = target - t
         # a try of H records two steps of H/2: each recorded step is at most hmax
@@ -334,15 +265,18 @@ def _march(system, rule, solver, capacity, x):
         vel = c["v_last"]
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
-        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its = _three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g
+        # the pinned coordinates' history: the last try's two halves, unless a corner
+        # (a breakpoint, a switching instant) ended it (.pinned)
+        pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
+        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = _three_steps(
+            step, modes, h_try, t, q, p, vel, mu_g, pin
         )
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]),
-            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax,
+            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax, base,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2 = est
         v2 = (q2 - q1) / half
@@ -393,8 +327,9 @@ def _march(system, rule, solver, capacity, x):
         new = dict(c)
         new["T"] = put(c["T"], i + 1, t + half, t_new)
         new["H"] = put(c["H"], i, half, half)
-        new["Q"] = put(c["Q"], i + 1, q1, q2)
-        new["P"] = put(c["P"], i + 1, p1, p2)
+        new["Q"] = put(c["Q"], i + 1, base + q1, base + q2)
+        shift = x["gauge"] @ base  # the recorded momenta: p = p_try + G·base
+        new["P"] = put(c["P"], i + 1, p1 + shift, p2 + shift)
         new["MU"] = put(c["MU"], i, mu1, mu2)
         new["S"] = put(c["S"], i, modes, modes)
         new["modes"] = jnp.where(accept, modes_new, modes)
@@ -402,12 +337,15 @@ def _march(system, rule, solver, capacity, x):
         new["aimed"] = aim
         new["i"] = jnp.where(accept, i + 2, i)
         new["t"] = jnp.where(accept, t_new, t)
-        new["q"] = jnp.where(accept, q2, q)
-        new["p"] = jnp.where(accept, p2, p)
+        new["q"] = jnp.where(accept, base + q2, q_abs)
+        # the new start's gauge momentum, from the increments alone: p̃ = p₂ − G·Δq
+        new["p"] = jnp.where(accept, p2 - x["gauge"] @ q2, p)
         new["v_last"] = jnp.where(accept, v2, c["v_last"])
         new["u_prev"] = jnp.where(accept, (q1 - q) / half, c["u_prev"])
         new["phi_prev"] = jnp.where(accept, phi1, c["phi_prev"])
         new["mu_last"] = jnp.where(accept, mu2, c["mu_last"])
+        new["y_mean2"] = jnp.where(accept, means[1], c["y_mean2"])
+        new["y_mean1"] = jnp.where(accept, means[2], c["y_mean1"])
         new["h_last"] = jnp.where(accept, half, c["h_last"])
         new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
         new["v_peak"] = jnp.where(accept, v_peak, c["v_peak"])
@@ -467,6 +405,8 @@ def _march(system, rule, solver, capacity, x):
         "aimed": jnp.asarray(False),
         "u_prev": x["u_prev"],
         "phi_prev": x["phi_prev"],
+        "y_mean1": x["y_mean1"],
+        "y_mean2": x["y_mean2"],
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
         "gap_ok": jnp.asarray(False),
         "redone": jnp.asarray(False),
@@ -513,6 +453,8 @@ def adaptive(
     max_tries: int = 1_000_000,
     event_atol=1e-6,
     modes=None,
+    pinned=None,
+    rebase: bool = False,
 ) -> AdaptiveRun:
     """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
     rule with error-controlled steps, ending a step exactly on every breakpoint.
@@ -526,6 +468,10 @@ def adaptive(
     ``event_atol``: the absolute tolerance of each switch's control
     (:func:`~diracvi.driver.events.tolerances`), one number or one per switch;
     ``modes``: the switches' states at ``t0`` (default: as the system holds them).
+    ``pinned``: a boolean per coordinate, the positions re-pinned at each step's end
+    (:mod:`.pinned`: a behavioural source's ``ddt`` positions; default none).
+    ``rebase``: step the growing coordinates from zero in each try's gauge
+    (:mod:`.rebase`; off by default until the slow corpus rows are re-run with it on).
     ``max_tries``: the budget of tries, the retries aimed at a switching instant left out
     (each event takes a few, and their number is bounded by the events'). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
@@ -545,10 +491,16 @@ def adaptive(
     padded = np.full(width, np.inf)
     padded[: len(breaks)] = breaks
     capacity = buffer_size(n)
+    # growing coordinates stepped from zero (.rebase); not with switches, whose states
+    # may change what the Lagrangian reads
+    if not rebase or events.relays(system):
+        rebased, gauge = np.zeros(n, bool), np.zeros((n, n))
+    else:
+        rebased, gauge = rebase_map(system, q, t0)
     state = {
         "t": np.float64(t0),
         "q": q,
-        "p": p,
+        "p": p - gauge @ q,  # the gauge momentum p̃ = p − G q (.rebase)
         "h": np.float64(min(controls.h_first, 2.0 * controls.hmax)),
         "ib": np.asarray(0),
         "v_last": np.zeros(n),
@@ -563,6 +515,8 @@ def adaptive(
         "aimed": np.asarray(False),
         "u_prev": np.zeros(n),
         "phi_prev": np.zeros(m),
+        "y_mean1": np.zeros(n),
+        "y_mean2": np.zeros(n),
     }
     fixed = {
         "rtol": np.float64(controls.rtol),
@@ -576,6 +530,9 @@ def adaptive(
         "breaks": padded,
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
+        "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
+        "rebase": rebased,
+        "gauge": gauge,
     }
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []

@@ -8,7 +8,7 @@ at ``t`` is, in increments ``y = (q_other − q, μ)`` (:mod:`diracvi.solvers.sp
 :func:`adaptive_sparse` marches it with exactly the error control of
 :mod:`diracvi.driver.adaptive` — step doubling (one step of ``H`` against two of ``H/2``),
 the same per-coordinate, per-velocity and per-node-potential tests with
-:data:`~diracvi.driver.adaptive.SAFETY`, the same acceptance rule, breakpoints landed
+:data:`~diracvi.driver.step_error.SAFETY`, the same acceptance rule, breakpoints landed
 exactly, the two fine steps recorded — so :mod:`diracvi.spice._resample` reads its
 :class:`~diracvi.driver.adaptive.AdaptiveRun` unchanged. It differs in how a step is
 solved: the compiled loop runs Newton on the dense step equations (dense Jacobians,
@@ -71,14 +71,12 @@ from . import events
 from .adaptive import (
     FAILED_SOLVE,
     OK,
-    SAFETY,
     TOO_MANY,
     TOO_SMALL,
     AdaptiveRun,
     Controls,
-    estimate,
-    growth,
 )
+from .step_error import SAFETY, estimate, growth
 
 #: how many step maps (each an assembled, factored J_x for one step size) are kept
 CACHE_SIZE = 8

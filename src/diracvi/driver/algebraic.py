@@ -29,7 +29,8 @@ Only lines free of their own coordinate (``∂E_j/∂q_j ≡ 0``: the diode's la
 not ``w``) are held. A line that reads ``q_j`` itself fixes only the midpoint
 ``q̄_j = (q_{j,k} + q_{j,k+1})/2``, so ``q_j`` keeps a −1 mode of its own,
 ``q_{j,k+1} = 2q̄_j − q_{j,k}``, whatever its momentum (a behavioural source's ``ddt``
-position ``y``, held by ``g = ȳ/τ``): holding its momentum would not damp it.
+position ``y``, held by ``g = ȳ/τ``): holding its momentum would not damp it
+(:mod:`.pinned` re-pins that one instead).
 """
 
 from __future__ import annotations

@@ -551,4 +551,13 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=
         event_atol=_event_atol(netlist, settings),
         modes=netlist.initial_modes(),
         max_tries=budget,
+        pinned=_pinned(netlist),
     )
+
+
+def _pinned(netlist: Netlist) -> np.ndarray:
+    """Per coordinate: a behavioural source's ``ddt`` position, re-pinned at each step's
+    end by the variable-step loop (its line fixes only its midpoint:
+    :mod:`diracvi.driver.pinned`)."""
+    names = {f"{p.name}.{c}" for p in netlist.circuit.parts for c in getattr(p, "pinned", ())}
+    return np.array([c in names for c in netlist.system.coords], dtype=bool)
