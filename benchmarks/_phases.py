@@ -55,6 +55,26 @@ class Phases:
         self._last = now
 
 
+def jax_split() -> dict[str, float]:
+    """A dict that JAX's own event timings keep adding to from here on: seconds of
+    ``trace`` (jaxpr tracing), ``lower`` (to MLIR) and ``compile`` (XLA's backend)."""
+    import jax
+
+    split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}
+    names = {
+        "/jax/core/compile/jaxpr_trace_duration": "trace",
+        "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+        "/jax/core/compile/backend_compile_duration": "compile",
+    }
+
+    def listen(event, duration, **_):
+        if event in names:
+            split[names[event]] += duration
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    return split
+
+
 def netlist_start(phases: Phases, deck: str):
     """A netlist run's first phases, marked: ``import`` (diracvi), ``read`` (the deck and
     its system), ``operating point`` (the DC start). Returns ``(netlist, settings,
@@ -77,6 +97,7 @@ def child_source(body: str) -> str:
     compilations), this module importable from the child (its folder last on the path)."""
     here = str(Path(__file__).resolve().parent)
     return (
-        f"import sys\nsys.path.append({here!r})\nfrom _phases import Phases, netlist_start\n"
+        f"import sys\nsys.path.append({here!r})\n"
+        "from _phases import Phases, jax_split, netlist_start\n"
         f"phases = Phases()\nphases.count_compiles()\n{body}"
     )

@@ -26,15 +26,7 @@ RULES = ("midpoint", "lobatto")
 
 CHILD = child_source(r"""
 import json, logging, re, time
-import jax
-split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}
-names = {"/jax/core/compile/jaxpr_trace_duration": "trace",
-         "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
-         "/jax/core/compile/backend_compile_duration": "compile"}
-def listen(event, duration, **_):
-    if event in names:
-        split[names[event]] += duration
-jax.monitoring.register_event_duration_secs_listener(listen)
+split = jax_split()  # JAX's own event timings
 programs = []
 class Names(logging.Handler):
     def emit(self, record):

@@ -39,15 +39,7 @@ DECKS = ("ng_rtlinv", "ng_mos6_simpleinv", "ng_cntrl_sources", "ng_switches", "e
 
 CHILD = child_source(r"""
 import json
-import jax
-split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}  # JAX's own event timings
-names = {"/jax/core/compile/jaxpr_trace_duration": "trace",
-         "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
-         "/jax/core/compile/backend_compile_duration": "compile"}
-def listen(event, duration, **_):
-    if event in names:
-        split[names[event]] += duration
-jax.monitoring.register_event_duration_secs_listener(listen)
+split = jax_split()  # JAX's own event timings
 netlist, settings, breaks = netlist_start(phases, sys.argv[1])
 from diracvi import spice
 from diracvi.spice import _run
