@@ -56,23 +56,11 @@ class Phases:
 
 
 def jax_split() -> dict[str, float]:
-    """A dict that JAX's own event timings keep adding to from here on: seconds of
-    ``trace`` (jaxpr tracing), ``lower`` (to MLIR) and ``compile`` (XLA's backend)."""
-    import jax
+    """JAX's trace/lower/compile seconds from here on (``diracvi.bench``'s, imported only
+    when called: a child times ``import diracvi`` as its own phase)."""
+    from diracvi.bench._core import jax_split as split
 
-    split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}
-    names = {
-        "/jax/core/compile/jaxpr_trace_duration": "trace",
-        "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
-        "/jax/core/compile/backend_compile_duration": "compile",
-    }
-
-    def listen(event, duration, **_):
-        if event in names:
-            split[names[event]] += duration
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
-    return split
+    return split()
 
 
 def netlist_start(phases: Phases, deck: str):

@@ -133,6 +133,26 @@ class Result:
     details: dict = field(default_factory=dict)
 
 
+def jax_split() -> dict[str, float]:
+    """A dict that JAX's own event timings keep adding to from here on: seconds of
+    ``trace`` (jaxpr tracing), ``lower`` (to MLIR) and ``compile`` (XLA's backend)."""
+    import jax
+
+    split = {"trace": 0.0, "lower": 0.0, "compile": 0.0}
+    names = {
+        "/jax/core/compile/jaxpr_trace_duration": "trace",
+        "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower",
+        "/jax/core/compile/backend_compile_duration": "compile",
+    }
+
+    def listen(event, duration, **_):
+        if event in names:
+            split[names[event]] += duration
+
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    return split
+
+
 def interleaved(calls: dict[str, Callable[[], object]], repeats: int) -> dict[str, np.ndarray]:
     """Wall times (s) of ``repeats`` warm calls of each entry of ``calls``, interleaved.
 

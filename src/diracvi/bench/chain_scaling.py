@@ -37,7 +37,7 @@ import time
 
 import numpy as np
 
-from ._core import Result, Row, Settings, Target, interleaved
+from ._core import Result, Row, Settings, Target, interleaved, jax_split
 from ._worker import WorkerFailed, run_child
 
 NAME = "chain-scaling"
@@ -172,25 +172,12 @@ def end_to_end(masses: int, steps: int = END_TO_END_STEPS) -> dict:
     """Build + first ``simulate`` of ``steps`` steps (compilation included), then one warm
     repeat of the same call; ``state_values`` as in :func:`measure`."""
     t0 = time.perf_counter()
-    import jax
-
     import diracvi as dv
     from diracvi import problems
 
     import_s = time.perf_counter() - t0
     # JAX's own event timings: tracing, lowering and XLA compilation of the first call
-    phases = {"trace_s": 0.0, "lower_s": 0.0, "compile_s": 0.0}
-    names = {
-        "/jax/core/compile/jaxpr_trace_duration": "trace_s",
-        "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower_s",
-        "/jax/core/compile/backend_compile_duration": "compile_s",
-    }
-
-    def listen(event, duration, **_):
-        if event in names:
-            phases[names[event]] += duration
-
-    jax.monitoring.register_event_duration_secs_listener(listen)
+    phases = jax_split()
     t0 = time.perf_counter()
     problem = problems.chain_torn(masses, pieces(masses))
     build_s = time.perf_counter() - t0
@@ -204,7 +191,7 @@ def end_to_end(masses: int, steps: int = END_TO_END_STEPS) -> dict:
     t0 = time.perf_counter()
     traj = simulate()
     first_call_s = time.perf_counter() - t0
-    first_phases = dict(phases)
+    first_phases = {f"{k}_s": v for k, v in phases.items()}
     t0 = time.perf_counter()
     simulate()
     warm_s = time.perf_counter() - t0
