@@ -293,3 +293,36 @@ def test_every_part_takes_traced_parameters_and_grad_matches_central_differences
         step = 1e-5 * theta[k]
         central = (fast(theta.at[k].add(step)) - fast(theta.at[k].add(-step))) / (2 * step)
         assert abs(grad[k] - central) <= 1e-6 * abs(central), (k, grad[k], central)
+
+
+@pytest.mark.parametrize("diodes", [1, 9])
+def test_closed_form_momenta_equal_the_lagrangians_derivative(diodes, monkeypatch):
+    """A netlist's initial momenta ``p0 = ∂L/∂v`` are written in closed form for linear
+    R, L, C (``l i0`` on an inductor, 0 elsewhere); they must equal what differentiating
+    every part's Lagrangian gives — with one diode and a source beside the linear parts
+    (eager calls for those) and with nine (the packed, compiled call for all)."""
+    from diracvi.components import network
+
+    rng = np.random.default_rng(7)
+
+    def circuit():
+        c = cp.Circuit("ladder")
+        c.add(cp.VoltageSource(cp.Sine(0.0, 1.0, 1e3), name="V1"), p="n0", n="0")
+        for k in range(12):
+            a, b = f"n{k}", f"n{k + 1}"
+            c.add(cp.Resistor(10.0 + k, name=f"R{k}"), p=a, n=f"m{k}")
+            c.add(cp.Inductor(1e-3 * (k + 1), name=f"L{k}", i0=rng.normal()), p=f"m{k}", n=b)
+            c.add(cp.Capacitor(1e-6, name=f"C{k}", v0=rng.normal()), p=b, n="0")
+        for k in range(diodes):
+            c.add(cp.Diode(1e-14, name=f"D{k}"), p=f"n{k + 1}", n="0")
+        return c.build()
+
+    state = rng.bit_generator.state
+    closed = circuit()
+    rng.bit_generator.state = state
+    monkeypatch.setattr(network, "template_momentum", lambda fields, velocity: None)
+    derived = circuit()
+    assert isinstance(closed.p0, np.ndarray)
+    assert np.any(closed.p0 != 0.0)  # the inductors' l i0
+    np.testing.assert_allclose(closed.p0, derived.p0, rtol=1e-15, atol=0.0)
+    np.testing.assert_array_equal(closed.q0, derived.q0)
