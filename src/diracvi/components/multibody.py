@@ -42,6 +42,7 @@ from .rigid_body import (
     vector,
 )
 from .rolling import check_contact, contact_rows, rolling_forms
+from .spatial_motor import MotorLink, join_circuit, motor_part
 
 WORLD = "world"
 #: a joint's rows must vanish at the initial poses to this (absolute) tolerance
@@ -67,6 +68,18 @@ class MultibodyModel:
     bodies: dict = field(default_factory=dict)
     parts: dict = field(default_factory=dict)
     joints: dict = field(default_factory=dict)
+    #: the circuit's :class:`~diracvi.components.network.Assembly` when built with one
+    #: (its coordinates follow the bodies' in ``q``, prefixed ``circuit_name + "."``)
+    circuit: object = None
+    circuit_name: str = ""
+
+    def current_coordinate(self, label: str) -> str:
+        """The coordinate (a branch charge) whose velocity is the circuit's ``i(label)``:
+        ``traj[model.current_coordinate("R1")]`` is its charge."""
+        if self.circuit is None or label not in self.circuit.currents:
+            known = [] if self.circuit is None else sorted(self.circuit.currents)
+            raise ModelError(f"current_coordinate: no branch {label!r}; the branches are {known}.")
+        return f"{self.circuit_name}.{self.circuit.currents[label]}"
 
     def body(self, q, name: str) -> np.ndarray:
         """The 12 coordinates of body ``name`` in ``q`` (…, n)."""
@@ -268,6 +281,7 @@ class Multibody:
         self._states: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._world = {WORLD: _Frame(None, np.zeros(3), np.eye(3))}
         self._connectors: list[_Connector] = []
+        self._motors: dict[str, MotorLink] = {}
 
     def add(
         self, body: RigidBody, position=(0.0, 0.0, 0.0), orientation=None, velocity=None, omega=None
@@ -318,6 +332,27 @@ class Multibody:
             raise ModelError(f"{where}: both frames are on body {fa.body!r}.")
         self._connectors.append(_Connector(name, fa, fb, kind))
         return name
+
+    def motor(self, constant, joint: str, name: str | None = None):
+        r"""A DC motor's coupling across the revolute joint ``joint`` (its frame a the
+        stator, b the rotor): back-emf ``K e₃·(ω_b − ω_a)`` between pins ``p`` and ``n``,
+        torque ``K i e₃`` on b and ``−K i e₃`` on a (:mod:`~.spatial_motor`). Returns the
+        part: add it to a :class:`~diracvi.components.Circuit` and pass that circuit to
+        :meth:`build`."""
+        name = name or f"motor{len(self._motors)}"
+        conn = next((c for c in self._connectors if c.name == joint), None)
+        if conn is None or conn.kind != "revolute":
+            revolute = [c.name for c in self._connectors if c.kind == "revolute"]
+            raise ModelError(
+                f"Multibody.motor({name!r}): joint={joint!r} is not a revolute joint of "
+                f"{self.name!r}; its revolute joints are {revolute}."
+            )
+        if name in self._motors:
+            raise ModelError(f"Multibody.motor: a motor named {name!r} exists already.")
+        link = MotorLink(joint, conn.a, conn.b)
+        part = motor_part(constant, link, self._states, name)
+        self._motors[name] = link
+        return part
 
     def rolling(
         self,
@@ -406,12 +441,20 @@ class Multibody:
             )
         return names, q0, v0
 
-    def build(self, torn: bool = False) -> MultibodyModel:
-        """The system and its consistent initial state (see the module docstring)."""
+    def build(self, torn: bool = False, circuit=None) -> MultibodyModel:
+        """The system and its consistent initial state (see the module docstring);
+        with ``circuit`` (a :class:`~diracvi.components.Circuit` holding this
+        multibody's motors) the two joined at the motors' copies of the bodies."""
         names, q0, v0 = self._initial()
-        if torn:
-            return self._torn(names, q0, v0)
-        return self._monolithic(names, q0, v0)
+        model = self._torn(names, q0, v0) if torn else self._monolithic(names, q0, v0)
+        if circuit is None:
+            if self._motors:
+                raise ModelError(
+                    f"Multibody {self.name!r} has motors {sorted(self._motors)}: add them to a "
+                    "Circuit and build with mb.build(circuit=that_circuit)."
+                )
+            return model
+        return join_circuit(model, self.name, circuit, self._motors)
 
     def _monolithic(self, names, q0, v0) -> MultibodyModel:
         bodies = self._bodies
