@@ -192,7 +192,9 @@ def test_motor_pendulum_converges_to_the_reduced_ode_and_to_the_1d_parts(pendulu
         errors.append(max(np.max(np.abs(theta - ref[0])), np.max(np.abs(charge - ref[3]))))
     assert abs(loglog_slope(np.array(HS), np.array(errors)) - 2.0) < 0.1, errors
     assert errors[-1] < 1e-6
-    assert np.max(np.abs(reduced(np.array([T_END]))[0])) > 0.5  # it swung well off the vertical
+    assert (
+        np.max(np.abs(ref[0])) > 0.2 and np.max(np.abs(ref[2])) > 1.0
+    )  # it swung, it drew current
     flat = _drive(cp.EMF(K, name="emf"), flange="shaft")
     flat.add(cp.Pendulum(MASS, ARM, G, inertia=MOMENTS[1], name="arm"), flange="shaft")
     built = flat.build()
