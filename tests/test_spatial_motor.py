@@ -19,6 +19,7 @@ from scipy.integrate import solve_ivp
 import diracvi as dv
 from conftest import loglog_slope
 from diracvi import components as cp
+from diracvi.components.multibody_model import tait_bryan
 from diracvi.errors import ModelError
 from diracvi.problems.gyroscope import gyroscope, precession_axis
 from diracvi.problems.rigid_bodies import _turned
@@ -131,6 +132,15 @@ def test_the_motor_starts_on_its_row():
     assert row @ np.asarray(part.initial_v) == pytest.approx(0.0, abs=1e-15)
 
 
+def test_tait_bryan_angles_are_scipys_zyx(rng):
+    """``dataset``'s roll, pitch, yaw: SciPy's intrinsic z-y′-x″ Euler angles (reversed)."""
+    from scipy.spatial.transform import Rotation
+
+    turns = Rotation.random(50, random_state=rng.integers(2**31))
+    angles = tait_bryan(turns.as_matrix())
+    np.testing.assert_allclose(angles, turns.as_euler("ZYX")[:, ::-1], atol=1e-12)
+
+
 def test_a_motor_needs_a_revolute_joint_and_its_circuit():
     mb = _pendulum()
     mb.add(cp.RigidBody(1.0, (0.3, 0.3, 0.3), name="ball"))
@@ -241,6 +251,15 @@ def test_motor_pendulum_torn_equals_monolithic():
         )
         runs.append((model.body(traj.q, "arm"), traj[model.current_coordinate("R1")]))
     (body, charge), (body_torn, charge_torn) = runs
+    ds = model.dataset(traj)  # the torn model's: angles and currents by name
+    np.testing.assert_allclose(
+        ds["body_angles"].sel(body="arm", angle="pitch").values,
+        -model.joint_position(traj.q, "hinge"),  # the hinge turns about −y
+        atol=1e-12,
+    )
+    np.testing.assert_allclose(
+        ds["current"].sel(branch="R1").values, np.diff(charge_torn) / 2e-3, rtol=1e-13
+    )
     assert np.max(np.abs(body - body_torn)) < 1e-12
     assert np.max(np.abs(charge - charge_torn)) < 1e-12
     assert np.ptp(charge) > 1e-2

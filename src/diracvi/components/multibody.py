@@ -21,7 +21,7 @@ pulling the points together along ``u``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import jax.numpy as jnp
 import numpy as np
@@ -31,7 +31,8 @@ from ..model.interaction import connect
 from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._part import finite
-from .joints import joint_rows, revolute_angle, slide
+from .joints import joint_rows
+from .multibody_model import MultibodyModel
 from .rigid_body import (
     COORDS,
     GRAM_PAIRS,
@@ -47,128 +48,6 @@ from .spatial_motor import MotorLink, join_circuit, motor_part
 WORLD = "world"
 #: a joint's rows must vanish at the initial poses to this (absolute) tolerance
 TOLERANCE = 1e-9
-
-
-@dataclass(frozen=True)
-class MultibodyModel:
-    """A built multibody system: the system, its initial state and where each body is.
-
-    Attributes:
-        system: the :class:`~diracvi.LagrangeDiracSystem` (monolithic) or
-            :class:`~diracvi.InterconnectedSystem` (torn).
-        q0, p0: initial coordinates and momenta.
-        bodies: body name → the slice of its 12 coordinates ``(x, d₁, d₂, d₃)`` in ``q``.
-        parts: body name → its :class:`~diracvi.components.RigidBody`.
-        joints: joint name → its kind and frames.
-    """
-
-    system: object
-    q0: np.ndarray
-    p0: np.ndarray
-    bodies: dict = field(default_factory=dict)
-    parts: dict = field(default_factory=dict)
-    joints: dict = field(default_factory=dict)
-    #: the circuit's :class:`~diracvi.components.network.Assembly` when built with one
-    #: (its coordinates follow the bodies' in ``q``, prefixed ``circuit_name + "."``)
-    circuit: object = None
-    circuit_name: str = ""
-
-    def current_coordinate(self, label: str) -> str:
-        """The coordinate (a branch charge) whose velocity is the circuit's ``i(label)``:
-        ``traj[model.current_coordinate("R1")]`` is its charge."""
-        if self.circuit is None or label not in self.circuit.currents:
-            known = [] if self.circuit is None else sorted(self.circuit.currents)
-            raise ModelError(f"current_coordinate: no branch {label!r}; the branches are {known}.")
-        return f"{self.circuit_name}.{self.circuit.currents[label]}"
-
-    def body(self, q, name: str) -> np.ndarray:
-        """The 12 coordinates of body ``name`` in ``q`` (…, n)."""
-        return np.asarray(q)[..., self.bodies[name]]
-
-    def rotation(self, q, name: str) -> np.ndarray:
-        """The rotation ``R = [d₁ d₂ d₃]`` of body ``name`` at ``q`` (…, 3, 3)."""
-        y = self.body(q, name)
-        return np.swapaxes(y[..., 3:12].reshape(*y.shape[:-1], 3, 3), -1, -2)
-
-    def point(self, q, frame: str) -> np.ndarray:
-        """World position of the frame ``"body.frame"`` at ``q`` (…, 3)."""
-        body, local = frame.split(".", 1)
-        pt, _ = self.parts[body].frame(local)
-        y = self.body(q, body)
-        return y[..., 0:3] + np.einsum("...ij,j->...i", self.rotation(q, body), pt)
-
-    def frame_pose(self, q, frame: _Frame):
-        """World ``(r, E)`` of a joint's frame at ``q`` (…, 3) and (…, 3, 3)."""
-        if frame.body is None:
-            shape = np.shape(q)[:-1]
-            return (
-                np.broadcast_to(frame.point, (*shape, 3)),
-                np.broadcast_to(frame.axes, (*shape, 3, 3)),
-            )
-        rot = self.rotation(q, frame.body)
-        r = self.body(q, frame.body)[..., 0:3] + np.einsum("...ij,j->...i", rot, frame.point)
-        return r, rot @ frame.axes
-
-    def joint_position(self, q, name: str) -> np.ndarray:
-        """The joint coordinate of joint ``name`` recovered from the bodies' directors at
-        ``q`` (…, n): a revolute joint's angle (unwrapped along the first axis of a time
-        series, so a continuous joint's turns accumulate), a prismatic or cylindrical
-        joint's slide along its axis."""
-        if name not in self.joints:
-            raise ModelError(
-                f"joint_position: no joint {name!r}; the joints are {sorted(self.joints)}."
-            )
-        conn = self.joints[name]
-        (ra, ea), (rb, eb) = self.frame_pose(q, conn.a), self.frame_pose(q, conn.b)
-        if conn.kind == "revolute":
-            angle = revolute_angle(ea, eb)
-            return np.unwrap(angle, axis=0) if np.ndim(angle) else angle
-        if conn.kind in ("prismatic", "cylindrical"):
-            return slide(ra, ea, rb)
-        raise ModelError(
-            f"joint_position: joint {name!r} is {conn.kind}; only revolute, prismatic and "
-            "cylindrical joints have one joint coordinate."
-        )
-
-    def coordinate_joints(self) -> tuple[str, ...]:
-        """The joints with one joint coordinate (revolute, prismatic, cylindrical), in the
-        order they were added."""
-        kinds = ("revolute", "prismatic", "cylindrical")
-        return tuple(n for n, c in self.joints.items() if c.kind in kinds)
-
-    def dataset(self, traj):
-        """The trajectory's ``xarray.Dataset`` with the motion by name: ``joint_position``
-        (time, joint) — a revolute joint's angle in rad, a prismatic or cylindrical
-        joint's slide in m, as :meth:`joint_position` recovers them —, ``body_position``
-        (time, body, xyz) the body origin in world axes, and ``body_orientation`` (time,
-        body, row, col) the rotation ``R = [d₁ d₂ d₃]`` taking body axes to world axes."""
-        if traj.q is None:
-            raise ModelError(
-                "dataset: the trajectory keeps no states (saved with keep_states=False); "
-                "simulate with the states kept to name the motion."
-            )
-        ds = traj.to_xarray()
-        names = list(self.bodies)
-        joints = list(self.coordinate_joints())
-        ds.coords["body"] = names
-        ds.coords["xyz"] = ["x", "y", "z"]
-        ds["body_position"] = (
-            ("time", "body", "xyz"),
-            np.stack([self.body(traj.q, b)[:, 0:3] for b in names], axis=1),
-        )
-        ds["body_orientation"] = (
-            ("time", "body", "row", "col"),
-            np.stack([self.rotation(traj.q, b) for b in names], axis=1),
-        )
-        ds["body_orientation"].attrs["description"] = "R = [d1 d2 d3]: body axes -> world axes"
-        if joints:
-            ds.coords["joint"] = joints
-            ds["joint_position"] = (
-                ("time", "joint"),
-                np.stack([self.joint_position(traj.q, j) for j in joints], axis=1),
-            )
-            ds["joint_kind"] = (("joint",), [self.joints[j].kind for j in joints])
-        return ds
 
 
 @dataclass(frozen=True)
