@@ -20,9 +20,8 @@ the total derivative ``d/dt(K θ q)`` and gives the same motion. But its Euler�
 equations on the directors also carry ``K q ω_a × e₃`` — a torque across the axis, equal
 and opposite on the two bodies, absorbed by the joint's reaction (a changed multiplier),
 and cubic in the coordinates (``q``, ``dᵢ``, ``ḋᵢ``). The one-form keeps the EMF's
-bilinear Lagrangian (stores no energy, ``E = 0``), puts the torque exactly along the
-axis, and its reaction does no work in a step: the midpoint rule imposes the row at the
-step's midpoint, where the reaction's coefficients are evaluated as well.
+bilinear Lagrangian (stores no energy, ``E = 0``) and puts the torque exactly along the
+axis; its reaction does no work on any velocity the row allows (``λ A v = 0``).
 
 Only ``θ̇_m`` enters the equations (``K θ_m q̇`` changes by a total derivative when
 ``θ_m`` is shifted), so ``θ_m`` starts at 0 and need not equal the joint angle. The part's
