@@ -213,7 +213,7 @@ def test_motor_pendulum_converges_to_the_reduced_ode_and_to_the_1d_parts(pendulu
         built.system, built.q0, built.p0, dt=h, steps=round(T_END / h), discretization="midpoint"
     )
     gap = np.max(np.abs(model.joint_position(runs[h].q, "hinge") - one_d["arm.x"]))
-    assert gap < 2.0 * errors[-1], (gap, errors[-1])
+    assert gap < 3.0 * errors[-1], (gap, errors[-1])  # measured 9.4e-7 (1-D vs DOP853: 7.7e-7)
 
 
 @pytest.mark.slow
