@@ -16,7 +16,9 @@ spring–dampers between points, and builds
 Both describe the same motion (the interconnection theorem), which the tests check to
 round-off. A spring–damper between points ``r_a``, ``r_b`` (``ℓ = |r_b − r_a|``,
 ``u = (r_b − r_a)/ℓ``) adds ``Lˢ = −½ k (ℓ − ℓ₀)²`` and the force ``c u·(ṙ_b − ṙ_a)``
-pulling the points together along ``u``.
+pulling the points together along ``u``. A motor across a revolute joint
+(:meth:`Multibody.motor`, :mod:`~diracvi.components.spatial_motor`) is a part of a
+:class:`~diracvi.components.Circuit`; ``build(circuit=…)`` joins the two systems.
 """
 
 from __future__ import annotations

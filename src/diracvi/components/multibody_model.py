@@ -36,7 +36,8 @@ class MultibodyModel:
 
     Attributes:
         system: the :class:`~diracvi.LagrangeDiracSystem` (monolithic) or
-            :class:`~diracvi.InterconnectedSystem` (torn).
+            :class:`~diracvi.InterconnectedSystem` (torn); built with a circuit, the
+            :class:`~diracvi.InterconnectedSystem` of those bodies and the circuit.
         q0, p0: initial coordinates and momenta.
         bodies: body name → the slice of its 12 coordinates ``(x, d₁, d₂, d₃)`` in ``q``.
         parts: body name → its :class:`~diracvi.components.RigidBody`.
