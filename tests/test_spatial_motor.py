@@ -20,8 +20,9 @@ import diracvi as dv
 from conftest import loglog_slope
 from diracvi import components as cp
 from diracvi.components.multibody_model import tait_bryan
+from diracvi.components.rigid_body import angular_momentum
 from diracvi.errors import ModelError
-from diracvi.problems.gyroscope import gyroscope, precession_axis
+from diracvi.problems.gyroscope import gyroscope, precession_axis, precession_rate
 from diracvi.problems.rigid_bodies import _turned
 
 R, INDUCTANCE, K, MASS, ARM, G = 1.0, 0.05, 0.5, 0.5, 0.4, 9.81
@@ -165,6 +166,24 @@ def test_a_motor_needs_a_revolute_joint_and_its_circuit():
     same.name = "mech"
     with pytest.raises(ModelError, match="both named 'mech'"):
         mb.build(circuit=same)
+
+
+def test_the_gyroscopes_start_is_a_steady_precession():
+    """At the gyroscope's initial state (its own momenta ``p = M̄ v``), the angular momentum
+    about the pivot ``Σ x × p_x + Σ dᵢ × p_{dᵢ}`` turning at ``Ω_p`` about the vertical,
+    ``Ω_p ẑ × L``, is gravity's torque ``Σ m c × g`` — the balance that makes steady
+    precession exact — and ``L`` has no vertical part to disturb it."""
+    spin = 150.0
+    mb = gyroscope(spin)
+    total, torque = np.zeros(3), np.zeros(3)
+    for name, part in mb._bodies.items():
+        q, v = mb._states[name]  # as build() takes them (its joint checks: the slow runs)
+        total += angular_momentum(q, part.momenta(v))
+        centre = q[0:3] + q[3:12].reshape(3, 3).T @ (part.mbar[0, 1:] / part.mbar[0, 0])
+        torque += np.cross(centre, part.mbar[0, 0] * part.gravity)
+    rate = precession_rate(spin)
+    np.testing.assert_allclose(np.cross([0.0, 0.0, rate], total), torque, rtol=0, atol=1e-13)
+    assert np.linalg.norm(torque) > 0.5 and abs(total[2]) > 0.0  # a real balance
 
 
 # -- slow: stepping against references --------------------------------------------------
