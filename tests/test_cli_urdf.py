@@ -50,6 +50,25 @@ def test_run_urdf_writes_the_motion_by_name(tmp_path):
     rot = ds.body_orientation.values
     gram = np.einsum("tbji,tbjk->tbik", rot, rot)
     assert np.max(np.abs(gram - np.eye(3))) < 1e-13  # orthonormal at every saved time
+    # roll, pitch, yaw by name: R = Rz(yaw) Ry(pitch) Rx(roll) rebuilt from them
+    roll, pitch, yaw = np.moveaxis(ds.body_angles.sel(angle=["roll", "pitch", "yaw"]).values, -1, 0)
+    cr, sr, cp_, sp, cy, sy = (
+        np.cos(roll),
+        np.sin(roll),
+        np.cos(pitch),
+        np.sin(pitch),
+        np.cos(yaw),
+        np.sin(yaw),
+    )
+    rebuilt = np.stack(
+        [
+            np.stack([cy * cp_, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr], -1),
+            np.stack([sy * cp_, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr], -1),
+            np.stack([-sp, cp_ * sr, cp_ * cr], -1),
+        ],
+        -2,
+    )
+    np.testing.assert_allclose(rebuilt, rot, atol=1e-12)
     # the arm falls: its joints move, and the energy is held by the midpoint rule
     assert np.max(np.abs(ds.joint_position.isel(time=-1).values)) > 1e-3
     assert np.ptp(ds.energy.values) < 1e-6 * abs(ds.energy.values[0])

@@ -57,7 +57,8 @@ def run(
             "run as SPICE does: variable steps, output every TSTEP from TSTART, or a fixed "
             "step with --dt; the NetCDF holds v(<node>) and i(<element>)), or a URDF robot "
             "(.urdf; fixed base, released from rest under gravity, 2000 steps of 1 ms by "
-            "default; the NetCDF holds joint_position, body_position, body_orientation).",
+            "default; the NetCDF holds joint_position, body_position, body_orientation, "
+            "body_angles).",
             show_default=False,
         ),
     ],

@@ -16,12 +16,14 @@ spring–dampers between points, and builds
 Both describe the same motion (the interconnection theorem), which the tests check to
 round-off. A spring–damper between points ``r_a``, ``r_b`` (``ℓ = |r_b − r_a|``,
 ``u = (r_b − r_a)/ℓ``) adds ``Lˢ = −½ k (ℓ − ℓ₀)²`` and the force ``c u·(ṙ_b − ṙ_a)``
-pulling the points together along ``u``.
+pulling the points together along ``u``. A motor across a revolute joint
+(:meth:`Multibody.motor`, :mod:`~diracvi.components.spatial_motor`) is a part of a
+:class:`~diracvi.components.Circuit`; ``build(circuit=…)`` joins the two systems.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import jax.numpy as jnp
 import numpy as np
@@ -31,7 +33,8 @@ from ..model.interaction import connect
 from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
 from ._part import finite
-from .joints import joint_rows, revolute_angle, slide
+from .joints import joint_rows
+from .multibody_model import MultibodyModel
 from .rigid_body import (
     COORDS,
     GRAM_PAIRS,
@@ -42,120 +45,11 @@ from .rigid_body import (
     vector,
 )
 from .rolling import check_contact, contact_rows, rolling_forms
+from .spatial_motor import MotorLink, join_circuit, motor_part
 
 WORLD = "world"
 #: a joint's rows must vanish at the initial poses to this (absolute) tolerance
 TOLERANCE = 1e-9
-
-
-@dataclass(frozen=True)
-class MultibodyModel:
-    """A built multibody system: the system, its initial state and where each body is.
-
-    Attributes:
-        system: the :class:`~diracvi.LagrangeDiracSystem` (monolithic) or
-            :class:`~diracvi.InterconnectedSystem` (torn).
-        q0, p0: initial coordinates and momenta.
-        bodies: body name → the slice of its 12 coordinates ``(x, d₁, d₂, d₃)`` in ``q``.
-        parts: body name → its :class:`~diracvi.components.RigidBody`.
-        joints: joint name → its kind and frames.
-    """
-
-    system: object
-    q0: np.ndarray
-    p0: np.ndarray
-    bodies: dict = field(default_factory=dict)
-    parts: dict = field(default_factory=dict)
-    joints: dict = field(default_factory=dict)
-
-    def body(self, q, name: str) -> np.ndarray:
-        """The 12 coordinates of body ``name`` in ``q`` (…, n)."""
-        return np.asarray(q)[..., self.bodies[name]]
-
-    def rotation(self, q, name: str) -> np.ndarray:
-        """The rotation ``R = [d₁ d₂ d₃]`` of body ``name`` at ``q`` (…, 3, 3)."""
-        y = self.body(q, name)
-        return np.swapaxes(y[..., 3:12].reshape(*y.shape[:-1], 3, 3), -1, -2)
-
-    def point(self, q, frame: str) -> np.ndarray:
-        """World position of the frame ``"body.frame"`` at ``q`` (…, 3)."""
-        body, local = frame.split(".", 1)
-        pt, _ = self.parts[body].frame(local)
-        y = self.body(q, body)
-        return y[..., 0:3] + np.einsum("...ij,j->...i", self.rotation(q, body), pt)
-
-    def frame_pose(self, q, frame: _Frame):
-        """World ``(r, E)`` of a joint's frame at ``q`` (…, 3) and (…, 3, 3)."""
-        if frame.body is None:
-            shape = np.shape(q)[:-1]
-            return (
-                np.broadcast_to(frame.point, (*shape, 3)),
-                np.broadcast_to(frame.axes, (*shape, 3, 3)),
-            )
-        rot = self.rotation(q, frame.body)
-        r = self.body(q, frame.body)[..., 0:3] + np.einsum("...ij,j->...i", rot, frame.point)
-        return r, rot @ frame.axes
-
-    def joint_position(self, q, name: str) -> np.ndarray:
-        """The joint coordinate of joint ``name`` recovered from the bodies' directors at
-        ``q`` (…, n): a revolute joint's angle (unwrapped along the first axis of a time
-        series, so a continuous joint's turns accumulate), a prismatic or cylindrical
-        joint's slide along its axis."""
-        if name not in self.joints:
-            raise ModelError(
-                f"joint_position: no joint {name!r}; the joints are {sorted(self.joints)}."
-            )
-        conn = self.joints[name]
-        (ra, ea), (rb, eb) = self.frame_pose(q, conn.a), self.frame_pose(q, conn.b)
-        if conn.kind == "revolute":
-            angle = revolute_angle(ea, eb)
-            return np.unwrap(angle, axis=0) if np.ndim(angle) else angle
-        if conn.kind in ("prismatic", "cylindrical"):
-            return slide(ra, ea, rb)
-        raise ModelError(
-            f"joint_position: joint {name!r} is {conn.kind}; only revolute, prismatic and "
-            "cylindrical joints have one joint coordinate."
-        )
-
-    def coordinate_joints(self) -> tuple[str, ...]:
-        """The joints with one joint coordinate (revolute, prismatic, cylindrical), in the
-        order they were added."""
-        kinds = ("revolute", "prismatic", "cylindrical")
-        return tuple(n for n, c in self.joints.items() if c.kind in kinds)
-
-    def dataset(self, traj):
-        """The trajectory's ``xarray.Dataset`` with the motion by name: ``joint_position``
-        (time, joint) — a revolute joint's angle in rad, a prismatic or cylindrical
-        joint's slide in m, as :meth:`joint_position` recovers them —, ``body_position``
-        (time, body, xyz) the body origin in world axes, and ``body_orientation`` (time,
-        body, row, col) the rotation ``R = [d₁ d₂ d₃]`` taking body axes to world axes."""
-        if traj.q is None:
-            raise ModelError(
-                "dataset: the trajectory keeps no states (saved with keep_states=False); "
-                "simulate with the states kept to name the motion."
-            )
-        ds = traj.to_xarray()
-        names = list(self.bodies)
-        joints = list(self.coordinate_joints())
-        ds.coords["body"] = names
-        ds.coords["xyz"] = ["x", "y", "z"]
-        ds["body_position"] = (
-            ("time", "body", "xyz"),
-            np.stack([self.body(traj.q, b)[:, 0:3] for b in names], axis=1),
-        )
-        ds["body_orientation"] = (
-            ("time", "body", "row", "col"),
-            np.stack([self.rotation(traj.q, b) for b in names], axis=1),
-        )
-        ds["body_orientation"].attrs["description"] = "R = [d1 d2 d3]: body axes -> world axes"
-        if joints:
-            ds.coords["joint"] = joints
-            ds["joint_position"] = (
-                ("time", "joint"),
-                np.stack([self.joint_position(traj.q, j) for j in joints], axis=1),
-            )
-            ds["joint_kind"] = (("joint",), [self.joints[j].kind for j in joints])
-        return ds
 
 
 @dataclass(frozen=True)
@@ -268,6 +162,7 @@ class Multibody:
         self._states: dict[str, tuple[np.ndarray, np.ndarray]] = {}
         self._world = {WORLD: _Frame(None, np.zeros(3), np.eye(3))}
         self._connectors: list[_Connector] = []
+        self._motors: dict[str, MotorLink] = {}
 
     def add(
         self, body: RigidBody, position=(0.0, 0.0, 0.0), orientation=None, velocity=None, omega=None
@@ -318,6 +213,27 @@ class Multibody:
             raise ModelError(f"{where}: both frames are on body {fa.body!r}.")
         self._connectors.append(_Connector(name, fa, fb, kind))
         return name
+
+    def motor(self, constant, joint: str, name: str | None = None):
+        r"""A DC motor's coupling across the revolute joint ``joint`` (its frame a the
+        stator, b the rotor): back-emf ``K e₃·(ω_b − ω_a)`` between pins ``p`` and ``n``,
+        torque ``K i e₃`` on b and ``−K i e₃`` on a (:mod:`~.spatial_motor`). Returns the
+        part: add it to a :class:`~diracvi.components.Circuit` and pass that circuit to
+        :meth:`build`."""
+        name = name or f"motor{len(self._motors)}"
+        conn = next((c for c in self._connectors if c.name == joint), None)
+        if conn is None or conn.kind != "revolute":
+            revolute = [c.name for c in self._connectors if c.kind == "revolute"]
+            raise ModelError(
+                f"Multibody.motor({name!r}): joint={joint!r} is not a revolute joint of "
+                f"{self.name!r}; its revolute joints are {revolute}."
+            )
+        if name in self._motors:
+            raise ModelError(f"Multibody.motor: a motor named {name!r} exists already.")
+        link = MotorLink(joint, conn.a, conn.b)
+        part = motor_part(constant, link, self._states, name)
+        self._motors[name] = link
+        return part
 
     def rolling(
         self,
@@ -406,12 +322,20 @@ class Multibody:
             )
         return names, q0, v0
 
-    def build(self, torn: bool = False) -> MultibodyModel:
-        """The system and its consistent initial state (see the module docstring)."""
+    def build(self, torn: bool = False, circuit=None) -> MultibodyModel:
+        """The system and its consistent initial state (see the module docstring);
+        with ``circuit`` (a :class:`~diracvi.components.Circuit` holding this
+        multibody's motors) the two joined at the motors' copies of the bodies."""
         names, q0, v0 = self._initial()
-        if torn:
-            return self._torn(names, q0, v0)
-        return self._monolithic(names, q0, v0)
+        model = self._torn(names, q0, v0) if torn else self._monolithic(names, q0, v0)
+        if circuit is None:
+            if self._motors:
+                raise ModelError(
+                    f"Multibody {self.name!r} has motors {sorted(self._motors)}: add them to a "
+                    "Circuit and build with mb.build(circuit=that_circuit)."
+                )
+            return model
+        return join_circuit(model, self.name, circuit, self._motors)
 
     def _monolithic(self, names, q0, v0) -> MultibodyModel:
         bodies = self._bodies
