@@ -365,8 +365,14 @@ def test_vmap_over_initial_states_equals_single_runs():
         assert np.max(np.abs(np.asarray(batch.q[i]) - single.q)) <= 1e-14
 
 
-def test_adjoints_agree():
-    """Checkpointed and fully stored reverse mode give the same gradient."""
+def test_adjoints_agree(monkeypatch):
+    """Checkpointed and fully stored reverse mode give the same gradient (checkpointed
+    although this run is small enough to be stored whole by default)."""
+    from diracvi.discretization.rules import get_rule
+    from diracvi.driver import traced
+
+    assert traced.stored_bytes(_pendulum(), get_rule("midpoint"), 90) <= traced.STORE_ALL_BYTES
+    monkeypatch.setattr(traced, "STORE_ALL_BYTES", 0)
     system = _pendulum()
 
     def loss(q0, adjoint):
