@@ -454,7 +454,7 @@ def adaptive(
     event_atol=1e-6,
     modes=None,
     pinned=None,
-    rebase: bool = False,
+    rebase: bool = True,
 ) -> AdaptiveRun:
     """March ``system`` from ``(q0, p0)`` at ``t0`` to ``t_stop`` under the midpoint
     rule with error-controlled steps, ending a step exactly on every breakpoint.
@@ -471,7 +471,8 @@ def adaptive(
     ``pinned``: a boolean per coordinate, the positions re-pinned at each step's end
     (:mod:`.pinned`: a behavioural source's ``ddt`` positions; default none).
     ``rebase``: step the growing coordinates from zero in each try's gauge
-    (:mod:`.rebase`; off by default until the slow corpus rows are re-run with it on).
+    (:mod:`.rebase`; on by default, ``rebase=False`` steps them as they are: the same
+    steps in exact arithmetic, their round-off ``ulp(q)/h`` grows with the run).
     ``max_tries``: the budget of tries, the retries aimed at a switching instant left out
     (each event takes a few, and their number is bounded by the events'). Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
