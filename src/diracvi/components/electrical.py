@@ -101,6 +101,11 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
         # one parameter leaf, reached through attributes: a template
         if len(leaves) == 1 and all(isinstance(k, GetAttrKey) for k in leaves[0][0]):
             _TEMPLATES[kind] = (part, tuple(k.name for k in leaves[0][0]))
+            # marked as its copies are: the marker is part of a Module's PyTree
+            # structure, so an unmarked first part would make a netlist's first read a
+            # different structure from every later read (a retrace, a new program key)
+            fields = object.__getattribute__(part, "__dict__")
+            fields[ALIKE] = ((kind, id(part), tuple(statics.items())), leaves[0][1])
         return part
     template, path = template
     # copies of the objects on the path to the leaf only (a flatten and unflatten of the
