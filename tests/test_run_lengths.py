@@ -40,15 +40,14 @@ def test_the_capacity_ladder_holds_every_run_in_less_than_twice_its_records():
         assert cap == 16 or cap < 2 * blocks
 
 
-# the pendulum is stepped by Newton, the driven RLC by its affine step map (blocks of
-# 64 steps: 100 steps are two blocks of 50, a runtime width)
+# the pendulum is stepped by Newton (its own choice), the driven RLC by Newton when
+# asked (its time-dependent force through the runtime clock)
 @pytest.mark.parametrize(
     ("name", "lengths", "save_every", "solver"),
     [
-        ("cartesian-pendulum", (20, 27), 1, "newton"),
-        pytest.param("cartesian-pendulum", (30, 45), 3, "newton", marks=pytest.mark.slow),
-        ("rlc-sine", (70, 100), 1, "affine step map"),
-        pytest.param("rlc-sine", (40, 56), 2, "affine step map", marks=pytest.mark.slow),
+        ("cartesian-pendulum", (20, 27), 1, None),
+        pytest.param("cartesian-pendulum", (30, 45), 3, None, marks=pytest.mark.slow),
+        pytest.param("rlc-sine", (70, 100), 1, dv.NewtonSolver(), marks=pytest.mark.slow),
     ],
 )
 def test_a_new_step_count_compiles_no_new_march(name, lengths, save_every, solver):
@@ -57,23 +56,21 @@ def test_a_new_step_count_compiles_no_new_march(name, lengths, save_every, solve
     def run(steps):
         return dv.simulate(
             problem.system, problem.q0, problem.p0, dt=problem.dt, steps=steps,
-            save_every=save_every, discretization="midpoint",
+            save_every=save_every, discretization="midpoint", solver=solver,
         )  # fmt: skip
 
     first = run(lengths[0])
     with _Traced() as traced:
         second = run(lengths[1])
     assert traced == []
-    assert solver in second.solver.lower() and solver in first.solver.lower()
+    assert "newton" in second.solver.lower() and "newton" in first.solver.lower()
     assert second.steps == lengths[1] and len(second.energy) == lengths[1] // save_every
 
     # the same steps as the program of exactly this length (today's static scan)
-    plan = get_plan(problem.system, get_rule("midpoint"), "plus", problem.dt, None,
+    plan = get_plan(problem.system, get_rule("midpoint"), "plus", problem.dt, solver,
                     problem.q0, problem.p0)  # fmt: skip
-    affine = plan.step_map is not None
     static = CompiledChunk(
-        plan.system if affine else plan.stepped_system, plan.rule, "plus",
-        plan.step_map if affine else plan.fallback, save_every, True,
+        plan.stepped_system, plan.rule, "plus", plan.fallback, save_every, True,
         lengths[1] // save_every, guard=None,
     )  # fmt: skip
     zeros = np.zeros(plan.system.m)
@@ -95,3 +92,15 @@ def test_a_run_that_fails_inside_a_counted_chunk_reports_its_step():
         solver=dv.NewtonSolver(max_steps=1), throw=False,
     )  # fmt: skip
     assert traj.status != 0 and traj.steps == 0
+
+
+def test_a_linear_models_affine_run_keeps_a_program_per_length():
+    """The affine map's runs are not counted (their blocks' width follows the length):
+    the plan hands out a chunk of exactly the run's records."""
+    problem = problems.get("rlc")
+    traj = dv.simulate(problem.system, problem.q0, problem.p0, dt=problem.dt, steps=40)
+    assert traj.solver == "affine step map"
+    plan = get_plan(problem.system, get_rule("retraction"), "plus", problem.dt, None,
+                    problem.q0, problem.p0)  # fmt: skip
+    chunk = plan.chunk(True, 1, True, 40)
+    assert isinstance(chunk, CompiledChunk) and chunk.layout.blocks == 40

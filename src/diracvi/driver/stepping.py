@@ -168,69 +168,15 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     return new, (q1s, p1s, mus, zero, nan, status)
 
 
-def _affine_counted(system, rule, scheme, step_map, h, length, carry, times, count):
-    """:func:`_affine_block` for the first ``count`` (a runtime integer, 1 ≤ count ≤
-    ``length``) of ``length`` steps: the same blocks of the same width
-    ``w = ⌈count / ⌈count / B⌉⌉``, now runtime values, so one program serves every
-    count. The ``⌈length / B⌉`` blocks are advanced ``B`` states each and the run's
-    states gathered from them; rows past ``count`` are not part of the run."""
-    q, p, _, _, state, failed = carry
-    n = q.shape[0]
-    z0 = jnp.concatenate([q, p])
-    most = step_map.powers.shape[0]  # B
-    slots = -(-length // most)  # the most blocks any count needs
-    blocks = (count + most - 1) // most
-    width = (count + blocks - 1) // blocks
-    step = jnp.arange(length)
-    offsets = None
-    if step_map.driven:
-        step_offsets, mu_offsets = step_map.offsets_at(system, rule, scheme, h, times)
-        # each block's one-step offsets in its first w of B slots, zero past the run
-        index = jnp.arange(slots)[:, None] * width + jnp.arange(most)[None, :]
-        real = (jnp.arange(most)[None, :] < width) & (index < count)
-        grid = jnp.where(real[..., None], step_offsets[jnp.minimum(index, length - 1)], 0.0)
-        offsets = step_map.block_offsets(grid)  # its first w columns are _affine_block's
-
-    def start(z, b):
-        z1 = step_map.next_start(z, width, b)
-        return z1, z1
-
-    unroll = slots if slots <= _UNROLL_BLOCKS else (2 if most == 1 else 1)
-    ends_b = None if offsets is None else offsets[:, width - 1]
-    _, ends = jax.lax.scan(start, z0, ends_b, length=slots, unroll=unroll)
-    if most == 1:  # single steps (a map too large for blocks): the recursion is the run
-        zs = ends
-    else:
-        grid = step_map.advance_blocks(jnp.concatenate([z0[None], ends[:-1]]), most, offsets)
-        # as in _affine_block: with several blocks (or one step) a block ends where the
-        # next starts, bitwise; a single block of several steps is the product's own
-        recursion = (blocks > 1) | (count == 1)
-        grid = grid.at[:, width - 1].set(jnp.where(recursion, ends, grid[:, width - 1]))
-        zs = grid[jnp.minimum(step // width, slots - 1), step % width]
-    last = count - 1
-    z_end = zs[last]
-    z_from = jnp.concatenate([z0[None], zs[:-1]])
-    mus = step_map.multipliers(z_from)
-    if step_map.driven:
-        mus = mus - step_map.mu_offset + mu_offsets
-    for j in rule.increment_stages():  # the map gives these stages as increments Q − q
-        mus = mus.at[:, system.m + j * n : system.m + (j + 1) * n].add(z_from[:, :n])
-    q1s, p1s = zs[:, :n], zs[:, n:]
-    zero = jnp.zeros(length, dtype=jnp.int32)
-    nan = jnp.full(length, jnp.nan, dtype=q.dtype)
-    status = jnp.zeros(length, dtype=jnp.int32)  # set by the verification
-    q_prev1 = jnp.where(count > 1, q1s[jnp.maximum(last - 1, 0)], q)
-    new = (z_end[:n], z_end[n:], q_prev1, mus[last, : system.m], state, failed)
-    return new, (q1s, p1s, mus, zero, nan, status)
-
-
 def _steps(system, rule, scheme, method, h, length, carry, times, count=None):
     """``length`` raw steps: ``(carry, (q1, p1, μ, iterations, residual, status))``;
-    with ``count`` (a runtime integer), only the first ``count`` of them are taken, and
-    the carry is the state after them."""
+    with ``count`` (a runtime integer, a solver's steps), only the first ``count`` of
+    them are taken, and the carry is the state after them."""
     if isinstance(method, AffineStepMap):
         if count is not None:
-            return _affine_counted(system, rule, scheme, method, h, length, carry, times, count)
+            # its blocks' width follows the length; a runtime width measured 25–50 %
+            # slower warm (see Plan.chunk), so its programs keep a static length
+            raise ValueError("the affine map's run has a static length (count=None)")
         return _affine_block(system, rule, scheme, method, h, length, carry, times)
     active = None if count is None else jnp.arange(length) < count
     return _newton_block(system, rule, scheme, method, h, length, carry, times, active)
@@ -404,8 +350,9 @@ def stateful_chunk_runner(
     ``count`` (a runtime integer ≤ ``blocks``, or ``None``: all): only the first ``count``
     records are run; the rest of ``saved`` is filler and the carry is the state after
     them. The steps taken repeat the arithmetic of a chunk of ``count`` blocks exactly
-    (a Newton step past the end takes the frozen branch, a block past it is skipped; the
-    affine map's run is :func:`_affine_counted`), so one program serves every length."""
+    (a Newton step past the end takes the frozen branch, a block past it is skipped), so
+    one program serves every length. (A run of the affine map with ``k = 1`` takes no
+    ``count``: its blocks' width depends on the length.)"""
 
     nodal = keeps_nodal(system, rule, save_states)
 
