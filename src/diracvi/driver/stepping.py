@@ -66,7 +66,9 @@ def _newton_block(system, rule, scheme, solver, h, k, carry, times, active=None)
     def body(c, xs):
         tk, act = xs
         new, out = _newton_step(system, rule, scheme, solver, h, c, tk, ~act)
-        new = jax.tree.map(lambda a, b: jnp.where(act, a, b), new, c)
+        # the frozen branch keeps (q, p, q_prev, μ_prev, state) as they were; an idle
+        # step must not mark the run failed either
+        new = (*new[:5], jnp.where(act, new[5], c[5]))
         return new, (*out[:5], jnp.where(act, out[5], 0))
 
     return jax.lax.scan(body, carry, (times, active), length=k)
