@@ -33,11 +33,14 @@ class _Traced(list):
         jax.monitoring.unregister_event_duration_listener(self.listen)
 
 
-def test_the_capacity_ladder_holds_every_run_in_less_than_twice_its_records():
-    for blocks in range(1, 5000):
+def test_the_capacity_ladder_holds_every_run_with_little_filler():
+    caps = set()
+    for blocks in range(1, 20000):
         cap = capacity(blocks)
-        assert cap >= blocks and cap & (cap - 1) == 0  # a power of two
-        assert cap == 16 or cap < 2 * blocks
+        caps.add(cap)
+        assert cap >= blocks and cap % 16 == 0
+        assert cap - blocks < max(16, blocks / 8)  # the filler rows of a run
+    assert len(caps) < 200  # a model compiles few programs for 20000 lengths
 
 
 # the pendulum is stepped by Newton (its own choice), the driven RLC by Newton when
@@ -47,7 +50,7 @@ def test_the_capacity_ladder_holds_every_run_in_less_than_twice_its_records():
     [
         ("cartesian-pendulum", (20, 27), 1, None),
         pytest.param("cartesian-pendulum", (30, 45), 3, None, marks=pytest.mark.slow),
-        pytest.param("rlc-sine", (70, 100), 1, dv.NewtonSolver(), marks=pytest.mark.slow),
+        pytest.param("rlc-sine", (70, 75), 1, dv.NewtonSolver(), marks=pytest.mark.slow),
     ],
 )
 def test_a_new_step_count_compiles_no_new_march(name, lengths, save_every, solver):
