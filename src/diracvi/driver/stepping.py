@@ -386,9 +386,9 @@ def stateful_chunk_runner(
             saved = _saved_every_step(raw, checked, save_states, stages)
             return inner[:4], inner[4], fail, saved
 
-        def body(c, b):
+        def body(c, b, taken=None):
             inner, fail = c
-            inner, fail, raw, checked, _ = block(inner, fail, b * k, k)
+            inner, fail, raw, checked, _ = block(inner, fail, b * k, k, taken)
             saved = _saved(*jax.tree.map(lambda a: a[None], (raw, checked)), k, save_states)
             return (inner, fail), jax.tree.map(lambda a: a[0], saved)
 
@@ -397,20 +397,14 @@ def stateful_chunk_runner(
             (inner, fail), saved = jax.lax.scan(body, (init, fail0), offsets, length=blocks)
             return inner[:4], inner[4], fail, saved
 
-        # a block past the run's end is skipped: the carry passes it unchanged (its
-        # record, zeros, is cut off on the host)
-        carried, shapes = jax.eval_shape(body, (init, fail0), offsets[0])
-        # the carry in the types a block returns (a weakly typed 0 would differ from the
-        # skipping branch's; the scan alone promotes it)
-        start = jax.tree.map(lambda a, t: jnp.asarray(a, t.dtype), (init, fail0), carried)
-
+        # a block past the run's end takes none of its steps (each the frozen branch):
+        # the carry passes it unchanged, its record is cut off on the host. (Skipping the
+        # block by a lax.cond instead changed the diagnostics of the blocks taken by a
+        # few ulp: a block compiled inside a conditional is another program.)
         def counted(c, b):
-            def skip(c):
-                return c, jax.tree.map(lambda a: jnp.zeros(a.shape, a.dtype), shapes)
+            return body(c, b, jnp.where(b < count, k, 0))
 
-            return jax.lax.cond(b < count, body, lambda c, _: skip(c), c, b)
-
-        (inner, fail), saved = jax.lax.scan(counted, start, offsets, length=blocks)
+        (inner, fail), saved = jax.lax.scan(counted, (init, fail0), offsets, length=blocks)
         return inner[:4], inner[4], fail, saved
 
     return chunk
