@@ -3,14 +3,14 @@ r"""A compiled chunk: the march of :mod:`~diracvi.driver.stepping` as one progra
 :class:`CompiledChunk` jits a chunk runner with the model's arrays as arguments (or baked
 in, for a small model), one flat input and one flat float64 output (:class:`OutputLayout`).
 
-**One program per model, not per step count.** The chunk's number of saved records
-(``blocks``) would be the static length of its scans, so every new step count compiled
-the march anew (10 s of a cold lobatto call of a small mechanism). An unbatched chunk
-stepped by a solver is therefore compiled for a *capacity* (:func:`capacity`: a rung
-of a geometric ladder), and the run's own number of blocks is a runtime value, the last entry of
-the flat input: the steps past it are not solved (a Newton step's frozen branch, a
-skipped block) and their rows are cut off on the host (:class:`SizedChunk`). The steps
-that are taken repeat the arithmetic of a program of their own length exactly (see
+**Not a program per step count.** The chunk's number of saved records (``blocks``)
+would be the static length of its scans, so every new step count compiled the march
+anew (10 s of a cold lobatto call of a small mechanism). An unbatched chunk stepped by a
+solver is therefore compiled for a *capacity* (:func:`capacity`: a rung of a geometric
+ladder), and the run's own number of blocks is a runtime value, the last entry of the
+flat input: the steps past it are not solved (a Newton step's frozen branch) and their
+rows are cut off on the host (:class:`SizedChunk`). The steps that are taken repeat the
+arithmetic of a program of their own length exactly (see
 :func:`~diracvi.driver.stepping.stateful_chunk_runner`). The affine map's runs, batched
 chunks and traced runs keep a program per length (see
 :meth:`~diracvi.driver.plan.Plan.chunk`).

@@ -246,7 +246,7 @@ class Plan:
     ):
         """The compiled chunk of ``blocks`` records of ``k`` steps. Stepped by a solver,
         unbatched: a :class:`SizedChunk` of the program compiled for :func:`capacity`
-        blocks, which serves every run of its octave of lengths. The affine map's runs
+        blocks, which serves every run of its rung of lengths. The affine map's runs
         keep a program per length: a counted one evaluates its steps' products and
         verification over the whole capacity, and measured 25–50 % slower warm (the
         driven RLC's 1000 steps: 0.24–0.33 → 0.37–0.50 ms), while a linear model's
