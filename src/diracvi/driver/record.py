@@ -213,13 +213,12 @@ class _Unpacked:
             sign = 1.0 if run.scheme == "plus" else -1.0
             return self._t0 + sign * run.h * index
         if name == "energy":
-            rows = self._flat[: layout.rows_end].reshape(layout.blocks, layout.width)
-            return rows[:, layout.columns["energy"]].copy()
+            return layout.table(self._flat)[:, layout.columns["energy"]].copy()
         if name in ("q", "p"):
             col = layout.columns.get(name)
             if col is None:  # a run without saved states
                 return None
-            rows = self._flat[: layout.rows_end].reshape(layout.blocks, layout.width)
+            rows = layout.table(self._flat)
             return np.concatenate((self._initial(name == "p")[None], rows[:, col]))
         if self._parts is None:
             self._parts = layout.unpack(self._flat)

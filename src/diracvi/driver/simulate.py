@@ -225,7 +225,7 @@ class _WarmRun:
     call are the checks of the values passed now: ``q0``, ``p0`` float64 vectors of the
     right length, ``t0`` a finite float, float64 on and no transformation active (here),
     and the data finite and consistent (inside the chunk's program: its
-    :func:`~diracvi.driver.stepping.input_verdict`, one number read back). Anything else
+    :func:`~diracvi.driver.chunk.input_verdict`, one number read back). Anything else
     (another type, a non-finite or inconsistent state, a step that failed or left the
     affine map) returns ``None``, and ``simulate`` takes its full path, which raises and
     warns as always.
@@ -242,15 +242,16 @@ class _WarmRun:
         "_run",
         "_shape",
         "_system",
+        "_tail",
         "_verdict",
-        "_zeros",
     )
 
     def __init__(self, system, plan, run, chunk, fields):
         self._system, self._plan = weakref.ref(system), weakref.ref(plan)
         self._dispatch, self._layout = chunk.dispatch, chunk.layout
         self._head = np.array([run.h, 0.0, 0.0])  # (h, t0, index of the first step)
-        self._zeros = np.zeros(run.shape.m)  # μ of the step before the first
+        # μ of the step before the first (zeros), then the chunk's count of blocks
+        self._tail = np.concatenate((np.zeros(run.shape.m), chunk.tail))
         self._shape = (run.shape.n,)
         self._verdict = chunk.layout.verdict
         self._fields, self._run = fields, run
@@ -272,7 +273,7 @@ class _WarmRun:
             and p0.shape == shape
         ):
             return None
-        x = np.concatenate((self._head, q0, p0, q0, self._zeros))
+        x = np.concatenate((self._head, q0, p0, q0, self._tail))
         x[1] = t0
         flat = np.asarray(self._dispatch(x))
         # data not finite or inconsistent, or a step that failed: the full path decides
@@ -292,7 +293,7 @@ _WARM_LIMIT = 64
 def _remember(key, system, plan, run, chunk, fields) -> None:
     """Keep the warm path of a whole run that took every step under ``key`` (the call's
     arguments as given). Only for a chunk that judges its own input (a model whose
-    initial-data check is one linear test, see :func:`~diracvi.driver.stepping.input_verdict`);
+    initial-data check is one linear test, see :func:`~diracvi.driver.chunk.input_verdict`);
     others keep the full check every call."""
     if chunk.layout.verdict is None or run.shape.traced:
         return

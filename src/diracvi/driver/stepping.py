@@ -29,10 +29,8 @@ from __future__ import annotations
 
 from functools import partial
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from ..discretization.diagnostics import step_diagnostics
 from ..discretization.equations import (
@@ -44,7 +42,6 @@ from ..discretization.equations import (
     split_stage,
     stage_of,
 )
-from ..runtime.compile import stored_chunk_jit
 from ..solvers.affine import AffineStepMap
 from ..solvers.tiny import max_abs
 from ..status import SolveStatus
@@ -57,42 +54,58 @@ def step_times(scheme: str, h, clock, offset, length: int):
     return tk, index
 
 
-def _newton_block(system, rule, scheme, solver, h, k, carry, times):
-    """``k`` solver steps from ``carry = (q, p, q_prev, μ_prev, state, failed)``."""
+def _newton_block(system, rule, scheme, solver, h, k, carry, times, active=None):
+    """``k`` solver steps from ``carry = (q, p, q_prev, μ_prev, state, failed)``.
 
-    def body(c, tk):
-        q, p, q_prev, mu_prev, state, failed = c
+    ``active`` (k booleans, or ``None``: all): a step past the run's runtime length is
+    not solved (the frozen branch) and leaves the carry as it was, with status 0."""
+    if active is None:
+        step = partial(_newton_step, system, rule, scheme, solver, h)
+        return jax.lax.scan(step, carry, times, length=k)
 
-        def advance(_):
-            eqs = StepEquations(system, rule, scheme, h, q, p, tk)
-            guess = first_guess(system, rule, q, 2.0 * q - q_prev, mu_prev)
-            res = solver.solve(eqs, guess, state)
-            q1, mu = split(system, res.x)
-            p1 = solver.momentum(eqs, res.x, res.state)
-            finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
-            status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
-            return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
+    def body(c, xs):
+        tk, act = xs
+        new, out = _newton_step(system, rule, scheme, solver, h, c, tk, ~act)
+        # the frozen branch keeps (q, p, q_prev, μ_prev, state) as they were; an idle
+        # step must not mark the run failed either
+        new = (*new[:5], jnp.where(act, new[5], c[5]))
+        return new, (*out[:5], jnp.where(act, out[5], 0))
 
-        def frozen(_):
-            # μ here is the whole tail of x (with a staged rule's (Q, ν))
-            tail = first_guess(system, rule, q, q, mu_prev)[system.n :]
-            out = (q, p, tail, jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), jnp.asarray(-1))
-            return out, state
+    return jax.lax.scan(body, carry, (times, active), length=k)
 
-        out, state1 = jax.lax.cond(failed, frozen, advance, None)
-        q1, p1, mu, _, _, status = out
-        ok = status == 0
-        new = (
-            jnp.where(ok, q1, q),
-            jnp.where(ok, p1, p),
-            jnp.where(ok, q, q_prev),
-            jnp.where(ok, mu[: system.m], mu_prev),
-            state1,
-            failed | ~ok,
-        )
-        return new, out
 
-    return jax.lax.scan(body, carry, times, length=k)
+def _newton_step(system, rule, scheme, solver, h, c, tk, idle=False):
+    """One solver step of :func:`_newton_block` (frozen after a failure or when ``idle``)."""
+    q, p, q_prev, mu_prev, state, failed = c
+
+    def advance(_):
+        eqs = StepEquations(system, rule, scheme, h, q, p, tk)
+        guess = first_guess(system, rule, q, 2.0 * q - q_prev, mu_prev)
+        res = solver.solve(eqs, guess, state)
+        q1, mu = split(system, res.x)
+        p1 = solver.momentum(eqs, res.x, res.state)
+        finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
+        status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
+        return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
+
+    def frozen(_):
+        # μ here is the whole tail of x (with a staged rule's (Q, ν))
+        tail = first_guess(system, rule, q, q, mu_prev)[system.n :]
+        out = (q, p, tail, jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), jnp.asarray(-1))
+        return out, state
+
+    out, state1 = jax.lax.cond(failed | idle, frozen, advance, None)
+    q1, p1, mu, _, _, status = out
+    ok = status == 0
+    new = (
+        jnp.where(ok, q1, q),
+        jnp.where(ok, p1, p),
+        jnp.where(ok, q, q_prev),
+        jnp.where(ok, mu[: system.m], mu_prev),
+        state1,
+        failed | ~ok,
+    )
+    return new, out
 
 
 #: up to this many blocks the recursion of their starts is unrolled
@@ -157,11 +170,18 @@ def _affine_block(system, rule, scheme, step_map, h, k, carry, times):
     return new, (q1s, p1s, mus, zero, nan, status)
 
 
-def _steps(system, rule, scheme, method, h, length, carry, times):
-    """``length`` raw steps: ``(carry, (q1, p1, μ, iterations, residual, status))``."""
+def _steps(system, rule, scheme, method, h, length, carry, times, count=None):
+    """``length`` raw steps: ``(carry, (q1, p1, μ, iterations, residual, status))``;
+    with ``count`` (a runtime integer, a solver's steps), only the first ``count`` of
+    them are taken, and the carry is the state after them."""
     if isinstance(method, AffineStepMap):
+        if count is not None:
+            # its blocks' width follows the length; a runtime width measured 25–50 %
+            # slower warm (see Plan.chunk), so its programs keep a static length
+            raise ValueError("the affine map's run has a static length (count=None)")
         return _affine_block(system, rule, scheme, method, h, length, carry, times)
-    return _newton_block(system, rule, scheme, method, h, length, carry, times)
+    active = None if count is None else jnp.arange(length) < count
+    return _newton_block(system, rule, scheme, method, h, length, carry, times, active)
 
 
 def keeps_nodal(system, rule, save_states: bool) -> bool:
@@ -302,14 +322,14 @@ def chunk_runner(
 
     run = stateful_chunk_runner(system, rule, scheme, method, k, save_states, blocks, keep_stages)
 
-    def chunk(h, clock, carry):
+    def chunk(h, clock, carry, count=None):
         q, p = carry[:2]
         if isinstance(method, AffineStepMap):
             state = ()
         else:
             t_first = step_times(scheme, h, clock, 0, 1)[0][0]
             state = method.init(StepEquations(system, rule, scheme, h, q, p, t_first))
-        carry, _, fail, saved = run(h, clock, carry, state)
+        carry, _, fail, saved = run(h, clock, carry, state, count=count)
         return carry, fail, saved
 
     return chunk
@@ -325,25 +345,35 @@ def stateful_chunk_runner(
     system, rule, scheme, method, k: int, save_states: bool, blocks: int, keep_stages=False
 ):
     """:func:`chunk_runner` with the solver state passed in and returned:
-    ``(h, clock, carry, state, fail=None) ↦ (carry, state, fail, saved)``. Consecutive
-    chunks that thread the state and the failure record repeat the arithmetic of one long
-    chunk exactly (the traced driver runs a checkpointed run as such segments)."""
+    ``(h, clock, carry, state, fail=None, count=None) ↦ (carry, state, fail, saved)``.
+    Consecutive chunks that thread the state and the failure record repeat the arithmetic
+    of one long chunk exactly (the traced driver runs a checkpointed run as such segments).
+
+    ``count`` (a runtime integer ≤ ``blocks``, or ``None``: all): only the first ``count``
+    records are run; the rest of ``saved`` is filler and the carry is the state after
+    them. The steps taken repeat the arithmetic of a chunk of ``count`` blocks exactly
+    (a Newton step past the end takes the frozen branch, a block past it is skipped), so
+    one program serves every length. (A run of the affine map with ``k = 1`` takes no
+    ``count``: its blocks' width depends on the length.)"""
 
     nodal = keeps_nodal(system, rule, save_states)
 
-    def chunk(h, clock, carry, state, fail=None):
+    def chunk(h, clock, carry, state, fail=None, count=None):
         q, p, q_prev, mu_prev = carry
         fail0 = (jnp.asarray(0), jnp.asarray(0), jnp.asarray(jnp.nan, q.dtype), q)
         if fail is not None:  # a failure in an earlier chunk keeps this one frozen
             fail0 = fail
         init = (q, p, q_prev, mu_prev, state, fail0[0] != 0)
 
-        def block(inner, fail, offset, length):
+        def block(inner, fail, offset, length, count=None):
             times, index = step_times(scheme, h, clock, offset, length)
-            new, raw = _steps(system, rule, scheme, method, h, length, inner, times)
+            new, raw = _steps(system, rule, scheme, method, h, length, inner, times, count)
             checked = _checked(
                 system, rule, scheme, method, h, inner[0], inner[1], raw, times, index, nodal
             )
+            if count is not None:  # the steps past the run's end are no failures
+                status = jnp.where(jnp.arange(length) < count, checked[4], 0)
+                checked = (*checked[:4], status, checked[5])
             stages = stage_record(system, rule, scheme, inner[0], raw) if keep_stages else None
             raw = (*raw[:2], raw[2][..., : system.m], *raw[3:])  # saved: μ without stages
             fail = _first_failure(raw, checked, fail)
@@ -352,231 +382,29 @@ def stateful_chunk_runner(
         flat = blocks * system.n <= FLAT_DIAGNOSTICS_VALUES
         flat = flat and not getattr(method, "diagnostics_per_step", False)
         if k == 1 and (save_states or flat):
-            inner, fail, raw, checked, stages = block(init, fail0, 0.0, blocks)
+            inner, fail, raw, checked, stages = block(init, fail0, 0.0, blocks, count)
             saved = _saved_every_step(raw, checked, save_states, stages)
             return inner[:4], inner[4], fail, saved
 
-        def body(c, b):
+        def body(c, b, taken=None):
             inner, fail = c
-            inner, fail, raw, checked, _ = block(inner, fail, b * k, k)
+            inner, fail, raw, checked, _ = block(inner, fail, b * k, k, taken)
             saved = _saved(*jax.tree.map(lambda a: a[None], (raw, checked)), k, save_states)
             return (inner, fail), jax.tree.map(lambda a: a[0], saved)
 
         offsets = jnp.arange(blocks, dtype=clock.dtype)
-        (inner, fail), saved = jax.lax.scan(body, (init, fail0), offsets, length=blocks)
+        if count is None:
+            (inner, fail), saved = jax.lax.scan(body, (init, fail0), offsets, length=blocks)
+            return inner[:4], inner[4], fail, saved
+
+        # a block past the run's end takes none of its steps (each the frozen branch):
+        # the carry passes it unchanged, its record is cut off on the host. (Skipping the
+        # block by a lax.cond instead changed the diagnostics of the blocks taken by a
+        # few ulp: a block compiled inside a conditional is another program.)
+        def counted(c, b):
+            return body(c, b, jnp.where(b < count, k, 0))
+
+        (inner, fail), saved = jax.lax.scan(counted, (init, fail0), offsets, length=blocks)
         return inner[:4], inner[4], fail, saved
 
     return chunk
-
-
-#: models whose arrays hold at most this many numbers have them baked into the program
-_CONSTANT_LIMIT = 1 << 16
-
-
-def _with_constants(packed, constants, _none, h, clock, carry):
-    return packed(constants, h, clock, carry)
-
-
-class CompiledChunk:
-    """A jitted chunk with the model's arrays passed as arguments (not baked in as
-    constants): compilation stays fast for large models, and a call costs one dispatch.
-
-    The outputs are packed into one float64 buffer and unpacked on the host as views: a
-    transfer per array is what a short run's call time is made of.
-
-    ``guard``: the initial-data check's linear test ``(M, c)`` (or ``None``); an
-    unbatched chunk given one appends its :func:`input_verdict` to the output.
-    """
-
-    def __init__(
-        self,
-        system,
-        rule,
-        scheme,
-        method,
-        k,
-        save_states,
-        blocks,
-        batched=False,
-        guard=None,
-        keep_stages=False,
-    ):
-        dynamic, static = eqx.partition((system, rule, method), eqx.is_array)
-        n, m = system.n, system.m
-        nodal = keeps_nodal(system, rule, save_states)
-        # every step's stages are kept only when asked (a diagnostic's need)
-        stage_width = rule.stages * (n + m) if keep_stages else 0
-
-        def packed(dynamic, h, clock, carry):
-            system_, rule_, method_ = eqx.combine(dynamic, static)
-            chunk = chunk_runner(
-                system_, rule_, scheme, method_, k, save_states, blocks, bool(stage_width)
-            )
-            (q, p, q_prev, mu), (code, its, res, q_bad), saved = chunk(h, clock, carry)
-            cols = [saved["energy"][:, None], saved["violation"][:, None]]
-            if save_states:
-                cols += [saved["q"], saved["p"], saved["mu"], saved["con"]]
-            if nodal:
-                cols.append(saved["p_node"])
-            if stage_width:
-                cols.append(saved["stage"])
-            steps_f = jnp.concatenate(cols, axis=1)
-            steps_i = jnp.stack([saved["n_good"], saved["iterations"]], axis=1)
-            final_f = jnp.concatenate([q, p, q_prev, mu, res[None], q_bad])
-            final_i = jnp.stack([code, its])
-            # one flat float64 buffer: one device-to-host transfer (the counts are exact)
-            return jnp.concatenate(
-                [
-                    steps_f.ravel(),
-                    steps_i.astype(steps_f.dtype).ravel(),
-                    final_f,
-                    final_i.astype(steps_f.dtype),
-                ]
-            )
-
-        self._dynamic = dynamic
-        size = sum(leaf.size for leaf in jax.tree.leaves(dynamic))
-        baked = None
-        if size <= _CONSTANT_LIMIT:
-            # small models: the arrays become compile-time constants, so a call passes
-            # only the state (dispatch cost does not grow with the number of subsystems)
-            self._dynamic, baked = None, dynamic
-            packed = partial(_with_constants, packed, dynamic)
-        guarded = guard is not None and not batched
-        self.layout = OutputLayout(n, m, blocks, save_states, nodal, guarded, stage_width)
-        code_at = self.layout.code
-        self._batched = batched
-        if not batched:
-            # one flat input (h, t0, first index, q, p, q_prev, μ): a jitted call costs
-            # about a microsecond per argument array, more than the arithmetic of a step
-            def flat(dynamic, x):
-                carry = (x[3 : 3 + n], x[3 + n : 3 + 2 * n], x[3 + 2 * n : 3 + 3 * n])
-                out = packed(dynamic, x[0], x[1:3], (*carry, x[3 + 3 * n :]))
-                if not guarded:
-                    return out
-                return jnp.append(out, input_verdict(guard, x, out[code_at]))
-
-            fn, kind = flat, "one run"
-        elif isinstance(method, AffineStepMap):
-            # Each affine run is already vectorized over its steps; batching members
-            # only multiplies the size of every intermediate (memory-bound), so the
-            # members run one after another inside the one compiled call (measured 3.5×
-            # faster than vmap at 10³ members of the torn chain).
-            def fn(dynamic, h, clock, carry):
-                return jax.lax.map(lambda c: packed(dynamic, h, clock, c), carry)
-
-            kind = "members one after another"
-        else:
-            # Newton's many tiny operations per step amortize well over a batch.
-            fn, kind = jax.vmap(packed, in_axes=(None, None, None, 0)), "members vmapped"
-        # kept on disk (diracvi.runtime.store) under everything the program closes over
-        context = (kind, static, scheme, k, save_states, blocks, nodal, baked)
-        if stage_width:  # (a separate entry: the programs of every other run keep their keys)
-            context += ("stages", stage_width)
-        if guarded:
-            context += ("guard", *guard)
-        self._fn = stored_chunk_jit(fn, "diracvi.driver.stepping.CompiledChunk", context)
-        self._call = None  # the compiled program of an unbatched chunk, at first dispatch
-
-    @staticmethod
-    def flat_input(h, clock, carry) -> np.ndarray:
-        """The one input vector ``(h, t0, first index, q, p, q_prev, μ)`` of :meth:`run`;
-        ``h``, ``t0`` and the index may be Python floats."""
-        return np.concatenate(((h, clock[0], clock[1]), *carry))
-
-    def dispatch(self, x):
-        """Run an unbatched chunk on the flat input ``x``; returns the (device) packed
-        output (at once, before the run ends, where JAX's CPU dispatch is asynchronous:
-        see :mod:`diracvi.runtime.dispatch`)."""
-        if self._call is None:
-            program, leaves = self._fn.program(self._dynamic, x)
-            if program is None:
-                self._call = partial(self._fn.plain, self._dynamic)
-            else:  # the model's arrays, then x: the program's inputs in order
-                self._call = partial(program, *leaves[:-1])
-        return self._call(x)
-
-    def run(self, x) -> np.ndarray:
-        """The packed output (see :class:`OutputLayout`) of an unbatched chunk."""
-        return np.asarray(self.dispatch(x))
-
-    def __call__(self, h, clock, carry):
-        """``(carry, fail, saved)`` as numpy arrays (views into the packed output);
-        ``clock = (t0, index of the first step)`` as a float64 array."""
-        if self._batched:
-            flat = np.asarray(self._fn(self._dynamic, h, clock, carry))
-        else:
-            flat = self.run(self.flat_input(h, clock, carry))
-        return self.layout.unpack(flat)
-
-
-def input_verdict(guard, x, code):
-    """``‖M z − c‖₂²`` for the run's initial state ``z = (q0, p0)`` in the flat input
-    ``x``, or ``inf`` if ``x`` is not finite or the run did not take every step
-    (``code ≠ 0``): a verdict ``≤ 1`` means the data pass the initial-data check
-    (:meth:`~diracvi.model.consistency.Checker.quick_test`) and the run's output is whole.
-
-    Computed inside the program, so a warm call reads one number instead of checking
-    the data with NumPy operations of its own (each costs a few µs right after a
-    program has run, its caches cold)."""
-    matrix, offset = guard
-    n2 = matrix.shape[1]
-    r = matrix @ x[3 : 3 + n2]
-    if offset is not None:
-        r = r - offset
-    ok = jnp.all(jnp.isfinite(x)) & (code == 0)
-    return jnp.where(ok, r @ r, jnp.inf)
-
-
-class OutputLayout:
-    """Where each output of a chunk lies in its packed float64 buffer (leading batch
-    axes allowed): ``blocks`` rows of :attr:`columns`, then the per-row
-    ``(n_good, iterations)``, the final carry ``(q, p, q_prev, μ)``, the first failure's
-    residual and state, its ``(code, iterations)``, and, in a guarded chunk, the
-    :func:`input_verdict` at :attr:`verdict` (else ``None``). ``stage_width > 0``: each
-    row ends with the step's :func:`stage_record` (column ``"stage"``)."""
-
-    def __init__(
-        self,
-        n: int,
-        m: int,
-        blocks: int,
-        save_states: bool,
-        nodal: bool,
-        guarded=False,
-        stage_width: int = 0,
-    ):
-        names = [("energy", None), ("violation", None)]
-        if save_states:
-            names += [("q", n), ("p", n), ("mu", m), ("con", m)]
-        if nodal:
-            names.append(("p_node", n))
-        if stage_width:
-            names.append(("stage", stage_width))
-        self.columns: dict = {}  # name → column (a scalar) or slice of columns
-        width = 0
-        for name, size in names:
-            self.columns[name] = width if size is None else slice(width, width + size)
-            width += 1 if size is None else size
-        self.n, self.m, self.blocks, self.width = n, m, blocks, width
-        self.rows_end = blocks * width  # [0, rows_end): the rows, row-major
-        self.counts_end = self.rows_end + 2 * blocks  # then (n_good, iterations) per row
-        self.final = self.counts_end  # then q, p, q_prev, μ, residual, q_bad
-        self.code = self.final + 4 * n + m + 1  # then the failure code and its iterations
-        self.verdict = self.code + 2 if guarded else None
-
-    def unpack(self, flat):
-        """``(carry, fail, saved)``: views into ``flat`` (the counts as int64 copies)."""
-        n, m, blocks, width = self.n, self.m, self.blocks, self.width
-        lead = flat.shape[:-1]
-        rows = flat[..., : self.rows_end].reshape(*lead, blocks, width)
-        counts = flat[..., self.rows_end : self.counts_end].reshape(*lead, blocks, 2)
-        counts = counts.astype(np.int64)
-        final = flat[..., self.final : self.code]
-        codes = flat[..., self.code : self.code + 2].astype(np.int64)
-        carry = tuple(final[..., i * n : (i + 1) * n] for i in range(3))
-        carry += (final[..., 3 * n : 3 * n + m],)
-        fail = (codes[..., 0], codes[..., 1], final[..., 3 * n + m], final[..., 3 * n + m + 1 :])
-        saved = {name: rows[..., col] for name, col in self.columns.items()}
-        saved.update(n_good=counts[..., 0], iterations=counts[..., 1])
-        return carry, fail, saved
