@@ -80,6 +80,13 @@ def netlist_start(phases: Phases, deck: str):
     return netlist, settings, _run.breakpoints(netlist.system, 0.0, settings.stop)
 
 
+def table_head(*columns: str) -> None:
+    """Print the machine's load average, then a Markdown table's header row and rule."""
+    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)")
+    print("| " + " | ".join(columns) + " |")
+    print("|" + "---|" * len(columns))
+
+
 def child_source(body: str) -> str:
     """``python -c`` source: ``body`` after making ``phases`` (a :class:`Phases`, counting
     compilations), this module importable from the child (its folder last on the path)."""

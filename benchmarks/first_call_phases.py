@@ -19,7 +19,7 @@ import os
 import subprocess
 import sys
 
-from _phases import child_source
+from _phases import child_source, table_head
 
 PROBLEMS = ("four-bar", "double-pendulum-torn", "andrews")
 RULES = ("midpoint", "lobatto")
@@ -66,13 +66,8 @@ def main() -> None:
     parser.add_argument("--names", action="store_true", help="list the compiled programs")
     args = parser.parse_args()
     env = {**os.environ, "DIRACVI_CACHE_DIR": "", "OPENBLAS_NUM_THREADS": "1"}
-    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)")
-    head = (
-        "| problem | rule | import CPU | first call CPU (trace/lower/XLA, wall) | programs "
-        "| new steps CPU (programs) | warm wall |"
-    )
-    print(head)
-    print("|" + "---|" * (head.count("|") - 1))
+    table_head("problem", "rule", "import CPU", "first call CPU (trace/lower/XLA, wall)",
+               "programs", "new steps CPU (programs)", "warm wall")  # fmt: skip
     for name in args.problems:
         for rule in args.rules:
             out = subprocess.run(

@@ -31,7 +31,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _phases import child_source
+from _phases import child_source, table_head
 
 HERE = Path(__file__).resolve().parent
 NETLISTS = HERE.parent / "tests" / "data" / "netlists"
@@ -117,13 +117,9 @@ def main() -> None:
     args = parser.parse_args()
     if shutil.which("ngspice") is None:
         raise SystemExit("ngspice is not on PATH: it is the baseline of this benchmark.")
-    print(f"load average at start: {os.getloadavg()[0]:.2f} ({os.cpu_count()} CPUs)")
-    head = (
-        "| deck | run | import | read | op | march (trace/lower/XLA) | compiles | again "
-        "| steps | tries | rejected | Newton | µs/try | ngspice CPU | ng steps/rej/Newton |"
-    )
-    print(head)
-    print("|" + "---|" * (head.count("|") - 1))
+    table_head("deck", "run", "import", "read", "op", "march (trace/lower/XLA)", "compiles",
+               "again", "steps", "tries", "rejected", "Newton", "µs/try", "ngspice CPU",
+               "ng steps/rej/Newton")  # fmt: skip
     with tempfile.TemporaryDirectory(prefix="diracvi-small-") as tmp:
         work = Path(tmp)
         for name in args.decks:

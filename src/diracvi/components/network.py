@@ -400,12 +400,12 @@ def _momenta(system, parts, q0, v0, offsets):
     """``p0 = ∂L/∂v(q0, v0)``: the parts' momenta, side by side (``L = Σ L_i``); NumPy,
     or JAX's where a part's parameter or the state is traced (a netlist read inside a
     traced fit). A circuit of linear R, L, C only has them in closed form."""
-    # the method is read from the class: read from a Module, equinox binds it as a PyTree
-    # and checks every leaf of the system — 0.5 s per call at 10⁴ parts
     if isinstance(v0, np.ndarray) and isinstance(q0, np.ndarray):
         p0 = _closed_momenta(parts, q0, v0, offsets)
         if p0 is not None:
             return p0
+    # the method is read from the class: read from a Module, equinox binds it as a PyTree
+    # and checks every leaf of the system — 0.5 s per call at 10⁴ parts
     packed = getattr(type(system), "_packed", None)
     if len(parts) >= _BATCH_MOMENTA and packed is not None:
         p0 = _packed_momentum(packed(system), q0, v0)
