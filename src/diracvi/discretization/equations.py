@@ -197,3 +197,9 @@ class StepEquations(eqx.Module):
     def scale(self):
         """The size against which Newton's relative tolerance is measured."""
         return jnp.max(jnp.abs(self.q), initial=0.0)
+
+    def reference(self):
+        """The known state as unknowns — ``q_other = q``, stages at ``q``, every
+        multiplier 0 — from which a step's increment ``x − reference`` is measured."""
+        zero = jnp.zeros(self.system.m, dtype=self.q.dtype)
+        return first_guess(self.system, self.rule, self.q, self.q, zero)

@@ -226,6 +226,7 @@ class PartitionedSolver(StepSolver):
             factors,
             valid,
             eqs.scale(),
+            reference=step.split(eqs.reference()),
         )
         state = (stacked, factors, status == 0)
         return StepResult(step.join(*x), status, iterations, res_norm, state)
