@@ -27,7 +27,9 @@ A rotor inertia ``J_m`` adds ``½ J_m θ̇_m²`` to the part's Lagrangian: the s
 momentum ``J_m θ̇_m`` is then the rotor's, and the row's reaction carries ``J_m θ̈_m`` to
 the two bodies as it carries ``K i`` — the joint's inertia grows by ``J_m`` (the rotor's
 moment about its own axis only: its mass and its moments across the axis belong to the
-stator's body). It stores the rotor's kinetic energy ``½ J_m θ̇_m²``.
+stator's body). It stores ``½ J_m θ̇_m²``, the rotor's kinetic energy on the joint's
+relative rate — MuJoCo's joint ``armature``; the stator's own turning about the axis is
+left out, as in the reflected inertia of a geared rotor.
 
 Only ``θ̇_m`` enters the equations (``K θ_m q̇`` changes by a total derivative when
 ``θ_m`` is shifted), so ``θ_m`` starts at 0 and need not equal the joint angle. The part's
