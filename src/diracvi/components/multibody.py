@@ -214,12 +214,13 @@ class Multibody:
         self._connectors.append(_Connector(name, fa, fb, kind))
         return name
 
-    def motor(self, constant, joint: str, name: str | None = None):
+    def motor(self, constant, joint: str, name: str | None = None, inertia=0.0):
         r"""A DC motor's coupling across the revolute joint ``joint`` (its frame a the
         stator, b the rotor): back-emf ``K e₃·(ω_b − ω_a)`` between pins ``p`` and ``n``,
-        torque ``K i e₃`` on b and ``−K i e₃`` on a (:mod:`~.spatial_motor`). Returns the
-        part: add it to a :class:`~diracvi.components.Circuit` and pass that circuit to
-        :meth:`build`."""
+        torque ``K i e₃`` on b and ``−K i e₃`` on a (:mod:`~.spatial_motor`); ``inertia``
+        is the rotor's moment ``J_m`` about the shaft (kg m², default 0), added to the
+        joint's. Returns the part: add it to a :class:`~diracvi.components.Circuit` and
+        pass that circuit to :meth:`build`."""
         name = name or f"motor{len(self._motors)}"
         conn = next((c for c in self._connectors if c.name == joint), None)
         if conn is None or conn.kind != "revolute":
@@ -231,7 +232,7 @@ class Multibody:
         if name in self._motors:
             raise ModelError(f"Multibody.motor: a motor named {name!r} exists already.")
         link = MotorLink(joint, conn.a, conn.b)
-        part = motor_part(constant, link, self._states, name)
+        part = motor_part(constant, link, self._states, name, inertia)
         self._motors[name] = link
         return part
 

@@ -23,6 +23,14 @@ and cubic in the coordinates (``q``, ``dᵢ``, ``ḋᵢ``). The one-form keeps t
 bilinear Lagrangian (stores no energy, ``E = 0``) and puts the torque exactly along the
 axis; its reaction does no work on any velocity the row allows (``λ A v = 0``).
 
+A rotor inertia ``J_m`` adds ``½ J_m θ̇_m²`` to the part's Lagrangian: the shaft's
+momentum ``J_m θ̇_m`` is then the rotor's, and the row's reaction carries ``J_m θ̈_m`` to
+the two bodies as it carries ``K i`` — the joint's inertia grows by ``J_m`` (the rotor's
+moment about its own axis only: its mass and its moments across the axis belong to the
+stator's body). It stores ``½ J_m θ̇_m²``, the rotor's kinetic energy on the joint's
+relative rate — MuJoCo's joint ``armature``; the stator's own turning about the axis is
+left out, as in the reflected inertia of a geared rotor.
+
 Only ``θ̇_m`` enters the equations (``K θ_m q̇`` changes by a total derivative when
 ``θ_m`` is shifted), so ``θ_m`` starts at 0 and need not equal the joint angle. The part's
 coordinates are ``(q, theta, <body>_<x, y, z, d1x, …>)``: massless copies of the
@@ -40,7 +48,7 @@ import numpy as np
 from ..errors import ModelError
 from ..model.interaction import connect
 from ..model.interconnect import interconnect
-from ._part import Part, finite
+from ._part import Part, finite, traced
 from .rigid_body import COORDS
 
 
@@ -82,21 +90,33 @@ class MotorLink:
         return float(-(np.asarray(self.form(jnp.asarray(x)))[0] @ v))
 
 
-def motor_part(constant, link: MotorLink, states: dict, name: str) -> Part:
-    r"""The motor part: ``L = K θ q̇`` and the row ``θ̇ − e₃·(ω_b − ω_a) = 0`` (module
-    docstring), its copies starting at the bodies' initial ``states`` (``{body: (q, v)}``)."""
-    k = finite(f"Multibody.motor({name!r})", "constant", constant)
+def motor_part(constant, link: MotorLink, states: dict, name: str, inertia=0.0) -> Part:
+    r"""The motor part: ``L = K θ q̇ + ½ J_m θ̇²`` and the row ``θ̇ − e₃·(ω_b − ω_a) = 0``
+    (module docstring), its copies starting at the bodies' initial ``states``
+    (``{body: (q, v)}``). ``J_m`` (``inertia``, kg m², ≥ 0) is the rotor's moment about its
+    shaft: it rides on the shaft angle, so the row carries its reaction ``J_m θ̈`` to the
+    joint like the torque ``K i``, and the joint sees ``J_m`` added to its inertia."""
+    where = f"Multibody.motor({name!r})"
+    k = finite(where, "constant", constant)
+    jm = finite(where, "inertia", inertia)
+    if not traced(jm) and jm < 0.0:
+        raise ModelError(
+            f"{where}: inertia={inertia!r} is negative; give the rotor's moment about its "
+            "shaft in kg m² (≥ 0, 0 for none)."
+        )
     coords = ("q", "theta", *(f"{b}_{c}" for b in link.bodies for c in COORDS))
     q0 = np.concatenate([[0.0, 0.0], *(states[b][0] for b in link.bodies)])
     v0 = np.concatenate([[0.0, link.rate(states)], *(states[b][1] for b in link.bodies)])
     return Part(
         coords,
-        lambda q, v: k * q[1] * v[0],
+        (lambda q, v: k * q[1] * v[0] + 0.5 * jm * v[1] ** 2)
+        if traced(jm) or jm != 0.0
+        else (lambda q, v: k * q[1] * v[0]),  # no J_m: the Lagrangian stays bilinear
         name=name,
         pins=(("p", "q", 1), ("n", "q", -1)),
         initial_q=q0,
         initial_v=v0,
-        parameters={"constant": k},
+        parameters={"constant": k, "inertia": jm},
         constraints=link.form,
         constraint_names=("shaft",),
     )
