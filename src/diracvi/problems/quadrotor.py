@@ -24,11 +24,13 @@ without diracvi.
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..components.rigid_body import RigidBody
 from ..components.rotorcraft import MotorPropeller, momenta, rotorcraft
+from ..driver.simulate import simulate
 from .linkages import _dop853
 
 MASS, INERTIA, ARM, GRAVITY = 1.0, (0.01, 0.01, 0.018), 0.2, 9.81
@@ -42,6 +44,8 @@ SENSES = np.array([1.0, -1.0, 1.0, -1.0])
 MIXING = np.vstack([np.ones(4), ARMS[:, 1], -ARMS[:, 0], -(DRAG / THRUST) * SENSES])
 #: default gains (k_x, k_v, k_R, k_Ω) in 1/s², 1/s, 1/s², 1/s
 GAINS = (2.0, 2.0, 40.0, 8.0)
+#: the manoeuvre's target: from hover at the origin to this point
+WAYPOINT = (1.0, 0.5, 0.3)
 
 
 def hover_speed() -> float:
@@ -67,7 +71,7 @@ def geometric_controller(gains, waypoint, motors: bool = True, heading=(1.0, 0.0
     b1c = jnp.asarray(heading, dtype=jnp.float64)
     j = jnp.diag(jnp.asarray(INERTIA))
     unmix = jnp.asarray(np.linalg.inv(MIXING))
-    soft = 0.05 * MASS * GRAVITY / 4  # the thrusts' smooth floor at 0 (differentiable)
+    soft = 0.02 * MASS * GRAVITY / 4  # the thrusts' smooth floor at 0 (differentiable)
 
     def command(qf, vf, t):
         r = qf[3:12].reshape(3, 3).T
@@ -146,15 +150,52 @@ def newton_euler(inputs, t, motors: bool = True, position=(0.0, 0.0, 0.0)):
     return y[:, 0:3], y[:, 6:15].reshape(-1, 3, 3), rates
 
 
+def tracking_loss(log_gains, dt=0.01, duration=2.0, waypoint=WAYPOINT, motors=True):
+    r"""``(J, q)``: the mean squared distance ``J = (1/(N+1)) Σₖ |xₖ − w|²`` to the
+    waypoint over a run of ``duration`` from hover at the origin, the craft flown by
+    :func:`geometric_controller` with gains ``exp(log_gains)``, and the run's coordinates.
+    Traceable: ``jax.grad`` of it differentiates through :func:`~diracvi.simulate` (each
+    step by the implicit function theorem). A failed step gives ``J = ∞``."""
+    command = geometric_controller(jnp.exp(log_gains), waypoint, motors=motors)
+    system, q0, p0 = quadrotor(command, motors=motors)
+    steps = round(duration / dt)
+    traj = simulate(system, q0, p0, dt=dt, steps=steps, discretization="midpoint", throw=False)
+    miss = jnp.mean(jnp.sum((traj.q[:, 0:3] - jnp.asarray(waypoint)) ** 2, axis=1))
+    return jnp.where(jnp.all(traj.status == 0), miss, jnp.inf), traj.q
+
+
+def tune(log_gains, iterations=10, rate=1.0, **run):
+    r"""Gradient descent on :func:`tracking_loss` (keyword arguments ``run``) with a
+    step that grows by 1.5 after a descent and halves after a rise (the trial is then
+    dropped): ``(log_gains, history of J, q of the best run)``. One compiled
+    value-and-gradient serves every iteration."""
+    value_and_grad = jax.jit(jax.value_and_grad(lambda g: tracking_loss(g, **run), has_aux=True))
+    theta = jnp.asarray(log_gains, dtype=jnp.float64)
+    (value, q), grad = value_and_grad(theta)
+    history = [float(value)]
+    for _ in range(iterations):
+        trial = theta - rate * grad
+        (v_trial, q_trial), g_trial = value_and_grad(trial)
+        if float(v_trial) < history[-1]:
+            theta, q, grad, rate = trial, q_trial, g_trial, 1.5 * rate
+            history.append(float(v_trial))
+        else:
+            rate *= 0.5
+    return theta, np.array(history), q
+
+
 __all__ = [
     "ARMS",
     "GAINS",
     "MIXING",
     "MOTOR",
     "SENSES",
+    "WAYPOINT",
     "frame",
     "geometric_controller",
     "hover_speed",
     "newton_euler",
     "quadrotor",
+    "tracking_loss",
+    "tune",
 ]
