@@ -150,16 +150,19 @@ def newton_euler(inputs, t, motors: bool = True, position=(0.0, 0.0, 0.0)):
     return y[:, 0:3], y[:, 6:15].reshape(-1, 3, 3), rates
 
 
-def tracking_loss(log_gains, dt=0.01, duration=2.0, waypoint=WAYPOINT, motors=True):
+def tracking_loss(log_gains, dt=0.01, duration=2.0, waypoint=WAYPOINT, motors=True, solver=None):
     r"""``(J, q)``: the mean squared distance ``J = (1/(N+1)) Σₖ |xₖ − w|²`` to the
     waypoint over a run of ``duration`` from hover at the origin, the craft flown by
     :func:`geometric_controller` with gains ``exp(log_gains)``, and the run's coordinates.
     Traceable: ``jax.grad`` of it differentiates through :func:`~diracvi.simulate` (each
-    step by the implicit function theorem). A failed step gives ``J = ∞``."""
+    step by the implicit function theorem). A failed step gives ``J = ∞``. ``solver``
+    goes to ``simulate``."""
     command = geometric_controller(jnp.exp(log_gains), waypoint, motors=motors)
     system, q0, p0 = quadrotor(command, motors=motors)
     steps = round(duration / dt)
-    traj = simulate(system, q0, p0, dt=dt, steps=steps, discretization="midpoint", throw=False)
+    traj = simulate(
+        system, q0, p0, dt=dt, steps=steps, discretization="midpoint", solver=solver, throw=False
+    )
     miss = jnp.mean(jnp.sum((traj.q[:, 0:3] - jnp.asarray(waypoint)) ** 2, axis=1))
     return jnp.where(jnp.all(traj.status == 0), miss, jnp.inf), traj.q
 
@@ -167,21 +170,23 @@ def tracking_loss(log_gains, dt=0.01, duration=2.0, waypoint=WAYPOINT, motors=Tr
 def tune(log_gains, iterations=10, rate=1.0, **run):
     r"""Gradient descent on :func:`tracking_loss` (keyword arguments ``run``) with a
     step that grows by 1.5 after a descent and halves after a rise (the trial is then
-    dropped): ``(log_gains, history of J, q of the best run)``. One compiled
-    value-and-gradient serves every iteration."""
+    dropped): ``(log_gains, history of J, runs)``, ``runs`` the coordinates of the
+    first run and of each accepted one. One compiled value-and-gradient serves every
+    iteration."""
     value_and_grad = jax.jit(jax.value_and_grad(lambda g: tracking_loss(g, **run), has_aux=True))
     theta = jnp.asarray(log_gains, dtype=jnp.float64)
     (value, q), grad = value_and_grad(theta)
-    history = [float(value)]
+    history, runs = [float(value)], [np.asarray(q)]
     for _ in range(iterations):
         trial = theta - rate * grad
         (v_trial, q_trial), g_trial = value_and_grad(trial)
         if float(v_trial) < history[-1]:
-            theta, q, grad, rate = trial, q_trial, g_trial, 1.5 * rate
+            theta, grad, rate = trial, g_trial, 1.5 * rate
             history.append(float(v_trial))
+            runs.append(np.asarray(q_trial))
         else:
             rate *= 0.5
-    return theta, np.array(history), q
+    return theta, np.array(history), runs
 
 
 __all__ = [
