@@ -138,7 +138,7 @@ def _energy_closure(system, traj, h):
     work = h * np.sum(np.asarray(force) * vel, axis=1)
     energy = np.asarray(traj.energy)[1:]  # steps 1 … N (index 0: no step ends there)
     trapezoid = 0.5 * (work[:-1] + work[1:])
-    return energy[-1] - energy[0] - np.sum(trapezoid), np.sum(np.abs(work))
+    return energy[-1] - energy[0] - np.sum(trapezoid), np.sum(np.abs(work)), work
 
 
 @pytest.mark.slow
@@ -169,7 +169,14 @@ def test_motion_under_prescribed_inputs_matches_newton_euler(motors):
         # coordinate: rtol=1e-16 holds the rows at ~1e-14 (2e-16 without rotors)
         orth = np.max(np.abs(np.swapaxes(rot, 1, 2) @ rot - np.eye(3)))
         assert orth < (5e-14 if motors else 1e-15), orth
-        closures.append(_energy_closure(system, traj, h))
+        gap, total, work = _energy_closure(system, traj, h)
+        closures.append((gap, total))
+        if motors:  # the port's work, step by step, is the documented split of it
+            terms = Q.power_terms(q, h, np_inputs)
+            scale = np.abs(terms["input"]) + np.abs(terms["rotors"])
+            split = sum(terms.values())
+            assert np.max(np.abs(split - work) / scale) < 1e-12
+            assert np.all(terms["winding"] < 0) and np.all(terms["rotors"] < 0)
     order = np.log2(errors[0] / errors[1])
     assert 1.9 < order < 2.1, (errors, order)
     assert errors[1] < 1e-4

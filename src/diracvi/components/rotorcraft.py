@@ -35,7 +35,7 @@ covector whose pairing with the velocities is the power delivered:
 
 (a torque on a rotor carried by the frame does the virtual work ``τ·(δθ_frame + sᵢ δφᵢ
 d₃)``). So ``dE/dt = F·v``: the air's work on the frame and the rotors plus the motors'
-shaft power ``Vᵢ iᵢ − R iᵢ²``, which :func:`port_power` splits.
+shaft power ``Vᵢ iᵢ − R iᵢ²`` (``problems/quadrotor.py: power_terms`` splits a run's).
 """
 
 from __future__ import annotations
@@ -225,9 +225,4 @@ def momenta(frame: RigidBody, senses, motors: MotorPropeller | None, q, v) -> np
     return np.concatenate([pf + (s @ spin) * coupling, spin])
 
 
-def port_power(system: LagrangeDiracSystem, q, v, t=0.0) -> float:
-    """``F(q, v, t)·v``: the power the force port delivers (air and motors)."""
-    return float(system.force(jnp.asarray(q), jnp.asarray(v), t) @ jnp.asarray(v))
-
-
-__all__ = ["MotorPropeller", "Propellers", "momenta", "port_power", "rotorcraft", "spin_rate"]
+__all__ = ["MotorPropeller", "Propellers", "momenta", "rotorcraft", "spin_rate"]

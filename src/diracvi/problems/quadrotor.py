@@ -150,6 +150,32 @@ def newton_euler(inputs, t, motors: bool = True, position=(0.0, 0.0, 0.0)):
     return y[:, 0:3], y[:, 6:15].reshape(-1, 3, 3), rates
 
 
+def power_terms(q, dt, voltages) -> dict:
+    r"""The motor–propeller craft's force port, step by step, split by what does the work
+    (J per step, from ``q̄ = (qₖ + qₖ₊₁)/2`` and ``v = (qₖ₊₁ − qₖ)/h`` as the midpoint
+    rule evaluates it): ``"input"`` ``h Σ Vᵢ iᵢ``, ``"winding"`` ``−h Σ R iᵢ²``,
+    ``"rotors"`` the air's ``−h Σ k_m uᵢ (φ̇ᵢ + sᵢ Ω₃)``, ``"frame"`` the thrusts'
+    ``h Σ k_f uᵢ d₃·(ẋ + Σⱼ Xᵢⱼ ḋⱼ)``; ``voltages`` is ``V(t) -> (4,)`` (NumPy), ``q``
+    the run's coordinates (N+1, 16) from t = 0."""
+    q = np.asarray(q, dtype=np.float64)
+    mid, vel = 0.5 * (q[1:] + q[:-1]), np.diff(q, axis=0) / dt
+    t = dt * (np.arange(len(vel)) + 0.5)
+    volts = np.array([np.asarray(voltages(s), dtype=np.float64) for s in t])
+    rate = vel[:, 12:16]
+    u, current = rate * np.abs(rate), (volts - MOTOR.constant * rate) / MOTOR.resistance
+    spin = 0.5 * (np.sum(mid[:, 6:9] * vel[:, 3:6], 1) - np.sum(mid[:, 3:6] * vel[:, 6:9], 1))
+    arm_velocity = vel[:, None, 0:3] + np.einsum(
+        "ij,kjl->kil", ARMS, vel[:, 3:12].reshape(-1, 3, 3)
+    )
+    lift = np.einsum("kil,kl->ki", arm_velocity, mid[:, 9:12])  # d₃·(velocity of arm i)
+    return {
+        "input": dt * np.sum(volts * current, axis=1),
+        "winding": -dt * np.sum(MOTOR.resistance * current**2, axis=1),
+        "rotors": -dt * np.sum(DRAG * u * (rate + SENSES * spin[:, None]), axis=1),
+        "frame": dt * np.sum(THRUST * u * lift, axis=1),
+    }
+
+
 def tracking_loss(log_gains, dt=0.01, duration=2.0, waypoint=WAYPOINT, motors=True, solver=None):
     r"""``(J, q)``: the mean squared distance ``J = (1/(N+1)) Σₖ |xₖ − w|²`` to the
     waypoint over a run of ``duration`` from hover at the origin, the craft flown by
@@ -200,6 +226,7 @@ __all__ = [
     "geometric_controller",
     "hover_speed",
     "newton_euler",
+    "power_terms",
     "quadrotor",
     "tracking_loss",
     "tune",
