@@ -46,6 +46,7 @@ from .mosfet6 import MOSFET6
 from .multibody import Multibody, MultibodyModel
 from .network import Assembly, Circuit
 from .rigid_body import RigidBody
+from .rotorcraft import MotorPropeller, rotorcraft
 from .switch import CurrentSwitch, Relay, VoltageSwitch
 from .urdf import parse_urdf, read_urdf
 from .vdmos import VDMOS, GateDrainCapacitance
@@ -86,6 +87,7 @@ __all__ = [
     "Inductor",
     "Inertia",
     "Mass",
+    "MotorPropeller",
     "Multibody",
     "MultibodyModel",
     "MutualInductance",
@@ -109,5 +111,6 @@ __all__ = [
     "WoundCore",
     "parse_urdf",
     "read_urdf",
+    "rotorcraft",
     "spice_diode",
 ]
