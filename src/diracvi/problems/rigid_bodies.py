@@ -99,7 +99,7 @@ def free_rigid_body(
         dt=dt,
         steps=steps,
         numerical_solution=numerical_solution,
-        discretizations=("midpoint",),
+        discretizations=("midpoint", "lobatto"),
         reference="Euler's equations + Ṙ = RΩ̂ by DOP853",
         parameters={"m": float(mass), "J": tuple(np.diag(j)), "Omega0": tuple(w0)},
     )
@@ -151,7 +151,7 @@ def heavy_top(
         dt=dt,
         steps=steps,
         numerical_solution=numerical_solution,
-        discretizations=("midpoint",),
+        discretizations=("midpoint", "lobatto"),
         reference="Euler–Poisson equations about the tip by DOP853",
         parameters={"m": float(mass), "J": tuple(np.diag(j)), "l": float(length)},
     )
@@ -215,7 +215,7 @@ def spatial_double_pendulum(
         p0=model.p0,
         dt=dt,
         steps=steps,
-        discretizations=("midpoint",),
+        discretizations=("midpoint", "lobatto"),
         reference="an external rigid-body library (tests)",
         parameters={"links": LINKS, "g": float(gravity), "torn": torn},
     )
