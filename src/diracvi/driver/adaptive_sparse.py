@@ -42,8 +42,9 @@ compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README
 
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
-vmapped over ``(h, t)`` pairs): no program is compiled per step size, and its arguments
-are flattened once per run, not per try (:class:`_Offsets`).
+vmapped over ``(h, t)`` pairs): no program is compiled per step size, its arguments are
+flattened once per run, and one call serves the next :data:`AHEAD` tries at the same
+size (:class:`_Offsets`: the tries of a run mostly follow one another at one size).
 
 **Verification.** ``build`` checks affinity (the Jacobians at two points agree and
 reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the
