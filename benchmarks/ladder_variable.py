@@ -185,12 +185,15 @@ def main(sizes: list[int], probes: bool = False, single: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    flags = {a for a in sys.argv[1:] if a.startswith("--")}
-    unknown = flags - {"--probes", "--single", "--phases"}
-    if unknown:
-        raise SystemExit(f"unknown options {sorted(unknown)}: --probes, --single, --phases")
-    sizes = [int(a) for a in sys.argv[1:] if not a.startswith("--")]
-    if "--phases" in flags:
-        phases(sizes or [1000])
-        sys.exit()
-    main(sizes or [100, 1000], probes="--probes" in flags, single="--single" in flags)
+    import argparse
+
+    ap = argparse.ArgumentParser(description="RLC ladders: diracvi run beside ngspice")
+    ap.add_argument("sizes", type=int, nargs="*", help="stage counts (default 100 1000)")
+    ap.add_argument("--probes", action="store_true", help="a .save line of the probes")
+    ap.add_argument("--single", action="store_true", help="one diracvi run --out")
+    ap.add_argument("--phases", action="store_true", help="a fresh run's phases instead")
+    args = ap.parse_args()
+    if args.phases:
+        phases(args.sizes or [1000])
+    else:
+        main(args.sizes or [100, 1000], probes=args.probes, single=args.single)
