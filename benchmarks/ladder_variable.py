@@ -4,6 +4,7 @@
 
     PYTHONPATH=src python benchmarks/ladder_variable.py 100 1000
     PYTHONPATH=src python benchmarks/ladder_variable.py --probes --single 10000 100000
+    PYTHONPATH=src python benchmarks/ladder_variable.py --phases 1000
 
 For each ladder of N stages (:func:`diracvi.bench.ladders.ladder`): ngspice's wall and CPU
 seconds and peak RSS; ``diracvi run`` with the disk cache cold, then warm (a fresh
@@ -11,6 +12,13 @@ seconds and peak RSS; ``diracvi run`` with the disk cache cold, then warm (a fre
 in-process ``spice.run`` and its max error / peak against ngspice over the probes of
 :mod:`diracvi.bench.ladder_scaling` on the TSTEP grid, and the path that ran. CPU seconds
 are the figure to compare on a loaded machine.
+
+``--phases``: instead, where a fresh ``diracvi run ladder.cir`` process spends its wall
+and CPU seconds, cache cold then warm (a new ``DIRACVI_CACHE_DIR``, then the same): the
+imports, reading the deck (the model built and packed), the sparse maps' structural
+pattern, the four probe builds (of them: the programs' keys, loading or compiling them),
+and the loop's parts — the steps, the offsets, the error estimates, recording, the maps
+of new step sizes, the verification; ngspice ``-b`` beside it.
 
 Options for the large ladders (minutes each, so not in the default run):
 
@@ -61,6 +69,90 @@ def _file_agreement(path: Path, t_ref, ref) -> float:
     return worst
 
 
+#: a fresh ``diracvi run`` with its phases timed by wrapping the functions named (nested
+#: phases are included in their parents; the wrappers cost ≈ 1 µs a call)
+_PHASES_CHILD = """
+import os, sys, time
+def clock():
+    t = os.times()
+    return time.perf_counter(), t.user + t.system
+spent = {}
+def wrap(owner, attr, label):
+    original = getattr(owner, attr)
+    def timed(*a, **k):
+        wa, ca = clock()
+        try:
+            return original(*a, **k)
+        finally:
+            wb, cb = clock()
+            s = spent.setdefault(label, [0.0, 0.0, 0])
+            s[0] += wb - wa; s[1] += cb - ca; s[2] += 1
+    setattr(owner, attr, timed)
+w0, c0 = clock()
+from diracvi.cli import app
+from diracvi import spice
+from diracvi.cli import common
+from diracvi.driver import adaptive_sparse as A
+from diracvi.runtime import store
+from diracvi.spice import _run, _stream
+w1, c1 = clock()
+spent["import diracvi (the CLI)"] = [w1 - w0, c1 - c0, 1]
+wrap(spice, "read", "read (parse, build, pack)")
+wrap(A, "structural_pattern", "  structural pattern")
+wrap(A._Maps, "_try_fit", "  4 probe builds")
+wrap(store, "canonical", "    program keys")
+wrap(store, "load", "    executables loaded")
+wrap(store, "compile_fresh", "    compiled")
+wrap(A._Map, "step", "  steps (3 a try)")
+wrap(A._Offsets, "__call__", "  offsets")
+wrap(A, "estimate", "  error estimates")
+wrap(_stream.StreamRecord, "add", "  recording (grid streamed)")
+wrap(A, "_verify", "  verification")
+wrap(_run, "_march", "run (variable steps)")
+sys.argv = ["diracvi", "run", sys.argv[1]]
+try:
+    app()
+except SystemExit:
+    pass
+w2, c2 = clock()
+spent["process (after Python's start)"] = [w2 - w0, c2 - c0, 1]
+for label, (wall, cpu, calls) in spent.items():
+    print(f"@@{label}|{wall!r}|{cpu!r}|{calls}")
+"""
+
+
+def phases(sizes: list[int]) -> None:
+    """The per-phase table of a fresh ``diracvi run``, cold and warm (module doc)."""
+    import subprocess
+
+    for stages in sizes:
+        with tempfile.TemporaryDirectory() as name:
+            tmp = Path(name)
+            path = tmp / f"ladder{stages}.cir"
+            path.write_text(ladder(stages))
+            wall = bench._ngspice(ladder(stages), tmp)[0]
+            print(f"{stages} stages: ngspice -b wall {wall:.2f} s, CPU "
+                  f"{bench._NGSPICE_CPU[0]:.2f} s; load {os.getloadavg()[0]:.1f}")  # fmt: skip
+            env = dict(os.environ, DIRACVI_CACHE_DIR=str(tmp / "cache"))
+            src = Path(bench.__file__).resolve().parents[2]  # this checkout's package
+            env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")])
+            table: dict[str, list] = {}
+            for _ in ("cold", "warm"):  # (one cache directory: the second run is warm)
+                out = subprocess.run(
+                    [sys.executable, "-c", _PHASES_CHILD, str(path)], env=env, cwd=tmp,
+                    capture_output=True, text=True, check=True,
+                ).stdout  # fmt: skip
+                for line in out.splitlines():
+                    if line.startswith("@@"):
+                        phase, wall, cpu, calls = line[2:].split("|")
+                        table.setdefault(phase, []).append((float(wall), float(cpu), calls))
+            print("| phase | calls | cold: wall, CPU s | warm: wall, CPU s |")
+            print("|---|---|---|---|")
+            for phase, cells in table.items():
+                given = " | ".join(f"{w:.2f}, {c:.2f}" for w, c, _ in cells)
+                print(f"| {phase} | {cells[-1][2]} | {given} |", flush=True)
+
+
 def main(sizes: list[int], probes: bool = False, single: bool = False) -> None:
     for stages in sizes:
         text = _deck(stages, probes)
@@ -93,9 +185,15 @@ def main(sizes: list[int], probes: bool = False, single: bool = False) -> None:
 
 
 if __name__ == "__main__":
-    flags = {a for a in sys.argv[1:] if a.startswith("--")}
-    unknown = flags - {"--probes", "--single"}
-    if unknown:
-        raise SystemExit(f"unknown options {sorted(unknown)}: --probes, --single")
-    sizes = [int(a) for a in sys.argv[1:] if not a.startswith("--")]
-    main(sizes or [100, 1000], probes="--probes" in flags, single="--single" in flags)
+    import argparse
+
+    ap = argparse.ArgumentParser(description="RLC ladders: diracvi run beside ngspice")
+    ap.add_argument("sizes", type=int, nargs="*", help="stage counts (default 100 1000)")
+    ap.add_argument("--probes", action="store_true", help="a .save line of the probes")
+    ap.add_argument("--single", action="store_true", help="one diracvi run --out")
+    ap.add_argument("--phases", action="store_true", help="a fresh run's phases instead")
+    args = ap.parse_args()
+    if args.phases:
+        phases(args.sizes or [1000])
+    else:
+        main(args.sizes or [100, 1000], probes=args.probes, single=args.single)

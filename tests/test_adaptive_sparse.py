@@ -19,6 +19,7 @@ from diracvi import spice
 from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive as compiled
 from diracvi.driver import adaptive_sparse as sparse
+from diracvi.solvers.sparse_affine import MAX_DRIVERS
 from diracvi.spice import _ngspice as ng
 from diracvi.spice import _run
 from diracvi.spice._resample import Sampler
@@ -112,6 +113,44 @@ def test_breakpoints_land_exactly_and_bound_the_factorizations(counted_splu):
     assert np.max(march.h) <= settings.max_step * (1 + 1e-12)
     assert len(counted_splu) == info.factorizations
     assert info.factorizations <= 4 + (len(info.levels) + 1) + 2 * info.landings
+
+
+def _many_sources(count: int) -> str:
+    """``count`` SIN sources, each through a resistor into one RLC node (more driven
+    parts than ``sparse_affine.MAX_DRIVERS``: the offsets are every row's)."""
+    lines = ["many sources"]
+    for k in range(count):
+        lines += [f"V{k} a{k} 0 SIN(0 1 {1e3 * (k + 1)!r})", f"R{k} a{k} b 10"]
+    lines += ["L1 b c 1m", "C1 c 0 1u", "R99 c 0 50", ".tran 1u 100u uic", ".end", ""]
+    return "\n".join(lines)
+
+
+@pytest.mark.slow  # (8 s warm at load 5: four sparse runs, two decks)
+def test_offsets_computed_ahead_of_the_tries_are_the_per_try_values(monkeypatch):
+    """One call of the offsets program serves the tries that follow at the same size
+    (``_Offsets``): the run is bitwise the run with one call per try, and takes a
+    fraction of the calls — with the driven parts' own rows and with every row."""
+    made = []
+    init = sparse._Offsets.__init__
+
+    def keep(self, *args):
+        init(self, *args)
+        made.append(self)
+
+    monkeypatch.setattr(sparse._Offsets, "__init__", keep)
+    decks = (ladder(6, steps=100), _many_sources(MAX_DRIVERS + 1))
+    for text, drivers in zip(decks, (True, False), strict=True):
+        runs = []
+        for ahead in (1, sparse.AHEAD):
+            monkeypatch.setattr(sparse, "AHEAD", ahead)
+            runs.append(_sparse_run(text)[3])
+            assert (made[-1].maps.drivers is not None) is drivers
+            runs.append(made[-1].calls)
+        one, calls_one, many, calls_many = runs
+        for a, b in zip(one, many, strict=True):
+            assert np.array_equal(np.asarray(a), np.asarray(b))
+        assert calls_one == one.tries
+        assert calls_many <= one.tries / 8
 
 
 @pytest.mark.slow

@@ -231,3 +231,36 @@ def test_short_blocks_give_the_same_run(monkeypatch):
     np.testing.assert_allclose(
         sparse.constraint_violation, newton.constraint_violation, rtol=0, atol=1e-12
     )
+
+
+@pytest.mark.slow  # (9 s at load 5: the jitted dense Jacobian)
+def test_the_structural_pattern_holds_every_entry_and_its_seeds_separate_them():
+    """The pattern (``solvers/sparse_pattern.py``) against the dense Jacobian of the step
+    residual and momentum line (``jax.jacfwd``, at a random point and time) of a circuit
+    with parts of several layouts (sources, a current source, coupled inductors): every
+    non-zero is a structural entry, and no two columns of one seed share a row, so the
+    compressed JVPs give every entry alone."""
+    from diracvi.discretization.rules import get_rule
+    from diracvi.solvers import sparse_affine
+    from diracvi.solvers.sparse_pattern import structural_pattern
+
+    deck = ladder(4).replace(".tran", "I2 n2 0 SIN(0 1m 2k)\nV3 n3 x DC 1\nR7 x 0 5\n"
+                             "L8 n1 y 2m\nL9 y 0 3m\nK1 L8 L9 0.5\n.tran")  # fmt: skip
+    system = spice.read(deck).system._packed()
+    rule = get_rule("midpoint")
+    seeds, seed_of, row_of, col_of = structural_pattern(system, rule)
+    w = np.random.default_rng(3).normal(size=seeds.shape[1])
+
+    def stacked(u):
+        r, pm, _ = sparse_affine._parts(system, rule, "plus", 1e-6, u, 0.37)
+        return jax.numpy.concatenate([r, pm])
+
+    dense = np.asarray(jax.jit(jax.jacfwd(stacked))(w))
+    rows, cols = np.nonzero(dense)
+    assert len(rows) > 0
+    structural = set(zip(row_of.tolist(), col_of.tolist(), strict=True))
+    assert set(zip(rows.tolist(), cols.tolist(), strict=True)) <= structural
+    # a seed's columns touch disjoint rows (per the pattern): the compression is lossless
+    pairs = set(zip(seed_of.tolist(), row_of.tolist(), strict=True))
+    assert len(pairs) == len(structural)
+    assert np.all(seeds.sum(axis=0) == 1.0)  # every column in exactly one seed

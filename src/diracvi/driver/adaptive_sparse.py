@@ -42,8 +42,9 @@ compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README
 
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
-vmapped over ``(h, t)`` pairs): no program is compiled per step size, and its arguments
-are flattened once per run, not per try (:class:`_Offsets`).
+vmapped over ``(h, t)`` pairs): no program is compiled per step size, its arguments are
+flattened once per run, and one call serves the next :data:`AHEAD` tries at the same
+size (:class:`_Offsets`: the tries of a run mostly follow one another at one size).
 
 **Verification.** ``build`` checks affinity (the Jacobians at two points agree and
 reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the
@@ -107,37 +108,78 @@ class SparseRun(NamedTuple):
     landings: int = 0
 
 
+#: tries whose offsets one call of the offsets program computes (see :class:`_Offsets`),
+#: fewer when a try's offsets are many numbers (every row, for a circuit with many
+#: sources): a call's output stays within :data:`AHEAD_NUMBERS`
+AHEAD = 64
+AHEAD_NUMBERS = 1 << 18
+
+
 class _Offsets:
     """The moving offsets ``u`` (``SparseAffineMap._augmented``) of a try's three steps
-    — sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)`` — from one call of the
-    compiled program: its arrays are gathered once (flattening the arguments at every
-    try cost more than the program's run), then each call passes only ``(h, t)``."""
+    — sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)`` — from the compiled program,
+    whose arrays are gathered once (flattening the arguments at every try cost more than
+    the program's run); each call passes only the ``(h, t)`` pairs.
+
+    **Ahead of the tries.** A call computes the offsets of :data:`AHEAD` tries at once:
+    this one, and the tries that follow if each is accepted at the same size (times
+    ``t, t + H/2 + H/2, …``, the loop's own arithmetic, so the keys match bit for bit).
+    A later try at one of those ``(H, t)`` reads its row; any other (a rejection, a new
+    size, a landing) starts a new call. On the 1000-stage ladder 3445 of 3471 tries
+    follow the one before: one call per 64 tries instead of one per try, whose dispatch
+    (≈ 0.3–0.5 ms each) was a sixth of the loop's time. The values are the program's
+    own, pair by pair (it is vmapped over the pairs)."""
 
     def __init__(self, system, maps, rule):
         self.system, self.maps, self.rule = system, maps, rule
         self.mode = self.call = None
+        self.table: dict = {}  # (H, t) → the try's (3, width) offsets
+        self.calls = 0
 
     def _args(self, use):
         return (None, self.maps.drivers, self.rule, "plus") if use else (
             self.system, None, self.rule, "plus")  # fmt: skip
 
     def __call__(self, h_try, half, t):
+        use = self.maps.drivers is not None  # (the drivers alone: a few small parts)
+        if self.mode is use:
+            hit = self.table.get((h_try, t))
+            if hit is not None:
+                return hit
+        else:
+            self.table = {}
+        starts = [t]  # this try's time and the next ones', each accepted at this size
+        for _ in range(self._ahead(use) - 1):
+            starts.append(starts[-1] + half + half)
+        ahead = len(starts)
+        hs = np.tile([h_try, half, half], ahead)
+        ts = np.array([[s, s, s + half] for s in starts]).ravel()
+        if self.mode is not use:
+            self._prepare(use, hs, ts)
+        r, pm = self.call(hs, ts)
+        self.calls += 1
+        u = np.concatenate([np.asarray(r), np.asarray(pm)], axis=1).reshape(ahead, 3, -1)
+        self.table = {(h_try, s): u[j] for j, s in enumerate(starts)}
+        return u[0]
+
+    def _ahead(self, use) -> int:
+        """Tries per call: :data:`AHEAD`, fewer if a try's offsets are many numbers."""
+        if use:  # (a few small parts' rows)
+            return AHEAD
+        per_try = 3 * (2 * self.system.n + self.system.m)  # every row and coordinate
+        return int(max(1, min(AHEAD, AHEAD_NUMBERS // per_try)))
+
+    def _prepare(self, use, hs, ts) -> None:
         import equinox as eqx
 
-        hs = np.array([h_try, half, half])
-        ts = np.array([t, t, t + half])
-        use = self.maps.drivers is not None  # (the drivers alone: a few small parts)
-        if self.mode is not use:
-            args = self._args(use)
-            compiled, leaves = _offsets.program(*args, hs, ts)
-            if compiled is None:
-                self.call = lambda a, b: _offsets(*args, a, b)
-            else:
-                arrays = [leaf for leaf in leaves if eqx.is_array(leaf)][:-2]
-                self.call = lambda a, b: compiled(*arrays, a, b)
-            self.mode = use
-        r, pm = self.call(hs, ts)
-        return np.concatenate([np.asarray(r), np.asarray(pm)], axis=1)
+        args = self._args(use)
+        compiled, leaves = _offsets.program(*args, hs, ts)
+        if compiled is None:
+            self.call = lambda a, b: _offsets(*args, a, b)
+        else:
+            arrays = [leaf for leaf in leaves if eqx.is_array(leaf)][:-2]
+            self.call = lambda a, b: compiled(*arrays, a, b)
+        self.mode = use
 
 
 class _Map:

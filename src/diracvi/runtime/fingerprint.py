@@ -22,6 +22,7 @@ import enum
 import functools
 import hashlib
 import importlib.metadata
+import itertools
 import os
 import platform
 import sys
@@ -144,8 +145,14 @@ def _program(obj, values, out):
 
 
 def _sequence(prefix, obj, values, out):
-    if all(type(item) in _PLAIN for item in obj):  # names, sizes: one repr
+    kinds = set(map(type, obj))  # (C loops: a large model's tables have 10⁵ entries)
+    if kinds <= _PLAIN:  # names, sizes: one repr
         out.append(f"{prefix}{tuple(obj)!r};")
+        return
+    if kinds == {tuple} and set(map(type, itertools.chain.from_iterable(obj))) <= _PLAIN:
+        # a table of plain tuples (rows per subsystem): one repr, which is faithful for
+        # these types and tells the nesting apart from the case above by its brackets
+        out.append(f"{prefix}T{tuple(obj)!r};")
         return
     out.append(prefix + "(")
     for item in obj:

@@ -77,7 +77,7 @@ from ..discretization.equations import new_momentum, reaction_impulse, residual,
 from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
 from .condensed import SingularStep, condense, own_unknowns
-from .sparse_pattern import NotSparseAffine, _pattern, _structure
+from .sparse_pattern import NotSparseAffine, _by_identity, _pattern, _structure
 from .sparse_pattern import driving as parts_driving
 
 #: the initial-data check of a run on this path checks momenta (a dense O(n³)
@@ -252,7 +252,8 @@ class SparseAffineMap:
         self.verify_rtol = verify_rtol
         self.seeds = seeds
         self.drivers = self.driver_rows = self.driver_coords = None
-        self._operators()
+        self._nk = lu.kept.size
+        self._parts = self._step = None  # (made when first stepped: see _augmented)
 
     def _operators(self) -> None:
         """The step as products with the condensed solve's pieces (see :meth:`run`):
@@ -289,8 +290,6 @@ class SparseAffineMap:
             offsets=sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc(),  # (T_r; M_r; Y_r; C_r)
         )  # fmt: skip
         self._m_v = (q_of_y @ y_v).tocsr()
-        self._nk = kept.size
-        self._step = None  # the augmented maps (made at the first run: see _augmented)
 
     def resized(self, h, mats, lu):
         """This map at another step size: ``mats = (J_z, J_x, P_z, P_x, r₀, P₀)`` of size
@@ -307,7 +306,8 @@ class SparseAffineMap:
         out.jz, out.jx, out.pz, out.px = jz.tocsr(), jx, pz.tocsr(), px.tocsr()
         out.r0, out.pm0 = np.asarray(r0), np.asarray(pm0)
         out._con = sp.hstack([out.jz[self.n :], jx.tocsr()[self.n :]]).tocsr()
-        out._operators()
+        out._nk = lu.kept.size
+        out._parts = out._step = None
         return out
 
     def one_step(self, z, u, into, y):
@@ -352,6 +352,8 @@ class SparseAffineMap:
             return self._step
         import scipy.sparse as sp
 
+        if self._parts is None:  # (a map of the variable-step path's fit may never step)
+            self._operators()
         n, nk, size, parts = self.n, self._nk, self.size, self._parts
         rows, coords = self._moving()
         r_fixed, p_fixed = self.r0.copy(), self.pm0.copy()
@@ -610,7 +612,9 @@ def _use_drivers(out, system, values, t1) -> None:
         [np.concatenate([c, np.arange(mu_start[i], mu_start[i] + mu_sizes[i])])
          for c, i in zip(coords, driving, strict=True)]
     )  # fmt: skip
-    out.drivers = tuple(system._member(i) for i in driving)
+    # (the members sliced out of the packed stacks once per system: a build per step
+    # size asks again, and slicing is a few eager JAX operations per driver)
+    out.drivers = _by_identity(system, "drivers", lambda s: tuple(s._member(i) for i in driving))
     out.driver_rows, out.driver_coords = rows, np.concatenate(coords)
     # (the drivers' own program, not the block program: that one takes the whole
     # system, whose key alone is seconds on a large circuit, and the variable-step

@@ -12,6 +12,8 @@ step sizes (:mod:`diracvi.driver.adaptive_sparse`).
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
 from ..discretization.equations import unknown_count
@@ -79,6 +81,14 @@ def _greedy(count, neighbours):
     return color
 
 
+def _ranges(starts, sizes):
+    """``(which, index)``: ``starts[k] + 0 … sizes[k] − 1`` for every ``k`` in turn, and
+    the ``k`` of each."""
+    which = np.repeat(np.arange(len(starts), dtype=np.int64), sizes)
+    first = np.cumsum(sizes) - sizes
+    return which, starts[which] + np.arange(which.size) - first[which]
+
+
 def _pattern(system, rule):
     """Seeds ``(K, 2n + U)`` and the structural entries ``(seed, row, column)`` of the
     residual (rows in ``[0, U)``) and of the momentum lines (rows ``U + [0, n)``)."""
@@ -97,35 +107,45 @@ def _pattern(system, rule):
     first_seed = np.concatenate([[0], np.cumsum(width)])
     row_seed0 = int(first_seed[-1])
     seeds_count = row_seed0 + int(row_color.max(initial=-1)) + 1
-    seeds = np.zeros((seeds_count, 2 * n + size))
-    entries = []  # arrays (seed, row, column)
     lam0 = 2 * n + n + own  # column of λ_0 in w
-    for i in range(count):
-        a, b = int(offsets[i]), int(offsets[i + 1])
-        coords = np.arange(a, b)
-        mus = np.arange(mu_start[i], mu_start[i] + mu_sizes[i])
-        cols = np.concatenate([coords, n + coords, 2 * n + coords, 2 * n + mus])
-        seed = first_seed[sub_color[i]] + np.arange(cols.size)
+    seeds = np.zeros((seeds_count, 2 * n + size))
+    # the parts, one layout (coordinates, own multipliers, rows it is in) at a time: every
+    # array of a layout's parts is one (parts, …) array (a loop over 3·10⁵ parts of a
+    # 10⁵-stage ladder, a dozen NumPy calls each, was seconds). The entries come out
+    # grouped by layout, not part by part: the matrices built from them are the same
+    # (scipy's COO → CSR conversion sorts each row's columns)
+    degree = np.array([len(r) for r in rows_of_sub], dtype=np.int64)
+    entries = []  # arrays (seed, row, column)
+    for nc, m, d in np.unique(np.stack([np.diff(offsets), mu_sizes, degree], axis=1), axis=0):
+        members = np.flatnonzero((np.diff(offsets) == nc) & (mu_sizes == m) & (degree == d))
+        coords = offsets[members][:, None] + np.arange(nc)
+        mus = mu_start[members][:, None] + np.arange(m)
+        cols = np.concatenate([coords, n + coords, 2 * n + coords, 2 * n + mus], axis=1)
+        seed = first_seed[sub_color[members]][:, None] + np.arange(cols.shape[1])
         seeds[seed, cols] = 1.0
+        joined = np.array([rows_of_sub[i] for i in members], dtype=np.int64)
         rows = np.concatenate(
-            [coords, mus, n + own + np.asarray(rows_of_sub[i], dtype=np.int64), size + coords]
+            [coords, mus, n + own + joined.reshape(len(members), d), size + coords], axis=1
         )
+        width_r, width_c = rows.shape[1], cols.shape[1]
         entries.append(
-            (np.repeat(seed, rows.size), np.tile(rows, cols.size), np.repeat(cols, rows.size))
+            (
+                np.repeat(seed, width_r, axis=1).ravel(),  # each column against every row
+                np.tile(rows, (1, width_c)).ravel(),
+                np.repeat(cols, width_r, axis=1).ravel(),
+            )
         )
-    for rb, involved in enumerate(row_subs):
-        seed = row_seed0 + int(row_color[rb])
-        col = lam0 + rb
-        seeds[seed, col] = 1.0
-        coords = np.concatenate(
-            [np.arange(offsets[i], offsets[i + 1]) for i in involved] or [np.zeros(0, np.int64)]
-        )
-        mus = np.concatenate(
-            [np.arange(mu_start[i], mu_start[i] + mu_sizes[i]) for i in involved]
-            or [np.zeros(0, np.int64)]
-        )
-        rows = np.concatenate([coords, mus, size + coords])
-        entries.append((np.full(rows.size, seed), rows, np.full(rows.size, col)))
+    # the interaction rows: λ_b touches the coordinates' and own multipliers' equations
+    # and the momentum lines of the parts row b joins, as (row, part) pairs
+    lengths = np.array([len(r) for r in row_subs], dtype=np.int64)
+    pair_b = np.repeat(np.arange(len(row_subs), dtype=np.int64), lengths)
+    pair_i = np.fromiter(itertools.chain.from_iterable(row_subs), np.int64, int(lengths.sum()))
+    at_c, c_idx = _ranges(offsets[pair_i], np.diff(offsets)[pair_i])
+    at_m, m_idx = _ranges(mu_start[pair_i], mu_sizes[pair_i])
+    rb = np.concatenate([pair_b[at_c], pair_b[at_m], pair_b[at_c]])
+    seeds[row_seed0 + row_color, lam0 + np.arange(len(row_subs))] = 1.0
+    entries.append((row_seed0 + row_color[rb], np.concatenate([c_idx, m_idx, size + c_idx]),
+                    lam0 + rb))  # fmt: skip
     seed_of, row_of, col_of = (
         np.concatenate(e).astype(np.int64) for e in zip(*entries, strict=True)
     )
