@@ -5,7 +5,8 @@ r"""The step-doubling error of one try, shared by the variable-step loops.
 coarse step against its two fine ones, per coordinate and per multiplier, at the share
 :data:`SAFETY` of the tolerance (the rules are in :mod:`diracvi.driver.adaptive`'s
 docstring); :func:`growth` sizes the next try and :func:`gap_error` judges the output's
-interpolant between two tries.
+interpolant between two tries. :func:`alternating` fits the period-2 part of the nodes
+(a mode the midpoint rule does not damp), which :func:`estimate` can leave out.
 """
 
 from __future__ import annotations
