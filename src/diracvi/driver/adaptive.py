@@ -317,7 +317,8 @@ def _march(system, rule, solver, capacity, x):
         accept = passes & ~own & ~back
         # an accepted try whose error is mostly the period-2 part, which no shorter step
         # lowers (step_error.estimate), is sized by the rest; a try is accepted on the whole
-        floor = (err <= 1.0) & (smooth < 0.5 * err)
+        # (only where it holds the step back: below 0.091 the growth is at its cap, 2)
+        floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
         grow = growth(jnp, jnp.where(floor, smooth, err))
         # and taken out of the nodes (not the pinned ones: .pinned): the two steps are
         # kept as solved, their ends moved along an alternation that keeps KCL (B δ = 0)
