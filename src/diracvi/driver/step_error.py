@@ -5,7 +5,8 @@ r"""The step-doubling error of one try, shared by the variable-step loops.
 coarse step against its two fine ones, per coordinate and per multiplier, at the share
 :data:`SAFETY` of the tolerance (the rules are in :mod:`diracvi.driver.adaptive`'s
 docstring); :func:`growth` sizes the next try and :func:`gap_error` judges the output's
-interpolant between two tries.
+interpolant between two tries. :func:`alternating` fits the period-2 part of the nodes
+(a mode the midpoint rule does not damp), which :func:`estimate` can leave out.
 """
 
 from __future__ import annotations
@@ -29,33 +30,68 @@ _ORDER = 2
 
 class Estimate(NamedTuple):
     """One try's error estimate (:func:`estimate`): the worst scaled error, the running
-    peaks with this try's values, and the second fine step's impulse ``c₂``."""
+    peaks with this try's values, the second fine step's impulse ``c₂``, and the worst
+    scaled error without the period-2 part of the positions."""
 
     err: object
     q_peak: object
     v_peak: object
     m_peak: object
     c2: object
+    smooth: object
 
 
-def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax, base=0.0) -> Estimate:
+def alternating(xp, last, this, h_last, half):
+    """The period-2 part ``δ`` of each coordinate at a try's start (:func:`estimate`):
+    with the last try's two fine increments ``last = (b₁, b₂)`` (steps of ``h_last``)
+    and this try's ``this = (a₁, a₂)`` (steps of ``half``), the five nodes
+    ``q₋₂ … q₂`` at ``t = (−2h_last, −h_last, 0, half, 2 half)`` are taken as a cubic
+    plus ``δ (−1)^i``: the fourth divided difference annihilates the cubic,
+
+        δ = q[t₋₂, …, t₂] / s[t₋₂, …, t₂],     s_i = (−1)^i,
+
+    exact for a constant alternation on a signal that is locally a cubic (its error is
+    the fourth derivative's, ``O(h⁴)``, a step below the truncation error's ``O(h³)``)."""
+    (b1, b2), (a1, a2) = last, this
+    x = (-2.0 * h_last, -h_last, 0.0, half, 2.0 * half)
+    values = (-(b1 + b2), -b2, 0.0 * a1, a1, a1 + a2)  # relative to q₀ (the weights sum to 0)
+    num, den = 0.0, 0.0
+    for i in range(5):
+        weight = 1.0
+        for j in range(5):
+            if j != i:
+                weight = weight * (x[i] - x[j])
+        num = num + values[i] / weight
+        den = den + (-1.0) ** i / weight
+    return num / den
+
+
+def estimate(
+    xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax, base=0.0, delta=None
+) -> Estimate:
     """The step-doubling error of one try (module docstring), for the compiled loop
     (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
 
     ``steps = (q_c, q₁, q₂)``: the coarse step's end and the two fine steps' ends from
     ``q``; ``mus = (μ_c, μ₁, μ₂)`` their multipliers; ``peaks = (Q, V, Φ)``;
     ``tolerances = (share, rtol, atol_q, atol_v, atol_m)``; ``base``: what the positions
-    are relative to (:mod:`.rebase`), added back for their running peaks."""
+    are relative to (:mod:`.rebase`), added back for their running peaks.
+
+    ``delta``: the period-2 part of each coordinate at ``q`` (:func:`alternating`), or
+    None; ``Estimate.smooth`` is then the error with ``2δ`` taken out of ``q₂ − q_c``
+    (else ``err`` again). A mode the midpoint rule does not damp — a loop of capacitors
+    and voltage sources, whose charges the rule fixes only at the step midpoints; a
+    stiff junction's ringing, amplification → −1 — carries an alternation ``δ(−1)^k`` of
+    the node values. The coarse step flips it once, the fine ones twice, so
+    ``q₂ − q_c = 2δ + 3e`` whatever ``H``: a floor that no shorter step lowers, which
+    the growth law, written for ``e ∝ H³``, reads as a reason to stay short."""
     qc, q1, q2 = steps
     mu_c, mu1, mu2 = mus
     share, rtol, atol_q, atol_v, atol_m = tolerances
     half = 0.5 * h_try
-    diff = xp.abs(q2 - qc) / (2.0**_ORDER - 1.0)
     v1, v2 = (q1 - q) / half, (q2 - q1) / half
     q_peak = xp.maximum(peaks[0], xp.maximum(xp.abs(q1 + base), xp.abs(q2 + base)))
     v_peak = xp.maximum(peaks[1], xp.maximum(xp.abs(v1), xp.abs(v2)))
-    e_q = diff / (share * rtol * q_peak + atol_q)
-    e_v = diff / h_try / (share * rtol * v_peak + atol_v)
     # multipliers: the step-centred values φ = −c/h of the impulses c_k = 2μ_k − c_{k−1}
     # (node potentials of a circuit), coarse against the mean of the two fine ones
     c1 = 2.0 * mu1 - c_prev
@@ -68,10 +104,18 @@ def estimate(xp, q, steps, mus, c_prev, h_try, peaks, tolerances, hmax, base=0.0
     # a rate is judged as its mean over TMAX (hmax): a mode ringing at the midpoint's
     # amplification −1 (a stiff junction) moves the end state by a fixed amount whatever
     # H, which read as a plain rate grows as 1/H and would drive the step to hmin
-    e_v = xp.minimum(e_v, e_v * h_try / hmax)
     e_m = xp.minimum(e_m, e_m * h_try / hmax)
-    err = xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
-    return Estimate(err, q_peak, v_peak, m_peak, c2)
+
+    def worst(gap):
+        diff = xp.abs(gap) / (2.0**_ORDER - 1.0)
+        e_q = diff / (share * rtol * q_peak + atol_q)
+        e_v = diff / h_try / (share * rtol * v_peak + atol_v)
+        e_v = xp.minimum(e_v, e_v * h_try / hmax)
+        return xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
+
+    err = worst(q2 - qc)
+    smooth = err if delta is None else worst(q2 - qc - 2.0 * delta)
+    return Estimate(err, q_peak, v_peak, m_peak, c2, smooth)
 
 
 def growth(xp, err):
@@ -107,4 +151,4 @@ def gap_error(xs, ys):
     return jnp.where(ringing, 0.0, jnp.maximum(left, right))
 
 
-__all__ = ["SAFETY", "Estimate", "estimate", "gap_error", "growth"]
+__all__ = ["SAFETY", "Estimate", "alternating", "estimate", "gap_error", "growth"]
