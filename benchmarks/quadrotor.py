@@ -9,8 +9,8 @@ rule), measured side by side in one run:
 - their warm wall times (min of ``--repeat``, the two timed alternately) and the ratio
   gradient ÷ forward;
 - the frame's max ‖RᵀR − I‖ over the run, with the default Newton test and with
-  ``NewtonSolver(rtol=1e-16)`` (the rotors' angles reach ~10³ rad, and Newton's test is
-  relative to the largest coordinate).
+  ``NewtonSolver(rtol=1e-16)`` (a rotor turns ~5 rad per step, and Newton's test is
+  relative to the step's largest increment).
 
 Run (``OPENBLAS_NUM_THREADS=1``):
 

@@ -24,8 +24,8 @@ import diracvi as dv
 from diracvi.problems import quadrotor as quad
 
 dt, duration = 0.01, 2.0
-# the rotors' angles reach ~10³ rad and Newton's test is relative to the largest
-# coordinate: rtol=1e-16 keeps the frame's orthonormality rows near round-off
+# a rotor turns ~5 rad per step and Newton's test is relative to the step's largest
+# increment: rtol=1e-16 keeps the frame's orthonormality rows near round-off
 theta, history, runs = quad.tune(
     jnp.log(jnp.asarray(quad.GAINS)),
     iterations=10,
