@@ -26,9 +26,21 @@ import math
 import numpy as np
 
 
-def ring_edges(stop, *, stages=17, c=0.2e-12, vdd=3.0, ron=1e3, roff=1e12, vt=1.0, vh=0.1, v0=0.25):
+def ring_edges(stop, **ring):
     """The instants at which ``v(osc_out)`` (stage 0's output) rises through VDD/2,
     up to ``stop``, exactly (module docstring)."""
+    return ring_march(stop, **ring)[0]
+
+
+def ring_switchings(stop, **ring):
+    """Every switching up to ``stop``, in order: ``(t, stage, "sp" or "sn", closed after)``,
+    exactly (module docstring)."""
+    return ring_march(stop, **ring)[1]
+
+
+def ring_march(stop, *, stages=17, c=0.2e-12, vdd=3.0, ron=1e3, roff=1e12, vt=1.0, vh=0.1, v0=0.25):
+    """``(rising edges of v(osc_out), switchings)`` up to ``stop``: the march of the
+    module docstring, from one switching instant to the next."""
     n = stages
     v = np.array([vdd if j % 2 else 0.0 for j in range(n)])
     v[0] = v0
@@ -59,7 +71,7 @@ def ring_edges(stop, *, stages=17, c=0.2e-12, vdd=3.0, ron=1e3, roff=1e12, vt=1.
         k = (j + 1) % n
         return (vt - vh if sn[k] else vt + vh, vdd - (vt - vh) if sp[k] else vdd - (vt + vh))
 
-    edges = []
+    edges, switchings = [], []
     t = 0.0
     while True:
         when = [min(reach(j, lv, t) for lv in levels(j)) for j in range(n)]
@@ -69,12 +81,14 @@ def ring_edges(stop, *, stages=17, c=0.2e-12, vdd=3.0, ron=1e3, roff=1e12, vt=1.
         if value(0, t) < 0.5 * vdd and rise <= t_next:
             edges.append(rise)
         if when[j] > stop:
-            return np.array(edges)
+            return np.array(edges), switchings
         t, k = t_next, (j + 1) % n
         u = value(j, t)  # stage k's input, at one of its levels
         v[k], t0[k] = value(k, t), t
         # the level crossed is u itself (to round-off): flip the switch it belongs to
         if abs(u - (vt + vh)) < 1e-9 or abs(u - (vt - vh)) < 1e-9:
             sn[k] = not sn[k]
+            switchings.append((t, k, "sn", sn[k]))
         else:
             sp[k] = not sp[k]
+            switchings.append((t, k, "sp", sp[k]))

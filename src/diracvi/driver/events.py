@@ -25,7 +25,17 @@ is approached over a few steps instead). Each retry aims at the parabola's cross
 a flip is placed within the tolerance of its instant in a few tries. (The line through
 ``u₁`` and ``u₂`` alone, used before, misses ``u(H)`` by ``H²u''/16``: 7.5e-5 V,
 twice the tolerance, on a switched RC node; ``ng_switch_osc``'s 17 switch inverters
-added that up to a period 0.75 % short of the exact one, 0.14 % with the parabola.)
+added that up to a period 0.75 % short of the exact one.) What remains of that ring's
+period error (0.17 % short at its deck's settings) is mostly not the events': between
+them a capacitor's node relaxing through a resistor is stepped by the midpoint rule,
+i.e. the trapezoidal rule on a linear node, which decays by ``(1 − z/2)/(1 + z/2)`` per
+step ``z = h/τ``, faster than ``e^{−z}`` (``ln`` of it is ``−z − z³/12 − …``): each node
+reaches its level ``τ Σ (ln((1 + z/2)/(1 − z/2)) − z)`` early, about 0.1 ps per
+switching at the steps taken there (``tests/test_switches.py`` checks both parts on a
+7-stage ring of the same inverters). The rest, ~0.03 ps per switching early, is the end
+value below: on a capacitor's node ``u₂ − u₁ + u_c`` is ``(u_f(H) + u_c(H))/2``, the
+mean of the fine and the coarse steps' ends, off the recorded (fine) end by half the
+coarse step's extra decay (``z³Δ/32``, several tolerances at tries of ``z`` ≈ 0.1).
 
 **What an event does to the power balance.** Nothing discontinuous: every recorded step
 is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for which the
