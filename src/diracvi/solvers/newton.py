@@ -64,16 +64,15 @@ def _finite(tree):
 _ULPS = 4.0
 
 
-def _converged(rtol, x, dx, reference, theta):
+def _converged(rtol, x, dx, reference):
     r"""The stopping test relative to the step's increment, unknown by unknown:
 
-    ``η |dx_i| ≤ rtol · ‖x + dx − x_ref‖∞ + 4 ε |x_i + dx_i|``,
+    ``|dx_i| ≤ rtol · ‖x + dx − x_ref‖∞ + 4 ε |x_i + dx_i|``.
 
-    with ``η = θ/(1 − θ)`` clipped to ``[1/20, 1]`` and ``θ = ‖dx‖/‖dx_prev‖`` the
-    observed contraction: an iteration contracting by ``θ`` leaves an error of about
-    ``θ/(1 − θ) ‖dx‖`` after the update (Hairer & Wanner, *Solving ODEs II*, §IV.8), so
-    the test asks that error, not the update, to be within tolerance. Without a
-    previous update (or ``θ ≥ 1``) ``η = 1``.
+    (Scaling the update by the observed contraction, ``θ/(1 − θ)`` as Hairer & Wanner
+    IV.8 do, saved about one iteration in ten but accepted iterates that moved a
+    ``ddt`` source's output by 1e-9 and tore the partitioned and dense solves apart by
+    2.4e-12: not adopted.)
 
     The unknowns are the far end ``q_{k+1}`` (and stage values) and the multipliers,
     and the step's velocities are their differences from the known ``q_k`` over ``h``.
@@ -85,11 +84,10 @@ def _converged(rtol, x, dx, reference, theta):
     be asked to fall.
     """
     eps = jnp.finfo(jnp.result_type(*jax.tree.leaves(x))).eps
-    eta = jnp.where(theta < 1.0, jnp.clip(theta / (1.0 - theta), 0.05, 1.0), 1.0)
     new = jax.tree.map(jnp.add, x, dx)
     increment = _norm(jax.tree.map(jnp.subtract, new, reference))
     within = jax.tree.map(
-        lambda d, n: jnp.all(eta * jnp.abs(d) <= rtol * increment + _ULPS * eps * jnp.abs(n)),
+        lambda d, n: jnp.all(jnp.abs(d) <= rtol * increment + _ULPS * eps * jnp.abs(n)),
         dx,
         new,
     )
@@ -150,7 +148,7 @@ def chord_newton(
         if reference is None:
             small = dx_norm <= options.rtol * size
         else:
-            small = _converged(options.rtol, x, dx, reference, dx_norm / last_dx)
+            small = _converged(options.rtol, x, dx, reference)
         stalled = refactor & (dx_norm <= options.floor * size) & (dx_norm >= 0.5 * last_dx)
         done = (small & ~diverging) | stalled | roundoff
         status = jnp.where(
