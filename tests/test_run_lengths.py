@@ -80,7 +80,9 @@ def test_a_new_step_count_compiles_no_new_march(name, lengths, save_every, solve
     carry, _, saved = static(plan.h_array, np.zeros(2), (problem.q0, problem.p0, problem.q0, zeros))
     np.testing.assert_array_equal(second.q[1:], saved["q"])
     np.testing.assert_array_equal(second.p[1:], saved["p"])
-    np.testing.assert_array_equal(second.energy, saved["energy"])
+    # the energy is evaluated from those bitwise-equal states, but inside another
+    # program: XLA may contract its products into FMAs differently there (1 ulp seen)
+    np.testing.assert_allclose(second.energy, saved["energy"], rtol=4 * np.finfo(float).eps)
     np.testing.assert_array_equal(second.multipliers, saved["mu"])
     for ours, theirs in zip(second.final_state, carry, strict=True):
         np.testing.assert_array_equal(ours, theirs)
