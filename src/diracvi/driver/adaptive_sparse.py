@@ -378,8 +378,9 @@ class _Tries:
 
 _NO_OFFSETS = np.zeros((3, 0))
 
-#: the error controls of :func:`adaptive_sparse`
+#: the error controls of :func:`adaptive_sparse`, and the one ``spice.run`` takes
 ERRORS = ("doubling", "truncation")
+DEFAULT_ERROR = "doubling"
 
 
 def adaptive_sparse(
@@ -395,7 +396,7 @@ def adaptive_sparse(
     detect_rtol: float = 1e-12,
     verify_rtol: float = 1e-11,
     record=None,
-    error: str = "doubling",
+    error: str = DEFAULT_ERROR,
 ) -> tuple[AdaptiveRun, SparseRun]:
     """March a linear interconnection ``system`` (packed, see
     :meth:`~diracvi.model.interconnect.InterconnectedSystem._packed`) from ``(q0, p0)``

@@ -3,8 +3,8 @@ r"""One solve per step: the sparse path's steps judged by their local truncation
 :func:`march` is the loop of :func:`~diracvi.driver.adaptive_sparse.adaptive_sparse`
 with ``error="truncation"``. Each try is one (+) midpoint step of ``h`` on the sparse
 map of that size; its local error is estimated from the step and the last three nodes
-(:mod:`.truncation_error`: ``(h³/2)·q[t_{k−2}, …, t_{k+1}]``, the node potentials'
-``φ''`` from the last three step centres), judged by the tests, share
+(:mod:`.truncation_error`: ``q[t_{k−2}, …, t_{k+1}]`` times the rule's error constant,
+the node potentials' ``φ''`` from the last three step centres), judged by the tests, share
 :data:`~.step_error.SAFETY` and tolerances of step doubling, applied as to a doubled try
 whose two fine steps are this one and its like. ``e ≤ 1`` records the step; either way
 the next ``h`` is ``h·clip(0.9 e^{−1/3}, 0.2, 2)`` (:func:`~.step_error.growth`), at
@@ -32,7 +32,7 @@ import numpy as np
 
 from . import truncation_error as lte
 from .adaptive import FAILED_SOLVE, OK, TOO_MANY, TOO_SMALL
-from .step_error import growth
+from .step_error import growth_of
 
 
 def march(tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
@@ -73,7 +73,7 @@ def march(tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
         err = float(est.err)
         ok = ok and math.isfinite(err)
         accept = ok and err <= 1.0
-        h_next = h_try * float(growth(np, err)) if ok else 0.25 * h_try
+        h_next = h_try * growth_of(err) if ok else 0.25 * h_try
         if accept and h_try < h0:  # a landing step says little about the next one
             h_next = max(h_next, h0)
         stuck = not accept and h_next < hmin  # (the try's size, as step doubling's)

@@ -7,24 +7,28 @@ error of a step at
     x_{k+1} − x(t_{k+1}) = (h³/12) x''' + O(h⁴).
 
 The third derivative is read from the step just taken and the last three nodes of the
-run: the third divided difference over ``t_{k−2}, t_{k−1}, t_k, t_{k+1}`` is
-``x'''/6 + O(h)``, so
+run. The third divided difference over ``t_{k−2}, t_{k−1}, t_k, t_{k+1}`` through the
+*computed* ``x_{k+1}`` carries the step's own error: with ``Π = h (h + h₁)(h + h₁ + h₂)``
+(``h₁``, ``h₂`` the last two steps), ``Π·x[…]`` is the computed value minus the
+quadratic through the last three nodes, whose error is ``Π x'''/6``, so
+``Π·x[…] = Π x'''/6 + LTE`` (a Milne device: predictor against corrector) and
 
-    LTE_k ≈ (h³/12) · 6 x[t_{k−2}, t_{k−1}, t_k, t_{k+1}] = (h³/2) x[t_{k−2}, …, t_{k+1}]
+    LTE_k ≈ x[t_{k−2}, …, t_{k+1}] · h³Π / (2Π + h³)      (= (6/13) h³ x[…] at equal steps)
 
 (:func:`local_error`) — one solve per step, where step doubling takes three per two
 recorded steps. It is SPICE's estimate for the trapezoidal rule (ngspice's ``CKTterr``:
 divided differences of the charges over the past points, times the rule's error
 constant); no extrapolated value is ever recorded, only the plain Dirac steps. For a
-driven circuit the midpoint rule evaluates the source at the step's centre, which adds
-``−(h³/8)·b''`` to the error of the driven rows (``b`` the source term): the estimate
-reads the response's curvature, not that one, and the agreement with ngspice is measured
-(``docs/performance.md``), not assumed.
+driven circuit the midpoint rule evaluates the source at the step's centre, where the
+trapezoidal rule averages its ends: the two local errors differ by a term in the
+source's second derivative (``(h³/8) b''``, ``b`` the source term), which the estimate
+does not read; the agreement with ngspice is measured (``docs/performance.md``), not
+assumed.
 
 **Judged as a try of step doubling.** :func:`estimate` judges a step of ``h`` by the
 tests of :func:`diracvi.driver.step_error.estimate` applied to a try of ``H = 2h`` that
-records two such steps: the positions' error over the try ``2·LTE`` (``= h³ |x[…]|``),
-the mean velocity's ``2·LTE/H``, and the step-centred multipliers' (node potentials)
+records two such steps: the positions' error over the try ``2·LTE``, the mean
+velocity's ``2·LTE/H``, and the step-centred multipliers' (node potentials)
 ``(h²/12)|φ''|`` — what step doubling's coarse-against-fine centre measures of a signal
 whose error at the centre of a step is the node average's ``(h²/8) φ''``
 (:mod:`diracvi.spice._resample`). So the sizes it chooses are the fine steps step
@@ -40,6 +44,7 @@ three nodes of one interval).
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -72,13 +77,20 @@ def start(q0, q1, q2, mu1, mu2, c_prev, h1: float, h2: float) -> History:
     return History(h1, h2, vb, (vb - va) / (h1 + h2), pb, (pb - pa) / (0.5 * (h1 + h2)), cb)
 
 
+def _milne(h: float, h1: float, h2: float) -> float:
+    """``h³Π/(2Π + h³)``, ``Π = h (h + h₁)(h + h₁ + h₂)``: the local error of a step per
+    unit of the third divided difference through it (module doc)."""
+    big = h * (h + h1) * (h + h1 + h2)
+    return h**3 * big / (2.0 * big + h**3)
+
+
 def local_error(x_new, x, history: History, h: float):
-    """``(h³/2) x[t_{k−2}, t_{k−1}, t_k, t_{k+1}]``, signed: the local error of the step
+    """``x[t_{k−2}, t_{k−1}, t_k, t_{k+1}]·h³Π/(2Π + h³)``, signed: the local error of the step
     ``x → x_new`` of size ``h`` (module doc), from ``history``'s velocity and second
     difference of the same signal."""
     v = (x_new - x) / h
     d = (v - history.v) / (history.h1 + h)
-    return 0.5 * h**3 * (d - history.d) / (h + history.h1 + history.h2)
+    return _milne(h, history.h1, history.h2) * (d - history.d) / (h + history.h1 + history.h2)
 
 
 class Estimate(NamedTuple):
@@ -99,30 +111,45 @@ def estimate(q, q_new, mu, h, history: History, peaks, tolerances, hmax) -> Esti
     is judged at the resolution ``hmax`` as there."""
     share, rtol, atol_q, atol_v, atol_m = tolerances
     h1, h2 = history.h1, history.h2
-    try_ = 2.0 * h  # the try of step doubling whose fine steps these are
-    v = (q_new - q) / h
-    d = (v - history.v) / (h1 + h)
-    # the positions' error over the try: 2·(h³/2)·x[…] (module doc)
-    e = np.abs(d - history.d)
-    e *= h**3 / (h + h1 + h2)
-    q_peak = np.maximum(peaks[0], np.abs(q_new))
-    v_peak = np.maximum(peaks[1], np.abs(v))
-    e_q = e / (share * rtol * q_peak + atol_q)
-    e_v = e / try_ / (share * rtol * v_peak + atol_v)
+    sr, try_ = share * rtol, 2.0 * h  # (the try of step doubling whose fine steps these are)
     rate = min(1.0, try_ / hmax)  # a rate's mean over TMAX (step_error.estimate)
-    c = 2.0 * mu - history.c
-    phi = -c / h
-    g = (phi - history.phi) / (0.5 * (h1 + h))
-    # (h²/12)|φ''|, φ'' = 2 φ[three centres]; the centres span h/2 + h1 + h2/2
-    e_m = np.abs(g - history.g)
-    e_m *= h**2 / (3.0 * (h + 2.0 * h1 + h2))
-    m_peak = np.maximum(peaks[2], np.abs(phi))
-    e_m /= share * rtol * m_peak + atol_m
-    err = max(
-        float(np.max(e_q, initial=0.0)),
-        float(np.max(e_v, initial=0.0)) * rate,
-        float(np.max(e_m, initial=0.0)) * rate,
-    )
+    # (in place where it can be: a step of a large circuit is a few solves' worth of
+    # these vector operations, so each one counts)
+    v = q_new - q
+    v *= 1.0 / h
+    d = v - history.v
+    d *= 1.0 / (h1 + h)
+    e = d - history.d
+    np.abs(e, out=e)  # the positions' error over the try: 2·_milne·e/(h + h1 + h2)
+    q_peak = np.abs(q_new)
+    np.maximum(q_peak, peaks[0], out=q_peak)
+    v_peak = np.abs(v)
+    np.maximum(v_peak, peaks[1], out=v_peak)
+    # e_q = E/(s·rtol·Q + atol_q) and e_v = E·rate/(H (s·rtol·V + atol_v)): one division
+    # by the smaller denominator
+    den = q_peak * sr
+    den += atol_q
+    den_v = v_peak * sr
+    den_v += atol_v
+    den_v *= try_ / rate
+    np.minimum(den, den_v, out=den)
+    np.divide(e, den, out=e)
+    err = float(e.max(initial=0.0)) * 2.0 * _milne(h, h1, h2) / (h + h1 + h2)
+    # node potentials: (h²/12)|φ''|, φ'' = 2 φ[three centres] (spanning h/2 + h1 + h2/2)
+    c = mu * 2.0
+    c -= history.c
+    phi = c * (-1.0 / h)
+    g = phi - history.phi
+    g *= 2.0 / (h1 + h)
+    e_m = g - history.g
+    np.abs(e_m, out=e_m)
+    m_peak = np.abs(phi)
+    np.maximum(m_peak, peaks[2], out=m_peak)
+    den_m = m_peak * sr
+    den_m += atol_m
+    np.divide(e_m, den_m, out=e_m)
+    err_m = float(e_m.max(initial=0.0)) * h**2 / (3.0 * (h + 2.0 * h1 + h2)) * rate
+    err = max(err, err_m) if err == err and err_m == err_m else math.nan  # (NaN: failed)
     return Estimate(err, q_peak, v_peak, m_peak, History(h, h1, v, d, phi, g, c))
 
 
