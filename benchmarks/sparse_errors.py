@@ -5,12 +5,13 @@ against the local truncation error (one solve a step, :mod:`diracvi.driver.spars
 
 For each RLC ladder of STAGES stages (default 1000; :func:`diracvi.bench.ladders.ladder`,
 ``.tran 1u 2m uic``): a fine ngspice reference (reltol 1e-7, TMAX = TSTEP/50) of the
-probes of :mod:`diracvi.bench.ladder_scaling`, ``ngspice -b`` at the deck's own settings
-(CPU seconds of the whole process), then ``spice.run`` in this process under each control,
-each once to load its programs and then timed warm: tries, sparse solves, recorded steps,
-CPU seconds of the variable-step loop and of the whole call, and the max error / peak
-against the fine reference on the TSTEP grid. CPU seconds are the figure to compare on a
-loaded machine; the rows of one run are measured side by side.
+probes of :mod:`diracvi.bench.ladder_scaling` (kept in the temporary directory for
+reruns), ``ngspice -b`` at the deck's own settings (CPU seconds of the whole process),
+then ``spice.run`` in this process under each control, each once to load its programs
+and then timed warm: tries, sparse solves, recorded steps, CPU seconds of the
+variable-step loop and of the whole call, and the max error / peak against the fine
+reference on the TSTEP grid. CPU seconds are the figure to compare on a loaded machine;
+the rows of one run are measured side by side.
 """
 
 from __future__ import annotations
@@ -66,13 +67,28 @@ def _counted(text: str, error: str) -> dict:
     )  # fmt: skip
 
 
+def _fine(text: str):
+    """The fine ngspice reference of the probes, kept in the temporary directory by the
+    deck's hash (minutes for a large ladder: computed once for reruns)."""
+    import hashlib
+
+    key = hashlib.sha256((text + FINE).encode()).hexdigest()[:16]
+    path = Path(tempfile.gettempdir()) / f"diracvi-sparse-errors-{key}.npz"
+    if path.exists():
+        data = np.load(path)
+        return data["t"], {p: data[p] for p in bench.PROBES}
+    t_ref, ref = ng.ngspice(text, bench.PROBES, tmax=1e-6 / 50, options=FINE)
+    np.savez(path, t=t_ref, **ref)
+    return t_ref, ref
+
+
 def main(sizes: list[int]) -> None:
     print("| stages | control | tries | solves | steps | loop CPU s | call CPU s | "
           "max error / peak vs fine ngspice |")  # fmt: skip
     print("|---|---|---|---|---|---|---|---|")
     for stages in sizes:
         text = ladder(stages)
-        t_ref, ref = ng.ngspice(text, bench.PROBES, tmax=1e-6 / 50, options=FINE)
+        t_ref, ref = _fine(text)
         with tempfile.TemporaryDirectory() as name:
             bench._ngspice(text, Path(name))
         print(f"| {stages} | ngspice -b (own settings, whole process) | | | | | "

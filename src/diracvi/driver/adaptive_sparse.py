@@ -43,8 +43,13 @@ compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
 vmapped over ``(h, t)`` pairs): no program is compiled per step size, its arguments are
-flattened once per run, and one call serves the next :data:`AHEAD` tries at the same
-size (:class:`_Offsets`: the tries of a run mostly follow one another at one size).
+flattened once per run, and one call serves the next tries at the same size
+(:mod:`.sparse_offsets`: the tries of a run mostly follow one another at one size).
+
+**A second error control.** ``error="truncation"`` takes one step per try and judges
+it by its local truncation error, read from the step and the last three nodes
+(:mod:`.sparse_truncation`, :mod:`.truncation_error`): one solve a step where step
+doubling takes three per two recorded steps, on the same maps, tests and tolerances.
 
 **Verification.** ``build`` checks affinity (the Jacobians at two points agree and
 reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the

@@ -22,8 +22,9 @@ AHEAD_NUMBERS = 1 << 18
 
 
 class _Offsets:
-    """The moving offsets ``u`` (``SparseAffineMap._augmented``) of a try's three steps
-    — sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)`` — from the compiled program,
+    """The moving offsets ``u`` (``SparseAffineMap._augmented``) of a try's steps — a
+    doubled try's sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)``, or one step's
+    (:meth:`single`; each call then serves three times the steps) — from the compiled program,
     whose arrays are gathered once (flattening the arguments at every try cost more than
     the program's run); each call passes only the ``(h, t)`` pairs.
 

@@ -19,6 +19,17 @@ Breakpoints are landed exactly as by step doubling: a step that would pass one i
 shortened to end on it, and the two steps before it share the remainder when it is
 under twice the step (no sliver).
 
+**A change of size.** The global error of a midpoint run is ``h²`` times a smooth
+function: where ``h`` changes, its slope changes, and the next divided difference reads
+that kink as well as the step's own error — measured on a 30-stage ladder, the first
+step after a doubling of ``h`` estimated 0.75–0.82 of the tolerance where the steps
+after it settled at 0.55. On the grid of sizes that was a ping-pong: 0.75 rounds the next
+size down a level (``0.9·0.75^{−1/3} < 1``), whose error 0.07 sends it up again (187
+changes of size in 5428 steps, each a new call of the offsets program, against step
+doubling's 15). So the first step at a new size, when accepted (``e ≤ 1``: its error
+within the tolerance, overestimated or not), keeps its size for the next step, which
+judges it again (9 changes, 5383 steps).
+
 Every recorded step is a plain Dirac step of its own size, so
 :mod:`diracvi.spice._resample` reads the run as it reads step doubling's (step-centred
 values through the steps' own sizes, whatever they are).
@@ -76,6 +87,9 @@ def march(tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
         h_next = h_try * growth_of(err) if ok else 0.25 * h_try
         if accept and h_try < h0:  # a landing step says little about the next one
             h_next = max(h_next, h0)
+        if accept and not doubled and h_try != history.h1:
+            # the first step at a new size: kept (module doc, "A change of size")
+            h_next = max(h_next, h_try)
         stuck = not accept and h_next < hmin  # (the try's size, as step doubling's)
         if doubled:
             h_next *= 0.5  # the next step's size, not the next try's
