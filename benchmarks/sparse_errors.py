@@ -17,7 +17,6 @@ the rows of one run are measured side by side.
 from __future__ import annotations
 
 import os
-import sys
 import tempfile
 import time
 from pathlib import Path
@@ -109,4 +108,8 @@ def main(sizes: list[int]) -> None:
 
 
 if __name__ == "__main__":
-    main([int(a) for a in sys.argv[1:]] or [1000])
+    import argparse
+
+    ap = argparse.ArgumentParser(description="the sparse path's two error controls")
+    ap.add_argument("sizes", type=int, nargs="*", help="stage counts (default 1000)")
+    main(ap.parse_args().sizes or [1000])
