@@ -16,6 +16,8 @@ error) and a summary.
     --skip NAME         leave these decks out (repeatable)
     --rows FILE         append each deck's row to FILE as one JSON line when it is done
     --no-tightened      skip the tightened runs (EXPECTED's ``tightened`` settings)
+    --step-error KIND   the sparse path's error control, ``doubling`` or ``truncation``
+                        (``spice.run``'s ``step_error``; default: its own)
 
 Times are wall-clock seconds of one call each, on whatever machine runs this: diracvi's
 include reading, building, compiling and stepping (a first call in this process, with one
@@ -64,7 +66,9 @@ import _corpus as corpus  # noqa: E402  (after the path set-up above)
 SLOW_SECONDS = 10.0
 
 
-def run_deck(name: str, entry: dict, *, references: bool, tightened: bool = True) -> dict:
+def run_deck(
+    name: str, entry: dict, *, references: bool, tightened: bool = True, step_error=None
+) -> dict:
     deck = corpus.DATA / entry["file"]
     row = {"deck": name, "elements": corpus.elements(deck), "needs": corpus.needs(deck)}
     if references:
@@ -76,7 +80,7 @@ def run_deck(name: str, entry: dict, *, references: bool, tightened: bool = True
 
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        result = spice.run(deck)
+        result = spice.run(deck, step_error=step_error)
     except Exception as exc:  # every failure is a row of the table
         row["seconds"] = time.perf_counter() - t0
         row["cpu_seconds"] = time.process_time() - c0
@@ -87,6 +91,8 @@ def run_deck(name: str, entry: dict, *, references: bool, tightened: bool = True
         row["cpu_seconds"] = time.process_time() - c0
         worst, _, missing = corpus.compare(result, t, ref)
         row["error"], row["missing"] = worst, missing
+        row["solver"] = result.trajectory.solver
+        row["steps"] = len(result.trajectory.h) if hasattr(result.trajectory, "h") else None
         row["status"] = "agrees" if worst <= corpus.TOL and not missing else "disagrees"
     try:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -99,11 +105,11 @@ def run_deck(name: str, entry: dict, *, references: bool, tightened: bool = True
     except Exception:
         row["ngspice_seconds"] = row["ngspice_error"] = row["ngspice_cpu_seconds"] = math.nan
     if tightened and "tightened" in entry:
-        row.update(run_tightened(deck, entry["tightened"], t, ref))
+        row.update(run_tightened(deck, entry["tightened"], t, ref, step_error))
     return row
 
 
-def run_tightened(deck: Path, tight: dict, t, ref) -> dict:
+def run_tightened(deck: Path, tight: dict, t, ref, step_error=None) -> dict:
     """diracvi on ``deck`` at EXPECTED's ``tightened`` settings, against the reference."""
     from diracvi import spice
     from diracvi.spice._tran import OVERRIDES
@@ -112,7 +118,7 @@ def run_tightened(deck: Path, tight: dict, t, ref) -> dict:
     out: dict = {"tightened_settings": settings}
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        result = spice.run(deck, **settings)
+        result = spice.run(deck, step_error=step_error, **settings)
     except Exception as exc:
         out["tightened_error"] = math.inf
         out["tightened_message"] = f"{type(exc).__name__}: {exc}"
@@ -281,6 +287,7 @@ def main(argv=None) -> int:
     parser.add_argument("--skip", action="append", default=[])
     parser.add_argument("--rows", type=Path, help="append each deck's row here as JSON")
     parser.add_argument("--no-tightened", action="store_true")
+    parser.add_argument("--step-error", choices=("doubling", "truncation"), default=None)
     args = parser.parse_args(argv)
     expected = corpus.load_expected()
     names = [n for n in expected if (not args.only or n in args.only) and n not in args.skip]
@@ -288,7 +295,11 @@ def main(argv=None) -> int:
     for name in names:
         rows.append(
             run_deck(
-                name, expected[name], references=args.references, tightened=not args.no_tightened
+                name,
+                expected[name],
+                references=args.references,
+                tightened=not args.no_tightened,
+                step_error=args.step_error,
             )
         )
         if args.rows:
@@ -298,7 +309,7 @@ def main(argv=None) -> int:
             f"{name}: {rows[-1]['status']} {reason(rows[-1])}; ngspice at the deck's "
             f"settings {rows[-1]['ngspice_error']:.2g}; tightened {tightened_cell(rows[-1])}; "
             f"wall {rows[-1]['seconds']:.2f} s "
-            f"(CPU {rows[-1]['cpu_seconds']:.2f}) against ngspice's "
+            f"(CPU {rows[-1]['cpu_seconds']:.2f}, {rows[-1].get('steps')} steps) against ngspice's "
             f"{rows[-1]['ngspice_seconds']:.2f} s (CPU {rows[-1]['ngspice_cpu_seconds']:.3f})",
             file=sys.stderr,
             flush=True,

@@ -19,6 +19,7 @@ from diracvi import spice
 from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive as compiled
 from diracvi.driver import adaptive_sparse as sparse
+from diracvi.driver import sparse_offsets
 from diracvi.solvers.sparse_affine import MAX_DRIVERS
 from diracvi.spice import _ngspice as ng
 from diracvi.spice import _run
@@ -141,8 +142,8 @@ def test_offsets_computed_ahead_of_the_tries_are_the_per_try_values(monkeypatch)
     decks = (ladder(6, steps=100), _many_sources(MAX_DRIVERS + 1))
     for text, drivers in zip(decks, (True, False), strict=True):
         runs = []
-        for ahead in (1, sparse.AHEAD):
-            monkeypatch.setattr(sparse, "AHEAD", ahead)
+        for ahead in (1, sparse_offsets.AHEAD):
+            monkeypatch.setattr(sparse_offsets, "AHEAD", ahead)
             runs.append(_sparse_run(text)[3])
             assert (made[-1].maps.drivers is not None) is drivers
             runs.append(made[-1].calls)

@@ -43,8 +43,13 @@ compiled loop's on a 3-stage ladder, 1.4× on a pulse train (``benchmarks/README
 **Offsets with ``h`` as data.** ``r₀(t; h)``, ``P₀(t; h)`` of the three steps of a try
 come from one compiled program (the driven parts' own rows, or the whole residual at zero,
 vmapped over ``(h, t)`` pairs): no program is compiled per step size, its arguments are
-flattened once per run, and one call serves the next :data:`AHEAD` tries at the same
-size (:class:`_Offsets`: the tries of a run mostly follow one another at one size).
+flattened once per run, and one call serves the next tries at the same size
+(:mod:`.sparse_offsets`: the tries of a run mostly follow one another at one size).
+
+**A second error control.** ``error="truncation"`` takes one step per try and judges
+it by its local truncation error, read from the step and the last three nodes
+(:mod:`.sparse_truncation`, :mod:`.truncation_error`): one solve a step where step
+doubling takes three per two recorded steps, on the same maps, tests and tolerances.
 
 **Verification.** ``build`` checks affinity (the Jacobians at two points agree and
 reproduce the residual); the map's own check (one Newton correction ``J_x⁻¹ r`` of the
@@ -66,7 +71,7 @@ from ..discretization.rules import get_rule
 from ..errors import ModelError
 from ..runtime.config import ensure_float64
 from ..solvers.condensed import SingularStep, condense, own_unknowns
-from ..solvers.sparse_affine import NotSparseAffine, _offsets, build
+from ..solvers.sparse_affine import NotSparseAffine, build
 from ..solvers.sparse_pattern import _structure, structural_pattern
 from . import events
 from .adaptive import (
@@ -77,6 +82,8 @@ from .adaptive import (
     AdaptiveRun,
     Controls,
 )
+from .sparse_offsets import _Offsets
+from .sparse_truncation import march as truncation_march
 from .step_error import SAFETY, estimate, growth
 
 #: how many step maps (each an assembled, factored J_x for one step size) are kept
@@ -106,80 +113,6 @@ class SparseRun(NamedTuple):
     fit: bool
     #: tries whose size was off the grid (a step landing on a breakpoint or the end)
     landings: int = 0
-
-
-#: tries whose offsets one call of the offsets program computes (see :class:`_Offsets`),
-#: fewer when a try's offsets are many numbers (every row, for a circuit with many
-#: sources): a call's output stays within :data:`AHEAD_NUMBERS`
-AHEAD = 64
-AHEAD_NUMBERS = 1 << 18
-
-
-class _Offsets:
-    """The moving offsets ``u`` (``SparseAffineMap._augmented``) of a try's three steps
-    — sizes ``(H, H/2, H/2)`` at times ``(t, t, t + H/2)`` — from the compiled program,
-    whose arrays are gathered once (flattening the arguments at every try cost more than
-    the program's run); each call passes only the ``(h, t)`` pairs.
-
-    **Ahead of the tries.** A call computes the offsets of :data:`AHEAD` tries at once:
-    this one, and the tries that follow if each is accepted at the same size (times
-    ``t, t + H/2 + H/2, …``, the loop's own arithmetic, so the keys match bit for bit).
-    A later try at one of those ``(H, t)`` reads its row; any other (a rejection, a new
-    size, a landing) starts a new call. On the 1000-stage ladder 3445 of 3471 tries
-    follow the one before: one call per 64 tries instead of one per try, whose dispatch
-    (≈ 0.3–0.5 ms each) was a sixth of the loop's time. The values are the program's
-    own, pair by pair (it is vmapped over the pairs)."""
-
-    def __init__(self, system, maps, rule):
-        self.system, self.maps, self.rule = system, maps, rule
-        self.mode = self.call = None
-        self.table: dict = {}  # (H, t) → the try's (3, width) offsets
-        self.calls = 0
-
-    def _args(self, use):
-        return (None, self.maps.drivers, self.rule, "plus") if use else (
-            self.system, None, self.rule, "plus")  # fmt: skip
-
-    def __call__(self, h_try, half, t):
-        use = self.maps.drivers is not None  # (the drivers alone: a few small parts)
-        if self.mode is use:
-            hit = self.table.get((h_try, t))
-            if hit is not None:
-                return hit
-        else:
-            self.table = {}
-        starts = [t]  # this try's time and the next ones', each accepted at this size
-        for _ in range(self._ahead(use) - 1):
-            starts.append(starts[-1] + half + half)
-        ahead = len(starts)
-        hs = np.tile([h_try, half, half], ahead)
-        ts = np.array([[s, s, s + half] for s in starts]).ravel()
-        if self.mode is not use:
-            self._prepare(use, hs, ts)
-        r, pm = self.call(hs, ts)
-        self.calls += 1
-        u = np.concatenate([np.asarray(r), np.asarray(pm)], axis=1).reshape(ahead, 3, -1)
-        self.table = {(h_try, s): u[j] for j, s in enumerate(starts)}
-        return u[0]
-
-    def _ahead(self, use) -> int:
-        """Tries per call: :data:`AHEAD`, fewer if a try's offsets are many numbers."""
-        if use:  # (a few small parts' rows)
-            return AHEAD
-        per_try = 3 * (2 * self.system.n + self.system.m)  # every row and coordinate
-        return int(max(1, min(AHEAD, AHEAD_NUMBERS // per_try)))
-
-    def _prepare(self, use, hs, ts) -> None:
-        import equinox as eqx
-
-        args = self._args(use)
-        compiled, leaves = _offsets.program(*args, hs, ts)
-        if compiled is None:
-            self.call = lambda a, b: _offsets(*args, a, b)
-        else:
-            arrays = [leaf for leaf in leaves if eqx.is_array(leaf)][:-2]
-            self.call = lambda a, b: compiled(*arrays, a, b)
-        self.mode = use
 
 
 class _Map:
@@ -390,6 +323,71 @@ def _verify(maps: _Maps) -> float:
     return worst
 
 
+class _Tries:
+    """What the tries of a run share — the maps, the offsets, the tolerances — and the
+    tries themselves: a doubled one (:meth:`doubled`) and a single step (:meth:`single`,
+    :mod:`.sparse_truncation`), sized by :meth:`plan`."""
+
+    def __init__(self, maps, offsets, n, tolerances, hmax, top):
+        self.maps, self.offsets, self.n = maps, offsets, n
+        self.tolerances, self.hmax, self.top = tolerances, hmax, top
+        self.count: dict = {}  # accepted steps per map, for the verification sample
+        self.landings = 0
+
+    def plan(self, h: float, rem: float, top: float):
+        """``(size, level, lands)`` of a try proposed at ``h`` with ``rem`` left to the
+        next breakpoint: rounded down to the grid ``top·2^{−k}``; the whole remainder
+        if it is within the rounded size, half of it if within twice (no sliver left);
+        ``level`` None off the grid (a landing, counted). Also the rounded size."""
+        h0, k = _level(min(h, top), top)
+        if rem <= h0 * (1.0 + 1e-9):
+            self.landings += 1
+            return rem, None, True, h0
+        if rem < 2.0 * h0:
+            self.landings += 1
+            return 0.5 * rem, None, False, h0
+        return h0, k, False, h0
+
+    def doubled(self, z, t, h_try, level, c_last, peaks):
+        """One step of ``H = h_try`` and two of ``H/2`` from ``z`` at ``t``, judged by
+        :func:`~.step_error.estimate`: ``(ok, estimate, fine map, z₁, y₁, z₂, y₂)``."""
+        n, half = self.n, 0.5 * h_try
+        coarse = self.maps.get(h_try, level)
+        fine = self.maps.get(half, None if level is None else level + 1)
+        u = _NO_OFFSETS if self.offsets is None else self.offsets(h_try, half, t)
+        zc, yc = coarse.step(z, u[0])
+        z1, y1 = fine.step(z, u[1])
+        z2, y2 = fine.step(z1, u[2])
+        ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            est = estimate(
+                np, z[:n], (zc[:n], z1[:n], z2[:n]), (yc[n:], y1[n:], y2[n:]), c_last, h_try,
+                peaks, self.tolerances, self.hmax,
+            )  # fmt: skip
+        ok = ok and math.isfinite(float(est.err))
+        return ok, est, fine, z1, y1, z2, y2
+
+    def single(self, z, t, h, level):
+        """One step of ``h`` from ``z`` at ``t``: ``(map, z_next, y)``."""
+        found = self.maps.get(h, level)
+        u = _NO_OFFSETS[0] if self.offsets is None else self.offsets.single(h, t)
+        return (found, *found.step(z, u))
+
+    def sample(self, found, z, y, t, steps: int) -> None:
+        """Keep an accepted step of ``found`` for the verification (module doc)."""
+        seen = self.count.get(id(found), 0)
+        if seen % VERIFY_EVERY == 0 and len(found.samples) < VERIFY_MAX:
+            found.samples.append((z.copy(), y.copy(), t))
+        self.count[id(found)] = seen + steps
+
+
+_NO_OFFSETS = np.zeros((3, 0))
+
+#: the error controls of :func:`adaptive_sparse`, and the one ``spice.run`` takes
+ERRORS = ("doubling", "truncation")
+DEFAULT_ERROR = "doubling"
+
+
 def adaptive_sparse(
     system,
     q0,
@@ -403,6 +401,7 @@ def adaptive_sparse(
     detect_rtol: float = 1e-12,
     verify_rtol: float = 1e-11,
     record=None,
+    error: str = DEFAULT_ERROR,
 ) -> tuple[AdaptiveRun, SparseRun]:
     """March a linear interconnection ``system`` (packed, see
     :meth:`~diracvi.model.interconnect.InterconnectedSystem._packed`) from ``(q0, p0)``
@@ -419,8 +418,14 @@ def adaptive_sparse(
     be kept) and ``arrays()`` → ``(t, h, q, p, μ)``. Default: every step kept
     (:class:`_Record`, O(n·steps)); a caller that needs only sampled waveforms passes one
     that forms them while the run steps (:mod:`diracvi.spice._stream`: O(n) memory).
+
+    ``error``: ``"doubling"`` (three solves a try, module doc) or ``"truncation"`` (one
+    solve a step, its local truncation error from the recorded past:
+    :mod:`.sparse_truncation`).
     """
     ensure_float64()
+    if error not in ERRORS:
+        raise ModelError(f"error={error!r}: the error control is one of {ERRORS}.")
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
     try:
@@ -433,7 +438,7 @@ def adaptive_sparse(
     n = system.n
     q = np.asarray(q0, dtype=np.float64).reshape(n).copy()
     p = np.asarray(p0, dtype=np.float64).reshape(n).copy()
-    hmax, hmin, rtol = float(controls.hmax), float(controls.hmin), float(controls.rtol)
+    hmax, rtol = float(controls.hmax), float(controls.rtol)
     top = 2.0 * hmax  # a try of H records two steps of H/2 ≤ hmax
     maps = _Maps(system, rule, q, p, float(t0), detect_rtol, verify_rtol, top)
     first = maps.get(*_level(min(controls.h_first, top), top))
@@ -443,75 +448,63 @@ def adaptive_sparse(
     atol_m = np.broadcast_to(np.asarray(controls.atol_m, np.float64), (m,))
     driven = bool(system.time_dependent)
     breaks = [float(b) for b in sorted(breakpoints) if t0 < b < t_stop]
-
     offsets = _Offsets(system, maps, rule) if driven else None
-    no_offsets = np.zeros((3, 0))
-
-    t, z = float(t0), np.concatenate([q, p])
-    h = min(float(controls.h_first), top)
-    ib = 0
-    c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
-    q_peak, v_peak, m_peak = np.abs(q), np.zeros(n), np.zeros(m)
+    tolerances = (SAFETY, rtol, atol_q, atol_v, atol_m)
+    tries = _Tries(maps, offsets, n, tolerances, hmax, top)
     # the recorded steps, written in place (a guess of the count, grown if exceeded;
     # np.empty's pages are committed only when written, so the guess costs nothing)
     capacity = 2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16
     rec = (_Record if record is None else record)(capacity, n, m)
-    rec.start(t, z)
-    tries = rejected = landings = 0
+    z = np.concatenate([q, p])
+    rec.start(float(t0), z)
+    march = _doubling if error == "doubling" else truncation_march
+    count, rejected, status = march(
+        tries, rec, z, float(t0), float(t_stop), breaks, controls, max_tries, m
+    )
+    worst = _verify(maps)
+    if not worst <= verify_rtol:
+        raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+    run = AdaptiveRun(*rec.arrays(), count, rejected, status, None, DESCRIBE)
+    return run, SparseRun(
+        maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit),
+        tries.landings,
+    )  # fmt: skip
+
+
+def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
+    """Step doubling (module doc): ``(tries, rejected, status)``."""
+    n, top, hmin = tries.n, tries.top, float(controls.hmin)
+    h = min(float(controls.h_first), top)
+    ib = 0
+    c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
+    peaks = (np.abs(z[:n]), np.zeros(n), np.zeros(m))
+    count = rejected = 0
     status = OK
-    share = SAFETY
-    count = {}  # accepted steps per map, for the verification sample
     while t < t_stop:
-        if tries >= max_tries:
+        if count >= max_tries:
             status = TOO_MANY
             break
         target = min(breaks[ib], t_stop) if ib < len(breaks) else t_stop
-        rem = target - t
-        h0, k = _level(min(h, top), top)
-        land = rem <= h0 * (1.0 + 1e-9)
-        if land:
-            h_try, level = rem, None
-            landings += 1
-        elif rem < 2.0 * h0:
-            h_try, level = 0.5 * rem, None
-            landings += 1
-        else:
-            h_try, level = h0, k
+        h_try, level, land, h0 = tries.plan(h, target - t, top)
         if not (h_try > 0.0 and t + h_try > t):  # a try that cannot advance time
             status = TOO_SMALL  # (a breakpoint behind t, or h below t's resolution)
             break
         half = 0.5 * h_try
-        coarse = maps.get(h_try, level)
-        fine = maps.get(half, None if level is None else level + 1)
-        u = no_offsets if offsets is None else offsets(h_try, half, t)
-        zc, yc = coarse.step(z, u[0])
-        z1, y1 = fine.step(z, u[1])
-        z2, y2 = fine.step(z1, u[2])
-        tries += 1
-        ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            est = estimate(
-                np, z[:n], (zc[:n], z1[:n], z2[:n]), (yc[n:], y1[n:], y2[n:]), c_last, h_try,
-                (q_peak, v_peak, m_peak), (share, rtol, atol_q, atol_v, atol_m), hmax,
-            )  # fmt: skip
+        ok, est, fine, z1, y1, z2, y2 = tries.doubled(z, t, h_try, level, c_last, peaks)
+        count += 1
         err = float(est.err)
-        ok = ok and math.isfinite(err)
         accept = ok and err <= 1.0
-        grow = float(growth(np, err)) if ok else 0.0
-        h_next = h_try * grow if ok else 0.25 * h_try
+        h_next = h_try * float(growth(np, err)) if ok else 0.25 * h_try
         if accept and h_try < h0:  # a landing step says little about the next one
             h_next = max(h_next, h0)
         if accept:
             t_new = target if land else t + half + half
             rec.add(t + half, half, z1, y1[n:])
             rec.add(t_new, half, z2, y2[n:])
-            seen = count.get(id(fine), 0)
-            if seen % VERIFY_EVERY == 0 and len(fine.samples) < VERIFY_MAX:
-                fine.samples.append((z.copy(), y1.copy(), t))
-            count[id(fine)] = seen + 2
+            tries.sample(fine, z, y1, t, 2)
             t, z = t_new, z2
             c_last = est.c2
-            q_peak, v_peak, m_peak = est.q_peak, est.v_peak, est.m_peak
+            peaks = (est.q_peak, est.v_peak, est.m_peak)
             if land and ib < len(breaks) and target == breaks[ib]:
                 ib += 1
         else:
@@ -520,17 +513,4 @@ def adaptive_sparse(
         if not accept and h_next < hmin:
             status = TOO_SMALL if ok else FAILED_SOLVE
             break
-    worst = _verify(maps)
-    if not worst <= verify_rtol:
-        raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
-    run = AdaptiveRun(
-        *rec.arrays(),
-        tries,
-        rejected,
-        status,
-        None,
-        DESCRIBE,
-    )
-    return run, SparseRun(
-        maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit), landings
-    )
+    return count, rejected, status

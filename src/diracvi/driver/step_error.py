@@ -123,6 +123,12 @@ def growth(xp, err):
     return xp.clip(0.9 * xp.maximum(err, 1e-12) ** (-1.0 / (_ORDER + 1)), 0.2, 2.0)
 
 
+def growth_of(err: float) -> float:
+    """:func:`growth` of one number, for a host loop (NumPy's clip of a scalar costs
+    more than the law itself)."""
+    return min(2.0, max(0.2, 0.9 * max(err, 1e-12) ** (-1.0 / (_ORDER + 1))))
+
+
 def gap_error(xs, ys):
     """How far the output's interpolant may be off in the gaps a try's first step centre
     closes (:mod:`diracvi.spice._resample`): with ``xs = (x₋₂, x₋₁, x₁, x₂)`` — the last
@@ -151,4 +157,4 @@ def gap_error(xs, ys):
     return jnp.where(ringing, 0.0, jnp.maximum(left, right))
 
 
-__all__ = ["SAFETY", "Estimate", "alternating", "estimate", "gap_error", "growth"]
+__all__ = ["SAFETY", "Estimate", "alternating", "estimate", "gap_error", "growth", "growth_of"]

@@ -26,7 +26,7 @@ import numpy as np
 
 from ..driver import events
 from ..driver.adaptive import Controls, adaptive
-from ..driver.adaptive_sparse import adaptive_sparse
+from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.events import relays
 from ..driver.simulate import simulate
 from ..errors import ModelError, StepFailure
@@ -283,6 +283,7 @@ def run(
     vntol=None,
     chgtol=None,
     tmax=None,
+    step_error=None,
     **simulate_kwargs,
 ) -> Result:
     """Read a netlist (path, text or :class:`Netlist`) and simulate its ``.tran``.
@@ -307,9 +308,23 @@ def run(
     steps, the deck left unedited: ``spice.run("deck.cir", reltol=1e-5, tmax=2e-11)``
     runs a deck whose own settings are loose as a fine reference would. Each must be a
     finite number > 0; a fixed step (``dt=``) has no tolerance and refuses them.
+
+    ``step_error``: how a linear circuit's variable steps on the sparse maps are judged —
+    ``"doubling"`` (each try one step against two of half its size: three solves a try)
+    or ``"truncation"`` (one solve a step, its local truncation error from the recorded
+    past; :mod:`diracvi.driver.sparse_truncation`); ``None`` is
+    :data:`diracvi.driver.adaptive_sparse.DEFAULT_ERROR`. A circuit the compiled loop
+    steps (nonlinear, switched, small) is judged by step doubling whatever is given.
     """
     overrides = dict(reltol=reltol, abstol=abstol, vntol=vntol, chgtol=chgtol, tmax=tmax)
     overrides = {k: v for k, v in overrides.items() if v is not None}
+    if step_error is not None:
+        if step_error not in ERRORS:
+            raise ModelError(
+                f"spice.run(step_error={step_error!r}): one of {ERRORS}, or None (the "
+                f"default, {DEFAULT_ERROR!r})."
+            )
+        overrides["step_error"] = step_error
     thinned = {
         k: v
         for k, v in simulate_kwargs.items()
@@ -434,13 +449,15 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
             f"{sorted(kwargs)}: options of a fixed-step run (diracvi.simulate); pass dt= "
             "with them, or leave them out for SPICE's variable steps."
         )
+    overrides = dict(overrides)
+    step_error = overrides.pop("step_error", DEFAULT_ERROR)
     settings = override(tran_settings(netlist), overrides)
     breaks = breakpoints(netlist.system, 0.0, settings.stop)
     bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
     grid = settings.output_times()
     # the sparse path's recorder: the grid formed while the run steps (._stream)
     stream = StreamRecord(netlist, np.append(bounds, settings.stop), grid, keep=internal)
-    march = _march(netlist, settings, breaks, stream)
+    march = _march(netlist, settings, breaks, stream, step_error)
     if march.status != 0:
         at = march.t[-1]
         raise StepFailure(
@@ -513,7 +530,13 @@ def _pin_start(waves: dict, times: np.ndarray, start: dict) -> dict:
 SPARSE_MIN_COORDINATES = 16
 
 
-def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=None):
+def _march(
+    netlist: Netlist,
+    settings: TranSettings,
+    breaks: np.ndarray,
+    record=None,
+    step_error: str = DEFAULT_ERROR,
+):
     """The variable-step run: a linear circuit on the sparse step maps
     (:mod:`diracvi.driver.adaptive_sparse`: O(n) per step, and in memory with a
     streaming ``record``, :class:`._stream.StreamRecord`), any other —
@@ -534,6 +557,7 @@ def _march(netlist: Netlist, settings: TranSettings, breaks: np.ndarray, record=
             march, _ = adaptive_sparse(
                 system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
                 controls=ctl, breakpoints=breaks, max_tries=budget, record=record,
+                error=step_error,
             )  # fmt: skip
             return march
         except NotSparseAffine:
