@@ -265,13 +265,12 @@ def slider_crank(
         name="slider_crank",
     )
     p0 = np.asarray(mass_matrix(jnp.asarray(Q0)) @ jnp.asarray(V0))
-    variant = {(False, False): "", (True, False): ", nonlinear stiffness"}
-    variant[(False, True)] = ", damped"
-    variant[(True, True)] = ", nonlinear stiffness, damped"
+    flags = ((nonlinear_stiffness, ", nonlinear"), (damping, ", damped"))
+    variant = "".join(label for flag, label in flags if flag)
     return Problem(
         name="slider-crank",
         description="flexible slider crank: elastic rod in 4 modal coordinates, 3 rows "
-        "(Bari test set)" + variant[(nonlinear_stiffness, damping)],
+        "(Bari test set)" + variant,
         system=system,
         q0=Q0.copy(),
         p0=p0,
