@@ -109,6 +109,7 @@ def _rod_matrices():
     return {"mq": mq, "kq": kq, "bq": bq, "c1": c1, "c2": c2, "c12": c12, "c21": c21, "dq": dq}
 
 
+#: the rod's Galerkin matrices and vectors by name (:func:`_rod_matrices`)
 ROD = _rod_matrices()
 
 
@@ -302,6 +303,7 @@ __all__ = [
     "REFERENCE_Q",
     "REFERENCE_T",
     "REFERENCE_V",
+    "ROD",
     "V0",
     "closure",
     "mass_matrix",
