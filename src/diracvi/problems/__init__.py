@@ -30,6 +30,7 @@ from .linkages import FourBar, cart_pendulum_torn, cartesian_pendulum, four_bar
 from .oscillator import damped_oscillator
 from .rigid_bodies import free_rigid_body, heavy_top, spatial_double_pendulum
 from .rolling_disk import rolling_disk
+from .slider_crank import slider_crank
 from .spherical_pendulum import spherical_pendulum
 from .spring_chain import chain_torn, spring_chain, spring_chain_torn
 
@@ -56,6 +57,7 @@ REGISTRY: dict[str, Callable[[], Problem]] = {
     "chaplygin-sleigh": chaplygin_sleigh,
     "spherical-pendulum": spherical_pendulum,
     "andrews": andrews,
+    "slider-crank": slider_crank,
 }
 """Name → factory of every built-in problem; ``factory()`` gives the source's parameters.
 
@@ -116,6 +118,7 @@ __all__ = [
     "rlc_sine_torn",
     "rlc_torn",
     "rolling_disk",
+    "slider_crank",
     "spatial_double_pendulum",
     "spherical_pendulum",
     "spring_chain",
