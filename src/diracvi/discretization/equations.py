@@ -208,7 +208,15 @@ class StepEquations(eqx.Module):
         is the exact step's momentum to ``O(h δq)`` plus its own rounding; a symmetry's
         momentum map (``Σ qᵢ × pᵢ`` of a free rigid body) then changes by ``−Σ Δq × r``
         per step instead of ``Σ q_k × r`` — ``h|v|/|q|`` times less.
+
+        A staged rule keeps its plain line: its two ends' lines are formed from the
+        stages by different weights, so ``D₂L_d + D₁L_d`` of a free translation is not
+        zero to the bit, and the momentum then walks by its rounding (the free body
+        under ``"lobatto"``: the centre of mass off by 8.6e-14 after 400 steps, against
+        1e-15 with the plain line, and its angular momentum no closer).
         """
+        if self.rule.stages:
+            return line
         r = self.residual(x)[: self.system.n]
         return line - r
 
