@@ -1,15 +1,16 @@
 r"""The orthonormality rows ``gᵢⱼ = dᵢ·dⱼ − δᵢⱼ`` of a body's directors, evaluated to
 ``O(ε²)`` instead of ``O(ε)``.
 
-Each step enforces ``g(q_{k+1}) = 0`` as the rows are *computed*. Formed plainly, the
-diagonal ``fl(d₁² + d₂² + d₃²) − 1`` rounds near 1, where the doubles are spaced
-``2ε`` above and ``ε`` below: its error is a few ulps, and not of mean zero. Measured on
-the free body (``problems.free_rigid_body``, h = 0.01, exact rational arithmetic on
-2·10⁴ stored steps), that error makes each step change the spatial angular momentum by
-−1.4e-18 relative on average (standard error 1.6e-19) — a bias that adds up to 1.2e-12
-over 10⁶ steps, entirely along the momentum (|L| falls). With the rows formed as below the
-mean per step is −2.3e-19 ± 1.7e-19 and the drift over 10⁵ steps falls from 1.4e-13 to
-1.7e-14.
+Each step enforces ``g(q_{k+1}) = 0`` as the rows are *computed*. Formed plainly, each
+row is off by a few ulps (the diagonal ``fl(d₁² + d₂² + d₃²) − 1`` rounds near 1, where
+the doubles are spaced ``2ε`` above and ``ε`` below), and along a run that error is not
+neutral. Measured on the free body (``problems.free_rigid_body``, midpoint, h = 0.01,
+exact rational arithmetic on 2·10⁴ stored steps), it makes each step change the spatial
+angular momentum by −1.4e-18 relative on average (standard error 1.6e-19), all through
+the momentum line's residual in the constraint directions — a bias that adds up to
+1.2e-12 over 10⁶ steps, along the momentum (|L| falls). With the rows formed as below the
+mean per step is −2.3e-19 ± 1.7e-19, and the drift over 10⁵ steps falls from 1.4e-13 to
+2.6e-14.
 
 The rows are the exact sums of the products' rounded parts and rounding errors:
 Dekker's product ``a b = p + e`` (Veltkamp's split, exact for |a|, |b| ≪ 2⁹⁹⁶), Knuth's
