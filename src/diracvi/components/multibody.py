@@ -32,12 +32,12 @@ from ..errors import ModelError
 from ..model.interaction import connect
 from ..model.interconnect import interconnect
 from ..model.system import LagrangeDiracSystem
+from ._gram import gram_rows
 from ._part import finite
 from .joints import joint_rows
 from .multibody_model import MultibodyModel
 from .rigid_body import (
     COORDS,
-    GRAM_PAIRS,
     ORTHONORMALITY,
     RigidBody,
     directors,
@@ -359,8 +359,7 @@ class Multibody:
 
         def holonomic(q):
             d = q.reshape(len(names), 4, 3)[:, 1:, :]  # every body's directors at once
-            gram = jnp.einsum("bij,bkj->bik", d, d) - jnp.eye(3)
-            rows = [gram[:, GRAM_PAIRS[0], GRAM_PAIRS[1]].reshape(-1)]
+            rows = [gram_rows(d).reshape(-1)]
             rows += [_rows(conn, ends(conn, q)) for conn in joints]
             return jnp.concatenate(rows)
 

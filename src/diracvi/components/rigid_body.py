@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ._gram import gram_rows
 from ._part import Part, positive
 
 #: the body's twelve coordinates: its reference point, then the directors' components
@@ -71,15 +72,11 @@ def directors(q):
     return q[3:12].reshape(3, 3).T
 
 
-#: the (i, j) of the six rows ``dᵢ·dⱼ − δᵢⱼ``, i ≤ j, in ORTHONORMALITY's order
-GRAM_PAIRS = ((0, 1, 2, 0, 0, 1), (0, 1, 2, 1, 2, 2))
-
-
 def orthonormality(q):
-    """The six rows ``dᵢ·dⱼ − δᵢⱼ`` (i ≤ j) of one body's coordinates (one Gram matrix:
-    a small program, which the step's Jacobian differentiates cheaply)."""
-    d = q[3:12].reshape(3, 3)
-    return (d @ d.T - jnp.eye(3))[GRAM_PAIRS]
+    """The six rows ``dᵢ·dⱼ − δᵢⱼ`` (i ≤ j) of one body's coordinates, in ORTHONORMALITY's
+    order (`_gram.GRAM_PAIRS`), each to ``O(ε²)`` (:mod:`._gram`: the plainly rounded
+    rows bias the angular momentum of a long run); their derivative is the plain one."""
+    return gram_rows(q[3:12].reshape(3, 3))
 
 
 def point(q, local):

@@ -194,6 +194,32 @@ class StepEquations(eqx.Module):
     def momentum(self, x):
         return new_momentum(self.system, self.rule, self.scheme, self.h, self.q, x, self.t)
 
+    def carried_momentum(self, line, x):
+        r"""The new momentum in increment form, ``p_new = line − r``: the explicit line
+        ``line`` (:meth:`momentum`, at ``x``) less the known end's momentum residual
+        ``r = P_known(x) + A(q_known)ᵀμ − p`` (the first ``n`` rows of :meth:`residual`).
+
+        For the (+) equations this is ``p_{k+1} = p_k + (D₂L_d + D₁L_d + f_d^+ + f_d^−)
+        − A(q_k)ᵀμ_k``: the same number when the step is solved exactly, but at a
+        solved ``x`` whose positions are rounded to ``ulp(q)``, ``r ≈ (M/h) δq`` is a
+        hundred ulps of ``p`` at ``h = 0.01``, and the plain line ``D₂L_d ≈ p* + (M/h)
+        δq`` carries it into the state, step after step. In increment form the ``M/h``
+        parts cancel (``D₂L_d`` and ``−D₁L_d`` move alike with ``q_{k+1}``), so ``p_new``
+        is the exact step's momentum to ``O(h δq)`` plus its own rounding; a symmetry's
+        momentum map (``Σ qᵢ × pᵢ`` of a free rigid body) then changes by ``−Σ Δq × r``
+        per step instead of ``Σ q_k × r`` — ``h|v|/|q|`` times less.
+
+        A staged rule keeps its plain line: its two ends' lines are formed from the
+        stages by different weights, so ``D₂L_d + D₁L_d`` of a free translation is not
+        zero to the bit, and the momentum then walks by its rounding (the free body
+        under ``"lobatto"``: the centre of mass off by 8.6e-14 after 400 steps, against
+        1e-15 with the plain line, and its angular momentum no closer).
+        """
+        if self.rule.stages:
+            return line
+        r = self.residual(x)[: self.system.n]
+        return line - r
+
     def scale(self):
         """The size against which Newton's relative tolerance is measured."""
         return jnp.max(jnp.abs(self.q), initial=0.0)

@@ -83,7 +83,8 @@ def _newton_step(system, rule, scheme, solver, h, c, tk, idle=False):
         guess = first_guess(system, rule, q, 2.0 * q - q_prev, mu_prev)
         res = solver.solve(eqs, guess, state)
         q1, mu = split(system, res.x)
-        p1 = solver.momentum(eqs, res.x, res.state)
+        # the momentum line in increment form: the positions' rounding stays out of p
+        p1 = eqs.carried_momentum(solver.momentum(eqs, res.x, res.state), res.x)
         finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
         status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
         return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
