@@ -15,6 +15,7 @@ import pytest
 import scipy.sparse.linalg as spla
 
 from _ngspice import fine_transient
+from _sparse_path import PULSE_DECK, sparse_run
 from diracvi import spice
 from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive as compiled
@@ -25,29 +26,7 @@ from diracvi.spice import _ngspice as ng
 from diracvi.spice import _run
 from diracvi.spice._resample import Sampler
 from diracvi.spice._stream import step_signals
-from diracvi.spice._tran import breakpoints, tran_settings
-
-PULSE_DECK = """Series RLC driven by a pulse train
-V1 in 0 PULSE(0 1 10n 5n 5n 100n 300n)
-R1 in a 10
-L1 a b 1u
-C1 b 0 1n
-.tran 5n 1u uic
-.end
-"""
-
-
-def _sparse_run(text, stop=None):
-    """``(netlist, settings, breakpoints, AdaptiveRun, SparseRun)`` of the sparse path."""
-    netlist = spice.read(text)
-    settings = tran_settings(netlist)
-    t_stop = settings.stop if stop is None else stop
-    breaks = breakpoints(netlist.system, 0.0, t_stop)
-    march, info = sparse.adaptive_sparse(
-        netlist.system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=t_stop,
-        controls=_run.controls(netlist, settings), breakpoints=breaks,
-    )  # fmt: skip
-    return netlist, settings, breaks, march, info
+from diracvi.spice._tran import tran_settings
 
 
 @pytest.fixture
@@ -90,14 +69,14 @@ def test_factorizations_are_bounded_and_do_not_grow_with_the_run(counted_splu):
     factorization per grid level visited and at most two per landing try: the same count
     for a run five times as long (no breakpoint inside: only the end is landed on)."""
     text = ladder(2, steps=200)
-    _, _, breaks, march, info = _sparse_run(text)
+    _, _, breaks, march, info = sparse_run(text)
     assert len(breaks) == 0 and march.status == 0
     assert info.fit and info.builds == 4
     assert len(counted_splu) == info.factorizations  # every one is counted
     bound = 4 + (len(info.levels) + 1) + 2 * info.landings
     assert info.factorizations <= bound
     assert info.landings <= 3  # the last two tries before the end, and a retry
-    longer = _sparse_run(text, stop=4 * 200e-6)[4]
+    longer = sparse_run(text, stop=4 * 200e-6)[4]
     assert longer.factorizations <= info.factorizations + 1
     # a try is three solves; the factorizations are a small fraction of them
     assert info.factorizations <= 0.05 * march.tries
@@ -106,7 +85,7 @@ def test_factorizations_are_bounded_and_do_not_grow_with_the_run(counted_splu):
 def test_breakpoints_land_exactly_and_bound_the_factorizations(counted_splu):
     """Every source corner is a node of the run (bitwise), no recorded step is longer
     than TMAX, and the factorizations stay within the levels plus two per landing."""
-    _, settings, breaks, march, info = _sparse_run(PULSE_DECK)
+    _, settings, breaks, march, info = sparse_run(PULSE_DECK)
     assert len(breaks) >= 12  # four corners a period
     nodes = set(march.t.tolist())
     assert all(float(b) in nodes for b in breaks)
@@ -144,7 +123,7 @@ def test_offsets_computed_ahead_of_the_tries_are_the_per_try_values(monkeypatch)
         runs = []
         for ahead in (1, sparse_offsets.AHEAD):
             monkeypatch.setattr(sparse_offsets, "AHEAD", ahead)
-            runs.append(_sparse_run(text)[3])
+            runs.append(sparse_run(text)[3])
             assert (made[-1].maps.drivers is not None) is drivers
             runs.append(made[-1].calls)
         one, calls_one, many, calls_many = runs
@@ -162,7 +141,7 @@ def test_agrees_with_the_compiled_loop_to_its_tolerance():
     control the same local error, the sparse path on a coarser set of step sizes
     (measured 2026-11-28: sparse 1.6e-4, compiled 3.9e-4 of i(V1)'s peak; they differ
     from each other by 2.3e-4, which is why they are not held to each other below that)."""
-    netlist, settings, breaks, march, _ = _sparse_run(PULSE_DECK)
+    netlist, settings, breaks, march, _ = sparse_run(PULSE_DECK)
     reference = compiled.adaptive(
         netlist.system, netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
         controls=_run.controls(netlist, settings), breakpoints=breaks,

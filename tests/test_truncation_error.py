@@ -13,14 +13,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from _sparse_path import PULSE_DECK, sparse_run
 from diracvi import spice
 from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive_sparse as sparse
 from diracvi.driver import truncation_error as lte
 from diracvi.errors import ModelError
 from diracvi.spice import _ngspice as ng
-from diracvi.spice import _run
-from diracvi.spice._tran import breakpoints, tran_settings
 
 #: the past steps before the one judged, as multiples of it (unequal on purpose)
 H2, H1 = 1.3, 0.8
@@ -77,27 +76,6 @@ def test_estimate_of_an_oscillator_step_tends_to_its_true_local_error():
     _first_order_to_one(_ratios(exact, step, hs), hs)
 
 
-PULSE_DECK = """Series RLC driven by a pulse train
-V1 in 0 PULSE(0 1 10n 5n 5n 100n 300n)
-R1 in a 10
-L1 a b 1u
-C1 b 0 1n
-.tran 5n 1u uic
-.end
-"""
-
-
-def _run_sparse(text, error, monkeypatch=None):
-    netlist = spice.read(text)
-    settings = tran_settings(netlist)
-    breaks = breakpoints(netlist.system, 0.0, settings.stop)
-    march, info = sparse.adaptive_sparse(
-        netlist.system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
-        controls=_run.controls(netlist, settings), breakpoints=breaks, error=error,
-    )  # fmt: skip
-    return settings, breaks, march, info
-
-
 def test_one_solve_a_step_and_breakpoints_landed_exactly(monkeypatch):
     """Every source corner is a node of the run (bitwise), no step longer than TMAX;
     each corner restarts with one doubled try (three solves), every other try is one
@@ -110,7 +88,7 @@ def test_one_solve_a_step_and_breakpoints_landed_exactly(monkeypatch):
         return step(self, z, u)
 
     monkeypatch.setattr(sparse._Map, "step", counting)
-    settings, breaks, march, info = _run_sparse(PULSE_DECK, "truncation")
+    _, settings, breaks, march, info = sparse_run(PULSE_DECK, error="truncation")
     assert march.status == 0 and len(breaks) >= 12
     nodes = set(march.t.tolist())
     assert all(float(b) in nodes for b in breaks)
