@@ -375,6 +375,54 @@ def test_bad_keyword_tolerances_name_the_argument_and_the_fix(tmp_path):
     assert "TMAX 2e-05" in done.output and "reltol 1e-05, abstol 1e-12" in done.output
 
 
+def _steps_and_tries(output: str) -> tuple[int, int]:
+    """The recorded steps and the tries of ``diracvi run``'s summary of a netlist."""
+    found = re.search(r"steps\s+(\d+) \(h .*?; (\d+) of (\d+) tries rejected\)", output, re.S)
+    assert found is not None, output
+    return int(found[1]), int(found[3])
+
+
+@pytest.mark.slow  # (four runs of two decks through the CLI and spice.run: ~4 s unloaded)
+def test_cli_step_error_reaches_spice_run(tmp_path):
+    """``diracvi run deck --step-error KIND`` steps as ``spice.run(deck, step_error=KIND)``:
+    on the sparse path (a 6-stage ladder, 19 coordinates) the two controls take different
+    steps; a deck the compiled loop steps (the series RLC, 3 coordinates) is judged by step
+    doubling whatever is given, by the CLI as by ``spice.run``."""
+    from diracvi.bench.ladders import ladder
+
+    runner = CliRunner()
+    sparse, small = tmp_path / "ladder.cir", tmp_path / "rc.cir"
+    sparse.write_text(ladder(6, steps=40))
+    small.write_text(DECKS["rc-charge"][0])
+    for path in (sparse, small):
+        seen = {}
+        for kind in ("doubling", "truncation"):
+            result = runner.invoke(app, ["run", str(path), "--step-error", kind])
+            assert result.exit_code == 0, result.output
+            want = spice.run(str(path), step_error=kind).trajectory
+            seen[kind] = _steps_and_tries(result.output)
+            assert seen[kind] == (len(want.h), want.tries), (path.name, kind)
+        # (a truncation try is one step: as many tries as steps but for the first and the
+        # rejected; a doubled try records two)
+        assert (seen["truncation"] != seen["doubling"]) == (path is sparse), seen
+
+
+def test_cli_step_error_bad_values_name_the_option_and_the_choices(tmp_path):
+    small = tmp_path / "rc.cir"
+    small.write_text(DECKS["rc-charge"][0])
+    runner = CliRunner()
+    for args, says in [
+        ([str(small), "--step-error", "richardson"], "'richardson' is not one of doubling, "
+         "truncation"),
+        ([str(small), "--dt", "1e-4", "--step-error", "truncation"], "--step-error: "
+         "tolerances, TMAX and the error control steer SPICE's variable steps"),
+        (["rlc", "--step-error", "truncation"], "--step-error: a SPICE netlist's variable-step"),
+    ]:  # fmt: skip
+        result = runner.invoke(app, ["run", *args])
+        text = " ".join(result.output.replace("│", " ").split())  # (rich's box, unwrapped)
+        assert result.exit_code == 2 and says in text and "--step-error" in text, result.output
+
+
 def test_tran_settings_and_options():
     text = """t
 V1 in 0 DC 1

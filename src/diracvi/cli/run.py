@@ -10,6 +10,7 @@ import typer
 from rich.table import Table
 
 from ..discretization.rules import rule_names
+from ..driver.adaptive_sparse import ERRORS as STEP_ERRORS
 from .common import (
     EXIT_USAGE,
     NETLIST_SUFFIXES,
@@ -125,12 +126,26 @@ def run(
             "unedited); SPICE suffixes allowed (20p).",
         ),
     ] = None,
+    step_error: Annotated[
+        str | None,
+        typer.Option(
+            callback=_choice(STEP_ERRORS),
+            metavar="|".join(STEP_ERRORS),
+            help="How a linear netlist's variable steps on the sparse maps are judged: "
+            "doubling (each try one step against two of half its size, three solves) or "
+            "truncation (one solve a step, its local truncation error from the past "
+            "steps). Default: spice.run's. A circuit the compiled loop steps (nonlinear, "
+            "switched, fewer than 16 coordinates) is judged by step doubling either way.",
+        ),
+    ] = None,
 ) -> None:
     """Simulate a built-in problem or a model file and print a short summary."""
     tolerances = dict(reltol=reltol, abstol=abstol, vntol=vntol, chgtol=chgtol, tmax=tmax)
     tolerances = {k: v for k, v in tolerances.items() if v is not None}
+    if step_error is not None:  # (spice.run's keyword; the CLI spells it --step-error)
+        tolerances["step_error"] = step_error
     if tolerances and Path(problem).suffix.lower() not in NETLIST_SUFFIXES:
-        given = " ".join(f"--{k}" for k in tolerances)
+        given = " ".join(f"--{k.replace('_', '-')}" for k in tolerances)
         _fail(
             f"{given}: a SPICE netlist's variable-step settings; {problem!r} is not a netlist.",
             EXIT_USAGE,
@@ -281,9 +296,10 @@ def _run_netlist(
             EXIT_USAGE,
         )
     if tolerances and fixed:
-        given = " ".join(f"--{k}" for k in tolerances)
+        given = " ".join(f"--{k.replace('_', '-')}" for k in tolerances)
         _fail(
-            f"{given}: tolerances and TMAX steer SPICE's variable steps; a fixed step "
+            f"{given}: tolerances, TMAX and the error control steer SPICE's variable steps; "
+            "a fixed step "
             "(--dt/--steps) has none. Leave out one or the other.",
             EXIT_USAGE,
         )
