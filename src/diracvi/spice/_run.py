@@ -456,7 +456,10 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
     bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
     grid = settings.output_times()
     # the sparse path's recorder: the grid formed while the run steps (._stream)
-    stream = StreamRecord(netlist, np.append(bounds, settings.stop), grid, keep=internal)
+    least = math.floor(settings.stop / settings.max_step)  # (no step is longer than TMAX)
+    stream = StreamRecord(
+        netlist, np.append(bounds, settings.stop), grid, keep=internal, least=least
+    )
     march = _march(netlist, settings, breaks, stream, step_error)
     if march.status != 0:
         at = march.t[-1]

@@ -118,7 +118,11 @@ class StreamSampler:
         self.done = 0  # output times sampled so far
         self.t = None  # the kept rows' nodes (rows + 1), sizes and values
         self.h = np.empty(0)
-        self.values = np.empty((0, width))
+        # the kept values live in one buffer reused from feed to feed (a fresh array of
+        # a chunk's rows at every feed was MBs of new pages a chunk on a large circuit:
+        # a tenth of a 1000-stage ladder's loop); ``values`` is a view of its first rows
+        self._buffer = np.empty((0, width))
+        self.values = self._buffer
 
     def start(self, t0: float) -> None:
         self.t = np.array([t0])
@@ -127,7 +131,13 @@ class StreamSampler:
         """Rows of consecutive steps: their end nodes, sizes and signal values."""
         self.t = np.concatenate([self.t, t_next])
         self.h = np.concatenate([self.h, h])
-        self.values = np.concatenate([self.values, values])
+        have, more = len(self.values), len(values)
+        if have + more > len(self._buffer):
+            grown = np.empty((2 * (have + more), self._buffer.shape[1]))
+            grown[:have] = self.values
+            self._buffer = grown
+        self._buffer[have : have + more] = values
+        self.values = self._buffer[: have + more]
         self._flush(final=False)
 
     def finish(self) -> np.ndarray:
@@ -164,7 +174,10 @@ class StreamSampler:
             return
         keep = max(0, min(int(at[ready]) - 1, n - 3))
         if keep:
-            self.t, self.h, self.values = self.t[keep:], self.h[keep:], self.values[keep:]
+            self.t, self.h = self.t[keep:], self.h[keep:]
+            rest = len(self.values) - keep  # (a few rows: moved to the buffer's front)
+            self._buffer[:rest] = self._buffer[keep : keep + rest].copy()
+            self.values = self._buffer[:rest]
 
 
 class StreamRecord:
@@ -177,7 +190,9 @@ class StreamRecord:
     the saved vectors (:attr:`names`) and :attr:`kept` says whether the records are
     whole (then every signal can be formed from them, as for a small circuit)."""
 
-    def __init__(self, netlist, bounds, grid, keep: bool = False, keep_max: int | None = None):
+    def __init__(
+        self, netlist, bounds, grid, keep=False, keep_max: int | None = None, least: int = 0
+    ):
         self.layout = Layout(netlist)
         self.bounds, self.grid = bounds, grid
         # the grid is formed for the saved vectors only (.save, else ngspice's default
@@ -187,18 +202,32 @@ class StreamRecord:
             [j for j, name in enumerate(self.layout.names) if name in saved], dtype=np.int64
         )
         self.names = [self.layout.names[j] for j in self.select]
+        lay, nodes = self.layout, len(self.layout.rows)
+        if lay.extra:  # the MMF nodes are sums of currents: every signal is formed
+            self.rows_of, self.cols_of = lay.rows, lay.cols
+            self.pick = self.select
+        else:  # the saved ones only (ngspice's default set leaves out C and R currents)
+            self.rows_of = lay.rows[self.select[self.select < nodes]]
+            self.cols_of = lay.cols[self.select[self.select >= nodes] - nodes]
+            self.pick = None
         self.keep, self.keep_max = keep, KEEP_MAX if keep_max is None else keep_max
         self.kept = True
+        # ``least``: steps the run records at the fewest (span / TMAX: no step is longer).
+        # A run that cannot fit is never kept: writing its first rows into buffers of
+        # ~KEEP_MAX numbers and dropping them cost 0.2 s of page faults on the
+        # 1000-stage ladder
+        self.least = least
         self.grid_values = None
 
     def __call__(self, capacity: int, n: int, m: int):
         from ..driver.adaptive_sparse import _Record
 
         self.n = n
-        self.full = _Record(capacity, n, m)
         self.per_step = 2 * n + m + len(self.layout.names)
+        self.kept = self.keep or self.least * self.per_step <= self.keep_max
+        self.full = _Record(capacity, n, m) if self.kept else None
         self.sampler = StreamSampler(self.bounds, self.grid, len(self.select))
-        width = len(self.layout.base)
+        width = len(self.rows_of) + len(self.cols_of)
         self.rows_t, self.rows_h = np.empty(CHUNK), np.empty(CHUNK)
         self.rows = np.empty((CHUNK, width))
         self.count = 0  # rows in the chunk
@@ -208,21 +237,22 @@ class StreamRecord:
         return self
 
     def start(self, t, z) -> None:
-        self.full.start(t, z)
+        if self.kept:
+            self.full.start(t, z)
         self.sampler.start(t)
         self.t_nodes[0] = t
-        self.c_prev = np.zeros(len(self.layout.rows))
-        self.q_prev = np.asarray(z[: self.n])[self.layout.cols]
+        self.c_prev = np.zeros(len(self.rows_of))
+        self.q_prev = np.asarray(z[: self.n])[self.cols_of]
 
     def add(self, t, h, z, mu) -> None:
-        lay, row = self.layout, self.rows[self.count]
-        nodes = len(lay.rows)
+        row = self.rows[self.count]
+        nodes = len(self.rows_of)
         c = row[:nodes]
-        np.multiply(mu[lay.rows], 2.0, out=c)  # (the arithmetic of step_potentials)
+        np.multiply(mu[self.rows_of], 2.0, out=c)  # (the arithmetic of step_potentials)
         c -= self.c_prev
         self.c_prev = c.copy()
         c /= -h
-        q = z[: self.n][lay.cols]
+        q = z[: self.n][self.cols_of]
         np.subtract(q, self.q_prev, out=row[nodes:])
         row[nodes:] /= h
         self.q_prev = q
@@ -241,7 +271,9 @@ class StreamRecord:
 
     def _pass(self) -> None:
         k = self.count
-        values = self.layout.with_extra(self.rows[:k])[:, self.select]  # (a copy)
+        values = self.rows[:k]  # (the sampler copies the rows it keeps)
+        if self.pick is not None:
+            values = self.layout.with_extra(values)[:, self.pick]
         self.sampler.feed(self.rows_t[:k].copy(), self.rows_h[:k].copy(), values)
         self.count = 0
 
