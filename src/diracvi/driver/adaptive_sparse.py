@@ -358,7 +358,7 @@ class _Tries:
         zc, yc = coarse.step(z, u[0])
         z1, y1 = fine.step(z, u[1])
         z2, y2 = fine.step(z1, u[2])
-        ok = bool(np.all(np.isfinite(z2)) and np.all(np.isfinite(zc)))
+        ok = bool(np.isfinite(z2).all() and np.isfinite(zc).all())
         with np.errstate(divide="ignore", invalid="ignore"):
             est = estimate(
                 np, z[:n], (zc[:n], z1[:n], z2[:n]), (yc[n:], y1[n:], y2[n:]), c_last, h_try,

@@ -76,7 +76,7 @@ def march(tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
         else:
             # hmax·2^{−k} is the maps' level k + 1 (their grid starts at 2·hmax)
             found, z2, y2 = tries.single(z, t, h_try, None if level is None else level + 1)
-            ok = bool(np.all(np.isfinite(z2)))
+            ok = bool(np.isfinite(z2).all())
             with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
                 est = lte.estimate(
                     z[:n], z2[:n], y2[n:], h_try, history, peaks, tries.tolerances, hmax
