@@ -220,33 +220,6 @@ def test_linear_model_gradients_match_finite_differences(discretization):
     assert np.max(np.abs(np.asarray(q) - untraced.q)) <= 1e-12 * np.max(np.abs(untraced.q))
 
 
-def test_linear_model_step_jacobian_is_found_constant():
-    """The traced run forms ∂r/∂x and its inverse once when no step value enters it: for
-    the RLC (affine step equations) constant_inverse returns the inverse, equal to the
-    per-step one formed at an arbitrary state, time and unknowns; for the bead (a quartic
-    potential, an angle-dependent constraint) it returns None (formed per step). (The
-    staged rule's RLC is found constant too; its compilation is too slow for this file's
-    default tests.)"""
-    from diracvi.discretization.equations import StepEquations
-    from diracvi.discretization.rules import get_rule
-    from diracvi.driver.traced import _inverse, constant_inverse
-
-    rule, h, system = get_rule("midpoint"), jnp.asarray(0.1), rlc(RLC)
-
-    @jax.jit
-    def both(q, p, t, x):
-        start = StepEquations(system, rule, "plus", h, jnp.zeros(3), jnp.zeros(3), 0.0)
-        eqs = StepEquations(system, rule, "plus", h, q, p, t)
-        return constant_inverse(start), _inverse(jax.jacfwd(eqs.residual)(x))
-
-    rng = np.random.default_rng(3)
-    q, p, t, x = (jnp.asarray(rng.normal(size=s)) for s in (3, 3, (), 4))
-    once, per_step = both(q, p, t, x)
-    assert np.max(np.abs(np.asarray(once - per_step))) <= 1e-14 * np.max(np.abs(per_step))
-    nonlinear = StepEquations(bead(THETA), rule, "plus", h, Q0, P0, 0.0)
-    assert constant_inverse(nonlinear) is None
-
-
 # ------------------------------------------- a torn model, on the partitioned solver
 def torn_chain(theta):
     """Two masses | a third, torn at a massless port; nonlinear springs (stiffness k,

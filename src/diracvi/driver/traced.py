@@ -16,8 +16,7 @@ JAX's linearize-then-transpose of that rule: the inverse is computed in the forw
 and each step's backward pass is one product ``(∂r/∂x)⁻ᵀ x̄`` and the VJP of ``r`` in its
 parameters. A linear model, which an untraced run steps by the precomputed affine map, is
 stepped by Newton here: it converges in one iteration, and its derivative is the same
-implicit-function one; its ``∂r/∂x``, which reads no step's values, is formed and
-inverted once per run (:func:`constant_inverse`) instead of at every step.
+implicit-function one.
 
 **Reverse mode over the time loop** (``adjoint="checkpoint"``, the default) keeps every
 step's intermediates when they fit in :data:`STORE_ALL_BYTES` (a small model or a short
@@ -100,12 +99,9 @@ def _inverse(a):
         column = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
         pivot = jnp.argmax(jnp.where(rows >= j, jnp.abs(column), -1.0))
         exchange = (rows == j).astype(a.dtype) - (rows == pivot).astype(a.dtype)
-        # row j ↔ row p: e_j − e_p times (row p − row j), i.e. −exchange @ A, written as
-        # a broadcast product and a sum (exact: one ±1 pair) that XLA fuses with the
-        # rest (a ``dot`` of this size is a call of its own: measured in a 400-step
-        # scan, 0.91 → 0.83 µs per 4 × 4 inverse, 4.8 → 4.4 µs per 8 × 8)
-        a = a - jnp.outer(exchange, jnp.sum(exchange[:, None] * a, axis=0))
-        b = b - jnp.outer(exchange, jnp.sum(exchange[:, None] * b, axis=0))
+        # row j ↔ row p: e_j − e_p times (row p − row j), i.e. −exchange @ A
+        a = a - jnp.outer(exchange, exchange @ a)
+        b = b - jnp.outer(exchange, exchange @ b)
         row_a = jax.lax.dynamic_index_in_dim(a, j, axis=0, keepdims=False)
         row_b = jax.lax.dynamic_index_in_dim(b, j, axis=0, keepdims=False)
         column = jax.lax.dynamic_index_in_dim(a, j, axis=1, keepdims=False)
@@ -148,10 +144,9 @@ def _hoisted(fn, example):
 
 
 @partial(jax.custom_jvp, nondiff_argnums=(0, 1))
-def _implicit_root(solve, residual, guess, solve_consts, residual_consts, inverse=None):
+def _implicit_root(solve, residual, guess, solve_consts, residual_consts):
     """``(x, *aux) = solve(guess, *solve_consts)`` with ``residual(x, *residual_consts) = 0``
-    differentiated by the implicit function theorem (the JVP rule below). ``inverse``
-    (optional) is ``(∂r/∂x)⁻¹`` when it is the same at every step (:func:`constant_inverse`)."""
+    differentiated by the implicit function theorem (the JVP rule below)."""
     return solve(guess, *solve_consts)
 
 
@@ -165,63 +160,19 @@ def _implicit_root_jvp(solve, residual, primals, tangents):
     is one product ``(∂r/∂x)⁻ᵀ x̄`` per step, followed by the VJP of ``r`` in ``θ``;
     forward mode applies it to ``∂r/∂θ dθ``. The guess and the solver's own inputs get no
     derivative: the solution depends on ``θ`` only through ``r(x, θ) = 0``.
-
-    A given ``inverse`` (a Jacobian that depends on no step's values, formed once per run)
-    replaces the per-step one; its own tangent does not enter ``dx``, which is linear in
-    ``dθ`` at fixed ``(∂r/∂x)⁻¹``.
     """
-    guess, solve_consts, residual_consts, inverse = primals
+    guess, solve_consts, residual_consts = primals
     residual_dots = tangents[2]
     out = solve(guess, *solve_consts)
     # named so a checkpointed segment keeps them (the solution, its status, iterations and
     # residual; not the solver's factors): its recomputation then skips the Newton solve
     out = (*(checkpoint_name(leaf, SOLUTION_NAME) for leaf in out[:4]), *out[4:])
     x = out[0]
-    if inverse is None:
-        inverse = _inverse(jax.jacfwd(lambda y: residual(y, *residual_consts))(x))
+    jacobian = jax.jacfwd(lambda y: residual(y, *residual_consts))(x)
+    inverse = _inverse(jacobian)
     _, rhs = jax.jvp(lambda *c: residual(x, *c), tuple(residual_consts), tuple(residual_dots))
-    x_dot = -jnp.sum(inverse * rhs, axis=1)
+    x_dot = -(inverse @ rhs)
     return out, (x_dot, *(_zero_tangent(leaf) for leaf in out[1:]))
-
-
-def _step_jacobian(system, rule, scheme, h):
-    """``(x, q, p, t) ↦ ∂r/∂x``: the Jacobian of the step equations from ``(q, p)`` at
-    ``t``, at the unknowns ``x``."""
-
-    def jacobian(x, q, p, t):
-        return jax.jacfwd(StepEquations(system, rule, scheme, h, q, p, t).residual)(x)
-
-    return jacobian
-
-
-def constant_inverse(eqs):
-    r"""``(∂r/∂x)⁻¹`` of the step equations ``eqs`` when ``∂r/∂x`` depends on no value
-    that changes from step to step — neither the unknowns ``x`` nor the known state
-    ``(q, p)`` nor the time ``t`` — else ``None``.
-
-    That is the case of a linear model (the RLC of ``diracvi bench --only gradients``):
-    its residual is affine in ``x`` with coefficients from the parameters and ``h`` only.
-    The test is structural and exact: the program of ``∂r/∂x`` is traced and its dead
-    code removed (JAX's ``dce_jaxpr``); if none of ``x, q, p, t`` is still
-    read, every step's Jacobian is this one, bitwise the same operations on the same
-    inputs. A Jacobian that only happens to be constant (``x − x``) is not detected and
-    is formed per step, as before. Formed once per run, it saves each step of a
-    reverse-mode gradient the ``n + m`` JVPs and the elimination of :func:`_inverse`
-    (measured on that RLC, 400 steps: ≈ 0.9 of a forward run's time).
-    """
-    try:  # JAX's own dead-code elimination of a traced program
-        from jax._src.interpreters import partial_eval as pe
-    except ImportError:  # pragma: no cover - another JAX version: formed per step
-        return None
-    system, rule, scheme, h = eqs.system, eqs.rule, eqs.scheme, eqs.h
-    jacobian = _step_jacobian(system, rule, scheme, h)
-    x = eqs.reference()
-    t = jnp.asarray(eqs.t, dtype=eqs.q.dtype)
-    closed = jax.make_jaxpr(jacobian)(x, eqs.q, eqs.p, t)
-    _, used = pe.dce_jaxpr(pe.convert_constvars_jaxpr(closed.jaxpr), True)
-    if any(used[len(closed.jaxpr.constvars) :]):
-        return None
-    return _inverse(jacobian(x, eqs.q, eqs.p, t))
 
 
 class ImplicitStep(StepSolver):
@@ -229,12 +180,9 @@ class ImplicitStep(StepSolver):
 
     The wrapped solver runs inside :func:`_implicit_root` (a ``custom_jvp``); its status,
     iteration count and state (factors) pass through as non-differentiated outputs.
-    ``inverse`` (optional): the step Jacobian's inverse when it is the same at every step
-    (:func:`constant_inverse`), formed once per run instead of at every step.
     """
 
     inner: StepSolver
-    inverse: jax.Array | None = None
 
     def check(self, system, rule, scheme):
         self.inner.check(system, rule, scheme)
@@ -260,7 +208,7 @@ class ImplicitStep(StepSolver):
         solve_c, solve_consts = _hoisted(solve, guess)
         residual_c, residual_consts = _hoisted(eqs.residual, guess)
         x, *leaves = _implicit_root(
-            solve_c, residual_c, guess, tuple(solve_consts), tuple(residual_consts), self.inverse
+            solve_c, residual_c, guess, tuple(solve_consts), tuple(residual_consts)
         )
         status, iterations, res_norm, new_state = jax.tree.unflatten(trees[0], leaves)
         if isinstance(self.inner, PartitionedSolver):
@@ -365,11 +313,7 @@ def _run(system, rule, scheme, method, inner, start, run, save_states, throw, ad
 
     carry = (q0, p0, q0, jnp.zeros(m, dtype=q0.dtype))
     t_first = step_times(scheme, h_arr, jnp.stack([t0, 0.0]), 0, 1)[0][0]
-    eqs = StepEquations(system, rule, scheme, h_arr, q0, p0, t_first)
-    state = method.init(eqs)
-    # a step Jacobian that no step's values change is formed and inverted here, once: the
-    # scan below closes over it (a loop invariant), so no step of the gradient repeats it
-    method = ImplicitStep(method.inner, constant_inverse(eqs))
+    state = method.init(StepEquations(system, rule, scheme, h_arr, q0, p0, t_first))
     fail = (jnp.asarray(0), jnp.asarray(0), jnp.asarray(jnp.nan, q0.dtype), q0)
     runner = stateful_chunk_runner(system, rule, scheme, method, k, save_states, seg)
 
