@@ -90,3 +90,39 @@ def test_lobatto_iiia_iiib_is_singular_on_the_degenerate_rlc_and_iiid_is_not():
     iiib = [[1 / 6, -1 / 6, 0], [1 / 6, 1 / 3, 0], [1 / 6, 5 / 6, 0]]
     assert np.linalg.matrix_rank(rlc_stage_jacobian(iiia, iiib)) < 12
     assert np.linalg.matrix_rank(rlc_stage_jacobian(IIID, IIID)) == 12
+
+
+def _primitives(jaxpr, names):
+    """How many equations of ``jaxpr`` (sub-jaxprs included) apply one of ``names``."""
+    count = 0
+    for eqn in jaxpr.eqns:
+        count += eqn.primitive.name in names
+        for value in eqn.params.values():
+            for sub in value if isinstance(value, tuple | list) else (value,):
+                inner = getattr(sub, "jaxpr", sub)
+                if hasattr(inner, "eqns"):
+                    count += _primitives(inner, names)
+    return count
+
+
+def test_the_three_stages_share_one_trace_of_each_model_function():
+    """The stages are evaluated by one ``jax.vmap`` (issue 30): the step residual of the
+    four-bar linkage (L, the one-forms, g and the reactions all hold sines and cosines)
+    applies as many trigonometric primitives under ``"lobatto"`` as under ``"midpoint"``,
+    which evaluates each once — a loop over the stages would triple them."""
+    import jax
+    import jax.numpy as jnp
+
+    from diracvi.discretization.equations import StepEquations, first_guess
+    from diracvi.discretization.rules import get_rule
+
+    problem = problems.get("four-bar")
+    system, q = problem.system, jnp.asarray(problem.q0, dtype=float)
+    counts = {}
+    for name in ("midpoint", "lobatto"):
+        rule = get_rule(name)
+        eqs = StepEquations(system, rule, "plus", jnp.asarray(problem.dt), q, q, 0.0)
+        x = first_guess(system, rule, q, q, jnp.zeros(system.m))
+        counts[name] = _primitives(jax.make_jaxpr(eqs.residual)(x).jaxpr, {"sin", "cos"})
+    assert counts["midpoint"] > 0
+    assert counts["lobatto"] == counts["midpoint"]

@@ -8,6 +8,7 @@ positions ``Q₁, Q₂`` and one multiplier vector per stage are extra unknowns 
 
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 
 from ..errors import ModelError
@@ -107,6 +108,12 @@ class Lobatto(CentredNodes, QuadratureRule):
         v3 = (4.0 * d1 - 4.0 * d2 + 3.0 * d) / h
         return ((q1, v1, tk), (q2, v2, tk + 0.5 * h), (q3, v3, tk + h))
 
+    @classmethod
+    def stacked_nodes(cls, qk, stage, qk1, h, tk):
+        """:meth:`nodes` as three arrays with the stage on the leading axis, ``Q`` and ``V``
+        of shape (3, n) and ``t`` of shape (3,), for :func:`at_stages`."""
+        return _stack(cls.nodes(qk, stage, qk1, h, tk))
+
     @staticmethod
     def pullback(covectors):
         r"""``(φ₁, φ₂, φ₃)`` at the stage positions → their pull-back to ``(q_k, [Q₁ Q₂],
@@ -136,17 +143,15 @@ class Lobatto(CentredNodes, QuadratureRule):
         r"""``L_d = h Σ_j b_j L(Q_j, V_j, t_j)``."""
         if stage is None:
             self._need_stage("L_d")
-        nodes = self.nodes(qk, stage, qk1, h, tk)
-        return h * sum(w * lagrangian(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True))
+        values = at_stages(lagrangian, *self.stacked_nodes(qk, stage, qk1, h, tk))
+        return h * sum(w * values[j] for j, w in enumerate(WEIGHTS))
 
     def discrete_forces(self, force, qk, qk1, h, tk=0.0, stage=None):
         r"""``(f_d^−, f_d^+, f_Q)``: the pull-back of ``h b_j F(Q_j, V_j, t_j)``."""
         if stage is None:
             self._need_stage("f_d")
-        nodes = self.nodes(qk, stage, qk1, h, tk)
-        left, mid, right = self.pullback(
-            [h * w * force(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True)]
-        )
+        values = at_stages(force, *self.stacked_nodes(qk, stage, qk1, h, tk))
+        left, mid, right = self.pullback([h * w * values[j] for j, w in enumerate(WEIGHTS)])
         return left, right, mid
 
     def reaction_covectors(self, multiplier_force, side, qk, stage, qk1, h, tk, mu, nu, held=None):
@@ -165,26 +170,27 @@ class Lobatto(CentredNodes, QuadratureRule):
         end, mids = self.rows_of(side)
         mus = [None] * 3
         mus[end], mus[mids[0]], mus[mids[1]] = mu, nu[..., 0], nu[..., 1]
-        nodes = self.nodes(qk, stage, qk1, h, tk)
+        q, _, t = self.stacked_nodes(qk, stage, qk1, h, tk)
         if held is None:
-            return [
-                -w * multiplier_force(q, m, t)
-                for w, (q, _, t), m in zip(WEIGHTS, nodes, mus, strict=True)
-            ]
+            forces = at_stages(multiplier_force, q, jnp.stack(mus), t)
+            return [-w * forces[j] for j, w in enumerate(WEIGHTS)]
         pair, mid = self.held_columns(side)
         # ν_pair multiplies g(Q₃) − g(Q₁): its reaction is −ν at Q₁, +ν at Q₃
         held_mus = (-nu[..., pair], nu[..., mid], nu[..., pair])
-        stage_covectors = [
-            -w * multiplier_force(q, jnp.where(held, mh, m), t)
-            for w, (q, _, t), m, mh in zip(
-                WEIGHTS, nodes, [jnp.where(held, 0.0, m) for m in mus], held_mus, strict=True
-            )
-        ]
-        nodal = jnp.where(held, mu, 0.0)
+        stage_mus = [jnp.where(held, mh, m) for m, mh in zip(mus, held_mus, strict=True)]
+        # the known node's nodal reaction is a fourth row of the same batch
+        node, t_node = (qk, tk) if side == "plus" else (qk1, tk + h)
+        forces = at_stages(
+            multiplier_force,
+            jnp.concatenate([q, node[None]]),
+            jnp.stack([*stage_mus, jnp.where(held, mu, 0.0)]),
+            _times(tk, tk + 0.5 * h, tk + h, t_node),
+        )
+        stage_covectors = [-w * forces[j] for j, w in enumerate(WEIGHTS)]
         zero = jnp.zeros_like(qk)
         if side == "plus":
-            return [*stage_covectors, -multiplier_force(qk, nodal, tk), zero]
-        return [*stage_covectors, zero, multiplier_force(qk1, nodal, tk + h)]
+            return [*stage_covectors, -forces[3], zero]
+        return [*stage_covectors, zero, forces[3]]
 
     @staticmethod
     def held_columns(side: str):
@@ -209,21 +215,27 @@ class Lobatto(CentredNodes, QuadratureRule):
         """
         q1, q2, q3 = self.stage_positions(qk, stage, qk1)
         q_end, t_end = (qk1, tk + h) if side == "plus" else (qk, tk)
+        # g at (q_end, Q₁, Q₂, Q₃) in one batch
+        g = at_stages(
+            held_at, jnp.stack([q_end, q1, q2, q3]), _times(t_end, tk, tk + 0.5 * h, tk + h)
+        )
         rows = [None, None]
         pair, mid = self.held_columns(side)
-        rows[pair] = held_at(q3, tk + h) - held_at(q1, tk)
-        rows[mid] = held_at(q2, tk + 0.5 * h)
-        return held_at(q_end, t_end), jnp.stack(rows, axis=-1)
+        rows[pair] = g[3] - g[1]
+        rows[mid] = g[2]
+        return g[0], jnp.stack(rows, axis=-1)
 
     def discrete_constraints(self, forms, side, qk, qk1, h, tk=0.0, offset=None, stage=None):
         r"""``(c_end, [c_a c_b])`` with ``c_j = A(Q_j, t_j) V_j + b(Q_j, t_j)``: the row at the
         unknown end's stage, shape (m,), and at the other two, shape (m, 2)."""
         if stage is None:
             self._need_stage("ω_d")
-        values = []
-        for q, v, t in self.nodes(qk, stage, qk1, h, tk):
+
+        def row(q, v, t):
             c = forms(q, t) @ v
-            values.append(c if offset is None else c + offset(q, t))
+            return c if offset is None else c + offset(q, t)
+
+        values = at_stages(row, *self.stacked_nodes(qk, stage, qk1, h, tk))
         end, (a, b) = self.rows_of(side)
         return values[end], jnp.stack([values[a], values[b]], axis=-1)
 
@@ -232,8 +244,8 @@ class Lobatto(CentredNodes, QuadratureRule):
         the stages are not known)."""
         if stage is None:
             return super().step_energy(energy, qk, qk1, h, tk)
-        nodes = self.nodes(qk, stage, qk1, h, tk)
-        return sum(w * energy(q, v, t) for w, (q, v, t) in zip(WEIGHTS, nodes, strict=True))
+        values = at_stages(energy, *self.stacked_nodes(qk, stage, qk1, h, tk))
+        return sum(w * values[j] for j, w in enumerate(WEIGHTS))
 
     @staticmethod
     def stage_from_unknowns(side: str, qk, qk1, unknowns):
@@ -251,4 +263,26 @@ class Lobatto(CentredNodes, QuadratureRule):
         return jnp.stack([q, 0.5 * (q + q_other_guess)], axis=-1)
 
 
-__all__ = ["IIID", "NODES", "WEIGHTS", "Lobatto"]
+def _times(*times):
+    """Node times (Python floats or scalars) as one array of shape (len(times),)."""
+    return jnp.stack([jnp.asarray(t, dtype=jnp.result_type(*times)) for t in times])
+
+
+def _stack(nodes):
+    q, v, t = zip(*nodes, strict=True)
+    return jnp.stack(q), jnp.stack(v), _times(*t)
+
+
+def at_stages(fn, *stacked):
+    """``fn`` at every stage at once: ``jax.vmap`` over the leading axis of ``stacked``.
+
+    One trace of ``fn`` (of ``L``, ``F``, ``A``, ``g`` …) serves the three stages, and a
+    derivative of the step is one derivative of that batched trace: with a Python loop
+    over the stages the step's program held three copies of each model function and of
+    each of its derivatives, which tripled its tracing and compile time (issue 30).
+    The arithmetic of each stage is unchanged; the rule's weighted sums keep their order.
+    """
+    return jax.vmap(fn)(*stacked)
+
+
+__all__ = ["IIID", "NODES", "WEIGHTS", "Lobatto", "at_stages"]
