@@ -285,4 +285,4 @@ def at_stages(fn, *stacked):
     return jax.vmap(fn)(*stacked)
 
 
-__all__ = ["IIID", "NODES", "WEIGHTS", "Lobatto", "at_stages"]
+__all__ = ["IIID", "NODES", "WEIGHTS", "Lobatto"]

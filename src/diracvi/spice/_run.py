@@ -548,12 +548,13 @@ def _march(
     system = netlist.system
     ctl = controls(netlist, settings)
     budget = tries_budget(settings)
+    has_junctions = junctions(system) is not None
     # junctions (diodes, transistors) are nonlinear: not worth the sparse path's probes
     linear_candidate = (
         isinstance(system, InterconnectedSystem)
         and system.n >= SPARSE_MIN_COORDINATES
         and not relays(system)
-        and not junctions(system)
+        and not has_junctions
     )
     if linear_candidate:
         try:
@@ -583,7 +584,7 @@ def _march(
         # without one, every corner is a breakpoint or a switching instant, which the
         # check skips anyway, and its second-order estimate held a switch ring at
         # reltol 1e-5 to a fifth of the steps its step error allows
-        gap_check=junctions(system) is not None,
+        gap_check=has_junctions,
     )
 
 
