@@ -435,7 +435,7 @@ def tries_budget(settings: TranSettings) -> int:
     take 250 to 600 at their own .tran), times ``(1e-3/reltol)^(1/3)`` below SPICE's
     default reltol: the midpoint rule's local error is ``O(h³)``, so a tolerance
     tightened by ``k`` takes ``k^(1/3)`` times the steps (``ng_switch_osc`` at reltol
-    1e-5 took 15 357 tries to 74.9 ns of 80, its budget 12 368 without the factor). The
+    1e-5 takes about 14 000 tries besides the aimed ones, its budget 10 500 without). The
     retries that place a switch's flip on its instant are not counted
     (:func:`~diracvi.driver.adaptive.adaptive`: a few per event, thousands in a switched
     ring oscillator)."""
