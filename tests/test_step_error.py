@@ -6,7 +6,8 @@ step doubling reads it as ``q₂ − q_c = 2δ`` whatever the step. The control 
 the step where that floor put it (``ng_inv_vdmos``: 7e-14 s, the run stopped at its
 tries budget). ``diracvi.driver.step_error.alternating`` fits the period-2 part from the
 last try's and this try's nodes; an accepted try whose error is mostly that part is sized
-by the rest.
+by the rest. ``alternating_from_retry`` fits it from two tries of one start instead (the
+try after a switching instant, whose last try is on another law).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import pytest
 
 from _ngspice import available, fine_transient
 from diracvi import spice
-from diracvi.driver.step_error import alternating, estimate
+from diracvi.driver.step_error import alternating, alternating_from_retry, estimate
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
 
@@ -59,6 +60,36 @@ def test_alternating_of_a_smooth_signal_falls_as_the_fourth_power_of_the_step():
     fits = [abs(alternating(np, *_increments(_nodes(f, h, 0.7 * h)), h, 0.7 * h)) for h in sizes]
     orders = np.log2(np.array(fits[:-1]) / np.array(fits[1:]))
     assert np.all(np.abs(orders - 4.0) < 0.1), orders
+
+
+def _doubling(lam, y0, h):
+    """Step doubling on ``y' = λy`` under the midpoint rule (the trapezoidal rule on a
+    linear equation, amplification ``(1 + z/2)/(1 − z/2)``): ``q₂ − q_c`` of a try of ``h``."""
+
+    def r(z):
+        return (1.0 + z / 2.0) / (1.0 - z / 2.0)
+
+    return y0 * (r(lam * h / 2.0) ** 2 - r(lam * h))
+
+
+def test_alternating_from_retry_separates_the_floor_from_the_truncation_error():
+    # two tries of one start, H_a and H_b = 0.6 H_a, each reading q₂ − q_c = 2δ + its
+    # own truncation difference; the fit recovers δ, its error falling as H⁴ (a step
+    # below the truncation difference, O(H³), it is taken out of)
+    lam = np.array([-1.0, -3.0, 0.5])
+    y0, delta = np.array([1.0, -0.4, 2.0]), np.array([1e-7, 0.0, -3e-7])
+    errors, truncation = [], []
+    for h in (4e-2, 2e-2, 1e-2):
+        d_a, d_b = _doubling(lam, y0, h) + 2 * delta, _doubling(lam, y0, 0.6 * h) + 2 * delta
+        errors.append(np.max(np.abs(alternating_from_retry(d_a, d_b, h, 0.6 * h) - delta)))
+        truncation.append(np.max(np.abs(d_b - 2 * delta)))
+    orders = np.log2(np.array(errors[:-1]) / np.array(errors[1:]))
+    assert np.all(np.abs(orders - 4.0) < 0.1), orders
+    assert errors[-1] < 0.02 * truncation[-1]  # measured 7.5e-3 (z = λH = 0.03)
+    # a difference exactly 2δ + K H³ gives δ to round-off
+    k = np.array([2.0, -1.0, 0.0])
+    exact = alternating_from_retry(2 * delta + k * 8e-6, 2 * delta + k * 1e-6, 2e-2, 1e-2)
+    assert np.max(np.abs(exact - delta)) < 1e-20
 
 
 def test_the_smooth_error_is_the_error_of_the_same_try_without_the_alternation():

@@ -39,6 +39,18 @@ sources) adds ``2δ`` to ``q_f − q_c`` at every ``H``, a floor. So the period-
 fitted from the last try's nodes and this one's (:func:`~.step_error.alternating`), and an
 accepted try whose error without it is below half its error is sized by that smaller
 error (``ng_inv_vdmos``: the floor at 0.73–0.8 held its step at 7e-14 s).
+In a circuit with switches every try with ``δ`` fitted is judged — accepted and sized —
+by the error without it, and where the nodes before the start are on another law (the
+try after a switching instant) ``δ`` is fitted from a rejected try of the same start
+instead (:func:`~.step_error.alternating_from_retry`). There the floor is several
+tolerances (the 7-stage ring of ``tests/test_switches.py`` at reltol 1e-5: ``δ`` ≈ 8e-19
+C, 7.7 tolerances, through the whole run), so a try after a flip, its estimate
+unfitted, was rejected from 1.5 ps down to 0.1 fs (13 tries per flip on average, up to
+80), and between flips a try whose floor took its error over 1 was rejected (in
+``ng_switch_osc``, error 1.06 against 0.69 without the floor: its retry passed, two tries
+a step). Nor is ``δ`` taken out of a switched circuit's nodes: the mode lives on (in the
+momenta: the next try fits the same amplitude), and the moved nodes spoil the next fit
+from the last try's nodes.
 
 **The gap between tries.** The output is a quadratic through the step centres
 (:mod:`diracvi.spice._resample`); step doubling checks it inside a try (the coarse
@@ -97,7 +109,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..discretization.equations import StepEquations, first_guess, split
 from ..discretization.rules import get_rule
 from ..errors import ModelError
 from ..runtime.compile import (
@@ -111,10 +122,18 @@ from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
 from ..solvers.newton import NewtonSolver
 from . import events
-from . import pinned as pinned_positions
 from .algebraic import algebraic_mask
 from .rebase import rebase_map
-from .step_error import _ORDER, SAFETY, alternating, estimate, gap_error, growth
+from .step_error import (
+    _ORDER,
+    SAFETY,
+    alternating,
+    alternating_from_retry,
+    estimate,
+    gap_error,
+    growth,
+)
+from .tries import one_step, three_steps
 
 #: how many times the adaptive program has been traced (tests: a new step size, a new
 #: tolerance or a new start does not trace again)
@@ -178,62 +197,6 @@ class AdaptiveRun(NamedTuple):
         return MESSAGES[self.status]
 
 
-def _one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
-    eqs = StepEquations(system, rule, "plus", h, q, p, t)
-    guess = first_guess(system, rule, q, q_guess, mu_guess)
-    res = solver.solve(eqs, guess, solver.init(eqs))
-    q1, mu = split(system, res.x)
-    p1 = solver.momentum(eqs, res.x, res.state)
-    ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
-    return q1, p1, mu[: system.m], ok, res.iterations
-
-
-def _three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None):
-    """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
-    fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
-    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations,
-    means)``, the first four stacked in that order; ``means``: each step's mean of its
-    ends as solved (for the pinned coordinates, :mod:`.pinned`).
-
-    ``pin = (mask, (m₋₂, m₋₁), h_last, use)``: the pinned coordinates, the means of the
-    last two recorded steps (each ``h_last`` long) and whether they may be used (no
-    corner since); each step's end is re-pinned from the two steps before it (the coarse
-    and the first fine one: the last two recorded; the second fine one: the last recorded
-    and the first fine one).
-
-    One step solve in a loop of three iterations, each picking its inputs, rather than
-    three solves written out: the step (Newton, its Jacobian, the limiting) is then
-    traced, lowered and compiled once instead of three times — most of a first call's
-    compilation of this program (the steps run in the same order on the same values)."""
-    half = 0.5 * h_try
-    n, m = q.shape[0], mu_g.shape[0]
-
-    def one(k, out):
-        qs, ps, mus, oks, its, means = out
-        fine2 = k == 2
-        h = jnp.where(k == 0, h_try, half)
-        # the second fine step starts where the first ended, guessed on from there
-        start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
-        dq = jnp.where(fine2, qs[1] - q, h * vel)
-        guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
-        qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
-                                dq, guess_mu)  # fmt: skip
-        mean = 0.5 * (start_q + qk)
-        if pin is not None:
-            mask, (m2, m1), h_last, use = pin
-            history = (jnp.where(fine2, m1, m2), jnp.where(fine2, means[1], m1))
-            sizes = (h_last, jnp.where(fine2, half, h_last), h)
-            qk, _ = pinned_positions.repin(mask & use, start_q, qk, history, sizes)
-        return (qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk),
-                its + itk, means.at[k].set(mean))  # fmt: skip
-
-    dtype = q.dtype
-    init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
-            jnp.zeros(3, bool), jnp.asarray(0), jnp.zeros((3, n), dtype))  # fmt: skip
-    qs, ps, mus, oks, its, means = jax.lax.fori_loop(0, 3, one, init)
-    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its, means
-
-
 def _march(system, rule, solver, capacity, x):
     """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
     TRACES["count"] += 1
@@ -245,7 +208,7 @@ def _march(system, rule, solver, capacity, x):
 
     def step(modes, h, t, q, p, dq, mu):
         stepped = events.with_modes(system, modes)
-        q1, p1, mu1, ok, its = _one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        q1, p1, mu1, ok, its = one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
         # the momenta of algebraic coordinates held at their exact value 0 (their
         # round-off would alternate undamped: driver/algebraic.py)
         return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok, its
@@ -277,7 +240,7 @@ def _march(system, rule, solver, capacity, x):
         # the pinned coordinates' history: the last try's two halves, unless a corner
         # (a breakpoint, a switching instant) ended it (.pinned)
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
-        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = _three_steps(
+        (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
             step, modes, h_try, t, q, p, vel, mu_g, pin
         )
         ok = oks[0] & oks[1] & oks[2]
@@ -287,6 +250,15 @@ def _march(system, rule, solver, capacity, x):
         h_last = c["h_last"]
         last = (c["u_prev"] * h_last, c["v_last"] * h_last)
         delta = jnp.where(c["gap_ok"], alternating(jnp, last, (q1 - q, q2 - q1), h_last, half), 0.0)
+        # in a switched circuit, a retry from the start of a rejected try fits it from the
+        # two tries instead (step_error.alternating_from_retry): after a switching instant
+        # the nodes before the start are on another law, and the fit above is off
+        switched = bool(found)
+        retried = c["rej_ok"] & ((h_try / c["rej_h"]) ** 3 <= 0.75) & switched
+        d_raw = q2 - qc
+        delta = jnp.where(
+            retried, alternating_from_retry(c["rej_d"], d_raw, c["rej_h"], h_try), delta
+        )
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]),
@@ -299,8 +271,16 @@ def _march(system, rule, solver, capacity, x):
             found, modes, (q, q1, q2, qc), (p, p1, p2, pc), c["e_last"], h_try, x["event_tol"],
             hmin,
         )  # fmt: skip
-        aim = ok & (err <= 1.0) & ~located  # retried at the switching instant
-        passes = ok & (err <= 1.0) & located
+        # a try whose error is mostly the period-2 part, which no shorter step lowers
+        # (step_error.estimate), is sized by the rest (only where it holds the step back:
+        # below 0.091 the growth is at its cap, 2), and accepted on the whole; in a
+        # switched circuit every try with the part fitted is judged by the rest (the
+        # module doc)
+        plain_floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
+        floor = jnp.where(switched, c["gap_ok"] | retried, plain_floor)
+        judged = jnp.where(floor, smooth, err)
+        aim = ok & (judged <= 1.0) & ~located  # retried at the switching instant
+        passes = ok & (judged <= 1.0) & located
         # the interpolant between the last try's second centre and this try's first (the
         # gap no estimate above sees, see the module doc): too coarse there, this try is
         # retried shorter, or the last one taken again (once: a ringing junction's
@@ -319,14 +299,11 @@ def _march(system, rule, solver, capacity, x):
         own = coarse & (h_try > 2.0 * h_last * (1.0 + 1e-9))
         back = coarse & ~own & c["back_ok"] & (c["i"] >= 2)
         accept = passes & ~own & ~back
-        # an accepted try whose error is mostly the period-2 part, which no shorter step
-        # lowers (step_error.estimate), is sized by the rest; a try is accepted on the whole
-        # (only where it holds the step back: below 0.091 the growth is at its cap, 2)
-        floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
-        grow = growth(jnp, jnp.where(floor, smooth, err))
+        grow = growth(jnp, judged)
         # and taken out of the nodes (not the pinned ones: .pinned): the two steps are
-        # kept as solved, their ends moved along an alternation that keeps KCL (B δ = 0)
-        fix = jnp.where(floor & ~x["pinned"], delta, 0.0)
+        # kept as solved, their ends moved along an alternation that keeps KCL (B δ = 0);
+        # not in a switched circuit, where the mode outlives it (the module doc)
+        fix = jnp.where(floor & ~x["pinned"] & ~switched, delta, 0.0)
         q1, q2, p1, p2 = q1 + fix, q2 - fix, p1 + x["gauge"] @ fix, p2 - x["gauge"] @ fix
         v2 = (q2 - q1) / half
         h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
@@ -385,7 +362,13 @@ def _march(system, rule, solver, capacity, x):
         for key in _UNDO:
             new["was_" + key] = jnp.where(accept, c[key], c["was_" + key])
         new["was_h"] = jnp.where(accept, h_try, c["was_h"])
+        # the last rejected try from this start (its q₂ − q_c), for a retry's fit of δ
+        kept = ok & ~accept & ~back
+        new["rej_ok"] = ~accept & ~back & (ok | c["rej_ok"])
+        new["rej_d"] = jnp.where(kept, d_raw, c["rej_d"])
+        new["rej_h"] = jnp.where(kept, h_try, c["rej_h"])
         new["tries"] = c["tries"] + 1
+
         new["newton"] = c["newton"] + its
         new["aims"] = c["aims"] + jnp.where(aim, 1, 0)
         new["rejected"] = c["rejected"] + jnp.where(accept, 0, 1)
@@ -432,6 +415,9 @@ def _march(system, rule, solver, capacity, x):
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
         "gap_ok": jnp.asarray(False),
         "redone": jnp.asarray(False),
+        "rej_ok": jnp.asarray(False),
+        "rej_d": jnp.zeros(n, dtype),
+        "rej_h": jnp.asarray(1.0, dtype),
         **{"was_" + key: x[key] for key in _UNDO},
         "was_h": x["h"],
         "T": jnp.zeros(capacity + 1, dtype).at[0].set(x["t"]),

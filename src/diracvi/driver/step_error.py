@@ -6,7 +6,9 @@ coarse step against its two fine ones, per coordinate and per multiplier, at the
 :data:`SAFETY` of the tolerance (the rules are in :mod:`diracvi.driver.adaptive`'s
 docstring); :func:`growth` sizes the next try and :func:`gap_error` judges the output's
 interpolant between two tries. :func:`alternating` fits the period-2 part of the nodes
-(a mode the midpoint rule does not damp), which :func:`estimate` can leave out.
+(a mode the midpoint rule does not damp) from the nodes around a try's start, and
+:func:`alternating_from_retry` from two tries of one start; :func:`estimate` can leave it
+out.
 """
 
 from __future__ import annotations
@@ -64,6 +66,23 @@ def alternating(xp, last, this, h_last, half):
         num = num + values[i] / weight
         den = den + (-1.0) ** i / weight
     return num / den
+
+
+def alternating_from_retry(rejected, this, h_rejected, h_try):
+    """The period-2 part ``δ`` of each coordinate at a try's start, from two tries of one
+    start (:func:`estimate`): a rejected try of ``H_a`` whose ``q₂ − q_c`` was ``d_a``, and
+    this one of ``H_b`` with ``d_b``. The alternation adds ``2δ`` to both, the truncation
+    error ``K H³`` (the midpoint rule's local error, to leading order), so
+
+        d_a = 2δ + K H_a³,   d_b = 2δ + K H_b³   ⇒   δ = (d_b − ρ d_a) / (2 (1 − ρ)),
+
+    ``ρ = (H_b/H_a)³``; its error is the truncation error's next order, ``O(H⁴)`` (a share
+    ``~(1 − H_b/H_a)`` of ``K H⁴``'s coefficient), and ``1/(1 − ρ)`` amplifies the two
+    estimates' own error: used with ``ρ ≤ 3/4`` only. Unlike :func:`alternating` it needs
+    no step before the start, so it fits ``δ`` on the try after a corner (a switching
+    instant), where the nodes before it are on another law."""
+    rho = (h_try / h_rejected) ** 3
+    return (this - rho * rejected) / (2.0 * (1.0 - rho))
 
 
 def estimate(
@@ -157,4 +176,13 @@ def gap_error(xs, ys):
     return jnp.where(ringing, 0.0, jnp.maximum(left, right))
 
 
-__all__ = ["SAFETY", "Estimate", "alternating", "estimate", "gap_error", "growth", "growth_of"]
+__all__ = [
+    "SAFETY",
+    "Estimate",
+    "alternating",
+    "alternating_from_retry",
+    "estimate",
+    "gap_error",
+    "growth",
+    "growth_of",
+]

@@ -432,10 +432,15 @@ def tries_budget(settings: TranSettings) -> int:
     """How many step tries a variable-step run may take: 10 000, and 10 per TMAX of the
     run (a circuit whose error estimate stalls just below its tolerance at a tiny step —
     a ringing junction — would otherwise creep on for hours; the corpus's diode decks
-    take 250 to 600 at their own .tran). The retries that place a switch's flip on its
-    instant are not counted (:func:`~diracvi.driver.adaptive.adaptive`: a few per event,
-    thousands in a switched ring oscillator)."""
-    return 10_000 + 10 * math.ceil(settings.stop / settings.max_step)
+    take 250 to 600 at their own .tran), times ``(1e-3/reltol)^(1/3)`` below SPICE's
+    default reltol: the midpoint rule's local error is ``O(h³)``, so a tolerance
+    tightened by ``k`` takes ``k^(1/3)`` times the steps (``ng_switch_osc`` at reltol
+    1e-5 takes about 14 000 tries besides the aimed ones, its budget 10 500 without). The
+    retries that place a switch's flip on its instant are not counted
+    (:func:`~diracvi.driver.adaptive.adaptive`: a few per event, thousands in a switched
+    ring oscillator)."""
+    tighter = max(1.0, (1e-3 / settings.reltol) ** (1.0 / 3.0))
+    return math.ceil(tighter * (10_000 + 10 * math.ceil(settings.stop / settings.max_step)))
 
 
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs, overrides) -> Result:

@@ -1,0 +1,78 @@
+r"""A try of the variable-step loop: one step of ``H`` and two of ``H/2`` from one start.
+
+The compiled loop (:mod:`diracvi.driver.adaptive`) judges a step size by step doubling:
+from ``(q, p)`` at ``t`` the coarse step of ``H`` and the two fine ones of ``H/2`` are
+each an ordinary discrete Dirac step, ``StepEquations(…, h)`` solved by Newton;
+:func:`three_steps` takes them, with the pinned positions re-pinned at each end
+(:mod:`.pinned`).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+
+from ..discretization.equations import StepEquations, first_guess, split
+from . import pinned as pinned_positions
+
+
+def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
+    """One discrete Dirac step of size ``h`` from ``(q, p)`` at ``t`` (the (+) midpoint
+    equations solved by ``solver`` from the guess ``q_guess``, ``mu_guess``): ``(q₁, p₁,
+    μ, ok, Newton iterations)``, ``ok`` when Newton converged to finite values."""
+    eqs = StepEquations(system, rule, "plus", h, q, p, t)
+    guess = first_guess(system, rule, q, q_guess, mu_guess)
+    res = solver.solve(eqs, guess, solver.init(eqs))
+    q1, mu = split(system, res.x)
+    p1 = solver.momentum(eqs, res.x, res.state)
+    ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
+    return q1, p1, mu[: system.m], ok, res.iterations
+
+
+def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None):
+    """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
+    fine one of ``H/2``, the second fine one of ``H/2`` from the first's end; each
+    guessed from the last velocity. ``(q ends, p ends, μ's, oks, Newton iterations,
+    means)``, the first four stacked in that order; ``means``: each step's mean of its
+    ends as solved (for the pinned coordinates, :mod:`.pinned`).
+
+    ``pin = (mask, (m₋₂, m₋₁), h_last, use)``: the pinned coordinates, the means of the
+    last two recorded steps (each ``h_last`` long) and whether they may be used (no
+    corner since); each step's end is re-pinned from the two steps before it (the coarse
+    and the first fine one: the last two recorded; the second fine one: the last recorded
+    and the first fine one).
+
+    One step solve in a loop of three iterations, each picking its inputs, rather than
+    three solves written out: the step (Newton, its Jacobian, the limiting) is then
+    traced, lowered and compiled once instead of three times — most of a first call's
+    compilation of this program (the steps run in the same order on the same values)."""
+    half = 0.5 * h_try
+    n, m = q.shape[0], mu_g.shape[0]
+
+    def one(k, out):
+        qs, ps, mus, oks, its, means = out
+        fine2 = k == 2
+        h = jnp.where(k == 0, h_try, half)
+        # the second fine step starts where the first ended, guessed on from there
+        start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
+        dq = jnp.where(fine2, qs[1] - q, h * vel)
+        guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
+        qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
+                                dq, guess_mu)  # fmt: skip
+        mean = 0.5 * (start_q + qk)
+        if pin is not None:
+            mask, (m2, m1), h_last, use = pin
+            history = (jnp.where(fine2, m1, m2), jnp.where(fine2, means[1], m1))
+            sizes = (h_last, jnp.where(fine2, half, h_last), h)
+            qk, _ = pinned_positions.repin(mask & use, start_q, qk, history, sizes)
+        return (qs.at[k].set(qk), ps.at[k].set(pk), mus.at[k].set(muk), oks.at[k].set(okk),
+                its + itk, means.at[k].set(mean))  # fmt: skip
+
+    dtype = q.dtype
+    init = (jnp.zeros((3, n), dtype), jnp.zeros((3, n), dtype), jnp.zeros((3, m), dtype),
+            jnp.zeros(3, bool), jnp.asarray(0), jnp.zeros((3, n), dtype))  # fmt: skip
+    qs, ps, mus, oks, its, means = jax.lax.fori_loop(0, 3, one, init)
+    return (qs[0], qs[1], qs[2]), (ps[0], ps[1], ps[2]), (mus[0], mus[1], mus[2]), oks, its, means
+
+
+__all__ = ["one_step", "three_steps"]
