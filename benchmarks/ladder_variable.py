@@ -20,7 +20,9 @@ pattern, the four probe builds (of them: the programs' keys, loading or compilin
 and the loop's parts — the steps, the offsets, the error estimates, recording, the maps
 of new step sizes, the verification; ngspice ``-b`` beside it.
 
-Options for the large ladders (minutes each, so not in the default run):
+Options for the large ladders (minutes each, so not in the default run; at 10⁵ stages
+``--probes --single`` took ngspice 385 CPU s and diracvi 366 CPU s at a peak RSS of
+4.2 GB, ``benchmarks/README.md``):
 
 - ``--probes``: a ``.save`` line of the probes in the deck, for both programs: each keeps
   only those on its output (without it, every node voltage and inductor current on the

@@ -21,7 +21,7 @@ from diracvi.bench.ladders import ladder
 from diracvi.driver import adaptive as compiled
 from diracvi.driver import adaptive_sparse as sparse
 from diracvi.driver import sparse_offsets
-from diracvi.solvers.sparse_affine import MAX_DRIVERS
+from diracvi.solvers.sparse_affine import MAX_DRIVERS, SparseAffineMap
 from diracvi.spice import _ngspice as ng
 from diracvi.spice import _run
 from diracvi.spice._resample import Sampler
@@ -93,6 +93,49 @@ def test_breakpoints_land_exactly_and_bound_the_factorizations(counted_splu):
     assert np.max(march.h) <= settings.max_step * (1 + 1e-12)
     assert len(counted_splu) == info.factorizations
     assert info.factorizations <= 4 + (len(info.levels) + 1) + 2 * info.landings
+
+
+def test_maps_dropped_from_the_cache_are_verified_before_they_go(monkeypatch):
+    """A map leaves the cache with its sampled steps verified (a large circuit's maps
+    and samples are not kept to the end): every map that accepted a step is checked, at
+    most ``VERIFY_MAX`` steps each, and a bad check of one dropped mid-run rejects the
+    run."""
+    monkeypatch.setattr(sparse, "CACHE_SIZE", 2)
+    made, checked = [], {}
+    original_init, original_check = sparse._Map.__init__, sparse._Map.check
+
+    def init(self, *a, **k):
+        original_init(self, *a, **k)
+        made.append(self)
+
+    def check(self):
+        if self.samples:
+            checked[id(self)] = checked.get(id(self), 0) + len(self.samples)
+        return original_check(self)
+
+    monkeypatch.setattr(sparse._Map, "__init__", init)
+    monkeypatch.setattr(sparse._Map, "check", check)
+    march = sparse_run(PULSE_DECK, stop=1e-7)[3]  # (its first 145 tries: 45 maps made)
+    assert march.status == 0
+    stepped = [m for m in made if m.accepted]
+    assert len(stepped) > sparse.CACHE_SIZE + 2  # maps were dropped mid-run
+    for m in stepped:
+        assert 1 <= checked.get(id(m), 0) == m.sampled <= sparse.VERIFY_MAX
+        assert not m.samples  # nothing left unverified
+
+    made.clear()
+    calls = []  # the maps made so far at each check
+    original = SparseAffineMap._check_steps
+
+    def first_is_bad(self, z, y, t):
+        calls.append(len(made))
+        worst = original(self, z, y, t)
+        return 1.0 if len(calls) == 1 else worst
+
+    monkeypatch.setattr(SparseAffineMap, "_check_steps", first_is_bad)
+    with pytest.raises(sparse.NotSparseAffine, match=r"off by 1\.0e"):
+        sparse_run(PULSE_DECK, stop=1e-7)
+    assert calls[0] < len(made)  # the bad check was made mid-run, maps were made after
 
 
 def _many_sources(count: int) -> str:

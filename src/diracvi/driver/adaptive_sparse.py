@@ -99,6 +99,9 @@ DESCRIBE = (
 #: many steps of a map (and the first), at most :data:`VERIFY_MAX` per map
 VERIFY_EVERY = 256
 VERIFY_MAX = 12
+#: the samples are verified as they come, this many at a time (the steps one call of
+#: the probe program checks)
+VERIFY_BATCH = 3
 
 
 class SparseRun(NamedTuple):
@@ -123,7 +126,19 @@ class _Map:
     def __init__(self, found, grid):
         self.found, self.h, self.grid = found, found.h, grid
         self.n, self.size = found.n, found.size
-        self.samples = []  # (z, y, t) of accepted steps to verify
+        self.samples = []  # (z, y, t) of accepted steps not yet verified
+        self.accepted = 0  # steps of this map accepted so far
+        self.sampled = 0  # of them, kept for the verification (verified or not)
+        self.worst = 0.0  # the largest relative correction of the verified ones
+
+    def check(self) -> float:
+        """Verify the samples kept so far (then drop them): the largest relative Newton
+        correction of this map's verified steps (see :func:`_verify`)."""
+        if self.samples:
+            z, y, t = (np.stack(c) for c in zip(*self.samples, strict=True))
+            self.worst = max(self.worst, self.found._check_steps(z, y, t))
+            self.samples = []
+        return self.worst
 
     def step(self, z, u):
         """``(z_next, y)`` of one step from ``z`` with the moving offsets ``u`` (the
@@ -173,7 +188,7 @@ class _Maps:
         self.cache: OrderedDict = OrderedDict()
         self.builds = self.factorizations = 0
         self.levels: set = set()
-        self.retired: list = []  # maps dropped from the cache with samples still to verify
+        self.worst = 0.0  # the verification of maps dropped from the cache (their samples)
         self.basis = None  # the three builds the others are combined from
         self.fit = None  # True / False once checked
         self.top = top
@@ -225,7 +240,9 @@ class _Maps:
             # off-grid maps (a landing's) go first, then the least recently used
             off = [k for k, v in self.cache.items() if not v.grid and k != key]
             drop = off[0] if off else next(iter(self.cache))
-            self.retired.append(self.cache.pop(drop))
+            # (verified as it goes: a dropped map is not kept for the end, 13 maps of
+            # a 10⁴-stage ladder and their samples were a third of its run's memory)
+            self.worst = max(self.worst, self.cache.pop(drop).check())
         return entry
 
     def _no_drivers(self, found) -> None:
@@ -261,7 +278,7 @@ class _Maps:
         return self._store(key, found, level is not None)
 
     def all(self):
-        return list(self.cache.values()) + self.retired
+        return list(self.cache.values())
 
 
 #: the grid levels built to fit ``A/h + B + C·h`` (see :class:`_Maps`), and the one that
@@ -314,13 +331,7 @@ def _level(h: float, top: float) -> tuple[float, int]:
 
 def _verify(maps: _Maps) -> float:
     """The largest relative Newton correction of the sampled steps (see the module doc)."""
-    worst = 0.0
-    for entry in maps.all():
-        if not entry.samples:
-            continue
-        z, y, t = (np.stack(c) for c in zip(*entry.samples, strict=True))
-        worst = max(worst, entry.found._check_steps(z, y, t))
-    return worst
+    return max([maps.worst, *(entry.check() for entry in maps.all())])
 
 
 class _Tries:
@@ -331,7 +342,6 @@ class _Tries:
     def __init__(self, maps, offsets, n, tolerances, hmax, top):
         self.maps, self.offsets, self.n = maps, offsets, n
         self.tolerances, self.hmax, self.top = tolerances, hmax, top
-        self.count: dict = {}  # accepted steps per map, for the verification sample
         self.landings = 0
 
     def plan(self, h: float, rem: float, top: float):
@@ -375,10 +385,13 @@ class _Tries:
 
     def sample(self, found, z, y, t, steps: int) -> None:
         """Keep an accepted step of ``found`` for the verification (module doc)."""
-        seen = self.count.get(id(found), 0)
-        if seen % VERIFY_EVERY == 0 and len(found.samples) < VERIFY_MAX:
+        seen = found.accepted
+        if seen % VERIFY_EVERY == 0 and found.sampled < VERIFY_MAX:
             found.samples.append((z.copy(), y.copy(), t))
-        self.count[id(found)] = seen + steps
+            found.sampled += 1
+            if len(found.samples) == VERIFY_BATCH:  # (a large circuit's samples are MBs)
+                found.check()
+        found.accepted = seen + steps
 
 
 _NO_OFFSETS = np.zeros((3, 0))

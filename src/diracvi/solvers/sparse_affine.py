@@ -253,9 +253,9 @@ class SparseAffineMap:
         self.seeds = seeds
         self.drivers = self.driver_rows = self.driver_coords = None
         self._nk = lu.kept.size
-        self._parts = self._step = None  # (made when first stepped: see _augmented)
+        self._step = None  # (made when first stepped: see _augmented)
 
-    def _operators(self) -> None:
+    def _operators(self):
         """The step as products with the condensed solve's pieces (see :meth:`run`):
 
             s = T_z z + T_r r₀,   v = S⁻¹ s,   z' = M_z z + M_v v + M_r r₀ + (0, P₀),
@@ -263,7 +263,9 @@ class SparseAffineMap:
 
         with ``v`` the kept unknowns (the multipliers of the nodes, and the unknowns of
         parts not condensed) and ``c`` the constraint rows' residual. All sparse with
-        the parts' own patterns: O(n) entries."""
+        the parts' own patterns: O(n) entries. Returns them and ``M_v``; they are not
+        kept (:meth:`_augmented` makes the step's operators of them once: kept, they were
+        a third of a map's memory, 13 maps in a variable-step run of a large circuit)."""
         import scipy.sparse as sp
 
         n, size, lu = self.n, self.size, self.lu
@@ -285,11 +287,11 @@ class SparseAffineMap:
         m_z = sp.eye(2 * n) + sp.vstack([sp.csr_matrix((n, 2 * n)), self.pz]) + q_of_y @ y_z
         con_z, con_y = self._con[:, : 2 * n], self._con[:, 2 * n :]
         c_r = con_y @ y_r + sp.eye(size - n, size, k=n)
-        self._parts = dict(
+        parts = dict(
             t_z=t_z, m_z=m_z, y_z=y_z, y_v=y_v, c_z=con_z + con_y @ y_z, c_v=con_y @ y_v,
             offsets=sp.vstack([t_r, q_of_y @ y_r, y_r, c_r]).tocsc(),  # (T_r; M_r; Y_r; C_r)
         )  # fmt: skip
-        self._m_v = (q_of_y @ y_v).tocsr()
+        return parts, (q_of_y @ y_v).tocsr()
 
     def resized(self, h, mats, lu):
         """This map at another step size: ``mats = (J_z, J_x, P_z, P_x, r₀, P₀)`` of size
@@ -307,7 +309,7 @@ class SparseAffineMap:
         out.r0, out.pm0 = np.asarray(r0), np.asarray(pm0)
         out._con = sp.hstack([out.jz[self.n :], jx.tocsr()[self.n :]]).tocsr()
         out._nk = lu.kept.size
-        out._parts = out._step = None
+        out._step = None
         return out
 
     def one_step(self, z, u, into, y):
@@ -352,9 +354,9 @@ class SparseAffineMap:
             return self._step
         import scipy.sparse as sp
 
-        if self._parts is None:  # (a map of the variable-step path's fit may never step)
-            self._operators()
-        n, nk, size, parts = self.n, self._nk, self.size, self._parts
+        # (here, when first stepped: a map of the variable-step path's fit may never step)
+        parts, m_v = self._operators()
+        n, nk, size = self.n, self._nk, self.size
         rows, coords = self._moving()
         r_fixed, p_fixed = self.r0.copy(), self.pm0.copy()
         r_fixed[rows], p_fixed[coords] = 0.0, 0.0
@@ -370,7 +372,7 @@ class SparseAffineMap:
         e_s, e_z, e_y, e_c = extra[:a], extra[a:b], extra[b:c], extra[c:]
         self._step = dict(
             g_s=sp.hstack([parts["t_z"], e_s]).tocsr(),
-            g_z=sp.hstack([parts["m_z"], e_z, self._m_v]).tocsr(),
+            g_z=sp.hstack([parts["m_z"], e_z, m_v]).tocsr(),
             y=sp.hstack([parts["y_z"], e_y, parts["y_v"]]).tocsr(),
             c=sp.hstack([parts["c_z"], e_c, parts["c_v"]]).tocsr(),
             width=2 * n + 1 + rows.size + coords.size,
