@@ -127,13 +127,41 @@ def test_packed_circuit_rows_are_the_part_by_part_rows():
 
 
 @pytest.mark.slow
+def test_packed_step_equals_part_by_part():
+    # one variable step (Newton with the junctions limited) from the operating point,
+    # across the input's rising edge, packed and part by part: equal to round-off (the
+    # vmapped groups sum in another order). A whole variable-step run is not compared
+    # bitwise: round-off moves an accept/reject decision, and the runs then differ at
+    # the level of the step control's tolerance.
+    netlist = spice.read(inverters(2))
+    op = netlist.operating_point()
+    rule, solver = get_rule("midpoint"), NewtonSolver(reuse_jacobian=True)
+    mu = np.zeros(netlist.system.m)
+    out = []
+    for system in (netlist.system, events.packed_unless_switched(netlist.system)):
+
+        def step(h, t, q, p, system=system):
+            return _one_step(system, rule, solver, h, t, q, p, q, mu)
+
+        out.append([jax.jit(step)(h, 0.2e-6, op.q0, op.p0) for h in (1e-9, 4e-9)])
+    for plain, packed in zip(*out, strict=True):
+        assert bool(plain[3]) and bool(packed[3])  # both converged
+        for a, b in zip(plain[:2], packed[:2], strict=True):
+            a, b = np.asarray(a), np.asarray(b)
+            assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
+
+
+@pytest.mark.slow
 def test_packed_variable_steps_equal_part_by_part(monkeypatch):
     # the whole run — operating point and variable steps — packed and part by part
     deck = inverters(2, stop="0.6u")
     packed = spice.run(deck)
     monkeypatch.setattr(events, "packed_unless_switched", lambda system: system)
     plain = spice.run(deck)
-    assert np.array_equal(packed.time, plain.time)
+    # the same steps taken (no accept/reject decision moved by round-off) …
+    assert np.array_equal(packed.trajectory.t, plain.trajectory.t)
+    # … and the waveforms equal to the round-off of a node voltage, an impulse over the
+    # step (ε‖w‖/h at h ≈ 1e-11 s: measured 1.4e-9 of the peak, not the 1e-13 of a state)
     for key in plain:
         a, b = np.asarray(plain[key]), np.asarray(packed[key])
-        assert np.max(np.abs(a - b)) <= 1e-13 * max(1.0, np.max(np.abs(a))), key
+        assert np.max(np.abs(a - b)) <= 1e-8 * max(1.0, np.max(np.abs(a))), key
