@@ -502,6 +502,9 @@ class InterconnectedSystem(DiracSystem):
     def _block_diagonal_rows(self, q, t, rows: str):
         """``[⊕ R_i(q_i, t); B(q)]`` for the subsystems' ``rows`` method (each block padded
         with zeros to the columns of its subsystem), then the interaction rows."""
+        if self._packing is not None and not self._any_holonomic():
+            own = self._packed_blocks(q, t, rows)
+            return jnp.concatenate([own, self.interaction_forms(q)], axis=0)
         blocks = []
         for k, skeleton in enumerate(self.subsystems):
             if skeleton.m == 0:  # no rows (most parts of a circuit): nothing to place
@@ -513,6 +516,28 @@ class InterconnectedSystem(DiracSystem):
             blocks.append(jnp.concatenate([left, a, right], axis=1))
         blocks.append(self.interaction_forms(q))
         return jnp.concatenate(blocks, axis=0)
+
+    def _any_holonomic(self) -> bool:
+        """Whether any kind of subsystem has holonomic rows (then its ``one_forms`` rows
+        are fewer than its ``m``: the packed row layout, by ``m``, does not apply)."""
+        return any(any(s.holonomic_mask) for s in self._kinds())
+
+    def _packed_blocks(self, q, t, rows: str):
+        """``⊕ R_i(q_i, t)`` of a packed system without holonomic rows: each group's
+        (G, m_g, n_g) blocks, vmapped, scattered once into the (m_own, n) matrix at
+        the members' row and column blocks. Slicing each member out of the stacks
+        instead put all of its parameters into the program, once per member."""
+        pk, tables = self._packing, self._packing.tables
+        total = sum(s * len(m) for s, m in zip(tables.sizes["m"], tables.members, strict=True))
+        out = jnp.zeros((total, self.n), dtype=q.dtype)
+        groups = [g for g, size in enumerate(tables.sizes["m"]) if size]
+        if not groups:
+            return out
+        blocks = pk.map(lambda s, a: getattr(s, rows)(a, t), pk.split(q, "n"))
+        for g in groups:
+            r, c = tables.table("m", g), tables.table("n", g)
+            out = out.at[r[:, :, None], c[:, None, :]].set(blocks[g])
+        return out
 
     def _split_multipliers(self, mu):
         out, start = [], 0
@@ -551,6 +576,13 @@ class InterconnectedSystem(DiracSystem):
 
     def constraint_offset(self, q, t=0.0):
         """The affine terms of the one-form rows (zero for linear rows), or ``None``."""
+        if self._packing is not None:
+            if not self.has_offset:  # (the kinds' flags: no member sliced out)
+                return None
+            if not self._any_holonomic():
+                parts = self._per_group(lambda s, a: _offset_or_zero(s, a, t), (q, "n"))
+                inter = jnp.zeros(len(self._interaction_names), dtype=q.dtype)
+                return jnp.concatenate([self._packing.join(parts, "m"), inter])
         if not any(s.constraint_offset(qi, t) is not None for s, qi in self._pairs(q)):
             return None
         parts = []
@@ -585,6 +617,12 @@ class InterconnectedSystem(DiracSystem):
             f"InterconnectedSystem(name={self.name!r}, subsystems=[{subs}], "
             f"interactions={len(self._interaction_names)})"
         )
+
+
+def _offset_or_zero(sub, q, t):
+    """``sub``'s one-form offset ``b(q, t)``, zeros where it has none."""
+    b = sub.constraint_offset(q, t)
+    return jnp.zeros(sub.m, dtype=q.dtype) if b is None else b
 
 
 def interconnect(systems, interactions, name: str | None = None) -> InterconnectedSystem:

@@ -104,6 +104,8 @@ def junctions(system):
     kinds = type(system)._kinds(system)
     if not any(getattr(k, "junctions", ()) for k in kinds):
         return None
+    if getattr(system, "_packing", None) is not None:
+        return _packed_junctions(system, kinds)
     index, limits = [], []
     for offset, sub in zip(system._offsets[:-1], members(system), strict=True):
         own = getattr(sub, "junctions", ()) or ()
@@ -113,6 +115,37 @@ def junctions(system):
     if any(x.shape[1] == 5 for x in limits):
         limits = [_five(x) for x in limits]
     return np.asarray(index, dtype=np.int64), jnp.concatenate(limits, axis=0)
+
+
+def _packed_junctions(system, kinds):
+    """:func:`junctions` of a packed interconnection, group by group: a group's tables
+    are its stacked ``junction_limits`` (G, J, columns) read as G·J rows, its indices the
+    members' offsets plus the kind's own junctions. Slicing each member out of the stacks
+    instead put every parameter of every part into the step program (a chain of N
+    inverters: ~100 slices per transistor, the program growing with N). The rows are put
+    back in subsystem order (one constant gather), as the unpacked system lists them."""
+    packing = system._packing
+    offsets = np.asarray(system._offsets[:-1], dtype=np.int64)
+    index, limits = [], []
+    for g, (kind, members) in enumerate(zip(kinds, packing.tables.members, strict=True)):
+        own = np.asarray(getattr(kind, "junctions", ()) or (), dtype=np.int64)
+        if not own.size:
+            continue
+        index.append((offsets[members][:, None] + own[None, :]).reshape(-1))
+        stacked = getattr(packing.stacks[g], "junction_limits", None)
+        if stacked is None:  # not an array leaf: one table shared by the whole group
+            shared = jnp.asarray(packing.tables.rests[g].junction_limits)
+            stacked = jnp.broadcast_to(shared, (len(members), *shared.shape))
+        stacked = jnp.asarray(stacked)
+        limits.append(stacked.reshape(-1, stacked.shape[-1]))
+    if any(x.shape[1] == 5 for x in limits):
+        limits = [_five(x) for x in limits]
+    index = np.concatenate(index)
+    order = np.argsort(index, kind="stable")
+    limits = jnp.concatenate(limits, axis=0)
+    if not np.array_equal(order, np.arange(len(order))):
+        limits = limits[order]
+    return index[order], limits
 
 
 def junction_limiter(eqs):

@@ -133,6 +133,8 @@ class _Equations:
                 "analysis handles circuits (one-forms only). Start it from a given state."
             )
         self.assembly, self.system, self.t0 = assembly, system, np.float64(t0)
+        # the equations' program traces each kind of part once (not once per part)
+        self.stepped = events.packed_unless_switched(system)
         self.n, self.m = system.n, system.m
         self.q0 = np.asarray(assembly.q0, dtype=np.float64)
         rows = {name: j for j, name in enumerate(system.constraint_names)}
@@ -149,7 +151,7 @@ class _Equations:
         self.held_values = np.asarray(list(hold.values()), dtype=np.float64)
         self.dep = self._dependent()
         self.size = self.n + self.m + len(self.dep) + len(self.held)
-        found = junctions(system)
+        found = junctions(self.stepped)
         self.junction_index, self.junction_limits = (
             (np.zeros(0, np.int64), np.zeros((0, 3))) if found is None else
             (found[0], np.asarray(found[1], dtype=np.float64))
@@ -162,7 +164,7 @@ class _Equations:
     def _program(self, modes, v, mu, q, hold_i, source, gmin):
         data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
         out = _linearized(
-            self.system, self.t0, *data, *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+            self.stepped, self.t0, *data, *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
             np.float64(source), np.float64(gmin),
         )  # fmt: skip
         return tuple(np.asarray(a) for a in out)

@@ -574,7 +574,7 @@ def _march(
                 record.grid_values = None  # (its rows, if any, were not a finished run)
             # not linear (or not verified): the compiled loop steps it
     return adaptive(
-        system,
+        events.packed_unless_switched(system),
         netlist.q0,
         netlist.p0,
         t0=0.0,
