@@ -8,18 +8,19 @@ White-box: reads ``diracvi.driver.adaptive``, ``diracvi.driver.events``,
 """
 
 import jax
+import jax.extend.core as jcore
 import numpy as np
 import pytest
-from jax._src import core as jcore
 
 from diracvi import spice
 from diracvi.discretization.rules import get_rule
 from diracvi.driver import events
-from diracvi.driver.adaptive import _one_step
+from diracvi.driver.tries import one_step
 from diracvi.model import stacked
 from diracvi.model.interconnect import InterconnectedSystem
 from diracvi.solvers.limiting import junctions
 from diracvi.solvers.newton import NewtonSolver
+from diracvi.spice import _run as spice_run
 
 CARDS = """.MODEL nch NMOS (LEVEL=1 VTO=1.0 KP=2e-5 TOX=6E-08 LAMBDA=0.02 GAMMA=0.37 PHI=0.65
 + CBD=0.1P CBS=0.1P PB=0.81 CGSO=2P CGBO=4P CGDO=2P IS=1E-14 RS=10 RD=10)
@@ -60,7 +61,7 @@ def equations(jaxpr) -> int:
 def step_size(system, q, p) -> int:
     """Equations of one variable step's program (Newton with limiting, as the loop's)."""
     rule, solver, mu = get_rule("midpoint"), NewtonSolver(reuse_jacobian=True), np.zeros(system.m)
-    jaxpr = jax.make_jaxpr(lambda q, p: _one_step(system, rule, solver, 1e-9, 0.0, q, p, q, mu))
+    jaxpr = jax.make_jaxpr(lambda q, p: one_step(system, rule, solver, 1e-9, 0.0, q, p, q, mu))
     return equations(jaxpr(q, p).jaxpr)
 
 
@@ -141,7 +142,7 @@ def test_packed_step_equals_part_by_part():
     for system in (netlist.system, events.packed_unless_switched(netlist.system)):
 
         def step(h, t, q, p, system=system):
-            return _one_step(system, rule, solver, h, t, q, p, q, mu)
+            return one_step(system, rule, solver, h, t, q, p, q, mu)
 
         out.append([jax.jit(step)(h, 0.2e-6, op.q0, op.p0) for h in (1e-9, 4e-9)])
     for plain, packed in zip(*out, strict=True):
@@ -155,8 +156,9 @@ def test_packed_step_equals_part_by_part():
 def test_packed_variable_steps_equal_part_by_part(monkeypatch):
     # the whole run — operating point and variable steps — packed and part by part
     deck = inverters(2, stop="0.6u")
+    monkeypatch.setattr(spice_run, "PACKED_MARCH", True)
     packed = spice.run(deck)
-    monkeypatch.setattr(events, "packed_unless_switched", lambda system: system)
+    monkeypatch.setattr(spice_run, "PACKED_MARCH", False)
     plain = spice.run(deck)
     # not step for step: the next step's size is read from an error estimate, a
     # difference of nearly equal states, so round-off moves the sizes (the 0.6 µs run's
