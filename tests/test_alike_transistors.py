@@ -8,10 +8,10 @@ White-box: reads ``diracvi.driver.adaptive``, ``diracvi.driver.events``,
 """
 
 import jax
-import jax.extend.core as jcore
 import numpy as np
 import pytest
 
+from _jaxpr import count_equations
 from diracvi import spice
 from diracvi.discretization.rules import get_rule
 from diracvi.driver import events
@@ -44,32 +44,18 @@ def inverters(n: int, stop: str = "2u") -> str:
     return "\n".join(lines) + "\n"
 
 
-def equations(jaxpr) -> int:
-    """Equations of a jaxpr, those of its sub-jaxprs (loops, conditionals) included."""
-    count = 0
-    for eqn in jaxpr.eqns:
-        count += 1
-        for value in eqn.params.values():
-            for item in value if isinstance(value, tuple | list) else (value,):
-                if isinstance(item, jcore.ClosedJaxpr):
-                    count += equations(item.jaxpr)
-                elif isinstance(item, jcore.Jaxpr):
-                    count += equations(item)
-    return count
-
-
 def step_size(system, q, p) -> int:
     """Equations of one variable step's program (Newton with limiting, as the loop's)."""
     rule, solver, mu = get_rule("midpoint"), NewtonSolver(reuse_jacobian=True), np.zeros(system.m)
     jaxpr = jax.make_jaxpr(lambda q, p: one_step(system, rule, solver, 1e-9, 0.0, q, p, q, mu))
-    return equations(jaxpr(q, p).jaxpr)
+    return count_equations(jaxpr(q, p).jaxpr)
 
 
 def term_sizes(system, q) -> tuple[int, ...]:
     """Equations of the terms a step is built from: ``L``, ``F``, ``A(q, t)``."""
     v = np.ones_like(q)
     return tuple(
-        equations(jax.make_jaxpr(fn)(q, v).jaxpr)
+        count_equations(jax.make_jaxpr(fn)(q, v).jaxpr)
         for fn in (
             lambda q, v: system.lagrangian(q, v, 0.0),
             lambda q, v: system.force(q, v, 0.0),

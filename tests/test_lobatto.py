@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import diracvi as dv
+from _jaxpr import count_equations
 from diracvi import problems
 
 STEPS = 60
@@ -92,19 +93,6 @@ def test_lobatto_iiia_iiib_is_singular_on_the_degenerate_rlc_and_iiid_is_not():
     assert np.linalg.matrix_rank(rlc_stage_jacobian(IIID, IIID)) == 12
 
 
-def _primitives(jaxpr, names):
-    """How many equations of ``jaxpr`` (sub-jaxprs included) apply one of ``names``."""
-    count = 0
-    for eqn in jaxpr.eqns:
-        count += eqn.primitive.name in names
-        for value in eqn.params.values():
-            for sub in value if isinstance(value, tuple | list) else (value,):
-                inner = getattr(sub, "jaxpr", sub)
-                if hasattr(inner, "eqns"):
-                    count += _primitives(inner, names)
-    return count
-
-
 def test_the_three_stages_share_one_trace_of_each_model_function():
     """The stages are evaluated by one ``jax.vmap`` (issue 30): the step residual of the
     four-bar linkage (L, the one-forms, g and the reactions all hold sines and cosines)
@@ -123,6 +111,6 @@ def test_the_three_stages_share_one_trace_of_each_model_function():
         rule = get_rule(name)
         eqs = StepEquations(system, rule, "plus", jnp.asarray(problem.dt), q, q, 0.0)
         x = first_guess(system, rule, q, q, jnp.zeros(system.m))
-        counts[name] = _primitives(jax.make_jaxpr(eqs.residual)(x).jaxpr, {"sin", "cos"})
+        counts[name] = count_equations(jax.make_jaxpr(eqs.residual)(x).jaxpr, {"sin", "cos"})
     assert counts["midpoint"] > 0
     assert counts["lobatto"] == counts["midpoint"]
