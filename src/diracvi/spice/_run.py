@@ -429,13 +429,13 @@ def _event_atol(netlist: Netlist, settings: TranSettings) -> np.ndarray:
 
 
 #: Whether the compiled variable-step loop steps a nonlinear circuit packed (each kind of
-#: part traced once, :func:`~diracvi.driver.events.packed_unless_switched`). Off for now:
-#: a packed run sums the groups in another order, so its step sizes move by round-off
-#: and its waveforms differ from the part-by-part run's within the step control's
-#: tolerance (1.4e-9 to 4e-5 of peak measured), and the corpus decks that would take it
-#: (13 with junctions, among them `xy_mcnc_rca` at 8.7e-4 of peak) have not been re-run
-#: on it. The operating point is packed either way (its answer is bitwise the same).
-PACKED_MARCH = False
+#: part traced once, :func:`~diracvi.driver.events.packed_unless_switched`): on. A packed
+#: run sums the groups in another order than the part-by-part one, so its step sizes move
+#: by round-off and its waveforms differ within the step control's tolerance (1.4e-9 to
+#: 4e-5 of peak measured); the 19 corpus decks that take it were re-run on it and keep
+#: their statuses (docs/performance.md), and `ng_mosamp`'s 27 transistors compile in a
+#: fraction of the time. ``False`` steps the part-by-part system (the tests compare the two).
+PACKED_MARCH = True
 
 
 def tries_budget(settings: TranSettings) -> int:
