@@ -54,7 +54,8 @@ is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for
 discrete power balance holds to round-off; the state ``(q, p)`` is continuous across the
 event (a resistive switch stores nothing), so the balance over a run is the sum of its
 steps' balances, the steps on either side of each event included. Only the dissipation
-law changes at the event.
+law changes at the event, and where the event is placed (past its level or short of it,
+within the window) does not enter.
 """
 
 from __future__ import annotations
