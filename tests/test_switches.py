@@ -427,3 +427,56 @@ def test_a_switch_ring_tightened_finishes_and_its_instants_converge():
     # rejections other than the retries aimed at an instant: 62 (2642 before)
     assert march.rejected - march.aimed < 10 * len(tight)
     assert np.min(march.h) > 1e-14  # 3.6e-14 s; 6.5e-17 before
+
+
+def _decide_on_parabola(a, b, c, closed, h=1.0, tol=0.01):
+    """``events.decide`` for a try of size ``h`` over which a velocity-read control is the
+    parabola ``u(τ) = a + bτ + cτ²``: each step's value (its coordinate's increment over
+    the step) the mean of the parabola at the step's ends, as the midpoint rule's
+    step-centred values are on a capacitor's node; a relay with levels 1.1 (on) and 0.9
+    (off)."""
+    from diracvi.components.switch import Relay
+
+    relay = Relay(jax.numpy.asarray(float(closed)), 1.1, 0.9, "x")
+
+    def u(t):
+        return a + b * t + c * t * t
+
+    half = h / 2
+    q1 = half * (u(0.0) + u(half)) / 2
+    q2 = q1 + half * (u(half) + u(h)) / 2
+    qc = h * (u(0.0) + u(h)) / 2
+    q = tuple(np.array([x]) for x in (0.0, q1, q2, qc))
+    p = tuple(np.zeros(1) for _ in range(4))
+    new, located, h_event, _ = events.decide(
+        ((0, relay),), np.array([float(closed)]), q, p, np.zeros(1), h, np.array([tol]), 1e-9
+    )
+    return float(new[0]), bool(located), float(h_event)
+
+
+def test_a_flip_is_taken_within_half_the_tolerance_of_its_level_on_either_side():
+    """A try whose control ends within tol/2 of the level is accepted with the flip: past
+    it, or short of it and heading for it (the parabola reaching it); one that ends
+    further past is retried at the parabola's crossing itself, not past it (before, the
+    retry aimed tol/2 past the crossing, so every flip was late by tol/(2|u̇|)); short of
+    it by more, or turning back before it, the state is kept."""
+    # rising through on = 1.1 (open), u(1) = 1.1 + d with u' = 1 at the end
+    for d, flipped in ((0.004, 1.0), (-0.004, 1.0), (-0.006, 0.0)):
+        new, located, h_event = _decide_on_parabola(0.1 + d, 1.0, 0.0, closed=False)
+        assert (new, located, h_event) == (flipped, True, 1.0), d
+    # falling through off = 0.9 (closed), the mirror image
+    for d, kept in ((0.004, 0.0), (-0.004, 0.0), (-0.006, 1.0)):
+        new, located, h_event = _decide_on_parabola(1.9 - d, -1.0, 0.0, closed=True)
+        assert (new, located, h_event) == (kept, True, 1.0), d
+    # 0.0026 short, heading up (u' = 0.05 at the end) but turning (u'' = −2): its peak,
+    # 1.0980, is below the level, so it is not flipped on the extrapolation
+    new, located, _ = _decide_on_parabola(0.0474, 2.05, -1.0, closed=False)
+    assert (new, located) == (0.0, True)
+    # past by 0.3 (and by 0.008, which the one-sided window [level, level + tol] took):
+    # retried at the crossing of 0.5 + 0.8τ + 0.1τ² (resp. of the line) with 1.1
+    crossing = (-0.8 + math.sqrt(0.64 + 0.24)) / 0.2
+    new, located, h_event = _decide_on_parabola(0.5, 0.8, 0.1, closed=False)
+    assert new == 1.0 and not located
+    assert abs(h_event - crossing) <= 1e-10  # two Newton steps from the end: 1.0e-11
+    new, located, h_event = _decide_on_parabola(0.108, 1.0, 0.0, closed=False)
+    assert new == 1.0 and not located and abs(h_event - 0.992) <= 1e-12
