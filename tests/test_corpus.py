@@ -263,18 +263,33 @@ def test_the_xy_vpwl_reference_is_its_sources_waveforms_at_every_point():
 
 
 @pytest.mark.slow
-def test_ng_switches_agrees_away_from_the_switching_instants():
-    """Why ng_switches 'disagrees': its controls are PWL ramps whose threshold crossings
-    (1.2 ms, 3.2 ms, 3.5 ms) switch voltages by a jump. Each simulator locates an instant
-    within its own event tolerance, so at the reference's points between ngspice's
-    instant and diracvi's the two are on opposite levels (a whole jump, "1.0 of peak";
-    ngspice at the deck's own settings is off by 0.49 the same way). At every reference
-    point more than 2 µs from a switching instant the two agree to 1e-9 of peak."""
+def test_ng_switches_flips_at_its_ramps_exact_crossings():
+    """ng_switches' controls are PWL ramps, whose threshold crossings (0.54545 ms, 1.2 ms,
+    3.2 ms, 3.5 ms) switch voltages by a jump. On a linear control the try's parabola is
+    exact, and a retry aimed at its crossing ends on it: every flip is at its exact
+    instant to round-off (0.5 of a tolerance's worth late when a retry aimed half a
+    tolerance past the crossing, 23 ns at 3.5 ms, where the fine reference flips 20 ns
+    late: a whole jump, "1 of peak" then). The reference flips at its first point past
+    each instant, so at every reference point the two agree (the corpus row); at every
+    point more than 2 µs from a switching instant to 1e-9 of peak."""
     from diracvi import spice
+    from diracvi.driver import events
 
     t, ref = corpus.load_reference("ng_switches")
     result = spice.run(corpus.DATA / "ng_switches.cir")
-    march = result.trajectory
+    march, system = result.trajectory, result.netlist.system
+    found = events.relays(system)
+    tol = events.tolerances(system, 1e-3, [1e-6 if r.impulse else 1e-12 for _, r in found])
+    # v(1): 1 V/ms to 2 ms, then down; v(2): 0.9 V + 0.55 V/ms, then 0.8 V/ms down;
+    # i(vm3): 1 mA/ms: closed above 1.2 (V, mA), open below 0.8
+    exact = {"s1": (1.2e-3, 3.2e-3), "s2": (0.3e-3 / 0.55, 3.5e-3), "s3": (3.5e-3,)}
+    exact["w1"] = exact["s1"]
+    slope = {"s1": (1e3, 1e3), "s2": (550.0, 800.0), "s3": (800.0,), "w1": (1.0, 1.0)}
+    for j, (i, _) in enumerate(found):
+        name = system.coords[i].split(".")[0].lower()
+        k = np.flatnonzero(np.diff(march.modes[:, j])) + 1
+        late = march.t[k] - np.asarray(exact[name])
+        assert np.all(np.abs(late) <= 1e-6 * tol[j] / np.asarray(slope[name])), (name, late)
     changed = np.flatnonzero(np.any(np.diff(march.modes, axis=0) != 0.0, axis=1))
     instants = march.t[changed + 1]
     far = np.array([np.min(np.abs(instants - x)) > 2e-6 for x in t])

@@ -15,14 +15,26 @@ of size ``H`` has three steps (the whole one and its two halves, for the step
 doubling); the control's step-centred values on them, ``u_c``, ``u₁``, ``u₂``, are the
 means of its values at their ends, and the parabola ``u(τ)`` with those three means
 gives the control over the try to third order (:func:`decide`) and the crossing time
-``τ*`` of the level crossed (``VT + VH`` going up, ``VT − VH`` going down). The try is
-accepted with the flip only if its end value ``u(H)`` is past the level by at most the
-event tolerance (:func:`tolerances`); otherwise it is retried with ``H = τ*`` (plus half
-the tolerance's worth of time, to land just past the level), but never below ``H/4``
+``τ*`` of the level crossed (``VT + VH`` going up, ``VT − VH`` going down). A flip is
+taken at a try's end only where the end value ``u(H)`` is within half the event
+tolerance (:func:`tolerances`) of the level, on either side: past it (the law flips),
+or short of it and heading for it, the parabola reaching it within one more try's
+length (the flip is taken there, early by as much as a flip past the level is late;
+a control that turns back short of the level, or creeps towards it, is not flipped on
+the extrapolation). A try that ends past that window is retried with ``H = τ*``, aimed
+at the crossing itself, but never below ``H/4``
 (a sharp drop of the step size excites the midpoint rule's alternating mode — the lag
 of the multipliers — which the step control then chases down to ``hmin``; the crossing
-is approached over a few steps instead). Each retry aims at the parabola's crossing, so
-a flip is placed within the tolerance of its instant in a few tries. (The line through
+is approached over a few steps instead). Each retry aims at its parabola's crossing, so
+a flip is placed within the tolerance of its instant in a few tries, and without a
+systematic bias: the window ``|u(H) − level| ≤ tol/2`` is centred on the crossing.
+(Before, a retry aimed half a tolerance *past* the crossing, the middle of a one-sided
+window ``[level, level + tol]``, so every flip was late by about ``tol/(2|u̇|)``: 23 ns
+at 0.8 V/ms on ``ng_switches``. The window keeps its width; a window ``±tol`` would
+take fewer retries but accept a first aim's miss — the parabola of the long try
+extrapolated to the retry's own discrete control, off by up to 0.85 tol on one side at
+the relaxation oscillator's discharging flips — that a second aim, from the retry's
+own parabola, removes.) (The line through
 ``u₁`` and ``u₂`` alone, used before, misses ``u(H)`` by ``H²u''/16``: 7.5e-5 V,
 twice the tolerance, on a switched RC node; ``ng_switch_osc``'s 17 switch inverters
 added that up to a period 0.75 % short of the exact one.) What remains of that ring's
@@ -42,7 +54,8 @@ is an ordinary discrete Dirac step with a fixed ``σ`` (a fixed resistance), for
 discrete power balance holds to round-off; the state ``(q, p)`` is continuous across the
 event (a resistive switch stores nothing), so the balance over a run is the sum of its
 steps' balances, the steps on either side of each event included. Only the dissipation
-law changes at the event.
+law changes at the event, and where the event is placed (past its level or short of it,
+within the window) does not enter.
 """
 
 from __future__ import annotations
@@ -184,7 +197,8 @@ def with_modes(system, modes):
 
 
 def tolerances(system, rtol: float, atol) -> np.ndarray:
-    """Per relay, how far past its level the control may be when the flip is taken:
+    """Per relay, the width of the window about its level in which a flip is taken
+    (:func:`decide`: within half of it of the level, on either side):
     ``0.03 · rtol · |level| + atol`` (the share of ``rtol`` the step control holds a
     local error to), ``atol`` per relay (a voltage's or a current's absolute tolerance)."""
     out = []
@@ -209,10 +223,11 @@ def decide(found, modes, q, p, e_prev, h, tol, hmin):
     ``h²u''/16``: on a node relaxing exponentially into a switch's level, a fraction of a
     picosecond per switching, which a ring of switches adds up period after period.)
 
-    ``(new modes, located, h_event, e2)``: the states the law gives at the try's end;
-    whether the try may be accepted with them (no flip, or every flip within its
-    tolerance of its level); when it may not, the size of the try that ends just past
-    the first crossing; and the second half step's impulses (to carry if accepted).
+    ``(new modes, located, h_event, e2)``: the states at the try's end (the law's, or a
+    flip taken short of the level: see below); whether the try may be accepted with them
+    (no flip, or every flip within half its tolerance of its level, on either side);
+    when it may not, the size of the try that ends at the first crossing ``τ*``; and the
+    second half step's impulses (to carry if accepted).
     """
     if not found:
         return modes, jnp.asarray(True), h, e_prev
@@ -232,24 +247,43 @@ def decide(found, modes, q, p, e_prev, h, tol, hmin):
     b = 2.0 * (u2 - u1) / h - c * h
     a = u1 - 0.25 * b * h - 0.125 * c * h * h
     u_end = a + b * h + c * h * h
-    new = jnp.stack([r.next(modes[j], u_end[j]) for j, (_, r) in enumerate(found)])
-    level = jnp.stack([jnp.where(new[j] > modes[j], r.on, r.off) for j, (_, r) in enumerate(found)])
-    flips = new != modes
-    slope = b + 2.0 * c * h  # at the end, where the flip was seen
+    # the level each relay can cross next, and which way: an open relay closes above
+    # ``on``, a closed one opens below ``off``
+    closed = jnp.asarray(modes) > 0.5
+    on = jnp.asarray([r.on for _, r in found])
+    off = jnp.asarray([r.off for _, r in found])
+    level = jnp.where(closed, off, on)
+    sense = jnp.where(closed, -1.0, 1.0)
+    law = jnp.stack([r.next(modes[j], u_end[j]) for j, (_, r) in enumerate(found)])
+    slope = b + 2.0 * c * h  # at the end, where the flip is seen
     safe = jnp.where(slope == 0.0, 1.0, slope)
     # the crossing τ*: Newton on the parabola from its end (two steps: the parabola is
-    # monotone over the try where a flip is located); aim half a tolerance past it (in
-    # time: tolerance / slope) so that the retry ends beyond the level
+    # monotone over the try where a flip is located); the retry aims at it, unbiased
     tau = h + (level - u_end) / safe
     for _ in range(2):
         d = b + 2.0 * c * tau
         tau = tau - jnp.where(d * slope > 0.0, (a + b * tau + c * tau * tau - level) / d, 0.0)
-    tau = tau + 0.5 * tol / jnp.abs(safe)
+    # the flip is taken within half the tolerance of the level on either side (a
+    # window as wide as the one-sided [level, level + tol] it replaces, centred on the
+    # crossing): short of the level by at most that and heading for it, it is taken
+    # here, early, as a flip past the level is taken late — if the parabola reaches the
+    # level within one more try's length (s* ≤ h: a control that turns back short of
+    # the level, or creeps towards it, is not flipped on the extrapolation)
+    window = 0.5 * tol
+    gap = sense * (level - u_end)  # ≥ 0 short of the level
+    rate = sense * slope  # > 0 heading for it
+    bend = sense * c
+    reach = (rate > 0.0) & (rate * rate >= -4.0 * bend * gap)
+    root = jnp.sqrt(jnp.maximum(rate * rate + 4.0 * bend * gap, 0.0))
+    s_star = 2.0 * gap / jnp.where(reach, rate + root, 1.0)  # the smaller root, stably
+    near = (law == modes) & (gap <= window) & reach & (s_star <= h)
+    new = jnp.where(near, 1.0 - modes, law)
+    flips = new != modes
     # at most a quarter of the try at once: a sharp drop of the step size excites the
     # midpoint rule's alternating mode (the lag of the multipliers), which the step
     # control would then chase; the crossing is approached in a few steps instead
     tau = jnp.where(slope == 0.0, h, jnp.clip(tau, jnp.maximum(0.25 * h, hmin), h))
-    within = (jnp.abs(u_end - level) <= tol) | (tau >= h) | (h <= 2.0 * hmin)
+    within = (jnp.abs(u_end - level) <= window) | (tau >= h) | (h <= 2.0 * hmin)
     located = jnp.all(~flips | within)
     h_event = jnp.min(jnp.where(flips & ~within, tau, h), initial=h)
     return new, located, h_event, e2
