@@ -166,6 +166,7 @@ def test_decks_agree_with_a_fine_ngspice_at_their_own_settings(name):
         "ladder",
         pytest.param("coupled", marks=pytest.mark.slow),
         pytest.param("rectifier", marks=pytest.mark.slow),
+        pytest.param("bridge", marks=pytest.mark.slow),
     ],
 )
 def test_validation_circuits_agree_at_their_own_settings(name):
