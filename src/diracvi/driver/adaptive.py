@@ -239,14 +239,16 @@ def _march(system, rule, solver, capacity, x):
         # that try
         h_last = c["h_last"]
         slope = (c["v_last"] - c["u_prev"]) / h_last
-        vel = c["v_last"] + jnp.where(c["gap_ok"], slope * (0.5 * h_try + 0.5 * h_last), 0.0)
+        predict = not found  # not in a circuit with switches (tries.three_steps)
+        carry_on = c["gap_ok"] & predict
+        vel = c["v_last"] + jnp.where(carry_on, slope * (0.5 * h_try + 0.5 * h_last), 0.0)
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
         # the pinned coordinates' history: the last try's two halves, unless a corner
         # (a breakpoint, a switching instant) ended it (.pinned)
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g, pin, (c["v_last"], 0.5 * h_last)
+            step, modes, h_try, t, q, p, vel, mu_g, pin, (c["v_last"], 0.5 * h_last), predict
         )
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]

@@ -29,7 +29,7 @@ def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     return q1, p1, mu[: system.m], ok, res.iterations
 
 
-def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None):
+def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None, predict=True):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end. ``(q ends,
     p ends, μ's, oks, Newton iterations, means)``, the first four stacked in that order;
@@ -49,7 +49,11 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None):
     the Newton iterations from 5.2 to 2.9 a solve (49 195 → 27 823 over 3156 tries),
     the steps and their results unchanged. (The multipliers' guesses stay as they were:
     they enter the step linearly and each solve factors its Jacobian at its first
-    iterate, so their error is gone after one update.)
+    iterate, so their error is gone after one update.) ``predict=False`` guesses as
+    before, every step from ``vel`` and the second fine one on from the first's increment:
+    the variable-step loop does so in a circuit with switches, where the predicted starts
+    moved a switch ring's shortest step from 3.6e-14 to 9.0e-15 s
+    (``tests/test_switches.py``; the cause was not found).
 
     ``pin = (mask, (m₋₂, m₋₁), h_last, use)``: the pinned coordinates, the means of the
     last two recorded steps (each ``h_last`` long) and whether they may be used (no
@@ -78,7 +82,10 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None):
         h = jnp.where(k == 0, h_try, half)
         # the second fine step starts where the first ended
         start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
-        dq = jnp.where(k == 0, h * vel, jnp.where(fine2, qs[0] - qs[1], half * v_fine1(qs[0])))
+        if predict:
+            dq = jnp.where(k == 0, h * vel, jnp.where(fine2, qs[0] - qs[1], half * v_fine1(qs[0])))
+        else:  # each from the last velocity, the second fine step on from the first's
+            dq = jnp.where(fine2, qs[1] - q, h * vel)
         guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
         qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
                                 dq, guess_mu)  # fmt: skip
