@@ -213,7 +213,14 @@ def _errors(name, dt):
 
 
 @pytest.mark.parametrize(
-    "name", [pytest.param("rc", marks=pytest.mark.slow), "rlc", "coupled", "rectifier"]
+    "name",
+    [
+        pytest.param("rc", marks=pytest.mark.slow),
+        "rlc",
+        "coupled",
+        "rectifier",
+        pytest.param("bridge", marks=pytest.mark.slow),
+    ],
 )
 def test_validation_circuits_agree_with_ngspice(name):
     # (rc runs by default through the command line: test_cli_runs_a_netlist_…)

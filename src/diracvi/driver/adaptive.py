@@ -233,21 +233,27 @@ def _march(system, rule, solver, capacity, x):
         # comes first)
         h_try = jnp.where(c["aimed"] & ~land, h0, h_try)
         modes = c["modes"]
-        # a first guess from the last velocity (linear models converge in one update)
-        vel = c["v_last"]
+        # a first guess from the last velocity (linear models converge in one update),
+        # carried on along the line through the last try's two mean velocities (at
+        # t − 3h/2 and t − h/2) to the coarse step's centre t + H/2 unless a corner ended
+        # that try
+        h_last = c["h_last"]
+        slope = (c["v_last"] - c["u_prev"]) / h_last
+        predict = not found  # not in a circuit with switches (tries.three_steps)
+        carry_on = c["gap_ok"] & predict
+        vel = c["v_last"] + jnp.where(carry_on, slope * (0.5 * h_try + 0.5 * h_last), 0.0)
         mu_g = c["mu_last"] * (h_try / c["h_last"])
         half = 0.5 * h_try
         # the pinned coordinates' history: the last try's two halves, unless a corner
         # (a breakpoint, a switching instant) ended it (.pinned)
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g, pin
+            step, modes, h_try, t, q, p, vel, mu_g, pin, (c["v_last"], 0.5 * h_last), predict
         )
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
         # the period-2 part at the start (a neutral mode, not truncation error:
         # step_error.alternating), fitted over the last try too unless a corner ended it
-        h_last = c["h_last"]
         last = (c["u_prev"] * h_last, c["v_last"] * h_last)
         delta = jnp.where(c["gap_ok"], alternating(jnp, last, (q1 - q, q2 - q1), h_last, half), 0.0)
         # in a switched circuit, a retry from the start of a rejected try fits it from the
