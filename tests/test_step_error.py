@@ -17,7 +17,7 @@ import pytest
 
 from _ngspice import available, fine_transient
 from diracvi import spice
-from diracvi.driver.step_error import alternating, alternating_from_retry, estimate
+from diracvi.driver.step_error import alternating, alternating_from_retry, estimate, gap_error
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
 
@@ -124,6 +124,45 @@ V2 b 0 PULSE(0 1 0.3u 1n 1n 0.5u 1u)
 .tran 10n 2u
 .end
 """
+
+
+def test_the_gap_check_judges_the_curvature_under_an_alternation_riding_on_a_trend():
+    """Four equally spaced centres of ``c x² + b x + δ(−1)^i`` with the trend ``b`` above
+    the alternation (no value alternates, the slopes do): the two second differences are
+    ``c ± 2δ/s²``, opposite, and the check judges their common part ``c``, exactly the
+    check of the plain quadratic ``c s²/4`` (the alternation is a ringing mode no cut
+    lowers: judged, it held the 4-stage inverter chain's edges in cycles of cut and retaken
+    tries)."""
+    s = 2.0e-12
+    xs = tuple(s * k for k in (-1.5, -0.5, 0.5, 1.5))
+    c = np.array([3.0e6, -7.0e5, 0.0])
+    b = np.array([1.0e-4, -2.0e-5, 1.0e-6])
+    delta = np.array([1.0e-17, -3.0e-18, 2.0e-19])  # |δ| > |c| s²/2: the pair flips
+    ys = [c * x**2 + b * x + delta * (-1.0) ** i for i, x in enumerate(xs)]
+    d = np.diff(np.array(ys), axis=0)
+    assert np.all(d[:-1] * d[1:] > 0.0)  # no value alternates: the old filter saw none
+    f_left = ((ys[2] - ys[1]) / s - (ys[1] - ys[0]) / s) / (2 * s)
+    f_right = ((ys[3] - ys[2]) / s - (ys[2] - ys[1]) / s) / (2 * s)
+    assert np.all(f_left * f_right < 0.0)  # the alternation turns them opposite
+    got = np.asarray(gap_error(xs, ys))
+    np.testing.assert_allclose(got, np.abs(c) * 0.25 * s**2, rtol=1e-6, atol=1e-30)
+
+
+def test_the_gap_check_of_a_knee_is_the_larger_quadratic_as_before():
+    """An exponential turning on (a junction's current: both second differences of one
+    sign) is judged by the larger of the two quadratics against the line, unchanged."""
+    xs = (-3.0, -1.0, 0.5, 1.5)
+    ys = [np.array([np.exp(x), 1.0 + x + 0.3 * x**2]) for x in xs]
+
+    def second(i):
+        (a, fa), (b, fb), (c, fc) = [(xs[k], ys[k]) for k in (i, i + 1, i + 2)]
+        return ((fc - fb) / (c - b) - (fb - fa) / (b - a)) / (c - a)
+
+    want = np.maximum(
+        np.abs(second(0)) * 0.25 * (xs[1] - xs[0]) ** 2,
+        np.abs(second(1)) * 0.25 * (xs[2] - xs[1]) ** 2,
+    )
+    np.testing.assert_allclose(np.asarray(gap_error(xs, ys)), want, rtol=1e-14)
 
 
 @pytest.mark.slow
