@@ -255,8 +255,9 @@ def _march(system, rule, solver, capacity, x):
         # the pinned coordinates' history: the last try's two halves, unless a corner
         # (a breakpoint, a switching instant) ended it (.pinned)
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
+        back = (c["v_last"], 0.5 * h_last)  # the last mean velocity, at t − h_last/2
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g, pin, (c["v_last"], 0.5 * h_last), predict
+            step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict
         )
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]

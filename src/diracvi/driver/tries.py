@@ -29,7 +29,7 @@ def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
     return q1, p1, mu[: system.m], ok, res.iterations
 
 
-def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None, predict=True):
+def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, *, last, predict):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end. ``(q ends,
     p ends, μ's, oks, Newton iterations, means)``, the first four stacked in that order;
@@ -39,7 +39,7 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None, pre
     Each step's Newton starts from a prediction of its end, ``q + h v``, with ``v`` its
     mean velocity: the coarse step's ``vel`` (the caller's); the first fine step's
     ``v(t + H/4)`` on the line through the last velocity ``v(t − lag)`` (``last = (v,
-    lag)``; default ``vel`` at ``t``) and the coarse step's mean velocity ``(q_c −
+    lag)``) and the coarse step's mean velocity ``(q_c −
     q)/H``, which stands at ``t + H/2``: both ends of that line are already solved, so
     the guess is off by ``O(H³)`` instead of the ``O(H²)`` of ``q + (H/2)·vel``; the
     second fine step's end is guessed as the coarse step's end ``q_c`` — the two differ
@@ -68,7 +68,7 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, last=None, pre
     half = 0.5 * h_try
     n, m = q.shape[0], mu_g.shape[0]
 
-    v_back, lag = (vel, 0.0) if last is None else last
+    v_back, lag = last
 
     def v_fine1(q_c):
         # the first fine step's mean velocity v(t + H/4), on the line through the last
