@@ -9,10 +9,11 @@ the packed buffer until it is read (:class:`_Unpacked`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
+from ..errors import ModelError
 from ..status import SolveStatus
 from .trajectory import Trajectory
 
@@ -231,3 +232,79 @@ class _Unpacked:
         if value is None or name != "_p_nodal":
             return None if value is None else value.copy()
         return np.concatenate((self._initial(1)[None], value))  # the given p0 is the nodal one
+
+
+class Selection(NamedTuple):
+    """The columns a run keeps, ``simulate(..., save_only=names)``: positions of the
+    coordinates ``coords`` (indices ``q_index``) and multipliers of the constraint rows
+    ``rows`` (indices ``mu_index``), each in the order named."""
+
+    coords: tuple
+    rows: tuple
+    q_index: np.ndarray
+    mu_index: np.ndarray
+
+
+def select_columns(save_only, coords, constraint_names) -> Selection:
+    """``save_only`` (names of coordinates and of constraint rows) checked against the
+    system's ``coords`` and ``constraint_names``."""
+    if isinstance(save_only, str) or not hasattr(save_only, "__iter__"):
+        raise ModelError(
+            f"save_only={save_only!r}: a sequence of names (coordinates such as "
+            f"{coords[:2]!r}, constraint rows such as {constraint_names[:2]!r}). Fix: pass "
+            "a list or tuple, e.g. save_only=[name]."
+        )
+    names = tuple(save_only)
+    if not names:
+        raise ModelError(
+            "save_only=(): no column to keep. Fix: name at least one coordinate or "
+            "constraint row, or pass save_states=False for the final state alone."
+        )
+    q_of = {c: j for j, c in enumerate(coords)}
+    mu_of = {c: j for j, c in enumerate(constraint_names)}
+    unknown = [x for x in names if x not in q_of and x not in mu_of]
+    if unknown:
+        raise ModelError(
+            f"save_only: {unknown[:5]!r} {'is' if len(unknown) == 1 else 'are'} neither a "
+            f"coordinate nor a constraint row of the system (coordinates "
+            f"{coords[:4]!r}…, rows {constraint_names[:4]!r}…). Fix: use names from "
+            "system.coords and system.constraint_names."
+        )
+    if len(set(names)) != len(names):
+        raise ModelError(f"save_only: a name appears twice in {names!r}; name each once.")
+    chosen_q = tuple(x for x in names if x in q_of)
+    chosen_mu = tuple(x for x in names if x not in q_of)
+    return Selection(
+        chosen_q,
+        chosen_mu,
+        np.array([q_of[x] for x in chosen_q], dtype=np.int64),
+        np.array([mu_of[x] for x in chosen_mu], dtype=np.int64),
+    )
+
+
+def narrowed(traj: Trajectory, sel: Selection) -> Trajectory:
+    """A whole trajectory cut to the chosen columns (the paths that form every state:
+    the same values as they saved; see :class:`Selection`)."""
+    return Trajectory(
+        t=traj.t,
+        q=traj.q[:, sel.q_index],
+        p=None,
+        multipliers=traj.multipliers[:, sel.mu_index],
+        energy=None,
+        constraint_residual=None,
+        newton_iterations=traj.newton_iterations,
+        constraint_violation=None,
+        step_index=traj.step_index,
+        final_state=traj.final_state,
+        coords=sel.coords,
+        constraint_names=sel.rows,
+        save_every=traj.save_every,
+        dt=traj.dt,
+        scheme=traj.scheme,
+        discretization=traj.discretization,
+        system_name=traj.system_name,
+        status=traj.status,
+        message=traj.message,
+        solver=traj.solver,
+        steps_requested=traj.steps_requested,
+    )

@@ -36,7 +36,7 @@ from ..status import SolveStatus
 from . import checkpoint as _checkpoint
 from . import events
 from .plan import Layout, get_plan, layout
-from .record import March, run_fields, whole_run
+from .record import March, narrowed, run_fields, select_columns, whole_run
 from .sparse_run import run_sparse
 from .traced import ADJOINTS, check_traced_options, is_traced, simulate_traced
 from .trajectory import Trajectory
@@ -61,6 +61,7 @@ def simulate(
     project_initial: bool = False,
     adjoint: str = "checkpoint",
     keep_stages: bool = False,
+    save_only=None,
 ) -> Trajectory:
     r"""Integrate a Lagrange–Dirac system with a discrete Dirac variational integrator.
 
@@ -93,6 +94,20 @@ def simulate(
     ``traj.dirac_residual(system)`` checks (``docs/dirac-structures.md``). Off by
     default: ``s·(n + m)`` more numbers per step.
 
+    ``save_only=names`` (coordinate names from ``system.coords`` and constraint-row
+    names from ``system.constraint_names``) keeps of each saved state only ``q`` of the
+    named coordinates and ``μ`` of the named rows (``traj.q``, ``traj.multipliers``,
+    columns in the order named, ``traj.coords`` / ``traj.constraint_names`` their
+    names) and the final state; ``p``, ``p_nodal``, ``constraint_residual``, ``energy``
+    and ``constraint_violation`` are ``None``. The values are those of the same run
+    without it, bit for bit. On a large linear interconnection (the sparse path) the
+    other columns and the per-step energies are never formed: a 1000-stage ladder's
+    node voltages alone cost a third of its whole trajectory's time
+    (``docs/performance.md``); other paths form every state and cut it. Off
+    (``None``) by default: the whole trajectory. A host run's option (not with
+    ``save_states=False``, ``keep_stages=True``, ``checkpoint=`` or under a JAX
+    transformation).
+
     Returns a :class:`Trajectory`. If a step fails, raises :class:`StepFailure` carrying the
     partial trajectory (or returns it with ``status != 0`` when ``throw=False``).
 
@@ -117,6 +132,9 @@ def simulate(
     ``throw=False`` reports it in ``traj.status``. See ``docs/gradients.md``.
     """
     key = None
+    if save_only is not None:
+        check_save_only(save_states, keep_stages, checkpoint)
+        save_only = tuple(save_only) if not isinstance(save_only, str) else save_only
     if keep_stages:
         check_keep_stages(discretization, save_every, save_states, checkpoint)
     elif checkpoint is None and solver is None:
@@ -134,6 +152,7 @@ def simulate(
             type(save_states),
             save_states,
             adjoint,
+            save_only,
         )
         try:
             warm = _WARM.get(key)
@@ -142,7 +161,9 @@ def simulate(
         if warm is not None:
             traj = warm(system, q0, p0, t0)
             if traj is not None:
-                return traj
+                if save_only is None:
+                    return traj
+                return narrowed(traj, select_columns(save_only, traj.coords, traj.constraint_names))
     adjoint = check_choice("adjoint", adjoint, ADJOINTS)
     run = check_run(system, scheme, discretization, dt, steps, save_every, solver)
     # the system's own leaves are looked at once per system (its layout), not per call;
@@ -150,6 +171,11 @@ def simulate(
     # transformation is then looked up)
     if run.shape.traced or is_traced(*(x for x in (q0, p0, t0) if type(x) not in CONCRETE_TYPES)):
         check_traced_options(checkpoint, project_initial)
+        if save_only is not None:
+            raise ModelError(
+                "save_only= is a host run's option (it cuts the saved arrays on the host); "
+                "under jax.jit/grad/vmap pass save_only=None and index traj.q yourself."
+            )
         if keep_stages:
             raise ModelError(
                 "keep_stages=True is a host run's option (its stages go to the host for the "
@@ -177,9 +203,12 @@ def simulate(
         q0, p0 = plan.checker.check(q0, p0, project_initial=bool(project_initial), t0=t0)
     save_states = bool(save_states)
     keep_stages = bool(keep_stages)
+    selection = None
+    if save_only is not None:
+        selection = select_columns(save_only, shape.coords, shape.constraint_names)
     # a large linear interconnection (the sparse path keeps no stages)
     if plan.sparse is not None and checkpoint is None and not keep_stages:
-        traj = run_sparse(plan, run, q0, p0, t0, save_states)
+        traj = run_sparse(plan, run, q0, p0, t0, save_states, selection)
         if traj is not None:
             return traj
     first = None
@@ -195,7 +224,8 @@ def simulate(
             fields = run_fields(plan, run)
             if key is not None:
                 _remember(key, system, plan, run, chunk, fields)
-            return whole_run(fields, run, t0, chunk.layout, flat, x)
+            traj = whole_run(fields, run, t0, chunk.layout, flat, x)
+            return traj if selection is None else narrowed(traj, selection)
         first = affine, chunk.layout.unpack(flat)
     traj = _march(
         plan,
@@ -211,6 +241,8 @@ def simulate(
         first,
         keep_stages,
     )
+    if selection is not None:
+        traj = narrowed(traj, selection)
     if traj.status and throw:
         raise StepFailure(traj.message, traj)
     return traj
@@ -463,6 +495,26 @@ def check_keep_stages(discretization, save_every, save_states, checkpoint) -> No
         raise ModelError(
             "keep_stages=True is not written to checkpoint files: pass checkpoint=None, or "
             "keep_stages=False (a resumed lobatto run is checked by re-solving its stages)."
+        )
+
+
+def check_save_only(save_states, keep_stages, checkpoint) -> None:
+    """``save_only=`` keeps chosen columns of every saved state: states saved, no stages,
+    no checkpoint file (which holds a whole run to resume from)."""
+    if save_states is not True:
+        raise ModelError(
+            f"save_only= keeps columns of the saved states, but save_states={save_states!r}: "
+            "pass save_states=True (the default) with it, or leave save_only out."
+        )
+    if keep_stages:
+        raise ModelError(
+            "save_only= and keep_stages=True: the stages are kept beside whole states. Fix: "
+            "pass one of them."
+        )
+    if checkpoint is not None:
+        raise ModelError(
+            "save_only= with checkpoint=: a checkpoint file holds the whole run to resume "
+            "from. Fix: leave save_only out, or checkpoint=None."
         )
 
 

@@ -69,8 +69,14 @@ class Trajectory:
         constraint_violation: ``max |ω_{d±}|`` over every step of each interval, (S,).
         newton_iterations: Newton iterations spent in each interval, (S,) (0 for steps
             taken by the affine step map).
-        final_q, final_p: the last state reached, (n,).
-        coords, constraint_names: the column names.
+        final_q, final_p: the last state reached, (n,) (every coordinate of the system,
+            also in a run of chosen columns).
+        coords, constraint_names: the column names of ``q`` and ``multipliers``.
+
+    A run of chosen columns (``simulate(..., save_only=names)``) keeps ``q`` of the named
+    coordinates and ``multipliers`` of the named constraint rows, in the order given
+    (``coords`` and ``constraint_names`` are those names); ``p``, ``p_nodal``,
+    ``constraint_residual``, ``energy`` and ``constraint_violation`` are ``None``.
         status: 0 if every requested step was taken; otherwise the failure code, and
             the arrays hold the steps completed before the failure.
         message: a human-readable account of ``status``.
@@ -116,13 +122,14 @@ class Trajectory:
         self._p_nodal = arr(p_nodal)
         self._stage_record = arr(stage_record)
         self.multipliers = arr(multipliers)
-        self.energy = np.asarray(energy, dtype=np.float64)
+        # (energy None: a run of chosen columns, simulate(..., save_only=…), forms none)
+        self.energy = arr(energy)
         self.constraint_residual = arr(constraint_residual)
         self.newton_iterations = np.asarray(newton_iterations, dtype=np.int64)
-        if constraint_violation is None:
+        if constraint_violation is None and self.constraint_residual is not None:
             con = self.constraint_residual
             constraint_violation = np.max(np.abs(con), axis=1, initial=0.0)
-        self.constraint_violation = np.asarray(constraint_violation, dtype=np.float64)
+        self.constraint_violation = arr(constraint_violation)
         self.step_index = (
             np.arange(len(self.t)) if step_index is None else np.asarray(step_index, np.int64)
         )
@@ -307,6 +314,13 @@ class Trajectory:
         intervals), ``coord`` and ``constraint``."""
         import xarray as xr
 
+        if self.energy is None:
+            raise ModelError(
+                "traj.to_xarray(): this run kept chosen columns only (simulate(..., "
+                "save_only=…)), without the energies and momenta a Trajectory dataset "
+                "holds. Fix: rerun without save_only, or write traj.q and traj.multipliers "
+                "(named by traj.coords, traj.constraint_names) yourself."
+            )
         data = {
             "energy": (("step",), self.energy),
             "constraint_violation": (("step",), self.constraint_violation),

@@ -76,7 +76,7 @@ import numpy as np
 from ..discretization.equations import new_momentum, reaction_impulse, residual, unknown_count
 from ..runtime.compile import run_once_jit
 from .affine import AffineSolver
-from .condensed import SingularStep, condense, own_unknowns
+from .condensed import ScaledLU, SingularStep, condense, own_unknowns
 from .sparse_pattern import NotSparseAffine, _by_identity, _pattern, _structure
 from .sparse_pattern import driving as parts_driving
 
@@ -531,6 +531,126 @@ class SparseAffineMap:
             con=con_out if save_states else None,
             node=node_out if (save_states and nodal) else None,
         )
+
+    def _offsets_at(self, times):
+        """The moving offsets ``(r₀, P₀)`` at ``times`` (at most ``self.block`` of them),
+        without the energies: the drivers' own program (the whole system's residual at
+        zero when they are many), padded to one compiled shape."""
+        count = len(times)
+        ts = np.concatenate([times, np.repeat(times[-1:], self.block - count)])
+        hs = np.full(self.block, self.h)
+        system = None if self.drivers is not None else self.system
+        r0, pm0 = _offsets(system, self.drivers, self.rule, self.scheme, hs, ts)
+        return np.asarray(r0)[:count], np.asarray(pm0)[:count]
+
+    def run_selected(self, q0, p0, t0, steps, save_every, coords, rows):
+        """As :meth:`run`, keeping only ``q[coords]`` of every ``save_every``-th state
+        (the initial one first) and ``μ[rows]`` of the steps ending there:
+
+            q_k[coords],   μ_k[rows] = Y[n + rows] (z̃_k, v_k)
+
+        (``Y`` the step's unknowns as a product with the augmented state, see
+        :meth:`_augmented`; only its columns that the chosen rows touch are read). The
+        steps are :meth:`run`'s, in the same order of operations, so the kept values
+        are its values bit for bit. What is not formed: the other states, the other
+        multipliers, the constraint residuals, the nodal momenta, and the per-step
+        energies and constraint violation (the energies are a compiled call per block
+        beside the driven offsets; the offsets here come from the drivers' own
+        program). The verification of the last step of every block is :meth:`run`'s.
+        Returns ``dict(z, y, q, mu)``; raises :class:`NotSparseAffine` as :meth:`run`."""
+        n, k, nk = self.n, save_every, self._nk
+        coords, rows = np.asarray(coords, np.int64), np.asarray(rows, np.int64)
+        sign = 1.0 if self.scheme == "plus" else -1.0
+        step = self._augmented()
+        g_s, g_z, y_all = step["g_s"], step["g_z"], step["y"]
+        solve, width = self.lu.schur.solve, step["width"]
+        # the chosen multipliers' rows of Y on the columns they touch (sorted indices
+        # kept: each row's sum runs in the order of the whole product's)
+        y_rows = y_all[n + rows]
+        used = np.unique(y_rows.indices)
+        y_sel = y_rows[:, used].tocsr()
+        y_sel.sort_indices()
+        # a multiplier that is itself a kept unknown (a node's, on a netlist) is a row
+        # of Y with one entry 1: a column of (z̃, v), read directly (+ 0.0, as the
+        # product's sum from zero, turns −0.0 into 0.0)
+        unit = (
+            bool(np.all(np.diff(y_sel.indptr) == 1) and np.all(y_sel.data == 1.0)) and rows.size > 0
+        )
+        direct = used[y_sel.indices] if unit else None
+        saves = steps // k
+        q_out = np.empty((saves + 1, coords.size))
+        q_out[0] = np.asarray(q0)[coords]
+        mu_out = np.empty((saves, rows.size))
+        block = self.block
+        starts = list(range(0, steps, block))
+
+        def times_of(start):
+            index = start + np.arange(min(block, steps - start), dtype=np.float64)
+            return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+
+        times = times_of(0)
+        if self.driven:
+            moving = np.concatenate(self._offsets_at(times), axis=1)
+        checks = []
+        zs = np.zeros((block + 1, width + nk))
+        zs[:, 2 * n] = 1.0
+        zs[0, :n], zs[0, n : 2 * n] = q0, p0
+        ss = np.empty((block, nk))
+        y = None
+        # the step's calls bound once (the same kernels as run's, so the same bits):
+        # SciPy's csr_matvec on the two products' arrays, SuperLU's solve between the
+        # equilibration's exact scalings (ScaledLU.solve, without its per-call Python)
+        matvec = _csr_matvec()
+        lu = self.lu.schur
+        plain = matvec is None or not isinstance(lu, ScaledLU)
+        if not plain:
+            s_args = (g_s.shape[0], g_s.shape[1], g_s.indptr, g_s.indices, g_s.data)
+            z_args = (g_z.shape[0], g_z.shape[1], g_z.indptr, g_z.indices, g_z.data)
+            inner, r_scale, c_scale = lu._lu.solve, lu._rows, lu._cols
+            scaled = np.empty(nk)
+        for b, start in enumerate(starts):
+            count = len(times)
+            if self.driven:
+                zs[:count, 2 * n + 1 : width] = moving
+            zs[1 : count + 1, : 2 * n] = 0.0
+            ss[:count] = 0.0
+            if plain:
+                for j in range(count):  # the step, as in run
+                    row = zs[j]
+                    rhs = ss[j]
+                    _accumulate(g_s, row[:width], rhs)
+                    row[width:] = solve(rhs)
+                    _accumulate(g_z, row, zs[j + 1, : 2 * n])
+            else:
+                for j in range(count):
+                    row = zs[j]
+                    matvec(*s_args, row[:width], ss[j])
+                    np.multiply(r_scale, ss[j], out=scaled)
+                    np.multiply(inner(scaled), c_scale, out=row[width:])
+                    matvec(*z_args, row, zs[j + 1, : 2 * n])
+            following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
+            first = k - 1 - start % k
+            saved = len(range(first, count, k))
+            if saved:
+                at = (start + first + 1) // k  # the first of this block's saved rows
+                q_out[at : at + saved] = zs[first + 1 : count + 1 : k][:, coords]
+                if direct is not None:
+                    np.add(zs[first:count:k][:, direct], 0.0, out=mu_out[at - 1 : at - 1 + saved])
+                else:
+                    x = np.ascontiguousarray(zs[first:count:k][:, used].T)
+                    mu_out[at - 1 : at - 1 + saved] = (y_sel @ x).T
+            y = y_all @ zs[count - 1]
+            checks.append((zs[count - 1, : 2 * n].copy(), y, times[-1]))
+            zs[0] = zs[count]
+            if self.driven and b + 1 < len(starts):
+                moving = np.concatenate(self._offsets_at(following), axis=1)
+            times = following
+        z = zs[0, : 2 * n].copy()
+        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
+        worst = self._check_steps(zc, yc, tc)
+        if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
+            raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+        return dict(z=z, y=y.copy(), q=q_out, mu=mu_out)
 
 
 def build(
