@@ -125,3 +125,20 @@ def test_a_cut_trajectory_is_not_written_as_a_whole_one():
     part = dv.simulate(netlist.system, netlist.q0, netlist.p0, **_kw(netlist, save_only=["C1.q"]))
     with pytest.raises(ModelError, match="chosen columns only"):
         part.to_xarray()
+
+
+def test_waveforms_of_the_kept_columns():
+    """``spice.waveforms`` of a run of chosen columns: the signals of the kept columns
+    (a node from its KCL row, a current from its charge), equal to the whole run's."""
+    from diracvi.spice import waveforms
+
+    netlist = spice.read(ladder(20, steps=300))
+    assembly, system = netlist.assembly, netlist.system
+    kw = _kw(netlist, solver=SparseAffineSolver())
+    names = [assembly.kcl_rows["n5"], assembly.currents["L2"], assembly.currents["V1"]]
+    part = dv.simulate(system, netlist.q0, netlist.p0, save_only=names, **kw)
+    whole = waveforms(netlist, dv.simulate(system, netlist.q0, netlist.p0, **kw))
+    waves = waveforms(netlist, part)
+    assert sorted(waves) == ["i(L2)", "i(V1)", "v(n5)"]
+    for key, values in waves.items():
+        np.testing.assert_array_equal(values, whole[key])

@@ -42,6 +42,11 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     ``assembly``: the :class:`~diracvi.components.Assembly` (or a
     :class:`~diracvi.spice.Netlist`); ``traj``: its trajectory (states saved, every step).
     A traced trajectory (inside ``jax.grad``) gives JAX arrays, differentiable.
+
+    A trajectory of chosen columns (``simulate(..., save_only=names)``) gives the
+    waveforms of those columns: ``v(node)`` where the node's KCL row
+    (``assembly.kcl_rows[node]``) was kept, ``i(element)`` where its charge
+    (``assembly.currents[element]``) was — the same values as from the whole run.
     """
     display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
     mmf = getattr(assembly, "potentials", {})  # its MMF nodes (spice/_magnetic.py)
@@ -64,7 +69,11 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         )
     # the rows by name once (traj.multiplier looks each up in the list: O(N²) overall)
     row = {name: j for j, name in enumerate(traj.constraint_names)}
+    # (all of them for a whole run; a run of chosen columns has those it kept)
+    partial = traj.energy is None
     for node in assembly.nodes:
+        if partial and assembly.kcl_rows[node] not in row:
+            continue
         lam = traj.multipliers[:, row[assembly.kcl_rows[node]]]
         inner = -lam / h  # φ at t_0 … t_{steps-1}
         first = _end(inner[1:steps], _FROM_NODES) if midpoint else inner[0]
@@ -72,12 +81,20 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
         out[f"v({node})"] = xp.concatenate([phi, xp.stack([_end(phi[::-1], _FROM_NODES)])])
     index = {c: j for j, c in enumerate(traj.coords)}
     for label, coord in assembly.currents.items():
+        if partial and coord not in index:
+            continue
         q = traj.q[:, index[coord]]
         vel = xp.diff(q) / h  # at the half nodes
         mid = 0.5 * (vel[1:] + vel[:-1])
         ends = (_end(vel, _FROM_HALVES), _end(vel[::-1], _FROM_HALVES))
         cur = xp.concatenate([xp.stack([ends[0]]), mid, xp.stack([ends[1]])])
         out[f"i({display.get(label, label)})"] = cur
+    if partial:  # an MMF node's potential needs every current of its loop
+        mmf = {
+            node: terms
+            for node, terms in mmf.items()
+            if all(f"i({display.get(k, k)})" in out for k, _ in terms)
+        }
     return potentials(out, mmf, display)
 
 
