@@ -142,3 +142,17 @@ def test_waveforms_of_the_kept_columns():
     assert sorted(waves) == ["i(L2)", "i(V1)", "v(n5)"]
     for key, values in waves.items():
         np.testing.assert_array_equal(values, whole[key])
+
+
+def test_refused_under_a_transformation():
+    """The cut is made on the host: inside jax.grad the option is refused, naming the fix."""
+    import jax
+
+    netlist = spice.read(ladder(2, steps=10))
+    kw = _kw(netlist, save_only=["C1.q"])
+
+    def loss(q0):
+        return dv.simulate(netlist.system, q0, netlist.p0, **kw).q.sum()
+
+    with pytest.raises(ModelError, match="host run's option"):
+        jax.grad(loss)(np.asarray(netlist.q0))
