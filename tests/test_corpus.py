@@ -2,8 +2,9 @@
 
 Each deck of ``tests/data/netlists/EXPECTED.toml`` goes through ``diracvi.spice.run(path)``
 at its own settings and is compared with its committed ngspice reference
-(``reference/<deck>.csv.gz``: reltol 1e-7, TMAX = TSTEP/50, on the TSTEP grid) to 1e-3 of
-each signal's peak; names and the comparison are described in ``tests/_corpus.py``.
+(``reference/<deck>.csv.gz``: reltol 1e-7, TMAX = TSTEP/50, at ngspice's own points,
+thinned, each signal's min and max kept) to 1e-3 of each signal's peak; names and the
+comparison are described in ``tests/_corpus.py``.
 EXPECTED says what happens today, and the test fails on any change, either way:
 
 - ``agrees``: every reference signal is reported and within 1e-3 of its peak;
