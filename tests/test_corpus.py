@@ -352,9 +352,11 @@ def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours(
     error is diracvi's distance from that burst, which the burst's peak cannot hide.
     ngspice at the deck's own settings is off at the same points by the same amounts.
     Judged against each signal's peak over the points where the reference is locally
-    straight (to 1e-3 of that peak: the burst's points are not), diracvi is within 1e-3
-    of it wherever it is straight; the excursions are few (at most 30 of the 2011
-    points, in v(xtr2.pint2), 76 nV at that peak)."""
+    straight (the point and its two neighbours each on the chord through their own
+    neighbours to 1e-3 of that peak: the burst's points are not), diracvi is within 1e-3
+    of it wherever it is straight (measured: ≤ 9.1e-4, v(xtr2.pint2); v(12) 7.7e-4); the
+    excursions are few (at most 30 of the 2011 points, in v(xtr2.pint2), 76 nV at that
+    peak)."""
     from diracvi import spice
 
     t, ref = corpus.load_reference("ng_transformers1")
@@ -368,16 +370,20 @@ def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours(
         w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
         departs = np.zeros(len(t))
         departs[1:-1] = np.abs(values[1:-1] - ((1 - w) * values[:-2] + w * values[2:]))
-        # the peak over the straight points, straight to TOL of that peak: each pass
-        # lowers the peak and so the threshold, down to the fixed point
+        # straight: the point and its two neighbours each within TOL of that peak of the
+        # chord through their own neighbours (inside the burst a point ngspice reports at
+        # 0 V between two others at 0 V is on its chord, but its neighbours are not); the
+        # peak is taken over the straight points: each pass lowers the peak and so the
+        # threshold, down to the fixed point
         peak = max(float(np.max(np.abs(values))), floor)
         while True:
-            straight = departs <= corpus.TOL * peak
+            off = departs > corpus.TOL * peak
+            straight = ~(off | np.roll(off, 1) | np.roll(off, -1))
             lower = max(float(np.max(np.abs(values[straight]))), floor)
             if lower == peak:
                 break
             peak = lower
-        assert np.count_nonzero(~straight) <= 0.02 * len(t), vector  # measured: ≤ 30 of 2011
+        assert np.count_nonzero(off) <= 0.02 * len(t), vector  # measured: ≤ 30 of 2011
         assert np.max(np.abs(have[key] - values)[straight]) <= corpus.TOL * peak, vector
 
 
