@@ -4,9 +4,10 @@
 ``SOURCES.md``), and ``reference/<deck>.csv.gz``: ngspice 39 at the deck's own ``.tran``
 but with ``reltol=1e-7`` and ``TMAX = TSTEP/50``, at ngspice's *own* time points from
 TSTART on (the values it computed, none interpolated), thinned to every m-th point with
-m the smallest that keeps at most ``MAX_POINTS`` (the last point always kept): see
-:func:`thin`. The points are at most ``TSTEP/50`` apart before thinning, so a deck's
-waveform is resolved even when its TSTEP grid is not (the eSim 50 Hz decks print every
+m the smallest that keeps at most ``MAX_POINTS`` (the last point always kept), plus each
+kept signal's min and max over those times, where its peak is (at most 2 points a signal
+more): see :func:`thin`. The points are at most ``TSTEP/50`` apart before thinning, so a
+deck's waveform is resolved even when its TSTEP grid is not (the eSim 50 Hz decks print every
 10 ms, which meets their sines only at the zero crossings), and they include ngspice's
 breakpoints; times are written to 17 digits (references written before that change hold
 10), values to 10. ``python benchmarks/corpus.py --references`` rewrites them.
@@ -22,7 +23,10 @@ which ngspice 39 calls ``<letter>.<instance>.<name>`` (``i(v.x1.vm)``), is also 
 as ``i(<instance>.<name>)``.
 
 Agreement: for each reference signal ``s``, ``max_k |diracvi(t_k) − s(t_k)| ≤ TOL · max(max_k
-|s(t_k)|, floor)`` over the reference's points ``t_k`` (the peak too is taken over them),
+|s(t_k)|, floor)`` over the reference's points ``t_k`` (the peak too is taken over them;
+they hold the fine run's own peak of each signal, so it is the signal's real peak and the
+point where it occurs is compared: a burst in ngspice's own run is a point diracvi is
+judged at, not only a larger peak),
 with diracvi's waveform sampled at ``t_k`` by its own interpolant (``Result.at``: quadratic
 through its step centres between corners, as it fills the TSTEP grid). The floor is
 SPICE's default absolute resolution of the signal's kind — ``VNTOL`` = 1 µV for a node
@@ -53,7 +57,7 @@ EXPECTED = DATA / "EXPECTED.toml"
 TOL = 1e-3
 VNTOL = 1e-6  # SPICE's default absolute tolerance of node voltages (V) ...
 ABSTOL = 1e-12  # ... and of branch currents (A): the floor of a signal's "peak"
-MAX_POINTS = 2001
+MAX_POINTS = 2001  # the every-m-th points; thin() adds at most 2 a signal (its min, max)
 RELTOL = 1e-7
 TMAX_DIVISOR = 50
 
@@ -72,16 +76,24 @@ class Tran:
     uic: bool = False
 
 
-def thin(t: np.ndarray, start: float = 0.0) -> np.ndarray:
+def thin(t: np.ndarray, start: float = 0.0, signals=()) -> np.ndarray:
     """Indices of the kept reference points: those at or after ``start``, every m-th
-    with the smallest m leaving at most ``MAX_POINTS`` (the last one always kept)."""
+    with the smallest m leaving at most ``MAX_POINTS`` (the last one always kept), and,
+    for each array ``s`` of ``signals`` (values at every ``t``), the points of its min and
+    max over the same span, where its peak ``max |s|`` is: every-m-th points alone keep
+    ``xy_sandler1``'s ``i(v.x4.vofst)`` at 4.0 pA of its 61 pA, and a burst between them
+    would be neither judged nor counted in the peak. A reference so holds at most
+    ``MAX_POINTS + 2 · len(signals)`` points; a point already kept is not repeated."""
     first = int(np.searchsorted(t, start * (1 - 1e-12) if start > 0 else start))
     n = len(t) - first
     every = max(1, int(np.ceil((n - 1) / (MAX_POINTS - 1))))
     k = np.arange(first, len(t), every)
     if k[-1] != len(t) - 1:
         k = np.append(k, len(t) - 1)
-    return k
+    extremes = [
+        first + int(f(np.asarray(s)[first:])) for s in signals for f in (np.argmin, np.argmax)
+    ]
+    return np.union1d(k, np.asarray(extremes, dtype=k.dtype))
 
 
 _SCALE = {"t": 1e12, "g": 1e9, "meg": 1e6, "k": 1e3, "mil": 25.4e-6, "m": 1e-3, "u": 1e-6,
@@ -289,7 +301,7 @@ def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], f
     ``(t, {vector: values}, s)``."""
     names, data, seconds = run_ngspice(deck)
     tran = find_tran(deck.read_text(errors="replace"))
-    keep = thin(data[:, 0], tran.start)
+    keep = thin(data[:, 0], tran.start, [data[:, j] for j, n in enumerate(names) if kept(n)])
     return (
         data[keep, 0],
         {n: data[keep, j] for j, n in enumerate(names) if kept(n)},
@@ -304,6 +316,10 @@ def write_reference(path: Path, grid: np.ndarray, signals: dict[str, np.ndarray]
     # be read back on the corner, where the other side's limit holds
     fmt = ["%.17g"] + ["%.10g"] * len(signals)
     np.savetxt(buf, np.column_stack([grid, *signals.values()]), delimiter=",", fmt=fmt)
+    if path.is_file():
+        with gzip.open(path, "rt") as f:
+            if f.read() == buf.getvalue():
+                return  # unchanged: a rewrite would differ only in gzip's time stamp
     path.parent.mkdir(parents=True, exist_ok=True)
     with gzip.open(path, "wt", compresslevel=9) as f:
         f.write(buf.getvalue())

@@ -2,8 +2,9 @@
 
 Each deck of ``tests/data/netlists/EXPECTED.toml`` goes through ``diracvi.spice.run(path)``
 at its own settings and is compared with its committed ngspice reference
-(``reference/<deck>.csv.gz``: reltol 1e-7, TMAX = TSTEP/50, on the TSTEP grid) to 1e-3 of
-each signal's peak; names and the comparison are described in ``tests/_corpus.py``.
+(``reference/<deck>.csv.gz``: reltol 1e-7, TMAX = TSTEP/50, at ngspice's own points,
+thinned, each signal's min and max kept) to 1e-3 of each signal's peak; names and the
+comparison are described in ``tests/_corpus.py``.
 EXPECTED says what happens today, and the test fails on any change, either way:
 
 - ``agrees``: every reference signal is reported and within 1e-3 of its peak;
@@ -227,6 +228,17 @@ def test_tran_lines_and_the_thinning_of_the_reference_points():
     step = np.diff(keep[:-1])
     assert np.all(step == step[0]) and step[0] == np.ceil((len(t) - keep[0] - 1) / 2000)
     assert np.array_equal(corpus.thin(t[:50]), np.arange(50))  # few points: all kept
+    # each signal's min and max (from TSTART on) are kept too, where its peak is: a
+    # one-point spike between every-m-th points (as xy_sandler1's 61 pA, of which those
+    # points kept 4.0 pA) is judged and counts in the peak; before TSTART it is not kept
+    s = np.sin(2e3 * np.pi * t)
+    spike, dip, early = keep[0] + 5 * step[0] + 1, keep[0] + 7 * step[0] + 2, keep[0] - 3
+    s[spike], s[dip], s[early] = 40.0, -3.0, 90.0
+    both = corpus.thin(t, tran.start, [s, np.cos(2e3 * np.pi * t)])
+    assert spike in both and dip in both and early not in both and np.all(np.diff(both) > 0)
+    assert set(keep) <= set(both) and len(both) <= corpus.MAX_POINTS + 2 * 2
+    assert np.max(np.abs(s[both])) == np.max(np.abs(s[keep[0] :])) == 40.0
+    assert not ({spike, dip} & set(keep))  # the every-m-th points alone miss both
     # a tran command inside .control when there is no .tran line; UIC kept
     only = corpus.find_tran("t\nv1 1 0 1\n.control\ntran 10u 10m uic\n.endc\n.end\n")
     assert (only.step, only.stop) == pytest.approx((1e-5, 1e-2), rel=1e-12) and only.uic
@@ -329,15 +341,22 @@ def test_the_switch_osc_reference_has_the_exact_period():
 
 @pytest.mark.slow
 def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours():
-    """Why ng_transformers1 'disagrees' (0.021 of peak), also when tightened: at a few
-    isolated points of transformer 2 (XSPICE lcouple windings, which ngspice
-    differentiates by a backward difference) the fine reference departs from the
-    straight line through its two neighbours (≤ 5.6 µs apart on a 1 kHz sine, where a
-    smooth wave departs by ≤ 6e-4 of peak) by as much as diracvi differs from it:
-    v(12) is 0.838 V at 8.07 ms between 0.825 and 0.917 V. ngspice at the deck's own
-    settings is off at the same points by the same amounts. Wherever the reference is
-    locally straight to 1e-3 of peak, diracvi is within 1e-3 of it; the excursions are
-    few (at most 24 of the 2000 points, in v(xtr2.pint2), 76 nV at its peak)."""
+    """Why ng_transformers1 'disagrees', also when tightened: at a few isolated points
+    of transformer 2 (XSPICE lcouple windings, which ngspice differentiates by a
+    backward difference) the fine reference departs from the straight line through its
+    two neighbours (≤ 5.6 µs apart on a 1 kHz sine, where a smooth wave departs by
+    ≤ 6e-4 of peak) by as much as diracvi differs from it: v(12) is 0.838 V at 8.07 ms
+    between 0.825 and 0.917 V (0.021 of peak before the references kept each signal's
+    min and max). Since they do, it keeps ngspice's own burst at t = 9.3467 ms, where
+    its fine run steps by ~1e-17 s with v(12) alternating up to 1.9e5 V: the deck's
+    error is diracvi's distance from that burst, which the burst's peak cannot hide.
+    ngspice at the deck's own settings is off at the same points by the same amounts.
+    Judged against each signal's peak over the points where the reference is locally
+    straight (the point and its two neighbours each on the chord through their own
+    neighbours to 1e-3 of that peak: the burst's points are not), diracvi is within 1e-3
+    of it wherever it is straight (measured: ≤ 9.1e-4, v(xtr2.pint2); v(12) 7.7e-4); the
+    excursions are few (at most 30 of the 2011 points, in v(xtr2.pint2), 76 nV at that
+    peak)."""
     from diracvi import spice
 
     t, ref = corpus.load_reference("ng_transformers1")
@@ -346,16 +365,26 @@ def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours(
     for vector, values in ref.items():
         key = next(k for k in corpus.diracvi_keys(vector) if k in have)
         floor = corpus.ABSTOL if vector.startswith("i(") else corpus.VNTOL
-        peak = max(float(np.max(np.abs(values))), floor)
-        error = np.abs(have[key] - values) / peak
         # the reference's departure from the straight line through its two neighbours
         # (its points are unevenly spaced: the chord is taken at the point's own time)
         w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
         departs = np.zeros(len(t))
-        departs[1:-1] = np.abs(values[1:-1] - ((1 - w) * values[:-2] + w * values[2:])) / peak
-        straight = departs <= corpus.TOL
-        assert np.count_nonzero(~straight) <= 0.02 * len(t), vector  # measured: ≤ 24 of 2000
-        assert np.max(error[straight]) <= corpus.TOL, vector
+        departs[1:-1] = np.abs(values[1:-1] - ((1 - w) * values[:-2] + w * values[2:]))
+        # straight: the point and its two neighbours each within TOL of that peak of the
+        # chord through their own neighbours (inside the burst a point ngspice reports at
+        # 0 V between two others at 0 V is on its chord, but its neighbours are not); the
+        # peak is taken over the straight points: each pass lowers the peak and so the
+        # threshold, down to the fixed point
+        peak = max(float(np.max(np.abs(values))), floor)
+        while True:
+            off = departs > corpus.TOL * peak
+            straight = ~(off | np.roll(off, 1) | np.roll(off, -1))
+            lower = max(float(np.max(np.abs(values[straight]))), floor)
+            if lower == peak:
+                break
+            peak = lower
+        assert np.count_nonzero(off) <= 0.02 * len(t), vector  # measured: ≤ 30 of 2011
+        assert np.max(np.abs(have[key] - values)[straight]) <= corpus.TOL * peak, vector
 
 
 @pytest.mark.slow
