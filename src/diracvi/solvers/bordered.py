@@ -72,9 +72,11 @@ from .sparsity import step_pattern
 #: at most this fraction of the dense Jacobian's ``s`` tangents, or the dense solve is kept
 TANGENT_SHARE = 0.25
 #: below this many unknowns the dense solve is kept without reading the pattern (which
-#: costs 2–4 s of CPU): a dense factorization there takes under a millisecond (0.77 ms
-#: at 89 unknowns, a chain of 2 inverters) and the band's solves cost more than dense ones
-MIN_SIZE = 128
+#: costs 2–4 s of CPU): a dense factorization costs little there (0.77 ms at 89 unknowns,
+#: 2.4 ms at 171) and the band's solves more than dense ones; at 132 (the corpus deck
+#: xy_sandler1, band 8, border 4, its Jacobian's condition number ~1e15) the bordered
+#: run took 57 326 Newton iterations against 48 477 and 21.3 s of CPU against 19.8
+MIN_SIZE = 200
 #: the border's size is at most this (its Schur complement is a dense k × k LU)
 MAX_BORDER = 16
 
