@@ -137,6 +137,7 @@ def _nonsingular(pattern: np.ndarray, core: np.ndarray) -> bool:
 
 
 _PLANS: dict = {}
+_PLANS_SIZE = 64
 
 
 def plan(system, rule, scheme: str = "plus"):
@@ -156,6 +157,8 @@ def plan(system, rule, scheme: str = "plus"):
     fits = _cost(kl, ku, k) <= TANGENT_SHARE * size and _nonsingular(pattern, core)
     found = (tuple(int(i) for i in perm), k, kl, ku) if fits else None
     _PLANS[key] = (system, found)  # the system kept alive: its id is not reused
+    while len(_PLANS) > _PLANS_SIZE:
+        _PLANS.pop(next(iter(_PLANS)))
     return found
 
 
