@@ -128,6 +128,7 @@ from ..runtime.compile import (
 )
 from ..runtime.config import ensure_float64
 from ..runtime.store import StoredJit
+from ..solvers.bordered import newton_for
 from ..solvers.newton import NewtonSolver
 from . import events
 from .algebraic import algebraic_mask
@@ -162,7 +163,7 @@ MESSAGES = {
 _UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
 
 #: names this path in ``AdaptiveRun.solver``
-DESCRIBE = "variable steps, Newton in one compiled loop (dense Jacobians)"
+DESCRIBE = "variable steps, Newton in one compiled loop (dense or band-plus-border Jacobians)"
 
 
 class Controls(NamedTuple):
@@ -520,7 +521,14 @@ def adaptive(
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
     rule = get_rule("midpoint")
-    solver = NewtonSolver(reuse_jacobian=True) if solver is None else solver
+    if solver is None:
+        # a large sparse step is formed and factorized as a band plus a border
+        # (solvers/bordered.py); not with switches, whose states change the pattern
+        solver = (
+            NewtonSolver(reuse_jacobian=True)
+            if events.relays(system)
+            else newton_for(system, rule, reuse_jacobian=True)
+        )
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)
     p = np.asarray(p0, dtype=np.float64).reshape(n)

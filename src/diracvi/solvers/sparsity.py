@@ -14,6 +14,15 @@ A pattern read this way misses an entry only where the residual's derivative van
 an open set containing both points (a branch of ``jnp.where`` not taken). Even then the
 answer is not changed: Newton's residual is always exact, so an incomplete Jacobian can
 only slow the iteration down, and a step that does not converge says so in its status.
+
+With ``finite_rows=True`` a row that is not finite at a point says nothing at that point:
+forward mode multiplies every tangent by each partial on the way, so one non-finite
+partial (a square root of a random negative argument in a transistor model) makes the
+whole row non-finite whatever its structure. Such a row is read at the points where it
+is finite — the random points and as many again with the subsystem's own parameters
+(random states), where device models stay in their domain — and is counted full only
+if it is finite at none of them. (On a chain of 8 CMOS inverters the default reading
+counted 29 of 335 rows full, 11 504 entries against the 1901 this reading finds.)
 """
 
 from __future__ import annotations
@@ -41,10 +50,12 @@ def _random_like(leaf, rng):
     return np.asarray(leaf)
 
 
-def step_pattern(sub, rule, scheme: str, key) -> np.ndarray:
+def step_pattern(sub, rule, scheme: str, key, *, finite_rows: bool = False) -> np.ndarray:
     """Boolean ``s × s`` pattern of ``∂ρ/∂y`` for one subsystem, ``s`` its step's unknowns
     (``n + m``, or ``3(n + m)`` with the stages of ``"lobatto"``; see the module
-    documentation); ``key`` identifies what the pattern depends on (cache key)."""
+    documentation); ``key`` identifies what the pattern depends on (cache key).
+    ``finite_rows``: read each row where it is finite (see the module documentation)."""
+    key = (key, finite_rows)
     hit = _CACHE.get(key)
     if hit is not None:
         return hit
@@ -58,9 +69,13 @@ def step_pattern(sub, rule, scheme: str, key) -> np.ndarray:
         return jax.jacfwd(lambda y: residual(model, rule_, scheme, h, q, p, y, t))(y)
 
     pattern = np.zeros((size, size), dtype=bool)
+    seen = np.zeros(size, dtype=bool)  # rows finite at some point (finite_rows)
     compiled = None
-    for _ in range(POINTS):
-        fake = jax.tree.map(lambda a: _random_like(a, rng), arrays)
+    # the own parameters cannot be read where they are being traced (under jax.grad)
+    concrete = not any(isinstance(a, jax.core.Tracer) for a in jax.tree.leaves(arrays))
+    for point in range(2 * POINTS if finite_rows and concrete else POINTS):
+        own = point >= POINTS  # the subsystem's own parameters, random states
+        fake = arrays if own else jax.tree.map(lambda a: _random_like(a, rng), arrays)
         h, t = rng.uniform(0.01, 0.5), rng.uniform(0.0, 1.0)
         q, p = rng.uniform(-1.0, 1.0, (2, sub.n))
         y = rng.uniform(-1.0, 1.0, size)
@@ -77,7 +92,13 @@ def step_pattern(sub, rule, scheme: str, key) -> np.ndarray:
             # parameter under jax.grad): the program has inputs no concrete call can
             # supply. Every entry then counts, and the group keeps dense factors.
             return np.ones((size, size), dtype=bool)
-        pattern |= (values != 0) | ~np.isfinite(values)
+        if finite_rows:
+            finite = np.all(np.isfinite(values), axis=1)
+            pattern[finite] |= values[finite] != 0
+            seen |= finite
+        else:
+            pattern |= (values != 0) | ~np.isfinite(values)
+    pattern[~seen if finite_rows else np.zeros(size, bool)] = True
     _CACHE[key] = pattern
     while len(_CACHE) > _CACHE_SIZE:
         _CACHE.pop(next(iter(_CACHE)))
