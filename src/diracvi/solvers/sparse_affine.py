@@ -465,6 +465,12 @@ class SparseAffineMap:
 
         return march
 
+    def _block_times(self, t0, sign, start, steps):
+        """The times ``t_k`` of the steps of the block starting at step ``start`` (at most
+        :attr:`block` of them): ``t0 + k h`` forward, ``t0 − (k + 1) h`` backward."""
+        index = start + np.arange(min(self.block, steps - start), dtype=np.float64)
+        return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+
     def run(self, q0, p0, t0, steps, save_every, save_states, nodal, share):
         """Step ``steps`` times from ``(q0, p0)`` at ``t0``; returns a dict of the
         saved arrays (states every ``save_every`` steps, the initial one first) and the
@@ -492,8 +498,7 @@ class SparseAffineMap:
         starts = list(range(0, steps, block))
 
         def times_of(start):
-            index = start + np.arange(min(block, steps - start), dtype=np.float64)
-            return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+            return self._block_times(t0, sign, start, steps)
 
         times = times_of(0)
         if self.driven:
@@ -621,8 +626,7 @@ class SparseAffineMap:
         starts = list(range(0, steps, block))
 
         def times_of(start):
-            index = start + np.arange(min(block, steps - start), dtype=np.float64)
-            return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
+            return self._block_times(t0, sign, start, steps)
 
         times = times_of(0)
         if self.driven:
