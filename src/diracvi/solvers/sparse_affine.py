@@ -471,6 +471,50 @@ class SparseAffineMap:
         index = start + np.arange(min(self.block, steps - start), dtype=np.float64)
         return t0 + index * self.h if sign > 0 else t0 - (index + 1.0) * self.h
 
+    def _march_blocks(self, q0, p0, t0, steps, first_offsets, on_block):
+        """The steps of a run, block by block, shared by :meth:`run` and
+        :meth:`run_selected`: each block of at most :attr:`block` steps is marched in
+        place on the augmented states ``zs`` (one row a step: ``(q, p, 1, u)`` and the
+        step's ``v``; see :meth:`_augmented` and :meth:`_stepper`), then handed to
+        ``on_block(start, count, zs, times, following, last)``, which saves what its
+        caller keeps and returns the block's last step's unknowns ``y`` and the next
+        block's moving offsets (``first_offsets(times)`` gives the first block's). The
+        last step of every block is verified at the end. Returns ``(z, y)``: the final
+        state and the last step's unknowns; raises :class:`NotSparseAffine` if the
+        verification rejects a step."""
+        n, nk = self.n, self._nk
+        sign = 1.0 if self.scheme == "plus" else -1.0
+        width, march = self._augmented()["width"], self._stepper()
+        block = self.block
+        starts = list(range(0, steps, block))
+        times = self._block_times(t0, sign, 0, steps)
+        moving = first_offsets(times) if self.driven else None
+        checks = []  # (z, y, t) of the last step of every block, verified at the end
+        zs = np.zeros((block + 1, width + nk))
+        zs[:, 2 * n] = 1.0
+        zs[0, :n], zs[0, n : 2 * n] = q0, p0
+        ss = np.empty((block, nk))
+        y = None
+        for b, start in enumerate(starts):
+            count = len(times)
+            if self.driven:
+                zs[:count, 2 * n + 1 : width] = moving
+            zs[1 : count + 1, : 2 * n] = 0.0
+            ss[:count] = 0.0
+            march(zs, ss, count)  # the steps (see _augmented and _stepper)
+            last = b + 1 == len(starts)
+            following = times if last else self._block_times(t0, sign, starts[b + 1], steps)
+            y, moving = on_block(start, count, zs, times, following, last)
+            checks.append((zs[count - 1, : 2 * n].copy(), y, times[-1]))
+            zs[0] = zs[count]
+            times = following
+        z = zs[0, : 2 * n].copy()
+        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
+        worst = self._check_steps(zc, yc, tc)
+        if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
+            raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+        return z, y
+
     def run(self, q0, p0, t0, steps, save_every, save_states, nodal, share):
         """Step ``steps`` times from ``(q0, p0)`` at ``t0``; returns a dict of the
         saved arrays (states every ``save_every`` steps, the initial one first) and the
@@ -480,10 +524,9 @@ class SparseAffineMap:
         The saved arrays are allocated once at their final size and written in place
         (no per-block pieces joined at the end: that doubled the peak memory of a large
         circuit's run); ``q`` and ``p`` are the two halves of one array of states."""
-        n, size, k, nk = self.n, self.size, save_every, self._nk
+        n, size, k = self.n, self.size, save_every
         sign = 1.0 if self.scheme == "plus" else -1.0
         step = self._augmented()
-        width, march = step["width"], self._stepper()
         saves = steps // k
         if save_states:
             states = np.empty((saves + 1, 2 * n))
@@ -494,30 +537,13 @@ class SparseAffineMap:
             if nodal:
                 node_out[0] = p0
         energy, violation = np.empty(steps), np.empty(steps)
-        block = self.block
-        starts = list(range(0, steps, block))
+        x_t = np.empty((step["width"] + self._nk, self.block))  # a block's (z̃, v) by columns
 
-        def times_of(start):
-            return self._block_times(t0, sign, start, steps)
-
-        times = times_of(0)
-        if self.driven:
+        def first_offsets(times):
             zeros = np.zeros((1, n))
-            moving = np.concatenate(self._block(times, zeros, zeros, times[:1])[:2], axis=1)
-        checks = []  # (z, y, t) of the last step of every block, verified at the end
-        # one row a step: the augmented state (q, p, 1, u) and the step's v
-        zs = np.zeros((block + 1, width + nk))
-        zs[:, 2 * n] = 1.0
-        zs[0, :n], zs[0, n : 2 * n] = q0, p0
-        ss = np.empty((block, nk))
-        x_t = np.empty((width + nk, block))  # a block's (z̃, v), one column a step
-        for b, start in enumerate(starts):
-            count = len(times)
-            if self.driven:
-                zs[:count, 2 * n + 1 : width] = moving
-            zs[1 : count + 1, : 2 * n] = 0.0
-            ss[:count] = 0.0
-            march(zs, ss, count)  # the steps (see _augmented and _stepper)
+            return np.concatenate(self._block(times, zeros, zeros, times[:1])[:2], axis=1)
+
+        def on_block(start, count, zs, times, following, last):
             zb = zs[: count + 1, : 2 * n]
             # the block's diagnostics, vectorized over its steps: one transposed copy
             # of (z̃, v), then one product each; with them, the next block's offsets
@@ -526,7 +552,6 @@ class SparseAffineMap:
             con_t = step["c"] @ x
             q_from, q_to = zb[:-1, :n], zb[1:, :n]
             qk, qk1 = (q_from, q_to) if sign > 0 else (q_to, q_from)
-            following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
             r0_next, pm0_next, e = self._block(following, qk, qk1, times)
             energy[start : start + count] = e
             violation[start : start + count] = np.max(np.abs(con_t), axis=0, initial=0.0)
@@ -551,17 +576,10 @@ class SparseAffineMap:
                     if start == 0 and first == 0:
                         scale[0] = share / (1.0 - share)
                     node_out[rows] = zb[1:][stored][:, n:] - scale[:, None] * impulse
-            y = y_t[:, -1].copy()
-            checks.append((zb[count - 1].copy(), y, times[-1]))
-            zs[0] = zs[count]
-            times = following
-            if self.driven:
-                moving = np.concatenate([r0_next, pm0_next], axis=1)
-        z = zs[0, : 2 * n].copy()
-        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
-        worst = self._check_steps(zc, yc, tc)
-        if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
-            raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+            moving = np.concatenate([r0_next, pm0_next], axis=1) if self.driven else None
+            return y_t[:, -1].copy(), moving
+
+        z, y = self._march_blocks(q0, p0, t0, steps, first_offsets, on_block)
         return dict(
             z=z,
             y=y.copy(),
@@ -600,11 +618,9 @@ class SparseAffineMap:
         beside the driven offsets; the offsets here come from the drivers' own
         program). The verification of the last step of every block is :meth:`run`'s.
         Returns ``dict(z, y, q, mu)``; raises :class:`NotSparseAffine` as :meth:`run`."""
-        n, k, nk = self.n, save_every, self._nk
+        n, k = self.n, save_every
         coords, rows = np.asarray(coords, np.int64), np.asarray(rows, np.int64)
-        sign = 1.0 if self.scheme == "plus" else -1.0
-        step = self._augmented()
-        y_all, width, march = step["y"], step["width"], self._stepper()
+        y_all = self._augmented()["y"]
         # the chosen multipliers' rows of Y on the columns they touch (sorted indices
         # kept: each row's sum runs in the order of the whole product's)
         y_rows = y_all[n + rows]
@@ -622,29 +638,11 @@ class SparseAffineMap:
         q_out = np.empty((saves + 1, coords.size))
         q_out[0] = np.asarray(q0)[coords]
         mu_out = np.empty((saves, rows.size))
-        block = self.block
-        starts = list(range(0, steps, block))
 
-        def times_of(start):
-            return self._block_times(t0, sign, start, steps)
+        def first_offsets(times):
+            return np.concatenate(self._offsets_at(times), axis=1)
 
-        times = times_of(0)
-        if self.driven:
-            moving = np.concatenate(self._offsets_at(times), axis=1)
-        checks = []
-        zs = np.zeros((block + 1, width + nk))
-        zs[:, 2 * n] = 1.0
-        zs[0, :n], zs[0, n : 2 * n] = q0, p0
-        ss = np.empty((block, nk))
-        y = None
-        for b, start in enumerate(starts):
-            count = len(times)
-            if self.driven:
-                zs[:count, 2 * n + 1 : width] = moving
-            zs[1 : count + 1, : 2 * n] = 0.0
-            ss[:count] = 0.0
-            march(zs, ss, count)  # the steps, as in run
-            following = times_of(starts[b + 1]) if b + 1 < len(starts) else times
+        def on_block(start, count, zs, times, following, last):
             first = k - 1 - start % k
             saved = len(range(first, count, k))
             if saved:
@@ -655,17 +653,12 @@ class SparseAffineMap:
                 else:
                     x = np.ascontiguousarray(zs[first:count:k][:, used].T)
                     mu_out[at - 1 : at - 1 + saved] = (y_sel @ x).T
-            y = y_all @ zs[count - 1]
-            checks.append((zs[count - 1, : 2 * n].copy(), y, times[-1]))
-            zs[0] = zs[count]
-            if self.driven and b + 1 < len(starts):
+            moving = None
+            if self.driven and not last:
                 moving = np.concatenate(self._offsets_at(following), axis=1)
-            times = following
-        z = zs[0, : 2 * n].copy()
-        zc, yc, tc = (np.stack(c) for c in zip(*checks, strict=True))
-        worst = self._check_steps(zc, yc, tc)
-        if not (worst <= self.verify_rtol) or not np.all(np.isfinite(z)):
-            raise NotSparseAffine(f"a step was off by {worst:.1e} relative (not affine)")
+            return y_all @ zs[count - 1], moving
+
+        z, y = self._march_blocks(q0, p0, t0, steps, first_offsets, on_block)
         return dict(z=z, y=y.copy(), q=q_out, mu=mu_out)
 
 
