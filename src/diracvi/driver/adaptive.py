@@ -132,6 +132,7 @@ from ..solvers.bordered import newton_for
 from ..solvers.newton import NewtonSolver
 from . import events
 from .algebraic import algebraic_mask
+from .junction_end import end_error, pairs
 from .rebase import rebase_map
 from .step_error import (
     _ORDER,
@@ -295,6 +296,15 @@ def _march(system, rule, solver, capacity, x):
         plain_floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
         floor = jnp.where(switched, c["gap_ok"] | retried, plain_floor)
         judged = jnp.where(floor, smooth, err)
+        if "end_junction" in x:
+            # each junction's law at the try's end, where no centre samples it: a diode
+            # turning on after the last centre (.junction_end)
+            e_end = end_error(
+                events.with_modes(system, modes).force, (t, q_abs, base + q1, base + q2),
+                h_try, hmax, (x["end_junction"], x["end_driven"], x["end_gain"]),
+                x["safety"] * rtol * v_peak + atol_v,
+            )  # fmt: skip
+            judged = jnp.maximum(judged, e_end)
         aim = ok & (judged <= 1.0) & ~located  # retried at the switching instant
         passes = ok & (judged <= 1.0) & located
         # the interpolant between the last try's second centre and this try's first (the
@@ -582,6 +592,9 @@ def adaptive(
         "gauge": gauge,
         "gap_check": np.asarray(bool(gap_check)),
     }
+    driven = pairs(system, q, t0)
+    if driven is not None:  # the junctions' laws judged at each try's end too
+        fixed["end_junction"], fixed["end_driven"], fixed["end_gain"] = driven
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
     tries = rejected = newton = 0
