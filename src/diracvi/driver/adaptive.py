@@ -215,6 +215,9 @@ def _march(system, rule, solver, capacity, x):
     rtol, atol_q, atol_v = x["rtol"], x["atol_q"], x["atol_v"]
     hmax, hmin, t_stop, breaks = x["hmax"], x["hmin"], x["t_stop"], x["breaks"]
     found = events.relays(system)
+    # the junctions and the velocities their laws set, for the check at a try's end
+    # (.junction_end; read at the call's start: a diode's pairing is constant)
+    end_pair = pairs(system, x["q"], x["t"])
 
     def step(modes, h, t, q, p, dq, mu):
         stepped = events.with_modes(system, modes)
@@ -296,12 +299,12 @@ def _march(system, rule, solver, capacity, x):
         plain_floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
         floor = jnp.where(switched, c["gap_ok"] | retried, plain_floor)
         judged = jnp.where(floor, smooth, err)
-        if "end_junction" in x:
+        if end_pair is not None:
             # each junction's law at the try's end, where no centre samples it: a diode
             # turning on after the last centre (.junction_end)
             e_end = end_error(
                 events.with_modes(system, modes).force, (t, q_abs, base + q1, base + q2),
-                h_try, hmax, (x["end_junction"], x["end_driven"], x["end_gain"]),
+                h_try, hmax, end_pair,
                 x["safety"] * rtol * v_peak + atol_v,
             )  # fmt: skip
             judged = jnp.maximum(judged, e_end)
@@ -592,9 +595,6 @@ def adaptive(
         "gauge": gauge,
         "gap_check": np.asarray(bool(gap_check)),
     }
-    driven = pairs(system, q, t0)
-    if driven is not None:  # the junctions' laws judged at each try's end too
-        fixed["end_junction"], fixed["end_driven"], fixed["end_gain"] = driven
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
     tries = rejected = newton = 0
