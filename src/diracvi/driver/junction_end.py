@@ -95,9 +95,11 @@ def end_error(force, nodes, h_try, hmax, pair, tolerance):
     half = 0.5 * h_try
     v1, v2 = (q1 - q) / half, (q2 - q1) / half
     m1, m2 = 0.5 * (q + q1), 0.5 * (q1 + q2)
-    f1 = force(m1, v1, t + 0.5 * half)[junction]
-    f2 = force(m2, v2, t + 1.5 * half)[junction]
-    fe = force(m2 + 0.5 * (m2 - m1), v2 + 0.5 * (v2 - v1), t + h_try)[junction]
+    # the three evaluations as one batched one
+    qs = jnp.stack([m1, m2, m2 + 0.5 * (m2 - m1)])
+    vs = jnp.stack([v1, v2, v2 + 0.5 * (v2 - v1)])
+    ts = t + jnp.stack([0.5 * half, 1.5 * half, h_try])
+    f1, f2, fe = jax.vmap(lambda a, b, c: force(a, b, c)[junction])(qs, vs, ts)
     miss = jnp.abs(fe - (f2 + 0.5 * (f2 - f1))) / (9.0 * gain)
     e = miss / tolerance[driven]
     e = jnp.minimum(e, e * h_try / hmax)
