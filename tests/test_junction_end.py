@@ -2,7 +2,8 @@
 
 The midpoint rule samples a diode's law at step centres, and step doubling compares
 centres with centres; a diode that turns on in the last quarter of a try is off at all of
-them. ``diracvi.driver.junction_end`` evaluates each junction's law at the state the fine
+them. ``diracvi.driver.junction_end`` (imported in the tests that use it, so that the deck's
+test runs, and fails, on a tree without it) evaluates each junction's law at the state the fine
 steps extrapolate to at the try's end, against the line through its centre values.
 """
 
@@ -14,7 +15,6 @@ import pytest
 
 from _ngspice import available, fine_transient
 from diracvi import spice
-from diracvi.driver.junction_end import end_error, pairs
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
 
@@ -36,6 +36,8 @@ def test_a_smooth_law_mismatches_nine_times_the_fine_steps_rate_error():
     ``(3/32) c H²``: nine times the rate error of the two fine steps' midpoint quadrature
     of ``f`` (``c H²/96``), so ``end_error`` is that error over the tolerance — checked
     against the exact integral, with the driven coordinate's gain scaling it."""
+    from diracvi.driver.junction_end import end_error
+
     a, b, c, h, gain, tol = 0.3, -2.0, 7.0e3, 1e-3, 2.0, 1e-9
 
     def law(t):
@@ -59,6 +61,8 @@ def test_a_smooth_law_mismatches_nine_times_the_fine_steps_rate_error():
 def test_a_diode_drives_its_branch_charge():
     """A diode's ``L = w q̇`` (flux linkage ``w``, branch charge ``q``): its law sets the
     velocity of its own charge coordinate, with ``∂²L/∂w∂q̇ = 1``."""
+    from diracvi.driver.junction_end import pairs
+
     netlist = spice.read(PULSE_HALFWAVE)
     system = netlist.system
     found = pairs(system, netlist.q0, 0.0)
