@@ -72,6 +72,7 @@ def test_a_diode_drives_its_branch_charge():
     assert found.gain.tolist() == [1.0]
 
 
+@pytest.mark.slow  # ~20 s at load 8, most of it compiling the loop for this circuit
 @needs_ngspice
 def test_pulse_driven_rectifier_follows_ngspice_at_its_own_settings():
     """The deck above at its own ``.tran`` (reltol 1e-3, TMAX 5 µs) against ngspice's fine
