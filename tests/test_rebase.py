@@ -37,6 +37,35 @@ def test_the_rebased_coordinates_are_those_the_lagrangian_reads_only_linearly():
     assert pairs == {("E1.s", "E1.w"): 1.0, ("B1.s0", "B1.w0"): 1.0}
 
 
+def test_the_probes_are_traced_once_per_structure_not_at_every_run(monkeypatch):
+    """``rebase_map`` and ``algebraic_mask`` run at the start of every variable-step run;
+    their derivatives are one kept program per system's structure (``_probes``), so a
+    second run of a deck — or another deck of the same structure — traces nothing
+    (traced at every call they cost ~0.3 CPU s a run of the bridge rectifier, more than
+    its steps). The traced function body runs only while tracing: count it."""
+    from diracvi.driver import algebraic, rebase
+
+    traced = {"rebase": 0, "algebraic": 0}
+    for module, name in ((rebase, "rebase"), (algebraic, "algebraic")):
+        original = module._probe
+
+        def counting(*args, original=original, name=name):
+            traced[name] += 1
+            return original(*args)
+
+        monkeypatch.setattr(module, "_probe", counting)
+    net = spice.read(MIXED)
+    q, p = np.asarray(net.q0, float), np.zeros(net.system.n)
+    first = rebase_map(net.system, q), algebraic.algebraic_mask(net.system, q, p)
+    after_first = dict(traced)
+    again = spice.read(MIXED)  # a new system object of the same structure
+    second = rebase_map(again.system, q, 0.5), algebraic.algebraic_mask(again.system, q, p, 0.5)
+    assert traced == after_first
+    np.testing.assert_array_equal(first[0][0], second[0][0])
+    np.testing.assert_array_equal(first[0][1], second[0][1])
+    np.testing.assert_array_equal(first[1], second[1])
+
+
 @pytest.mark.slow  # a variable-step simulation (~10 s with its compilation)
 def test_a_node_at_zero_sensed_across_a_growing_flux_stays_near_round_off():
     """``v(z) = v(p) − v(m)`` with ``m`` a copy of the 15 V rail is 0 V in exact
