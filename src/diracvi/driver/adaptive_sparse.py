@@ -84,7 +84,7 @@ from .adaptive import (
 )
 from .sparse_offsets import _Offsets
 from .sparse_truncation import march as truncation_march
-from .step_error import SAFETY, estimate, growth
+from .step_error import DEFAULT_ERROR, ERRORS, SAFETY, estimate, growth
 
 #: how many step maps (each an assembled, factored J_x for one step size) are kept
 CACHE_SIZE = 8
@@ -395,10 +395,6 @@ class _Tries:
 
 
 _NO_OFFSETS = np.zeros((3, 0))
-
-#: the error controls of :func:`adaptive_sparse`, and the one ``spice.run`` takes
-ERRORS = ("doubling", "truncation")
-DEFAULT_ERROR = "doubling"
 
 
 def adaptive_sparse(
