@@ -177,6 +177,12 @@ def _block_fn(system, drivers, rule, scheme, h, times_next, qk, qk1, times):
 #: (more: the whole residual at zero, one program over the packed system)
 MAX_DRIVERS = 16
 
+#: ``(h, t)`` pairs in one call of the drivers' offsets program: the variable-step
+#: path's calls (:mod:`diracvi.driver.sparse_offsets`, three pairs a try for ``AHEAD``
+#: tries) and the check of the drivers here, so that one compiled program serves both
+#: (a program per shape: a cold run compiled, a warm one loaded, two)
+OFFSETS_PAIRS = 192
+
 
 @functools.cache
 def _csr_matvec():
@@ -750,10 +756,10 @@ def _use_drivers(out, system, values, t1) -> None:
     # (the drivers' own program, not the block program: that one takes the whole
     # system, whose key alone is seconds on a large circuit, and the variable-step
     # path never runs it)
-    r_t1, p_t1 = _offsets(
-        None, out.drivers, out.rule, out.scheme, np.array([out.h]), np.array([t1])
-    )
-    r_t1, p_t1 = np.asarray(r_t1), np.asarray(p_t1)
+    # (the pair repeated to the variable-step path's call shape: the same program)
+    hs, ts = np.full(OFFSETS_PAIRS, out.h), np.full(OFFSETS_PAIRS, float(t1))
+    r_t1, p_t1 = _offsets(None, out.drivers, out.rule, out.scheme, hs, ts)
+    r_t1, p_t1 = np.asarray(r_t1)[:1], np.asarray(p_t1)[:1]
     full_r, full_p = out.r0.copy(), out.pm0.copy()
     full_r[out.driver_rows], full_p[out.driver_coords] = r_t1[0], p_t1[0]
     same = np.array_equal(full_r, np.asarray(values[0][2])) and np.array_equal(
