@@ -118,9 +118,11 @@ def _probe_fn(system, rule, scheme, h, bases, times, seeds):
         def f(u):
             return _parts(system, rule, scheme, h, u, tk)
 
-        value = f(w)
-        tangents = jax.vmap(lambda s: jax.jvp(f, (w,), (s,))[1])(seeds)
-        return value, tangents
+        # the value is the JVPs' primal output, not batched over the seeds: ``f`` traced
+        # once, not once more for the value (measured on the 1000-stage ladder, fresh
+        # process: 2469 → 1613 equations, tracing 1.1–1.5 → 0.8–0.95 CPU s, compiling
+        # 0.1 s less; the values the same to 4 ulp)
+        return jax.vmap(lambda s: jax.jvp(f, (w,), (s,)), out_axes=(None, 0))(seeds)
 
     return jax.vmap(at)(bases, times)
 
