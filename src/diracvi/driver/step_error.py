@@ -26,6 +26,12 @@ import jax.numpy as jnp
 #: Passed to the program as data, like the tolerances (a change compiles nothing).
 SAFETY = 0.03
 
+#: the error controls of :func:`~.adaptive_sparse.adaptive_sparse` (this step doubling,
+#: or :mod:`.sparse_truncation`'s one solve a step), and the one ``spice.run`` takes; here,
+#: not there, so the command line lists them without importing the loop
+ERRORS = ("doubling", "truncation")
+DEFAULT_ERROR = "doubling"
+
 #: the order this error control is written for (the midpoint rule's)
 _ORDER = 2
 
@@ -190,6 +196,8 @@ def gap_error(xs, ys):
 
 
 __all__ = [
+    "DEFAULT_ERROR",
+    "ERRORS",
     "SAFETY",
     "Estimate",
     "alternating",
