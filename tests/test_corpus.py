@@ -398,12 +398,19 @@ def test_ng_schmitt_reference_is_converged():
     is within TOL of the reference now (2.1e-4 measured)."""
     deck = corpus.DATA / "ng_schmitt.cir"
     assert corpus.reference_divisor(deck) == 500
-    t, ref = corpus.load_reference("ng_schmitt")
-    names, data, _ = corpus.run_ngspice(deck, reltol=1e-9, divisor=5000)
-    converged = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
-    assert set(converged) == set(ref)
-    worst, errors, _ = corpus.compare_sampled(converged, (data[0, 0], data[-1, 0]), t, ref)
+    worst, errors = _ngspice_off_the_reference("ng_schmitt", reltol=1e-9, divisor=5000)
     assert worst <= corpus.TOL, errors
+
+
+def _ngspice_off_the_reference(name, **settings):
+    """ngspice's run of deck ``name`` at ``settings`` (``run_ngspice``'s) against the
+    committed reference, by the corpus's measure: ``(worst, {vector: error})``."""
+    t, ref = corpus.load_reference(name)
+    names, data, _ = corpus.run_ngspice(corpus.DATA / EXPECTED[name]["file"], **settings)
+    have = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
+    assert set(have) == set(ref)
+    worst, errors, _ = corpus.compare_sampled(have, (data[0, 0], data[-1, 0]), t, ref)
+    return worst, errors
 
 
 @pytest.mark.slow
@@ -419,14 +426,8 @@ def test_xy_mosrect_reference_is_converged():
     same measure, i(l2))."""
     deck = corpus.DATA / "xy_mosrect.cir"
     assert corpus.reference_divisor(deck) == 1000
-    t, ref = corpus.load_reference("xy_mosrect")
-    names, data, _ = corpus.run_ngspice(deck, reltol=1e-8, divisor=2000)
-    converged = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
-    assert set(converged) == set(ref)
-    worst, errors, _ = corpus.compare_sampled(converged, (data[0, 0], data[-1, 0]), t, ref)
+    worst, errors = _ngspice_off_the_reference("xy_mosrect", reltol=1e-8, divisor=2000)
     assert worst <= corpus.TOL, errors
     # the old reference's step is not converged: the same measure puts it above TOL
-    names, data, _ = corpus.run_ngspice(deck, divisor=50)
-    coarse = {n: np.interp(t, data[:, 0], data[:, j]) for j, n in enumerate(names) if n in ref}
-    _, coarse_errors, _ = corpus.compare_sampled(coarse, (data[0, 0], data[-1, 0]), t, ref)
+    _, coarse_errors = _ngspice_off_the_reference("xy_mosrect", divisor=50)
     assert coarse_errors["i(l2)"] > corpus.TOL, coarse_errors
