@@ -8,8 +8,9 @@ c.add(Capacitor(1e-6, name="C1"), p="out", n="0")
 built = c.build()   # built.system, built.q0, built.p0
 """
 
-import importlib
 from typing import TYPE_CHECKING
+
+from ..runtime.lazy import lazy_names
 
 # (a function named as its module: imported now, or a later ``import
 # diracvi.components.rotorcraft`` would bind the module to the package's name)
@@ -123,21 +124,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
 
 
-def __getattr__(name: str):
-    """A public name, imported at its first use (with the rest of its module's names)."""
-    if name not in _PUBLIC:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    where = _PUBLIC[name]
-    module = importlib.import_module(f"{__name__}.{where}")
-    for other, home in _PUBLIC.items():
-        if home == where:
-            globals()[other] = getattr(module, other)
-    return globals()[name]
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_PUBLIC})
-
+__getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
 
 __all__ = [
     "BJT",

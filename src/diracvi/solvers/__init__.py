@@ -1,7 +1,8 @@
 """Solvers for the implicit step equations."""
 
-import importlib
 from typing import TYPE_CHECKING
+
+from ..runtime.lazy import lazy_names
 
 #: public name -> its module, imported at the first use of the name: a module of this
 #: package (a linear netlist's sparse map, its condensed solve) does not import the others
@@ -22,18 +23,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .partitioned import PartitionedSolver, PartitionLayout
 
 
-def __getattr__(name: str):
-    """A public name, imported at its first use."""
-    if name not in _PUBLIC:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{_PUBLIC[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *_PUBLIC})
-
+__getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
 
 __all__ = [
     "AffineSolver",
