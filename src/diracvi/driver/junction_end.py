@@ -43,6 +43,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..solvers.limiting import junctions
+from .step_error import over_tmax
 
 
 class Pairs(NamedTuple):
@@ -102,7 +103,7 @@ def end_error(force, nodes, h_try, hmax, pair, tolerance):
     f1, f2, fe = jax.vmap(lambda a, b, c: force(a, b, c)[junction])(qs, vs, ts)
     miss = jnp.abs(fe - (f2 + 0.5 * (f2 - f1))) / (9.0 * gain)
     e = miss / tolerance[driven]
-    e = jnp.minimum(e, e * h_try / hmax)
+    e = over_tmax(jnp, e, h_try, hmax)
     # a law that overflows at the extrapolated end is as far off as can be
     e = jnp.where(jnp.isnan(e), jnp.inf, e)
     return jnp.max(e, initial=0.0)
