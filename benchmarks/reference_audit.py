@@ -84,7 +84,7 @@ def run_limited(deck: Path, divisor: float, reltol: float, cpu: float):
         used = (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
         if proc.returncode < 0 or not raw.exists():  # killed by SIGXCPU/SIGKILL
             return None, None, used
-        names, data = corpus.read_raw(raw)
+        names, data = corpus.read_raw(raw, corpus.kept)  # what a reference keeps
     return names, data, used
 
 

@@ -254,6 +254,61 @@ def test_which_vectors_are_compared_and_their_diracvi_names():
     assert corpus.diracvi_keys("V(Out)") == ["v(out)"]
 
 
+_RAW_DECK = """raw reader check: an RLC driven by a pulse, one run written twice
+v1 in 0 pulse(0 1 0 1n 1n 5u 10u)
+r1 in a 1k
+c1 a 0 1n
+l1 a b 1u
+r2 b 0 10
+.control
+set filetype=binary
+tran 0.1u 20u
+write out.bin
+set filetype=ascii
+write out.txt
+.endc
+.end
+"""
+
+
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_the_raw_reader_reads_ngspice_binary_and_ascii_files_of_one_run_alike(
+    tmp_path, monkeypatch
+):
+    """One ngspice run written as a binary and as an ASCII raw file: read_raw gives the
+    same names and the same values, the ASCII ones the binary doubles as ngspice prints
+    them (%.15e), and the same again when the blocks it reads split points anywhere."""
+    (tmp_path / "rlc.cir").write_text(_RAW_DECK)
+    corpus.subprocess.run(["ngspice", "-b", "rlc.cir"], cwd=tmp_path, capture_output=True)
+    names, binary = corpus.read_raw(tmp_path / "out.bin")
+    ascii_names, ascii = corpus.read_raw(tmp_path / "out.txt")
+    assert names == ascii_names and names[0] == "time"
+    assert sorted(names[1:]) == ["i(l1)", "i(v1)", "v(a)", "v(b)", "v(in)"]
+    assert binary.shape == ascii.shape and binary.shape[0] > 100
+    printed = np.vectorize(lambda x: float(f"{x:.15e}"))(binary)
+    assert np.array_equal(printed, ascii)
+    assert np.max(np.abs(binary[:, names.index("i(v1)")])) > 1e-4  # not zeros read twice
+    # the ASCII file parsed number by number, without read_raw: the same values
+    lines = (tmp_path / "out.txt").read_text().splitlines()
+    words = " ".join(lines[lines.index("Values:") + 1 :]).split()
+    assert np.array_equal(np.array(words, dtype=float).reshape(-1, 7)[:, 1:], ascii)
+    # a predicate keeps the time and the vectors it names, in the file's order
+    for path, values in ((tmp_path / "out.bin", binary), (tmp_path / "out.txt", ascii)):
+        some, part = corpus.read_raw(path, lambda n: n.startswith("i("))
+        assert some == ["time"] + [n for n in names if n.startswith("i(")]
+        assert np.array_equal(part, values[:, [names.index(n) for n in some]])
+    # blocks of 7 points: ASCII blocks of lines that end inside a point, the numbers carried
+    monkeypatch.setattr(corpus, "_BLOCK", 7)
+    assert np.array_equal(corpus.read_raw(tmp_path / "out.bin")[1], binary)
+    assert np.array_equal(corpus.read_raw(tmp_path / "out.txt")[1], ascii)
+    # a file cut short says where its values end
+    for name in ("out.bin", "out.txt"):
+        whole = (tmp_path / name).read_bytes()
+        (tmp_path / f"cut_{name}").write_bytes(whole[: len(whole) - 200])
+        with pytest.raises(ValueError, match="end at point"):
+            corpus.read_raw(tmp_path / f"cut_{name}")
+
+
 # 15 s, in `-m slow` (CI time): the reference's own check; the deck agrees with it by default
 @pytest.mark.slow
 def test_the_xy_vpwl_reference_is_its_sources_waveforms_at_every_point():
