@@ -231,8 +231,9 @@ def read_raw(path: Path, keep=None) -> tuple[list[str], np.ndarray]:
     ``No. Variables`` numbers), a binary one read as little-endian doubles (the point's
     values in order). So the peak memory is the output and one block, not the file held
     as text: a TSTEP/5000 run of ``xy_sandler23`` (1.0e7 points of 20 vectors, ~4.8 GB as
-    ASCII) read whole as one string and its words grew past 23 GB; its TSTEP/500 file
-    (478 MB) took 4.0 GB that way, 0.53 GB streamed (docs/circuits.md)."""
+    ASCII) read whole as one string and its words grew past 23 GB; streamed, its 1.6 GB
+    binary file reads in 1.61 GB (its TSTEP/500 ASCII file, 478 MB: 4.0 GB as one string,
+    0.53 GB streamed; docs/circuits.md)."""
     with open(path, "rb") as f:
         header: dict[str, str] = {}
         names: list[str] = []
