@@ -4,6 +4,12 @@ accuracy").
 
     PYTHONPATH=src python benchmarks/bridge_matched.py            # min of 5
     PYTHONPATH=src python benchmarks/bridge_matched.py --repeats 3
+    PYTHONPATH=src taskset -c 1 python benchmarks/bridge_matched.py --repeats 7
+
+Pinned to one core (``taskset``), diracvi's warm calls cost the same CPU every time;
+unpinned, XLA's CPU runtime hands some operations to a second thread of its pool, whose
+time doubles some calls' CPU on a busy machine (``docs/performance.md``, "A second
+thread") and the minimum of a few repeats does not always find an undoubled call.
 
 The circuit is ``CIRCUITS["bridge"]`` of :mod:`diracvi.spice._ngspice` (4 diodes, 100 µF,
 1 kΩ, a 10 V 50 Hz source on a 1 MΩ reference, ``.tran 10u 40m``).

@@ -58,7 +58,7 @@ DESCRIPTION = "SPICE netlists vs ngspice at matched accuracy; LC tank energy dri
 REFERENCE_DIVISIONS = 320_000
 
 #: ngspice's maximum steps are searched by this factor (then bisected: ngspice_search); a
-#: ladder of 2 made the next ngspice run up to 2.8× costlier than the one that matched
+#: ladder of 2 could time ngspice at up to twice the cost (∝ 1/TMAX) of the TMAX it needed
 LADDER = 2.0**0.25
 
 EMPTY = "empty\nR1 a 0 1\nV1 a 0 1\n.tran 1 1\n.end\n"
