@@ -234,3 +234,21 @@ def test_first_call_scipy_route_agrees_with_diracvi_at_the_horizon(name, tol):
     pick = reduced_model(problem)[3]
     q = scipy_route(problem, problem.t0 + problem.dt * problem.steps)
     np.testing.assert_allclose(np.asarray(traj.q[-1])[pick], q, rtol=0, atol=tol)
+
+
+def test_matched_accuracy_front_and_interpolation():
+    """ngspice's time at diracvi's error (``bench.circuits``): the front keeps only the
+    runs no other beats in both error and time, and on it the interpolation is log-log,
+    so a power law ``s = c·e^(−1/2)`` (trapezoidal at a maximum step) is read back
+    exactly between its points; past the front's most accurate run there is no answer."""
+    from diracvi.bench.circuits import front, seconds_at
+
+    law = [(e, 0.1 * e**-0.5) for e in (1e-3, 1e-4, 1e-5)]
+    dominated = [(5e-4, 20.0), (2e-5, 100.0)]  # costlier than a more accurate run
+    points = law + dominated
+    assert front(points) == sorted(law)
+    for err in (3e-4, 5e-5, 1.7e-5):
+        assert seconds_at(points, err) == pytest.approx(0.1 * err**-0.5, rel=1e-12)
+    assert seconds_at(points, 1e-5) == pytest.approx(0.1 * 1e-5**-0.5, rel=1e-12)
+    assert seconds_at(points, 1e-2) == law[0][1]  # reached by the cheapest: its time
+    assert seconds_at(points, 9e-6) is None

@@ -2,17 +2,20 @@ r"""Netlists against ngspice: time at matched accuracy, and a lossless LC tank's
 
 1. **Matched accuracy.** For each validation netlist (:mod:`diracvi.spice._ngspice`:
    RC charge, the paper's RLC, a 3-stage ladder, coupled inductors, a half-wave diode
-   rectifier, a full-wave bridge rectifier) a fine ngspice run (maximum step
-   ``TSTOP/40000``, tight tolerances) is the reference.
+   rectifier, a full-wave bridge rectifier) a converged ngspice run (maximum step
+   ``TSTOP/320000``, reltol 1e-7: :data:`REFERENCE_DIVISIONS`) is the reference.
    diracvi runs midpoint at the netlist's test step ``h``; its error ``e`` is the max over
    ``t > 0`` and over the probes of ``|x − x_ref| / peak``. ngspice (trapezoidal, default
-   tolerances) is run with maximum steps ``h·2^j``, j = 3, 2, …, −3, and the first
-   (cheapest) one whose error is ≤ ``e`` is timed. Times: a warm ``spice.run`` call
-   (min of repeats) against the ngspice batch run's wall time minus that of an empty
-   deck (process start-up and file output; min of repeats). Ratio: diracvi ÷ ngspice.
+   tolerances) is run with maximum steps ``8h·2^(−k/4)`` down to the first whose error
+   is ≤ ``e``, then bisected in ``log tmax`` four times against the last one above
+   (:func:`ngspice_search`); its time at ``e`` is interpolated, log-log, on the front of
+   those runs (:func:`seconds_at`). Times: a warm ``spice.run`` call (min of repeats)
+   against the ngspice batch run's wall time minus that of an empty deck (process
+   start-up and file output; min of repeats). Ratio: diracvi ÷ ngspice.
    The bridge (:data:`VARIABLE`) is also timed as a user runs it, ``spice.run(deck)``
    on SPICE's variable steps at the deck's own tolerances: ``e`` at the run's own nodes,
-   ngspice's maximum steps ``TSTEP·2^−j``, j = 0 … 7.
+   ngspice's maximum steps from ``TSTEP`` down (``benchmarks/bridge_matched.py``: both
+   work–precision curves, reltol turned too, in CPU seconds).
 2. **Energy drift.** An LC tank, ``L = C = 1`` (period 2π), started at ``v = 1``, 10⁶
    steps of ``h = 2π/100``; the drift is ``max_k |E_k − E_0| / E_0`` of each method's own
    energy. diracvi midpoint: the half-step energy ``½ L i_{k+½}² + q̄_{k+½}²/(2C)`` from
@@ -31,6 +34,7 @@ Without ngspice the rows are reported as not run.
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 
@@ -45,6 +49,17 @@ NAME = "circuits"
 #: the validation circuits also timed on SPICE's variable steps (``spice.run(deck)``)
 VARIABLE = ("bridge",)
 DESCRIPTION = "SPICE netlists vs ngspice at matched accuracy; LC tank energy drift (10⁶ steps)"
+
+#: a reference is ngspice at maximum step ``TSTOP/REFERENCE_DIVISIONS`` and reltol 1e-7. On
+#: the bridge rectifier it converges as ``tmax²``: against ``TSTOP/1 280 000``, ``/40 000``
+#: is 1.7e-5 of peak off, ``/160 000`` 1.4e-6, ``/320 000`` 3.4e-7 (2026-11-30). The
+#: ``/40 000`` once used was half as far off as diracvi's run it judged (3.3e-5), and
+#: floored ngspice's errors at 2.2e-5.
+REFERENCE_DIVISIONS = 320_000
+
+#: ngspice's maximum steps are searched by this factor (then bisected: ngspice_search); a
+#: ladder of 2 could time ngspice at up to twice the cost (∝ 1/TMAX) of the TMAX it needed
+LADDER = 2.0**0.25
 
 EMPTY = "empty\nR1 a 0 1\nV1 a 0 1\n.tran 1 1\n.end\n"
 LC = """LC tank, L = C = 1
@@ -75,34 +90,88 @@ def _error(t, values, ref_t, ref, probes):
     return worst
 
 
-def _cheapest(netlist, probes, err, steps, ref_t, ref, repeats):
-    """The first of ngspice's runs at maximum steps ``steps`` (trapezoidal, default
-    tolerances) whose error is at most ``err``, timed: ``(tmax, seconds, its error)``
-    (seconds: min of ``repeats``, minus an empty deck's run), or ``None``."""
+def front(points):
+    """The work–precision front of ``points`` (tuples starting ``(error, seconds, …)``):
+    the points no other point beats in both error and seconds, error ascending (so
+    seconds descending)."""
+    kept = []
+    for point in sorted(points, key=lambda p: (p[1], p[0])):
+        if not kept or point[0] < kept[-1][0]:
+            kept.append(point)
+    return kept[::-1]
+
+
+def seconds_at(points, err):
+    """Seconds at error ``err`` on the front of ``points``: between the two front points
+    bracketing it, ``log s`` linear in ``log e`` (for a rule of order p at a fixed step,
+    ``s ∝ e^(−1/p)``, a straight line in log-log). ``None`` below the front's smallest
+    error; above its largest, the cheapest point's seconds (reached, so an upper bound)."""
+    kept = front(points)
+    if not kept or err < kept[0][0]:
+        return None
+    for (e_lo, s_lo, *_), (e_hi, s_hi, *_) in itertools.pairwise(kept):
+        if e_lo <= err <= e_hi:
+            w = math.log(err / e_lo) / math.log(e_hi / e_lo) if e_hi > e_lo else 0.0
+            return math.exp((1.0 - w) * math.log(s_lo) + w * math.log(s_hi))
+    return kept[-1][1]
+
+
+def ngspice_point(netlist, probes, tmax, ref_t, ref, repeats, timer=None, options=".options"):
+    """One ngspice run (trapezoidal) at maximum step ``tmax`` and ``options``, timed by
+    ``timer`` (``(seconds, output)`` = min over ``repeats`` of ``fn``; wall by default):
+    ``(error, seconds, tmax, points)``."""
+    seconds, (ts, vs) = (timer or _wall)(
+        lambda: ngspice(netlist, probes, tmax, options=options), repeats
+    )
+    return _error(ts, vs, ref_t, ref, probes), seconds, tmax, len(ts)
+
+
+def ngspice_search(netlist, probes, err, start, lowest, ref_t, ref, repeats, timer=None,
+                   options=".options", bisections=4):  # fmt: skip
+    """ngspice's maximum step searched for the largest that reaches error ``err``: run at
+    ``start·LADDER^−k`` down to the first at most ``err`` (not below ``lowest``), then
+    bisected in ``log tmax`` ``bisections`` times between it and the last one above.
+    Returns every point run (:func:`ngspice_point`'s tuples) and the largest ``tmax``
+    found that reaches ``err`` (its point), or ``None`` if none did."""
+    points, above, tmax = [], None, start
+    while tmax >= lowest * (1.0 - 1e-12):
+        points.append(ngspice_point(netlist, probes, tmax, ref_t, ref, repeats, timer, options))
+        if points[-1][0] <= err:
+            break
+        above, tmax = points[-1], tmax / LADDER
+    else:
+        return points, None
+    below = points[-1]
+    for _ in range(bisections if above is not None else 0):
+        mid = math.sqrt(above[2] * below[2])
+        points.append(ngspice_point(netlist, probes, mid, ref_t, ref, repeats, timer, options))
+        below, above = (points[-1], above) if points[-1][0] <= err else (below, points[-1])
+    return points, below
+
+
+def _cheapest(netlist, probes, err, start, lowest, ref_t, ref, repeats):
+    """ngspice (trapezoidal, default tolerances) at diracvi's error ``err``: its maximum
+    step searched (:func:`ngspice_search`) and its seconds interpolated on the front at
+    ``err`` (:func:`seconds_at`), minus an empty deck's run (process start-up and file
+    output): ``(tmax, seconds, its error, empty deck's seconds)``, or ``None``."""
     t_empty, _ = _wall(lambda: ngspice(EMPTY, ("v(a)",), tmax=1.0, options=".options"), repeats)
-    for tmax in steps:
-        t_ng, (ts, vs) = _wall(
-            lambda tmax=tmax: ngspice(netlist, probes, tmax, options=".options"), 1
-        )
-        if _error(ts, vs, ref_t, ref, probes) <= err:
-            t_ng, (ts, vs) = _wall(
-                lambda tmax=tmax: ngspice(netlist, probes, tmax, options=".options"), repeats
-            )
-            return tmax, max(t_ng - t_empty, 1e-6), _error(ts, vs, ref_t, ref, probes), t_empty
-    return None
+    points, chosen = ngspice_search(netlist, probes, err, start, lowest, ref_t, ref, repeats)
+    if chosen is None:
+        return None
+    seconds = seconds_at(points, err)
+    return chosen[2], max(seconds - t_empty, 1e-6), chosen[0], t_empty
 
 
 def _matched(name, settings: Settings) -> Row:
     netlist, probes, h = CIRCUITS[name]
     parsed = spice.read(netlist)
     stop = parsed.stop
-    ref_t, ref = ngspice(netlist, probes, tmax=stop / 40000)
+    ref_t, ref = ngspice(netlist, probes, tmax=stop / REFERENCE_DIVISIONS)
     result = spice.run(parsed, dt=h, steps=round(stop / h))
     err = _error(result.time, {p: result[p] for p in probes}, ref_t, ref, probes)
     repeats = settings.long_repeats
     t_dv, _ = _wall(lambda: spice.run(parsed, dt=h, steps=round(stop / h)), repeats)
-    steps = [h * 2.0**j for j in range(3, -4, -1)]
-    chosen = _cheapest(netlist, probes, err, steps, ref_t, ref, repeats)
+    chosen = _cheapest(netlist, probes, err, 8.0 * h, h / 8.0, ref_t, ref, repeats)
     if chosen is None:
         return Row(
             NAME, f"{name}: diracvi vs ngspice at matched accuracy", t_dv, None, None,
@@ -125,17 +194,16 @@ def _matched(name, settings: Settings) -> Row:
 def _matched_variable(name, settings: Settings) -> Row:
     """The deck as a user runs it: ``spice.run(deck)``, SPICE's variable steps at the
     deck's own tolerances, its error taken at the run's own nodes (``internal=True``,
-    as ngspice's at its own time points); ngspice's maximum step ``TSTEP·2^−j``."""
+    as ngspice's at its own time points); ngspice's maximum step searched from ``TSTEP``."""
     netlist, probes, _ = CIRCUITS[name]
     parsed = spice.read(netlist)
-    ref_t, ref = ngspice(netlist, probes, tmax=parsed.stop / 40000)
+    ref_t, ref = ngspice(netlist, probes, tmax=parsed.stop / REFERENCE_DIVISIONS)
     result = spice.run(parsed, internal=True)
     err = _error(result.time, {p: result[p] for p in probes}, ref_t, ref, probes)
     repeats = settings.long_repeats
     t_dv, _ = _wall(lambda: spice.run(parsed), repeats)
     march = result.trajectory
-    steps = [parsed.dt * 2.0**-j for j in range(0, 8)]
-    chosen = _cheapest(netlist, probes, err, steps, ref_t, ref, repeats)
+    chosen = _cheapest(netlist, probes, err, parsed.dt, parsed.dt / 128, ref_t, ref, repeats)
     if chosen is None:
         return Row(
             NAME, f"{name}: diracvi variable steps vs ngspice at matched accuracy", t_dv,
