@@ -14,10 +14,17 @@ the nodes ``t_k``:
   steps change size or a source has a corner.)
 
 Both are second order at the step centres ``t_{k+½}``. Between two breakpoints (source
-corners) a signal is smooth, so it is sampled at other times by quadratic interpolation
-through the three nearest step centres *of the same interval* — never across a corner;
-at the ends of an interval (and of the run, half a step beyond the last centre) the
-same quadratic extrapolates, which keeps second order (a linear one would not).
+corners) a signal is smooth, so it is sampled at other times from the four nearest step
+centres *of the same interval* — never across a corner; at the ends of an interval (and
+of the run, half a step beyond the last centre) the same weights extrapolate, which keeps
+second order (a linear extrapolation would not). The weights are exact for quadratics and
+blind to the midpoint rule's period-2 alternation ``A(−1)^k/h_k`` (a stiff mode, ``R(z) →
+−1``, excited at a corner of a device law), which a quadratic through three centres passes
+on — and extrapolated half a step, multiplies by 3.5 (:mod:`._smooth`). The step-centred
+values themselves, the states, KCL and the power balance are untouched: only what is
+read between the centres (and at them: the weights at a centre are ``(−1, 3, 5, 1)/8``)
+is the alternation-free value. An interval of three steps is read by the quadratic
+through them, of two by the line, of one by the constant.
 """
 
 from __future__ import annotations
@@ -25,6 +32,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 import numpy as np
+
+from ._smooth import alternation_free
 
 
 def step_potentials(mu: np.ndarray, h: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
@@ -49,6 +58,7 @@ class Sampler:
 
     def __init__(self, t: np.ndarray, h: np.ndarray, bounds: np.ndarray):
         self.centres = t[:-1] + 0.5 * h
+        self.h = np.asarray(h, dtype=np.float64)
         self.bounds = np.asarray(bounds, dtype=np.float64)
         # the interval of each step (by its centre), and each interval's first step
         self.interval = np.clip(np.searchsorted(self.bounds, self.centres) - 1, 0, None)
@@ -56,36 +66,43 @@ class Sampler:
         self.first = np.searchsorted(self.interval, np.arange(count + 1))
 
     def weights(self, query: np.ndarray):
-        """``(index (Q, 3), weights (Q, 3))``: each query's three step centres and their
-        Lagrange weights. A query on a bound belongs to the interval before it (the run's
-        start to the first interval)."""
+        """``(index (Q, 4), weights (Q, 4))``: each query's four step centres and their
+        weights. A query on a bound belongs to the interval before it (the run's start to
+        the first interval). An interval of four steps or more: the four nearest centres
+        around the query, weights exact for quadratics that take out the midpoint rule's
+        period-2 alternation (:mod:`._smooth`); of three, the quadratic through them; of
+        two, the line; of one, the constant (the unused columns weigh 0)."""
         query = np.asarray(query, dtype=np.float64)
         count = len(self.bounds) - 1
         interval = np.clip(np.searchsorted(self.bounds, query, side="left") - 1, 0, count - 1)
         lo, hi = self.first[interval], self.first[interval + 1]
         size = hi - lo
-        # windows in the interval's steps: up to 3, the nearest around the query
+        # windows in the interval's steps: up to 4, the nearest around the query
         at = np.searchsorted(self.centres, query)
-        start = np.clip(at - 1, lo, np.maximum(hi - 3, lo))
-        index = np.minimum(start[:, None] + np.arange(3)[None, :], (hi - 1)[:, None])
+        start = np.clip(at - 2, lo, np.maximum(hi - 4, lo))
+        index = np.minimum(start[:, None] + np.arange(4)[None, :], (hi - 1)[:, None])
         x = self.centres[index]
-        w = np.empty_like(x)
-        for j in range(3):
-            others = [i for i in range(3) if i != j]
-            num = np.ones_like(query)
-            den = np.ones_like(query)
-            for i in others:
-                num = num * (query - x[:, i])
-                den = den * (x[:, j] - x[:, i])
-            w[:, j] = num / np.where(den == 0.0, 1.0, den)
-        # intervals of one or two steps: constant or linear
-        one = size == 1
-        w[one] = [1.0, 0.0, 0.0]
+        w = np.zeros_like(x)
+        four = size >= 4
+        if np.any(four):
+            w[four] = alternation_free(x[four], self.h[index[four]], query[four])
+        three = size == 3
+        if np.any(three):
+            x3, q3 = x[three, :3], query[three]
+            for j in range(3):
+                num = np.ones_like(q3)
+                den = np.ones_like(q3)
+                for i in range(3):
+                    if i != j:
+                        num = num * (q3 - x3[:, i])
+                        den = den * (x3[:, j] - x3[:, i])
+                w[three, j] = num / den
+        w[size == 1, 0] = 1.0
         two = size == 2
         if np.any(two):
             x0, x1 = x[two, 0], x[two, 1]
             s = (query[two] - x0) / (x1 - x0)
-            w[two] = np.column_stack([1.0 - s, s, np.zeros_like(s)])
+            w[two, 0], w[two, 1] = 1.0 - s, s
         return index, w
 
     def __call__(self, values: np.ndarray, query: np.ndarray) -> np.ndarray:
@@ -99,7 +116,7 @@ class Sampler:
         """``values`` sampled with the :meth:`weights` ``(index, w)`` of some times."""
         extra = (slice(None),) + (None,) * (np.ndim(values) - 1)
         out = w[:, 0][extra] * values[index[:, 0]]
-        for j in (1, 2):  # accumulated: no (Q, 3, S) intermediate
+        for j in range(1, index.shape[1]):  # accumulated: no (Q, 3, S) intermediate
             out += w[:, j][extra] * values[index[:, j]]
         return out
 

@@ -12,7 +12,7 @@ or one step at a time (:class:`StreamRecord`).
 
 **Why stream.** A run that keeps every state holds ``(2n + m)·steps`` numbers and its
 signals ``S·steps`` more: 1.2 GB for a 1000-stage ladder, 45 GB projected at 10⁵ stages.
-The TSTEP grid's values need only the three step centres around each output time
+The TSTEP grid's values need only the four step centres around each output time
 (:class:`~._resample.Sampler`), so :class:`StreamSampler` fills the grid chunk by chunk
 from the rows as they come and keeps only the last few: O(S) working memory beside the
 output. It calls the same :class:`~._resample.Sampler` on the same centres, so the grid
@@ -100,16 +100,16 @@ def step_signals(netlist, march) -> Signals:
 
 
 class StreamSampler:
-    """The quadratic resampling of :class:`~._resample.Sampler` onto sorted ``times``,
+    """The resampling of :class:`~._resample.Sampler` onto sorted ``times``,
     fed step rows in order (:meth:`feed`), finished by :meth:`finish`.
 
-    An output time ``τ`` in interval ``[b_i, b_{i+1}]`` is sampled from the three step
-    centres around it within that interval; it is *settled* — its three centres and
-    weights final — once its interval has closed (a later step lies beyond ``b_{i+1}``)
-    or three centres of its interval lie at or after the one before ``τ``. Settled times
-    are sampled by a :class:`~._resample.Sampler` over the kept rows; rows before the
-    one preceding the first unsettled time are dropped (at least the last three are
-    kept: the end of an interval extrapolates from its last three)."""
+    An output time ``τ`` in interval ``[b_i, b_{i+1}]`` is sampled from the four step
+    centres around it within that interval; it is *settled* — its centres and weights
+    final — once its interval has closed (a later step lies beyond ``b_{i+1}``) or four
+    centres of its interval lie at or after the second before ``τ``. Settled times are
+    sampled by a :class:`~._resample.Sampler` over the kept rows; rows before the second
+    one preceding the first unsettled time are dropped (at least the last four are
+    kept: the end of an interval extrapolates from its last four)."""
 
     def __init__(self, bounds, times, width: int):
         self.bounds = np.asarray(bounds, dtype=np.float64)
@@ -161,7 +161,7 @@ class StreamSampler:
             last = sampler.interval[-1]
             lo = sampler.first[np.minimum(interval, count)]
             closed = interval < last
-            within = (interval == last) & (np.maximum(at - 1, lo) + 3 <= n)
+            within = (interval == last) & (np.maximum(at - 2, lo) + 4 <= n)
             settled = closed | within
             ready = int(np.argmin(settled)) if not np.all(settled) else len(pending)
         if ready:
@@ -172,7 +172,7 @@ class StreamSampler:
             self.done += ready
         if final or self.done == len(self.times):
             return
-        keep = max(0, min(int(at[ready]) - 1, n - 3))
+        keep = max(0, min(int(at[ready]) - 2, n - 4))
         if keep:
             self.t, self.h = self.t[keep:], self.h[keep:]
             rest = len(self.values) - keep  # (a few rows: moved to the buffer's front)
