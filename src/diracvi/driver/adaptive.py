@@ -29,7 +29,12 @@ where a diode switches) moves the end state by an amount that does not shrink wi
 rates were once held only to the charge tolerance over the step, ``e_v ≤ e_q``,
 SPICE's ``max(current tol, charge tol / h)``: with a branch charge's running peak
 ``Q ≫ V·hmax`` that left a diode's current at its knee ~10⁻² of its peak off at the
-steps the knee takes.) ``e = max_j`` of all of them; ``e ≤ 1``
+steps the knee takes.) The coordinates :class:`Controls` gives an ``inertia`` (a
+circuit's inductors, as :func:`diracvi.spice.run` sets them) have their nodal momentum
+``p̂ = p − ½A(q)ᵀc`` judged too, as a state like the positions,
+``|p̂_f − p̂_c|_j / (3 M_jj (s·rtol·V_j + atol_v,j))``: the positions' local error
+``(H³/12) d³q/dt³`` vanishes twice a period of a ringing, where the momentum's peaks
+(:func:`~.step_error.node_momentum_error`). ``e = max_j`` of all of them; ``e ≤ 1``
 accepts the two fine steps (they are what is recorded: every recorded step is a plain
 Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
 ``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
@@ -188,6 +193,9 @@ class Controls(NamedTuple):
     hmax: float
     hmin: float
     h_first: float
+    #: per coordinate, the inertia ``M_jj`` whose nodal momentum is judged as a state
+    #: (:func:`~.step_error.node_momentum_error`; 0: not judged); None: none is
+    inertia: np.ndarray | None = None
 
 
 class AdaptiveRun(NamedTuple):
@@ -271,6 +279,14 @@ class _Carry:
         return out
 
 
+def _inertia(controls: Controls, n: int):
+    """``controls.inertia`` as the loop takes it: None where no momentum is judged."""
+    if controls.inertia is None:
+        return None
+    mass = np.broadcast_to(np.asarray(controls.inertia, np.float64), (n,)).copy()
+    return mass if np.any(mass > 0.0) else None
+
+
 def _march(system, rule, solver, capacity, x):
     """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
     TRACES["count"] += 1
@@ -345,10 +361,18 @@ def _march(system, rule, solver, capacity, x):
         delta = jnp.where(
             retried, alternating_from_retry(c["rej_d"], d_raw, c["rej_h"], h_try), delta
         )
+        momenta = None
+        if x["inertia"] is not None:  # (a structure: known when traced)
+            # the nodal momenta, their lag the impulse A(q)ᵀc (step_error.estimate)
+            def impulse(c):
+                return events.with_modes(system, modes).multiplier_force(q_abs, c, t)
+
+            momenta = (pc, p2, impulse, x["inertia"])
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]),
             (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax, base, delta,
+            momenta,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2, smooth = est
         v2 = (q2 - q1) / half
@@ -657,6 +681,7 @@ def adaptive(
         "breaks": padded,
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
+        "inertia": _inertia(controls, n),
         "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
         "rebase": rebased,
         "gauge": gauge,
