@@ -500,6 +500,8 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
     ib = 0
     c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
     peaks = (np.abs(z[:n]), np.zeros(n), np.zeros(m))
+    if tries.momenta is not None:
+        peaks = (*peaks, np.zeros(n))  # the nodal momenta's running peak
     count = rejected = 0
     status = OK
     while t < t_stop:
@@ -527,6 +529,8 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
             t, z = t_new, z2
             c_last = est.c2
             peaks = (est.q_peak, est.v_peak, est.m_peak)
+            if est.p_peak is not None:
+                peaks = (*peaks, est.p_peak)
             if land and ib < len(breaks) and target == breaks[ib]:
                 ib += 1
         else:

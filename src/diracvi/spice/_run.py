@@ -397,7 +397,8 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     ``chgtol``, their currents against ``abstol``, node potentials (the KCL multipliers)
     against ``vntol``; any other coordinate (a diode's flux linkage ∫V dt) against
     ``vntol`` too (its velocity is a voltage); an inductor's flux (a branch charge's
-    nodal momentum) as its current, against ``abstol``."""
+    nodal momentum) against ``reltol`` of its own peak and its inductance times
+    ``abstol``."""
     system = netlist.system
     charges = set(netlist.assembly.currents.values())
     is_charge = np.array([c in charges for c in system.coords])
