@@ -136,10 +136,10 @@ def _unjudged(system, q0, t0, which):
 def test_a_coupled_windings_flux_is_judged_against_its_own_peak(monkeypatch):
     # each winding's nodal flux is judged against its own running peak (at least its own
     # inductance times its current's): the secondary's flux is mostly M i₁, and judged as
-    # L₂ i₂ its stiff modes' O(H²) nodal offset (each node off by (h²/8) g'', the mean of
-    # two not) held xy_minductors to 22110 steps for 3514, no output more accurate. Here
-    # the run takes the steps the positions alone take (measured 1.4 %: k = 0.99 over
-    # 25 ms, 3568 against 3520 steps), and its signals are theirs to the deck's reltol
+    # L₂ i₂ the local error of its stiff modes (their order reduced, ~H^2.5) held
+    # xy_minductors to 22110 steps for 3514, no output more accurate. Here the run takes
+    # about the steps the positions alone take (measured: 1410 against 1362; judged as
+    # L₂ i₂, 8908), and its signals are theirs to the deck's reltol (5.6e-5 of peak)
     netlist = spice.read(COUPLED)
     settings = tran_settings(netlist)
     assert np.all(_run.controls(netlist, settings).inertia[_windings(netlist)] > 0.0)
@@ -148,7 +148,7 @@ def test_a_coupled_windings_flux_is_judged_against_its_own_peak(monkeypatch):
     assert _run.controls(netlist, settings).inertia is None
     plain = spice.run(COUPLED)
     steps, steps_plain = len(judged.trajectory.h), len(plain.trajectory.h)
-    assert steps <= 1.05 * steps_plain, (steps, steps_plain)
+    assert steps <= 1.1 * steps_plain, (steps, steps_plain)
     t = np.linspace(0.0, 0.01, 2001)[1:]
     a, b = judged.at(t), plain.at(t)
     for name in ("i(VS)", "v(2)", "v(3)", "i(L2)"):

@@ -194,10 +194,11 @@ def node_momentum_error(xp, gap, inertia, tolerance):
     its local error ``O(H³)`` as the positions': judged per try, not as a rate (no
     :func:`over_tmax`), and against its own peak, as they are. A winding coupled to
     another carries the other's flux ``M₁₂ i₁``: judged as its own current instead
-    (``L₂`` times that current's peak: in ``xy_minductors`` 1/3000 of the secondary's
-    flux), the midpoint rule's ``O(H²)`` offset of the nodes of a stiff mode (order
-    reduction: each node off by ``(h²/8) g''``, the mean of two, the reported current,
-    not) held that deck to 22110 steps for 3514, with no output any more accurate."""
+    (``L₂`` times that current's peak: in ``xy_minductors`` ~1/3000 of the secondary's
+    flux), the local error of its stiff modes (both ``L(1 ± k)/R`` below the steps, the
+    order reduced: ``H^2.3–2.6`` at 2–16 µs) held that deck to 22110 steps for 3514 —
+    at 2 µs the secondary's flux 1.2e-8 of itself off, 0.73 tolerances of ``L₂ i₂`` —
+    with no output any more accurate (0.00032 of peak on both)."""
     has = inertia > 0.0
     scaled = xp.abs(gap) / (2.0**_ORDER - 1.0)
     return xp.where(has, scaled / xp.where(has, tolerance, 1.0), 0.0)
