@@ -29,7 +29,14 @@ where a diode switches) moves the end state by an amount that does not shrink wi
 rates were once held only to the charge tolerance over the step, ``e_v ≤ e_q``,
 SPICE's ``max(current tol, charge tol / h)``: with a branch charge's running peak
 ``Q ≫ V·hmax`` that left a diode's current at its knee ~10⁻² of its peak off at the
-steps the knee takes.) ``e = max_j`` of all of them; ``e ≤ 1``
+steps the knee takes.) The coordinates :class:`Controls` gives an ``inertia`` (a
+circuit's inductors, as :func:`diracvi.spice.run` sets them) have their nodal momentum
+``p̂ = p − ½A(q)ᵀc`` judged too, as a state like the positions, against its own
+running peak ``P_j`` (at least ``M_jj`` times its velocity's: a coupled winding's flux
+is mostly the other winding's current's),
+``|p̂_f − p̂_c|_j / (3 (s·rtol·max(P_j, M_jj V_j) + M_jj atol_v,j))``: the positions' local error
+``(H³/12) d³q/dt³`` vanishes twice a period of a ringing, where the momentum's peaks
+(:func:`~.step_error.node_momentum_error`). ``e = max_j`` of all of them; ``e ≤ 1``
 accepts the two fine steps (they are what is recorded: every recorded step is a plain
 Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a smaller
 ``H``; either way the next ``H`` is ``H·clip(0.9 e^{−1/3}, 0.2, 2)``, at most ``2·hmax``
@@ -188,6 +195,9 @@ class Controls(NamedTuple):
     hmax: float
     hmin: float
     h_first: float
+    #: per coordinate, the inertia ``M_jj`` whose nodal momentum is judged as a state
+    #: (:func:`~.step_error.node_momentum_error`; 0: not judged); None: none is
+    inertia: np.ndarray | None = None
 
 
 class AdaptiveRun(NamedTuple):
@@ -271,6 +281,14 @@ class _Carry:
         return out
 
 
+def _inertia(controls: Controls, n: int):
+    """``controls.inertia`` as the loop takes it: None where no momentum is judged."""
+    if controls.inertia is None:
+        return None
+    mass = np.broadcast_to(np.asarray(controls.inertia, np.float64), (n,)).copy()
+    return mass if np.any(mass > 0.0) else None
+
+
 def _march(system, rule, solver, capacity, x):
     """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
     TRACES["count"] += 1
@@ -279,6 +297,7 @@ def _march(system, rule, solver, capacity, x):
     rtol, atol_q, atol_v = x["rtol"], x["atol_q"], x["atol_v"]
     hmax, hmin, t_stop, breaks = x["hmax"], x["hmin"], x["t_stop"], x["breaks"]
     found = events.relays(system)
+    judge_p = x["inertia"] is not None  # (a structure: known when traced)
     # the junctions and the velocities their laws set, for the check at a try's end
     # (.junction_end; read at the call's start: a diode's pairing is constant)
     end_pair = pairs(system, x["q"], x["t"])
@@ -345,12 +364,22 @@ def _march(system, rule, solver, capacity, x):
         delta = jnp.where(
             retried, alternating_from_retry(c["rej_d"], d_raw, c["rej_h"], h_try), delta
         )
+        momenta = None
+        if judge_p:
+            # the nodal momenta, their lag the impulse A(q)ᵀc (step_error.estimate),
+            # absolute for their peak (p = p_try + G·base)
+            def impulse(c):
+                return events.with_modes(system, modes).multiplier_force(q_abs, c, t)
+
+            shift_p = x["gauge"] @ base
+            momenta = (pc + shift_p, p2 + shift_p, impulse, x["inertia"])
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
-            (c["q_peak"], c["v_peak"], c["m_peak"]),
+            (c["q_peak"], c["v_peak"], c["m_peak"]) + ((c["p_peak"],) if judge_p else ()),
             (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax, base, delta,
+            momenta,
         )  # fmt: skip
-        err, q_peak, v_peak, m_peak, c2, smooth = est
+        err, q_peak, v_peak, m_peak, c2, smooth, p_peak = est
         v2 = (q2 - q1) / half
         ok = ok & jnp.isfinite(err)
         modes_new, located, h_event, e_new = events.decide(
@@ -458,6 +487,8 @@ def _march(system, rule, solver, capacity, x):
         new["q_peak"] = jnp.where(accept, q_peak, c["q_peak"])
         new["v_peak"] = jnp.where(accept, v_peak, c["v_peak"])
         new["m_peak"] = jnp.where(accept, m_peak, c["m_peak"])
+        if judge_p:
+            new["p_peak"] = jnp.where(accept, p_peak, c["p_peak"])
         new["c_last"] = jnp.where(accept, c2, c["c_last"])
         passed = accept & land & (target == breaks[c["ib"]])
         new["ib"] = jnp.where(passed, c["ib"] + 1, c["ib"])
@@ -507,6 +538,7 @@ def _march(system, rule, solver, capacity, x):
         "q_peak": x["q_peak"],
         "v_peak": x["v_peak"],
         "m_peak": x["m_peak"],
+        **({"p_peak": x["p_peak"]} if judge_p else {}),
         "c_last": x["c_last"],
         "tries": jnp.asarray(0),
         "newton": jnp.asarray(0),
@@ -657,11 +689,14 @@ def adaptive(
         "breaks": padded,
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
+        "inertia": _inertia(controls, n),
         "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
         "rebase": rebased,
         "gauge": gauge,
         "gap_check": np.asarray(bool(gap_check)),
     }
+    if fixed["inertia"] is not None:
+        state["p_peak"] = np.zeros(n)  # the nodal momenta's running peak
     ts, hs, qs, ps, mus = [np.array([t0])], [], [q[None]], [p[None]], []
     modes = []
     tries = rejected = newton = 0

@@ -81,6 +81,7 @@ from .adaptive import (
     TOO_SMALL,
     AdaptiveRun,
     Controls,
+    _inertia,
 )
 from .sparse_offsets import _Offsets
 from .sparse_truncation import march as truncation_march
@@ -339,10 +340,13 @@ class _Tries:
     tries themselves: a doubled one (:meth:`doubled`) and a single step (:meth:`single`,
     :mod:`.sparse_truncation`), sized by :meth:`plan`."""
 
-    def __init__(self, maps, offsets, n, tolerances, hmax, top):
+    def __init__(self, maps, offsets, n, tolerances, hmax, top, momenta=None):
         self.maps, self.offsets, self.n = maps, offsets, n
         self.tolerances, self.hmax, self.top = tolerances, hmax, top
         self.landings = 0
+        # (A(q)ᵀ as a sparse matrix, the inertia per coordinate): the nodal momenta's
+        # error (step_error.node_momentum_error); None leaves them unjudged
+        self.momenta = momenta
 
     def plan(self, h: float, rem: float, top: float):
         """``(size, level, lands)`` of a try proposed at ``h`` with ``rem`` left to the
@@ -369,10 +373,14 @@ class _Tries:
         z1, y1 = fine.step(z, u[1])
         z2, y2 = fine.step(z1, u[2])
         ok = bool(np.isfinite(z2).all() and np.isfinite(zc).all())
+        momenta = None
+        if self.momenta is not None:
+            reaction, mass = self.momenta
+            momenta = (zc[n:], z2[n:], reaction.dot, mass)
         with np.errstate(divide="ignore", invalid="ignore"):
             est = estimate(
                 np, z[:n], (zc[:n], z1[:n], z2[:n]), (yc[n:], y1[n:], y2[n:]), c_last, h_try,
-                peaks, self.tolerances, self.hmax,
+                peaks, self.tolerances, self.hmax, momenta=momenta,
             )  # fmt: skip
         ok = ok and math.isfinite(float(est.err))
         return ok, est, fine, z1, y1, z2, y2
@@ -459,7 +467,12 @@ def adaptive_sparse(
     breaks = [float(b) for b in sorted(breakpoints) if t0 < b < t_stop]
     offsets = _Offsets(system, maps, rule) if driven else None
     tolerances = (SAFETY, rtol, atol_q, atol_v, atol_m)
-    tries = _Tries(maps, offsets, n, tolerances, hmax, top)
+    # the nodal momenta judged (Controls.inertia): their lag is the constraint impulse
+    # Aᵀc (constant: the circuit is linear), the multiplier columns of the map's impulse
+    # rows
+    mass = _inertia(controls, n)
+    momenta = None if mass is None else (first.found.imp[:, n:].tocsr(), mass)
+    tries = _Tries(maps, offsets, n, tolerances, hmax, top, momenta)
     # the recorded steps, written in place (a guess of the count, grown if exceeded;
     # np.empty's pages are committed only when written, so the guess costs nothing)
     capacity = 2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16
@@ -487,6 +500,8 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
     ib = 0
     c_last = np.zeros(m)  # the given p0 carries no lag: c_{−1} = 0
     peaks = (np.abs(z[:n]), np.zeros(n), np.zeros(m))
+    if tries.momenta is not None:
+        peaks = (*peaks, np.zeros(n))  # the nodal momenta's running peak
     count = rejected = 0
     status = OK
     while t < t_stop:
@@ -514,6 +529,8 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
             t, z = t_new, z2
             c_last = est.c2
             peaks = (est.q_peak, est.v_peak, est.m_peak)
+            if est.p_peak is not None:
+                peaks = (*peaks, est.p_peak)
             if land and ib < len(breaks) and target == breaks[ib]:
                 ib += 1
         else:

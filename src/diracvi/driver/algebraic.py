@@ -86,4 +86,36 @@ def algebraic_mask(system, q0, p0, t0=0.0, seed=0) -> np.ndarray:
     return free
 
 
-__all__ = ["algebraic_mask"]
+@run_once_jit
+def _inertia(system, q, t0, which):
+    """``∂²L/∂v_j²`` at ``(q, v = 0)`` for each ``j`` of ``which``: one Hessian-vector
+    product per coordinate in a loop (memory O(n): the dense Hessian of a large circuit
+    would be O(n²))."""
+    zero = jnp.zeros(q.shape[0], q.dtype)
+
+    def momentum(v):
+        return jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
+
+    def entry(j):
+        unit = zero.at[j].set(1.0)
+        return jax.jvp(momentum, (zero,), (unit,))[1][j]
+
+    return jax.lax.map(entry, which)
+
+
+def inertia(system, q0, t0=0.0, which=None) -> np.ndarray:
+    """Per coordinate, its inertia ``M_jj = ∂²L/∂v_j²`` at ``q0`` and rest (an inductor's
+    inductance; 0 for a coordinate the Lagrangian reads no velocity of), probed for the
+    coordinates ``which`` (indices; default all) and 0 for the others: the scale of a
+    nodal momentum's error in the step control
+    (:func:`~diracvi.driver.step_error.node_momentum_error`)."""
+    n = system.n
+    which = np.arange(n) if which is None else np.asarray(which, dtype=np.int32).reshape(-1)
+    out = np.zeros(n)
+    if which.size:
+        q = jnp.asarray(np.asarray(q0, dtype=np.float64).reshape(n))
+        out[which] = np.asarray(_inertia(system, q, np.float64(t0), jnp.asarray(which)))
+    return out
+
+
+__all__ = ["algebraic_mask", "inertia"]
