@@ -50,3 +50,47 @@ def test_a_netlist_run_writes_its_file_without_xarray(tmp_path):
     )
     assert out.stdout.strip() == "", f"imported by the run: {out.stdout.strip()}"
     assert (tmp_path / "rc.nc").exists()
+
+
+def test_a_netlist_run_from_the_command_line_imports_only_what_it_runs(tmp_path):
+    """``diracvi run deck.cir`` imports neither the built-in problems nor the model-file
+    loader, nor the parts a linear deck does not build (rigid bodies, multibody systems,
+    URDF robots, the level-2 MOSFET), nor the partitioned solver; ``diracvi --help``
+    imports neither the rules nor the variable-step loops (issue 30)."""
+    deck = tmp_path / "rc.cir"
+    deck.write_text("RC\nV1 in 0 DC 1\nR1 in out 1k\nC1 out 0 1u\n.tran 0.5m 5m uic\n.end\n")
+    unneeded = (
+        "diracvi.problems",
+        "diracvi.model.modelfile",
+        "diracvi.components.multibody",
+        "diracvi.components.urdf",
+        "diracvi.components.mosfet2",
+        "diracvi.solvers.partitioned",
+    )
+    probe = (
+        "import sys\nfrom diracvi.cli import app\n"
+        "sys.argv = ['diracvi', *sys.argv[1:]]\n"
+        "try:\n    app()\nexcept SystemExit:\n    pass\n"
+        "print('@@', ' '.join(m for m in {names!r} if m in sys.modules))"
+    )
+    for argv, names in (
+        (["run", str(deck)], unneeded),
+        (["--help"], ("diracvi.discretization.rules", "diracvi.driver.adaptive_sparse")),
+    ):
+        out = subprocess.run(
+            [sys.executable, "-c", probe.format(names=names), *argv],
+            capture_output=True, text=True, timeout=300, check=True,
+        )  # fmt: skip
+        assert "@@" in out.stdout, out.stdout + out.stderr
+        imported = out.stdout.rpartition("@@")[2].strip()
+        assert imported == "", f"imported by diracvi {' '.join(argv)}: {imported}"
+
+
+def test_the_help_names_the_registered_rules():
+    """The command line lists the built-in rules without importing them
+    (``discretization/names.py``): the same names, in order, as the registry's."""
+    from diracvi.discretization.names import BUILT_IN
+    from diracvi.discretization.rules import RULES, rule_names
+
+    assert rule_names()[: len(BUILT_IN)] == BUILT_IN
+    assert all(RULES[name]().name == name for name in BUILT_IN)

@@ -116,6 +116,14 @@ def _choice(options):
     return check
 
 
+def _rule_names() -> tuple[str, ...]:
+    """Every registered rule's name (``--discretization``'s choices), read when a command
+    runs: importing the rules (JAX, Equinox) is not part of ``diracvi --help``."""
+    from ..discretization.rules import rule_names
+
+    return rule_names()
+
+
 #: ``--solver`` choices of ``run`` and ``sweep`` (the solvers are imported when a run
 #: needs one)
 SOLVERS = ("newton", "newton-full", "affine", "partitioned")
@@ -140,9 +148,6 @@ NETLIST_SUFFIXES = (".cir", ".sp", ".spice", ".net", ".ckt")
 
 def _resolve_model(target: str):
     """A built-in problem name or a model file path → a ModelSpec-like object."""
-    from .. import problems
-    from ..model.modelfile import load_model_file
-
     path = Path(target)
     if path.suffix.lower() in NETLIST_SUFFIXES:
         if not path.is_file():
@@ -151,6 +156,10 @@ def _resolve_model(target: str):
 
         with _library_errors():
             return spice.read(path)
+    # (after the netlists: a netlist run imports neither the problems nor model files)
+    from .. import problems
+    from ..model.modelfile import load_model_file
+
     looks_like_path = target.endswith(".py") or "/" in target or "\\" in target
     if looks_like_path or (path.is_file() and target not in problems.REGISTRY):
         if not path.is_file():

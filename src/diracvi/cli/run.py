@@ -9,8 +9,8 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from ..discretization.rules import rule_names
-from ..driver.adaptive_sparse import ERRORS as STEP_ERRORS
+from ..discretization.names import BUILT_IN as RULE_NAMES
+from ..driver.step_error import ERRORS as STEP_ERRORS
 from .common import (
     EXIT_USAGE,
     NETLIST_SUFFIXES,
@@ -23,6 +23,7 @@ from .common import (
     _positive_float,
     _positive_int,
     _resolve_model,
+    _rule_names,
     _solver_option,
 )
 
@@ -88,8 +89,8 @@ def run(
     discretization: Annotated[
         str | None,
         typer.Option(
-            callback=_choice(rule_names),
-            metavar="|".join(rule_names()),
+            callback=_choice(_rule_names),
+            metavar="|".join(RULE_NAMES),
             help="Quadrature rule (default: the problem's first solvable one, usually retraction).",
         ),
     ] = None,

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from ..discretization.rules import rule_names
+from ..discretization.names import BUILT_IN as RULE_NAMES
 from .common import (
     EXIT_USAGE,
     SOLVERS,
@@ -18,6 +18,7 @@ from .common import (
     _out,
     _positive_float,
     _positive_int,
+    _rule_names,
     _solver_option,
 )
 
@@ -93,8 +94,8 @@ def sweep_command(
     discretization: Annotated[
         str,
         typer.Option(
-            callback=_choice(rule_names),
-            metavar="|".join(rule_names()),
+            callback=_choice(_rule_names),
+            metavar="|".join(RULE_NAMES),
         ),
     ] = "retraction",
     save_every: Annotated[

@@ -8,49 +8,123 @@ c.add(Capacitor(1e-6, name="C1"), p="out", n="0")
 built = c.build()   # built.system, built.q0, built.p0
 """
 
-from ._charge_port import ChargePortPart
-from ._part import Part
-from .behavioural import BehaviouralSource
-from .bjt import BJT
-from .controlled import CCCS, CCVS, VCCS, VCVS
-from .diode import SPICE_PARAMETERS, Diode, spice_diode
-from .electrical import (
-    Capacitor,
-    CoupledInductors,
-    CurrentSource,
-    Ground,
-    IdealTransformer,
-    Inductor,
-    MutualInductance,
-    Resistor,
-    VoltageSource,
-)
-from .electromechanical import EMF, VoiceCoil
-from .jfet import JFET
-from .magnetic import CoreLaw, PiecewiseLinearCore, Reluctance, WoundCore
-from .mechanical import (
-    Damper,
-    Fixed,
-    ForceSource,
-    Inertia,
-    Mass,
-    Pendulum,
-    RotationalDamper,
-    Spring,
-    TorqueSource,
-    TorsionSpring,
-)
-from .mosfet import MOSFET
-from .mosfet2 import MOSFET2
-from .mosfet6 import MOSFET6
-from .multibody import Multibody, MultibodyModel
-from .network import Assembly, Circuit
-from .rigid_body import RigidBody
+from typing import TYPE_CHECKING
+
+from ..runtime.lazy import lazy_names
+
+# (a function named as its module: imported now, or a later ``import
+# diracvi.components.rotorcraft`` would bind the module to the package's name)
 from .rotorcraft import MotorPropeller, rotorcraft
-from .switch import CurrentSwitch, Relay, VoltageSwitch
-from .urdf import parse_urdf, read_urdf
-from .vdmos import VDMOS, GateDrainCapacitance
-from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
+
+#: public name -> its module, imported at the first use of the name: a netlist run imports
+#: the electrical parts it builds, not the rigid bodies, URDF robots or MOSFET models
+_PUBLIC = {
+    "ChargePortPart": "_charge_port",
+    "Part": "_part",
+    "BehaviouralSource": "behavioural",
+    "BJT": "bjt",
+    "CCCS": "controlled",
+    "CCVS": "controlled",
+    "VCCS": "controlled",
+    "VCVS": "controlled",
+    "SPICE_PARAMETERS": "diode",
+    "Diode": "diode",
+    "spice_diode": "diode",
+    "Capacitor": "electrical",
+    "CoupledInductors": "electrical",
+    "CurrentSource": "electrical",
+    "Ground": "electrical",
+    "IdealTransformer": "electrical",
+    "Inductor": "electrical",
+    "MutualInductance": "electrical",
+    "Resistor": "electrical",
+    "VoltageSource": "electrical",
+    "EMF": "electromechanical",
+    "VoiceCoil": "electromechanical",
+    "JFET": "jfet",
+    "CoreLaw": "magnetic",
+    "PiecewiseLinearCore": "magnetic",
+    "Reluctance": "magnetic",
+    "WoundCore": "magnetic",
+    "Damper": "mechanical",
+    "Fixed": "mechanical",
+    "ForceSource": "mechanical",
+    "Inertia": "mechanical",
+    "Mass": "mechanical",
+    "Pendulum": "mechanical",
+    "RotationalDamper": "mechanical",
+    "Spring": "mechanical",
+    "TorqueSource": "mechanical",
+    "TorsionSpring": "mechanical",
+    "MOSFET": "mosfet",
+    "MOSFET2": "mosfet2",
+    "MOSFET6": "mosfet6",
+    "Multibody": "multibody",
+    "MultibodyModel": "multibody",
+    "Assembly": "network",
+    "Circuit": "network",
+    "RigidBody": "rigid_body",
+    "CurrentSwitch": "switch",
+    "Relay": "switch",
+    "VoltageSwitch": "switch",
+    "parse_urdf": "urdf",
+    "read_urdf": "urdf",
+    "VDMOS": "vdmos",
+    "GateDrainCapacitance": "vdmos",
+    "DC": "waveforms",
+    "PWL": "waveforms",
+    "Exp": "waveforms",
+    "Pulse": "waveforms",
+    "Sine": "waveforms",
+    "Waveform": "waveforms",
+}
+
+if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) read them
+    from ._charge_port import ChargePortPart
+    from ._part import Part
+    from .behavioural import BehaviouralSource
+    from .bjt import BJT
+    from .controlled import CCCS, CCVS, VCCS, VCVS
+    from .diode import SPICE_PARAMETERS, Diode, spice_diode
+    from .electrical import (
+        Capacitor,
+        CoupledInductors,
+        CurrentSource,
+        Ground,
+        IdealTransformer,
+        Inductor,
+        MutualInductance,
+        Resistor,
+        VoltageSource,
+    )
+    from .electromechanical import EMF, VoiceCoil
+    from .jfet import JFET
+    from .magnetic import CoreLaw, PiecewiseLinearCore, Reluctance, WoundCore
+    from .mechanical import (
+        Damper,
+        Fixed,
+        ForceSource,
+        Inertia,
+        Mass,
+        Pendulum,
+        RotationalDamper,
+        Spring,
+        TorqueSource,
+        TorsionSpring,
+    )
+    from .mosfet import MOSFET
+    from .mosfet2 import MOSFET2
+    from .mosfet6 import MOSFET6
+    from .multibody import Multibody, MultibodyModel
+    from .network import Assembly, Circuit
+    from .rigid_body import RigidBody
+    from .switch import CurrentSwitch, Relay, VoltageSwitch
+    from .urdf import parse_urdf, read_urdf
+    from .vdmos import VDMOS, GateDrainCapacitance
+    from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
+
+
+__getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
 
 __all__ = [
     "BJT",

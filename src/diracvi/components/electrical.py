@@ -125,9 +125,14 @@ def template_momentum(part_fields: dict, velocity: float) -> float | None:
     r"""``p = ∂L/∂q̇`` of a template copy of a linear R, L or C (its field dictionary
     ``part_fields``, its branch current ``velocity``) in closed form: ``0`` for a
     resistor and a capacitor (their ``L`` has no ``q̇``), ``l q̇`` for an inductor
-    (``L = ½ l q̇²``). ``None`` for any other part, whose Lagrangian the caller
-    differentiates: for 10⁴ parts that is a compiled call whose program depends on the
-    part count (about 0.3 s), paid by the netlist reader for every new size."""
+    (``L = ½ l q̇²``), and ``0`` for any part whose Lagrangian is :class:`_NoLagrangian`
+    (a source, a resistor not in a template: ``L = 0``). ``None`` for any other part,
+    whose Lagrangian the caller differentiates: for 10⁴ parts that is a compiled call
+    whose program depends on the part count (about 0.3 s), paid by the netlist reader
+    for every new size; for one source it was five eager JAX operations, each compiled
+    in a fresh process (0.3 s of a cold ``diracvi run`` of the 1000-stage ladder)."""
+    if isinstance(getattr(part_fields.get("_lagrangian"), "rest", None), _NoLagrangian):
+        return 0.0  # (∂(0·q̇)/∂q̇ = 0 exactly, as the derivative JAX would take)
     alike = part_fields.get(ALIKE)
     if alike is None or type(alike[1]) is not np.ndarray:
         return None

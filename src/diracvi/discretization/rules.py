@@ -37,6 +37,7 @@ from ..errors import ModelError
 from .base import QuadratureRule
 from .lobatto import Lobatto
 from .midpoint import Midpoint
+from .names import BUILT_IN
 from .retraction import Retraction
 
 #: every rule by name: ``simulate(discretization=…)``, the CLI, the docs and the checks
@@ -72,7 +73,7 @@ def register_rule(rule: type[QuadratureRule]) -> type[QuadratureRule]:
 
 def unregister_rule(name: str) -> None:
     """Remove the rule ``name`` from :data:`RULES` (the built-in ones stay)."""
-    if name in ("retraction", "midpoint", "lobatto"):
+    if name in BUILT_IN:
         raise ModelError(f"the built-in rule {name!r} cannot be removed.")
     RULES.pop(name, None)
     _INSTANCES.pop(name, None)

@@ -84,7 +84,7 @@ from .adaptive import (
 )
 from .sparse_offsets import _Offsets
 from .sparse_truncation import march as truncation_march
-from .step_error import SAFETY, estimate, growth
+from .step_error import DEFAULT_ERROR, ERRORS, SAFETY, estimate, growth_of
 
 #: how many step maps (each an assembled, factored J_x for one step size) are kept
 CACHE_SIZE = 8
@@ -396,10 +396,6 @@ class _Tries:
 
 _NO_OFFSETS = np.zeros((3, 0))
 
-#: the error controls of :func:`adaptive_sparse`, and the one ``spice.run`` takes
-ERRORS = ("doubling", "truncation")
-DEFAULT_ERROR = "doubling"
-
 
 def adaptive_sparse(
     system,
@@ -507,7 +503,7 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
         count += 1
         err = float(est.err)
         accept = ok and err <= 1.0
-        h_next = h_try * float(growth(np, err)) if ok else 0.25 * h_try
+        h_next = h_try * growth_of(err) if ok else 0.25 * h_try  # (growth, on a float)
         if accept and h_try < h0:  # a landing step says little about the next one
             h_next = max(h_next, h0)
         if accept:

@@ -39,9 +39,31 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..runtime.compile import run_once_jit
+
 #: random points at which ∂L/∂v and Aᵀ are probed (a dependence that vanishes at all
 #: of them by chance is not a concern: autodiff gives exact zeros only for no dependence)
 _PROBES = 3
+
+
+def _probe(system, q, v, t0):
+    """``(∂L/∂v, diag ∂E/∂q, Aᵀ)`` at one point: one program for all three."""
+
+    def line(q, v):  # E(q, v) = ∂L/∂q + F: the Euler–Lagrange line without ṗ
+        e = jax.grad(lambda a: system.lagrangian(a, v, t0))(q)
+        return e + system.force(q, v, t0) if system.has_force else e
+
+    dldv = jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
+    own = jnp.diagonal(jax.jacfwd(line)(q, v))
+    rows = jax.jacfwd(lambda mu: system.multiplier_force(q, mu, t0))(jnp.zeros(system.m))
+    return dldv, own, rows
+
+
+@run_once_jit
+def _probes(system, qs, vs, t0):
+    """:func:`_probe` at each of the points: one program per system's structure, kept
+    (traced afresh at every run it cost ~0.13 CPU s a call on the bridge rectifier)."""
+    return jax.vmap(lambda q, v: _probe(system, q, v, t0))(qs, vs)
 
 
 def algebraic_mask(system, q0, p0, t0=0.0, seed=0) -> np.ndarray:
@@ -54,20 +76,9 @@ def algebraic_mask(system, q0, p0, t0=0.0, seed=0) -> np.ndarray:
     rng = np.random.default_rng(seed)
     scale = np.maximum(np.abs(q0), 1.0)
 
-    def line(q, v):  # E(q, v) = ∂L/∂q + F: the Euler–Lagrange line without ṗ
-        e = jax.grad(lambda a: system.lagrangian(a, v, t0))(q)
-        return e + system.force(q, v, t0) if system.has_force else e
-
-    def probe(q, v):
-        """``(∂L/∂v, diag ∂E/∂q, Aᵀ)`` at one point: one program for all three."""
-        dldv = jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
-        own = jnp.diagonal(jax.jacfwd(line)(q, v))
-        rows = jax.jacfwd(lambda mu: system.multiplier_force(q, mu, t0))(jnp.zeros(m))
-        return dldv, own, rows
-
     qs = q0 + 1e-3 * scale * rng.standard_normal((_PROBES, n))
     vs = rng.standard_normal((_PROBES, n))
-    dldv, own, rows = (np.asarray(a) for a in jax.jit(jax.vmap(probe))(qs, vs))
+    dldv, own, rows = (np.asarray(a) for a in _probes(system, qs, vs, np.float64(t0)))
     free = np.asarray(p0, dtype=np.float64) == 0.0
     free &= np.all(dldv == 0.0, axis=0) & np.all(own == 0.0, axis=0)
     if m:

@@ -42,8 +42,48 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..runtime.compile import run_once_jit
+
 #: random points at which the derivatives are probed
 _PROBES = 3
+
+
+def _dldq(system, q, v, t):
+    return jax.grad(lambda a: system.lagrangian(a, v, t))(q)
+
+
+def _probe(system, q, v, t, mu):
+    """The derivatives :func:`rebase_map` reads, at one point."""
+    n = system.n
+    hqq = jax.jacfwd(lambda a: _dldq(system, a, v, t))(q)  # (i, j) = ∂²L/∂q_i∂q_j
+    hqv = jax.jacfwd(lambda b: _dldq(system, q, b, t))(v)  # (j, i) = ∂²L/∂q_j∂v_i
+    at_rest = _dldq(system, q, jnp.zeros_like(v), t)
+    out = [hqq, hqv, at_rest]
+    if system.has_force:
+        out.append(jax.jacfwd(lambda a: system.force(a, v, t))(q))
+    else:
+        out.append(jnp.zeros((n, n)))
+    if system.m:
+        out.append(jax.jacfwd(lambda a: system.multiplier_force(a, mu, t))(q))
+    else:
+        out.append(jnp.zeros((n, n)))
+    if system.has_offset:
+        out.append(jax.jacfwd(lambda a: system.constraint_offset(a, t))(q))
+    else:
+        out.append(jnp.zeros((1, n)))
+    if system.has_holonomic:
+        out.append(jax.jacfwd(lambda a: system.position_constraints(a, t))(q))
+    else:
+        out.append(jnp.zeros((1, n)))
+    return tuple(out)
+
+
+@run_once_jit
+def _probes(system, qs, vs, ts, mus):
+    """:func:`_probe` at each of the points: one program per system's structure, kept
+    (a closure traced afresh at every run cost ~0.15 CPU s a call on the bridge
+    rectifier, more than its compiled loop's steps)."""
+    return jax.vmap(lambda q, v, t, mu: _probe(system, q, v, t, mu))(qs, vs, ts, mus)
 
 
 def rebase_map(system, q0, t0=0.0, seed=1):
@@ -55,39 +95,11 @@ def rebase_map(system, q0, t0=0.0, seed=1):
     rng = np.random.default_rng(seed)
     scale = np.maximum(np.abs(q0), 1.0)
 
-    def dldq(q, v, t):
-        return jax.grad(lambda a: system.lagrangian(a, v, t))(q)
-
-    def probe(q, v, t, mu):
-        hqq = jax.jacfwd(dldq, argnums=0)(q, v, t)  # (i, j) = ∂²L/∂q_i∂q_j
-        hqv = jax.jacfwd(dldq, argnums=1)(q, v, t)  # (j, i) = ∂²L/∂q_j∂v_i
-        at_rest = dldq(q, jnp.zeros_like(v), t)
-        out = [hqq, hqv, at_rest]
-        if system.has_force:
-            out.append(jax.jacfwd(lambda a: system.force(a, v, t))(q))
-        else:
-            out.append(jnp.zeros((n, n)))
-        if m:
-            out.append(jax.jacfwd(lambda a: system.multiplier_force(a, mu, t))(q))
-        else:
-            out.append(jnp.zeros((n, n)))
-        if system.has_offset:
-            out.append(jax.jacfwd(lambda a: system.constraint_offset(a, t))(q))
-        else:
-            out.append(jnp.zeros((1, n)))
-        if system.has_holonomic:
-            out.append(jax.jacfwd(lambda a: system.position_constraints(a, t))(q))
-        else:
-            out.append(jnp.zeros((1, n)))
-        return tuple(out)
-
     qs = q0 + 1e-3 * scale * rng.standard_normal((_PROBES, n))
     vs = rng.standard_normal((_PROBES, n))
     ts = t0 + rng.uniform(0.0, 1.0, _PROBES)
     mus = rng.standard_normal((_PROBES, m))
-    hqq, hqv, at_rest, df, da, db, dg = (
-        np.asarray(a) for a in jax.jit(jax.vmap(probe))(qs, vs, ts, mus)
-    )
+    hqq, hqv, at_rest, df, da, db, dg = (np.asarray(a) for a in _probes(system, qs, vs, ts, mus))
     free = np.all(hqq == 0.0, axis=(0, 1))  # column j of ∂²L/∂q∂q
     free &= np.all(hqv == hqv[:1], axis=(0, 2))  # ∂²L/∂q_j∂v the same everywhere
     free &= np.all(at_rest == 0.0, axis=0)

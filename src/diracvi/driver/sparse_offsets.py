@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..solvers.sparse_affine import _offsets
+from ..solvers.sparse_affine import OFFSETS_PAIRS, _offsets
 
 #: tries whose offsets one call of the offsets program computes (see :class:`_Offsets`),
 #: fewer when a try's offsets are many numbers (every row, for a circuit with many
-#: sources): a call's output stays within :data:`AHEAD_NUMBERS`
-AHEAD = 64
+#: sources): a call's output stays within :data:`AHEAD_NUMBERS`. Three pairs a try: the
+#: call's shape is the one the map's build checks the drivers with (one program, 64 tries)
+AHEAD = OFFSETS_PAIRS // 3
 AHEAD_NUMBERS = 1 << 18
 
 

@@ -26,6 +26,12 @@ import jax.numpy as jnp
 #: Passed to the program as data, like the tolerances (a change compiles nothing).
 SAFETY = 0.03
 
+#: the error controls of :func:`~.adaptive_sparse.adaptive_sparse` (this step doubling,
+#: or :mod:`.sparse_truncation`'s one solve a step), and the one ``spice.run`` takes; here,
+#: not there, so the command line lists them without importing the loop
+ERRORS = ("doubling", "truncation")
+DEFAULT_ERROR = "doubling"
+
 #: the order this error control is written for (the midpoint rule's)
 _ORDER = 2
 
@@ -120,21 +126,26 @@ def estimate(
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
     e_m = diff_m / (share * rtol * m_peak + atol_m)
-    # a rate is judged as its mean over TMAX (hmax): a mode ringing at the midpoint's
-    # amplification −1 (a stiff junction) moves the end state by a fixed amount whatever
-    # H, which read as a plain rate grows as 1/H and would drive the step to hmin
-    e_m = xp.minimum(e_m, e_m * h_try / hmax)
+    e_m = over_tmax(xp, e_m, h_try, hmax)
 
     def worst(gap):
         diff = xp.abs(gap) / (2.0**_ORDER - 1.0)
         e_q = diff / (share * rtol * q_peak + atol_q)
         e_v = diff / h_try / (share * rtol * v_peak + atol_v)
-        e_v = xp.minimum(e_v, e_v * h_try / hmax)
+        e_v = over_tmax(xp, e_v, h_try, hmax)
         return xp.max(xp.concatenate([e_q, e_v, e_m]), initial=0.0)
 
     err = worst(q2 - qc)
     smooth = err if delta is None else worst(q2 - qc - 2.0 * delta)
     return Estimate(err, q_peak, v_peak, m_peak, c2, smooth)
+
+
+def over_tmax(xp, e, h_try, hmax):
+    """A rate's error judged as its mean over TMAX (``hmax``): ``min(e, e·H/hmax)``. A
+    mode ringing at the midpoint's amplification −1 (a stiff junction) moves the end
+    state by a fixed amount whatever ``H``, which read as a plain rate grows as ``1/H``
+    and would drive the step to hmin."""
+    return xp.minimum(e, e * h_try / hmax)
 
 
 def growth(xp, err):
@@ -190,6 +201,8 @@ def gap_error(xs, ys):
 
 
 __all__ = [
+    "DEFAULT_ERROR",
+    "ERRORS",
     "SAFETY",
     "Estimate",
     "alternating",
@@ -198,4 +211,5 @@ __all__ = [
     "gap_error",
     "growth",
     "growth_of",
+    "over_tmax",
 ]

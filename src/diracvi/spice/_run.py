@@ -28,7 +28,6 @@ from ..driver import events
 from ..driver.adaptive import Controls, adaptive
 from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.events import relays
-from ..driver.simulate import simulate
 from ..errors import ModelError, StepFailure
 from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
@@ -367,6 +366,8 @@ def run(
         raise ModelError(
             f"netlist {netlist.title!r} has no '.tran TSTEP TSTOP': add one or pass dt= and steps=."
         )
+    from ..driver.simulate import simulate  # (here: a variable-step run plans no fixed step)
+
     traj = simulate(
         netlist.system,
         q0,
