@@ -137,7 +137,8 @@ def test_chain_of_inverters_steps_as_the_dense_newton(monkeypatch):
     (two border unknowns: the supply's multiplier and its source's charge, band 25):
     from states along its variable-step run, each Newton step's end equals the dense
     Newton's to round-off; and the whole run agrees with a dense run inside the step
-    control's tolerance (not step for step: round-off moves the next step's size)."""
+    control's tolerance (not step for step: round-off moves the next step's size, and
+    with it the step count, by several per cent — see the last assertion)."""
     from diracvi import spice
     from diracvi.discretization.rules import get_rule
     from diracvi.driver import adaptive as adaptive_module
@@ -175,9 +176,17 @@ def test_chain_of_inverters_steps_as_the_dense_newton(monkeypatch):
     for key in dense_run:
         a, b = np.asarray(dense_run[key]), np.asarray(banded_run[key])
         assert np.max(np.abs(a - b)) <= 1e-4 * max(1.0, np.max(np.abs(a))), key
-    # the step counts differ as two runs of the step control do (measured: 1139 against
-    # 1113 here, 2330 against 2258 for 8 inverters over 2 µs)
-    assert len(tr.t) == pytest.approx(len(dense_run.trajectory.t), rel=0.05)
+    # The step count is not a function of the linear algebra up to round-off: the run's
+    # first step after the pulse's edge (t = 0.2 µs, h ≈ 2.9e-12 s) reads its error from
+    # increments near round-off, so a 1e-16 change of the state moves the next step by
+    # 1e-8 and flips an accept or a gap check two steps later. Measured (tests' compile,
+    # 2026-11-30): the dense run 1151 steps, 1211 with its solve's answer one ulp larger;
+    # the bordered run 1197 at main 642313b, 1285 with one ulp, 1083 with the probe's
+    # column — every pair first apart at step 44 by 1e-8 of h, by 15–40 % at step 46.
+    # What the step control promises is its tolerance, asserted above; its work is
+    # asserted only to round-off's measured spread (−6 % to +12 % of the dense run's),
+    # doubled: a solve that made Newton or the error estimate worse would show as more.
+    assert len(tr.t) == pytest.approx(len(dense_run.trajectory.t), rel=0.25)
 
 
 def singular_core(size: int = 60, seed: int = 3):
