@@ -182,7 +182,7 @@ def test_chain_of_inverters_steps_as_the_dense_newton(monkeypatch):
     # 1e-8 and flips an accept or a gap check two steps later. Measured (tests' compile,
     # 2026-11-30): the dense run 1151 steps, 1211 with its solve's answer one ulp larger;
     # the bordered run 1197 at main 642313b, 1285 with one ulp, 1083 with the probe's
-    # column — every pair first apart at step 44 by 1e-8 of h, by 15–40 % at step 46.
+    # column — every pair first apart at step 44 by 1e-8 of h, by 15–75 % at step 46.
     # What the step control promises is its tolerance, asserted above; its work is
     # asserted only to round-off's measured spread (−6 % to +12 % of the dense run's),
     # doubled: a solve that made Newton or the error estimate worse would show as more.
