@@ -28,14 +28,30 @@ differentiable as the dense solve). :class:`BorderedNewtonSolver` is
 :class:`~diracvi.solvers.newton.NewtonSolver` with these factors: the same chord
 iteration, junction limiting, fresh Jacobian before giving up and residual test.
 
-**The border** (:func:`plan`, host side, once per system): starting from none, the
-unknown of highest degree whose removal narrows the RCM band of the rest the most is
-moved to the border (with a neighbour where it alone would leave the core structurally
-singular) while that lowers the Jacobian's cost in tangents, ``kl + ku + 1 + 2k``.
-The core ``A`` must be structurally nonsingular (a perfect matching of its rows to its
-columns, ``scipy.sparse.csgraph.maximum_bipartite_matching``): then ``A`` is nonsingular
-at almost every point, and where a pivot vanishes the factors are not finite and
-Newton reports the step singular, as a dense LU does.
+**The border** (:func:`plan`, host side, once per system — cached by its content, so a
+netlist read again reuses it): starting from none, the unknown of highest degree whose
+removal narrows the RCM band of the rest the most is moved to the border (with a neighbour
+where it alone would leave the core structurally singular) while that lowers the Jacobian's
+cost in tangents, ``kl + ku + 1 + 2k``. The core ``A`` must be structurally nonsingular (a
+perfect matching of its rows to its columns,
+``scipy.sparse.csgraph.maximum_bipartite_matching``): then ``A`` is nonsingular at almost
+every point.
+
+**A singular core** (:func:`factorize`): at a point where ``A`` is singular or nearly so
+and ``J`` is not (a row of the core whose terms all vanish there, its hub's term aside),
+the block elimination fails where a dense LU pivots past it. Each factorization therefore
+checks itself on one probe, ``b = J·1`` solved by the factors as ``x̂``: where the factors
+or ``x̂`` are not finite, or the componentwise backward error
+
+.. math::
+
+    \max_i \frac{|b - J \hat x|_i}{(|J|\,|\hat x| + |b|)_i}
+
+exceeds ``BACKWARD_ERROR`` (a backward-stable solve leaves a few units of round-off), the
+solves of these factors are made by a dense LU of ``J``, assembled from the same products
+(no further tangent), under ``lax.cond``. A ``J`` that is itself singular still gives
+non-finite solves, which Newton reports as a singular step. The probe costs one solve and
+two products with the band, O(s·(kl + ku + k)).
 
 **When** (:func:`plan`): from ``MIN_SIZE`` unknowns on, the structure is used when it
 needs at most a quarter of the dense Jacobian's tangents, ``kl + ku + 1 + 2k ≤ s / 4``,
@@ -51,6 +67,7 @@ Jacobian is then wrong, Newton slower, the residual — and so the answer — st
 
 from __future__ import annotations
 
+import hashlib
 from typing import NamedTuple
 
 import equinox as eqx
@@ -63,6 +80,7 @@ from scipy.sparse.csgraph import maximum_bipartite_matching, reverse_cuthill_mck
 
 from ..discretization.equations import unknown_count
 from ..errors import ModelError
+from ..runtime.fingerprint import Unstorable, canonical
 from . import banded
 from .base import StepResult
 from .limiting import junction_limiter
@@ -79,6 +97,11 @@ TANGENT_SHARE = 0.25
 MIN_SIZE = 200
 #: the border's size is at most this (its Schur complement is a dense k × k LU)
 MAX_BORDER = 16
+#: a probe's componentwise backward error above this sends the solves to a dense LU: a
+#: backward-stable solve leaves a few units of round-off (measured: 1.4e-14 median, 4e-13
+#: at most, at 16 states along the 8-inverter chain's run); √ε, where a solve has lost half
+#: its digits to a badly conditioned core, is far from both that and the O(1) of a singular one
+BACKWARD_ERROR = 2.0**-26
 
 
 def _rcm(sym: np.ndarray, core: np.ndarray):
@@ -140,23 +163,46 @@ _PLANS: dict = {}
 _PLANS_SIZE = 64
 
 
+def _content_key(system, rule, scheme: str):
+    """A key for everything :func:`plan` reads, or ``None`` where it cannot be printed.
+
+    The plan is a function of the step's pattern, and the pattern
+    (:func:`~diracvi.solvers.sparsity.step_pattern`) of the traced residual program, the
+    integer arrays (kept as they are: incidence and index tables carry the topology) and,
+    through the points taken at the system's own parameters (``finite_rows``), its
+    floating arrays' values. So the key is the system and the rule printed whole with
+    every array by value (:func:`~diracvi.runtime.fingerprint.canonical`: the program
+    store's printing, which determines the traced program), and the scheme: a netlist
+    read again (``spice.run`` of the same deck) gives the same key, any changed value
+    another one. Unprintable systems (a user's Python function kept whole, traced values)
+    give ``None`` and are cached by identity."""
+    try:
+        text = canonical((system, rule), values=True)
+    except Unstorable:
+        return None
+    return ("content", hashlib.sha256(text.encode()).hexdigest(), scheme)
+
+
 def plan(system, rule, scheme: str = "plus"):
     """The structured solve for ``system``'s step (``(perm, k, kl, ku)``, see
     :func:`structure`), or ``None`` where the dense solve is cheaper or the core is not
-    structurally nonsingular. Host side, cached per system."""
-    key = (id(system), rule.name, scheme)
-    hit = _PLANS.get(key)
-    if hit is not None and hit[0] is system:
-        return hit[1]
+    structurally nonsingular. Host side, cached by the system's content
+    (:func:`_content_key`; by identity where it has none)."""
     size = unknown_count(system, rule)
     if size < MIN_SIZE:
         return None
+    content = _content_key(system, rule, scheme)
+    key = (id(system), rule.name, scheme) if content is None else content
+    hit = _PLANS.get(key)
+    if hit is not None and (content is not None or hit[0] is system):
+        return hit[1]
     pattern = step_pattern(system, rule, scheme, ("bordered", *key), finite_rows=True)
     perm, k, kl, ku = structure(pattern)
     core = perm[: size - k]
     fits = _cost(kl, ku, k) <= TANGENT_SHARE * size and _nonsingular(pattern, core)
     found = (tuple(int(i) for i in perm), k, kl, ku) if fits else None
-    _PLANS[key] = (system, found)  # the system kept alive: its id is not reused
+    # by identity the system is kept alive (its id is not reused); by content it need not be
+    _PLANS[key] = (system if content is None else None, found)
     while len(_PLANS) > _PLANS_SIZE:
         _PLANS.pop(next(iter(_PLANS)))
     return found
@@ -190,9 +236,11 @@ class Layout(NamedTuple):
         return self.kl + self.ku + 1
 
 
-def factorize(fn, x, layout: Layout):
-    """The factors of ``J = ∂fn/∂x`` at ``x`` (see the module documentation) and the
-    magnitudes ``(|A| by rows, |B|, |(C D)|)`` for the residual test."""
+def factorize(fn, x, layout: Layout, *, fallback: bool = True):
+    """The factors of ``J = ∂fn/∂x`` at ``x`` (see the module documentation) and ``J``'s
+    parts ``(A by rows, B, (C D))``, signed (for the residual test's magnitudes and the
+    dense fallback). ``fallback``: check the factors on a probe and solve by a dense LU
+    where they fail it (see "A singular core"); ``False`` trusts them (tests)."""
     k, kl, ku, width, size = layout.border, layout.kl, layout.ku, layout.width, layout.size
     inner, outer = layout.perm[: size - k], layout.perm[size - k :]
     # the tangents: the band's colours on the core columns, then the border's columns
@@ -207,15 +255,33 @@ def factorize(fn, x, layout: Layout):
     if k:
         # the border rows, (C D): k products of the transposed linearization
         (c_d,) = jax.vmap(jax.linear_transpose(jvp, x))(jnp.eye(size, dtype=r.dtype)[outer])
-        c = c_d[:, inner]
-        d = products[width:][:, outer].T
-        ainv_b = banded.solve(lu, b, kl, ku)
-        s_lu, s_piv = jsl.lu_factor(d - c @ ainv_b)
     else:
         c_d = jnp.zeros((0, size), r.dtype)
-        c, ainv_b = jnp.zeros((0, size), r.dtype), b
+    parts = (rows, b, c_d)
+    # the probe b = J·1 (see "A singular core") rides along A⁻¹ B as one more column: the
+    # band's solve costs its scans' steps, hardly their width
+    probe = product(parts, jnp.ones(size, r.dtype), layout)
+    columns = jnp.concatenate([b, probe[inner][:, None]], axis=1) if fallback else b
+    solved = banded.solve(lu, columns, kl, ku)
+    ainv_b, y = solved[:, :k], (solved[:, k] if fallback else None)
+    if k:
+        c = c_d[:, inner]
+        d = products[width:][:, outer].T
+        s_lu, s_piv = jsl.lu_factor(d - c @ ainv_b)
+    else:
+        c = jnp.zeros((0, size), r.dtype)
         s_lu, s_piv = jnp.zeros((0, 0), r.dtype), jnp.zeros(0, jnp.int32)
-    return (*lu, ainv_b, c, s_lu, s_piv), (jnp.abs(rows), jnp.abs(b), jnp.abs(c_d))
+    factors = (*lu, ainv_b, c, s_lu, s_piv)
+    dense = jnp.asarray(False)
+    if fallback:
+        # the block elimination's componentwise backward error on the probe
+        x2 = jsl.lu_solve((s_lu, s_piv), probe[outer] - c @ y) if k else probe[outer]
+        got = jnp.zeros(size, r.dtype).at[inner].set(y - ainv_b @ x2).at[outer].set(x2)
+        error = jnp.abs(probe - product(parts, got, layout))
+        scale = magnitude(parts, jnp.abs(got), layout) + jnp.abs(probe)
+        finite = jnp.all(jnp.isfinite(got)) & jnp.all(jnp.isfinite(s_lu))
+        dense = ~finite | jnp.any(error > BACKWARD_ERROR * scale)
+    return (*factors, dense), parts
 
 
 def empty_factors(layout: Layout, dtype):
@@ -230,17 +296,19 @@ def empty_factors(layout: Layout, dtype):
         jnp.zeros((k, core), dtype),  # C
         jnp.zeros((k, k), dtype),  # LU of S
         jnp.zeros(k, jnp.int32),
+        jnp.asarray(False),  # solve by the dense fallback
     )
-    norms = (
-        jnp.zeros((core, layout.width), dtype),  # |A| by rows
-        jnp.zeros((core, k), dtype),  # |B|
-        jnp.zeros((k, size), dtype),  # |(C D)|
+    parts = (
+        jnp.zeros((core, layout.width), dtype),  # A by rows
+        jnp.zeros((core, k), dtype),  # B
+        jnp.zeros((k, size), dtype),  # (C D)
     )
-    return factors, norms
+    return factors, parts
 
 
-def solve(factors, b, layout: Layout):
-    """``x`` with ``J x = b`` from :func:`factorize`'s factors (block elimination)."""
+def _block_solve(factors, b, layout: Layout):
+    """``x`` with ``J x = b`` by block elimination with the band's and the Schur
+    complement's factors."""
     upper, lower, pivots, ainv_b, c, s_lu, s_piv = factors
     k, size = layout.border, layout.size
     inner, outer = layout.perm[: size - k], layout.perm[size - k :]
@@ -253,16 +321,47 @@ def solve(factors, b, layout: Layout):
     return jnp.zeros(size, b.dtype).at[inner].set(y).at[outer].set(x2)
 
 
-def magnitude(norms, v, layout: Layout):
-    """``|J| v`` from :func:`factorize`'s magnitudes (``v`` in the unknowns' order)."""
-    a_abs, b_abs, cd_abs = norms
+def dense_matrix(parts, layout: Layout):
+    """``J`` (s × s, the unknowns' order) assembled from :func:`factorize`'s parts."""
+    rows, b, c_d = parts
+    k, kl, size, width = layout.border, layout.kl, layout.size, layout.width
+    inner, outer = layout.perm[: size - k], layout.perm[size - k :]
+    col = np.arange(size - k)[:, None] - kl + np.arange(width)[None, :]
+    inside = (col >= 0) & (col < size - k)  # R is zero outside: added to a clipped column
+    core_rows = jnp.zeros((size - k, size), rows.dtype)
+    core_rows = core_rows.at[np.arange(size - k)[:, None], inner[np.clip(col, 0, size - k - 1)]]
+    core_rows = core_rows.add(jnp.where(jnp.asarray(inside), rows, 0.0))
+    core_rows = core_rows.at[:, outer].set(b)
+    return jnp.zeros((size, size), rows.dtype).at[inner].set(core_rows).at[outer].set(c_d)
+
+
+def solve(both, b, layout: Layout):
+    """``x`` with ``J x = b`` from :func:`factorize`'s result: block elimination, or a
+    dense LU of ``J`` where the factors failed their probe."""
+    factors, parts = both
+    *blocks, dense = factors
+
+    def by_dense(b):
+        return jsl.lu_solve(jsl.lu_factor(dense_matrix(parts, layout)), b)
+
+    return jax.lax.cond(dense, by_dense, lambda b: _block_solve(blocks, b, layout), b)
+
+
+def product(parts, v, layout: Layout):
+    """``J v`` from :func:`factorize`'s parts (``v`` in the unknowns' order)."""
+    rows, b, c_d = parts
     k, kl, size, width = layout.border, layout.kl, layout.size, layout.width
     inner, outer = layout.perm[: size - k], layout.perm[size - k :]
     col = np.arange(size - k)[:, None] - kl + np.arange(width)[None, :]
     inside = (col >= 0) & (col < size - k)  # R is zero outside; the gather is clipped
     v1 = v[inner][np.clip(col, 0, size - k - 1)]
-    band = jnp.sum(jnp.where(jnp.asarray(inside), a_abs * v1, 0.0), axis=1) + b_abs @ v[outer]
-    return jnp.zeros(size, v.dtype).at[inner].set(band).at[outer].set(cd_abs @ v)
+    band = jnp.sum(jnp.where(jnp.asarray(inside), rows * v1, 0.0), axis=1) + b @ v[outer]
+    return jnp.zeros(size, v.dtype).at[inner].set(band).at[outer].set(c_d @ v)
+
+
+def magnitude(parts, v, layout: Layout):
+    """``|J| v`` from :func:`factorize`'s parts (``v`` in the unknowns' order)."""
+    return product(jax.tree.map(jnp.abs, parts), v, layout)
 
 
 class BorderedNewtonSolver(NewtonSolver):
@@ -299,18 +398,18 @@ class BorderedNewtonSolver(NewtonSolver):
         # each equation's size: the known momentum and the linearized change over the step
         x_ref = eqs.reference()
         known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
-        factors, norms, valid = state
-        x, status, iterations, res_norm, (factors, norms) = chord_newton(
+        factors, parts, valid = state
+        x, status, iterations, res_norm, (factors, parts) = chord_newton(
             self,
             fn,
             lambda x: factorize(fn, x, layout),
-            lambda both, r: solve(both[0], -r, layout),
+            lambda both, r: solve(both, -r, layout),
             guess,
-            (factors, norms),
+            (factors, parts),
             valid,
             eqs.scale(),
             limit=junction_limiter(eqs) if self.limit_junctions else None,
             row_scale=lambda both, x: known + magnitude(both[1], jnp.abs(x - x_ref), layout),
             reference=x_ref,
         )
-        return StepResult(x, status, iterations, res_norm, (factors, norms, status == 0))
+        return StepResult(x, status, iterations, res_norm, (factors, parts, status == 0))
