@@ -86,6 +86,22 @@ def test_interleaved_times_every_call_alternately():
     assert firsts == ["a", "b", "c", "a"]  # the starting side rotates
 
 
+def test_interleaved_reads_the_clock_it_is_given():
+    """Each timed call is the difference of two readings of ``clock`` around it (a clock
+    that advances by 1 per reading and 10 per call: every time is 11)."""
+    ticks = [0.0]
+
+    def clock():
+        ticks[0] += 1.0
+        return ticks[0]
+
+    def call():
+        ticks[0] += 10.0
+
+    times = interleaved({"a": call, "b": call}, repeats=3, clock=clock)
+    assert all(np.array_equal(v, [11.0, 11.0, 11.0]) for v in times.values())
+
+
 def test_targets_and_rows():
     assert Target(">=", 100).met(120.0) and not Target(">=", 100).met(99.0)
     assert Target("<=", 1.05).met(1.0) and Target("in", 0.9, 1.1).met(1.02)

@@ -84,7 +84,7 @@ class Target:
 class Row:
     """One line of the table.
 
-    ``diracvi`` and ``baseline`` are values in ``unit`` (``"s"`` for wall times, ``""``
+    ``diracvi`` and ``baseline`` are values in ``unit`` (``"s"`` for times, ``""``
     for dimensionless numbers such as errors); ``ratio`` is what ``target`` judges, and
     ``label`` says which way it is taken (e.g. "NumPy ÷ diracvi").
     """
@@ -153,8 +153,14 @@ def jax_split() -> dict[str, float]:
     return split
 
 
-def interleaved(calls: dict[str, Callable[[], object]], repeats: int) -> dict[str, np.ndarray]:
-    """Wall times (s) of ``repeats`` warm calls of each entry of ``calls``, interleaved.
+def interleaved(
+    calls: dict[str, Callable[[], object]],
+    repeats: int,
+    clock: Callable[[], float] = time.perf_counter,
+) -> dict[str, np.ndarray]:
+    """Times (s) of ``repeats`` warm calls of each entry of ``calls``, interleaved: wall
+    times by default, or as ``clock`` reads them (``time.process_time``: the process's
+    CPU time, which a call preempted by other processes does not accumulate).
 
     Every call is made once untimed first (compilation, caches). Then round ``i`` times
     each call once, starting from entry ``i mod len(calls)``, so no side always runs
@@ -171,9 +177,9 @@ def interleaved(calls: dict[str, Callable[[], object]], repeats: int) -> dict[st
         for i in range(repeats):
             start = i % len(names)
             for name in names[start:] + names[:start]:
-                t0 = time.perf_counter()
+                t0 = clock()
                 calls[name]()
-                times[name][i] = time.perf_counter() - t0
+                times[name][i] = clock() - t0
     finally:
         if enabled:
             gc.enable()
@@ -181,7 +187,7 @@ def interleaved(calls: dict[str, Callable[[], object]], repeats: int) -> dict[st
 
 
 def summary(times: np.ndarray) -> dict:
-    """``{min_s, median_s, repeats}`` of a sample of wall times."""
+    """``{min_s, median_s, repeats}`` of a sample of times."""
     return {
         "min_s": float(np.min(times)),
         "median_s": float(np.median(times)),
