@@ -181,6 +181,10 @@ MESSAGES = {
 #: the loop's state at a try's start, kept to take an accepted try again (gap_error)
 _UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
 
+#: the coarse step's Newton stops within this share of what the step-doubling estimate
+#: can notice (module doc): the estimate moves by at most this many tolerances
+COARSE_SHARE = 0.01
+
 #: names this path in ``AdaptiveRun.solver``
 DESCRIBE = "variable steps, Newton in one compiled loop (dense or band-plus-border Jacobians)"
 
@@ -302,12 +306,27 @@ def _march(system, rule, solver, capacity, x):
     # (.junction_end; read at the call's start: a diode's pairing is constant)
     end_pair = pairs(system, x["q"], x["t"])
 
-    def step(modes, h, t, q, p, dq, mu):
+    def step(modes, h, t, q, p, dq, mu, atol=None):
         stepped = events.with_modes(system, modes)
-        q1, p1, mu1, ok, its = one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        q1, p1, mu1, ok, its = one_step(stepped, rule, solver, h, t, q, p, q + dq, mu, atol)
         # the momenta of algebraic coordinates held at their exact value 0 (their
         # round-off would alternate undamped: driver/algebraic.py)
         return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok, its
+
+    def coarse_accuracy(c, h_try):
+        # the coarse step is read only through the step-doubling difference (module
+        # doc, "The coarse step's Newton"): each unknown solved to COARSE_SHARE of the
+        # smallest change of it that moves the estimate by one tolerance, with the
+        # running peaks at the try's start (this try's can only raise them)
+        share = x["safety"] * rtol
+        order = 2.0**_ORDER - 1.0
+        tol_q = jnp.minimum(share * c["q_peak"] + atol_q, h_try * (share * c["v_peak"] + atol_v))
+        bound_q = COARSE_SHARE * order * tol_q
+        if judge_p:  # μ_c also moves the nodal momenta, not bounded here: to round-off
+            bound_m = jnp.zeros(m, dtype)
+        else:
+            bound_m = COARSE_SHARE * 0.5 * order * h_try * (share * c["m_peak"] + x["atol_m"])
+        return jnp.concatenate([bound_q, bound_m])
 
     def cond(packed):
         c = carry.unpack(packed)
@@ -347,8 +366,9 @@ def _march(system, rule, solver, capacity, x):
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
         back = (c["v_last"], 0.5 * h_last)  # the last mean velocity, at t − h_last/2
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict
-        )
+            step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict,
+            coarse_atol=None if found else coarse_accuracy(c, h_try),
+        )  # fmt: skip
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
         # the period-2 part at the start (a neutral mode, not truncation error:

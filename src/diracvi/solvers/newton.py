@@ -94,6 +94,20 @@ def _converged(rtol, x, dx, reference):
     return jnp.all(jnp.stack(jax.tree.leaves(within)))
 
 
+def _within(dx, atol):
+    r"""The absolute stopping test: every update within its own bound, ``|dx_i| ≤ atol_i``.
+
+    For a caller that reads the solution only to a known accuracy (the variable-step
+    loop's coarse step, read through the step-doubling difference:
+    :mod:`diracvi.driver.adaptive`). The update applied last bounds the error left after
+    it: after a fresh factorization that is Newton's ``O(|dx|²)``; a chord update is
+    taken as final this way only while it contracts by at least ``contraction`` (0.25:
+    ``θ/(1 − θ) ≤ 1/3`` of ``|dx|`` left), not on the iterate that asks for new factors.
+    """
+    within = jax.tree.map(lambda d, a: jnp.all(jnp.abs(d) <= a), dx, atol)
+    return jnp.all(jnp.stack(jax.tree.leaves(within)))
+
+
 def chord_newton(
     options,
     residual,
@@ -107,6 +121,7 @@ def chord_newton(
     limit=None,
     row_scale=None,
     reference=None,
+    atol=None,
 ):
     """The (simplified) Newton iteration shared by the step solvers.
 
@@ -121,7 +136,9 @@ def chord_newton(
     equation's size at ``x``, which enables the round-off residual test. ``reference``
     (optional, shaped as ``x``) is the known state as unknowns (``q_other = q``, every
     multiplier 0): with it the update is measured against the step's increment
-    ``‖x − reference‖∞`` instead of ``‖x‖∞`` (see :func:`_converged`).
+    ``‖x − reference‖∞`` instead of ``‖x‖∞`` (see :func:`_converged`). ``atol``
+    (optional, shaped as ``x``): an absolute bound per unknown; an iterate whose updates
+    are all within it has converged as well (:func:`_within`).
     """
     full_from = (3 * options.max_steps) // 4  # from here on, a fresh Jacobian every time
 
@@ -149,6 +166,8 @@ def chord_newton(
             small = dx_norm <= options.rtol * size
         else:
             small = _converged(options.rtol, x, dx, reference)
+        if atol is not None:
+            small = small | (_within(dx, atol) & ~slow)
         stalled = refactor & (dx_norm <= options.floor * size) & (dx_norm >= 0.5 * last_dx)
         done = (small & ~diverging) | stalled | roundoff
         status = jnp.where(
@@ -221,8 +240,10 @@ class NewtonSolver(StepSolver):
             jnp.asarray(False),
         )
 
-    def solve(self, eqs, guess, state) -> StepResult:
-        """Solve ``eqs.residual(x) = 0`` from ``guess``."""
+    def solve(self, eqs, guess, state, atol=None) -> StepResult:
+        """Solve ``eqs.residual(x) = 0`` from ``guess``; ``atol`` (optional, shaped as
+        ``x``): an absolute bound per unknown its updates may stop within
+        (:func:`_within`)."""
         fn = eqs.residual
 
         def factorize(x):
@@ -249,5 +270,6 @@ class NewtonSolver(StepSolver):
             limit=junction_limiter(eqs) if self.limit_junctions else None,
             row_scale=row_scale,
             reference=x_ref,
+            atol=atol,
         )
         return StepResult(x, status, iterations, res_norm, (lu, piv, jnorm, status == 0))
