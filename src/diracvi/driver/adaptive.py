@@ -659,7 +659,7 @@ def adaptive(
         solver = (
             NewtonSolver(reuse_jacobian=True)
             if events.relays(system)
-            else newton_for(system, rule, reuse_jacobian=True)
+            else newton_for(system, rule, reuse_jacobian=True, predict_stop=True)
         )
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)
