@@ -106,6 +106,25 @@ sizing alike). A half-wave rectifier on a pulse train had its try 510 → 520 µ
 with the diode off at every centre (it turns on at 517.8 µs): 0.23 of its peak off,
 5.0e-5 with the end judged.
 
+**The coarse step's Newton.** The coarse step is never recorded: it is read only
+through the step-doubling difference (``q₂ − q_c`` for the positions and their rates,
+``φ_c = −(2μ_c − c₋₁)/H`` for the multipliers) and as the fine steps' starting guesses.
+An error ``η`` left in ``q_c,j`` moves ``e_q,j`` by ``η/(3 tol_q,j)`` and ``e_v,j`` by
+``η/(3H tol_v,j)``; one left in ``μ_c,i`` moves ``e_m,i`` by ``2η/(3H tol_m,i)``. So its
+Newton stops once every update is within :data:`COARSE_SHARE` (1e-2) of
+``3 min(tol_q,j, H tol_v,j)`` and ``1.5 H tol_m,i`` (the tolerances of the estimate with the
+running peaks at the try's start), where the update bounds the error it leaves
+(:func:`~diracvi.solvers.newton._within`): the estimate then moves by at most 0.01 of a
+tolerance, and the recorded fine steps are solved as before. Where the nodal momenta are
+judged (inductors: ``p_c`` reads ``q_c`` through the inductance matrix, coupled windings
+each other's, and ``μ_c`` through ``A(q)ᵀc``; not bounded here) and in a circuit with
+switches (whose event location reads ``q_c``) the coarse step is solved to round-off as
+before. The fine steps stop by the ordinary test or, with the
+loop's default solver, when the next chord update predicted from the observed
+contraction would pass it (``NewtonSolver.predict_stop``). On the bridge rectifier of
+:mod:`diracvi.spice._ngspice` the iterations fell 26 407 → 22 933 (coarse) → 18 416
+(predicted stop), the steps, tries and errors unchanged.
+
 **Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
 constraint row (a diode's flux without junction charge) are held at their exact value 0
 after each step: their round-off would alternate undamped (:mod:`.algebraic`). The
@@ -322,10 +341,7 @@ def _march(system, rule, solver, capacity, x):
         order = 2.0**_ORDER - 1.0
         tol_q = jnp.minimum(share * c["q_peak"] + atol_q, h_try * (share * c["v_peak"] + atol_v))
         bound_q = COARSE_SHARE * order * tol_q
-        if judge_p:  # μ_c also moves the nodal momenta, not bounded here: to round-off
-            bound_m = jnp.zeros(m, dtype)
-        else:
-            bound_m = COARSE_SHARE * 0.5 * order * h_try * (share * c["m_peak"] + x["atol_m"])
+        bound_m = COARSE_SHARE * 0.5 * order * h_try * (share * c["m_peak"] + x["atol_m"])
         return jnp.concatenate([bound_q, bound_m])
 
     def cond(packed):
@@ -367,7 +383,7 @@ def _march(system, rule, solver, capacity, x):
         back = (c["v_last"], 0.5 * h_last)  # the last mean velocity, at t − h_last/2
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
             step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict,
-            coarse_atol=None if found else coarse_accuracy(c, h_try),
+            coarse_atol=None if found or judge_p else coarse_accuracy(c, h_try),
         )  # fmt: skip
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
