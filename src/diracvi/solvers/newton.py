@@ -150,7 +150,18 @@ def chord_newton(
         refactor = ~valid | (it >= full_from)
         if not options.reuse_jacobian:
             refactor = jnp.asarray(True)
-        factors = jax.lax.cond(refactor, factorize, lambda _: factors, x)
+        if row_scale is None:
+            factors = jax.lax.cond(refactor, factorize, lambda _: factors, x)
+        else:
+            # the equations' sizes are read only with fresh factors (the round-off test
+            # below), so they are formed with them, not at every iteration
+            def fresh(x):
+                new = factorize(x)
+                return new, row_scale(new, x)
+
+            factors, sizes = jax.lax.cond(
+                refactor, fresh, lambda x: (factors, jnp.zeros_like(r)), x
+            )
         dx = correction(factors, r)
         dx_norm = _norm(dx)
         size = jnp.maximum(_norm(jax.tree.map(jnp.add, x, dx)), scale)
@@ -159,7 +170,7 @@ def chord_newton(
         r_norm = _norm(r)
         roundoff = jnp.asarray(False)
         if row_scale is not None:
-            within = jnp.abs(r) <= options.residual_rtol * row_scale(factors, x)
+            within = jnp.abs(r) <= options.residual_rtol * sizes
             roundoff = refactor & finite_r & jnp.all(within)
         # Stale factors that fail to contract are replaced; a growing update is dropped.
         slow = ~refactor & (dx_norm > options.contraction * last_dx)
