@@ -115,7 +115,7 @@ Newton stops once every update is within :data:`COARSE_SHARE` (1e-2) of
 ``3 min(tol_q,j, H tol_v,j)`` and ``1.5 H tol_m,i`` (the tolerances of the estimate with the
 running peaks at the try's start), where the update bounds the error it leaves
 (:func:`~diracvi.solvers.newton._within`): the estimate then moves by at most 0.01 of a
-tolerance, and the recorded fine steps are solved as before. Where the nodal momenta are
+tolerance; the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
 judged (inductors: ``p_c`` reads ``q_c`` through the inductance matrix, coupled windings
 each other's, and ``μ_c`` through ``A(q)ᵀc``; not bounded here) and in a circuit with
 switches (whose event location reads ``q_c``) the coarse step is solved to round-off as
@@ -123,7 +123,8 @@ before. The fine steps stop by the ordinary test or, with the
 loop's default solver, when the next chord update predicted from the observed
 contraction would pass it (``NewtonSolver.predict_stop``). On the bridge rectifier of
 :mod:`diracvi.spice._ngspice` the iterations fell 26 407 → 22 933 (coarse) → 18 416
-(predicted stop), the steps, tries and errors unchanged.
+(predicted stop), with the same steps and tries and the errors to three digits (not
+bitwise: each solve ends elsewhere within its tolerance).
 
 **Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
 constraint row (a diode's flux without junction charge) are held at their exact value 0
