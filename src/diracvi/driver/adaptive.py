@@ -106,6 +106,26 @@ sizing alike). A half-wave rectifier on a pulse train had its try 510 → 520 µ
 with the diode off at every centre (it turns on at 517.8 µs): 0.23 of its peak off,
 5.0e-5 with the end judged.
 
+**The coarse step's Newton.** The coarse step is never recorded: it is read only
+through the step-doubling difference (``q₂ − q_c`` for the positions and their rates,
+``φ_c = −(2μ_c − c₋₁)/H`` for the multipliers) and as the fine steps' starting guesses.
+An error ``η`` left in ``q_c,j`` moves ``e_q,j`` by ``η/(3 tol_q,j)`` and ``e_v,j`` by
+``η/(3H tol_v,j)``; one left in ``μ_c,i`` moves ``e_m,i`` by ``2η/(3H tol_m,i)``. So its
+Newton stops once every update is within :data:`COARSE_SHARE` (1e-2) of
+``3 min(tol_q,j, H tol_v,j)`` and ``1.5 H tol_m,i`` (the tolerances of the estimate with the
+running peaks at the try's start), where the update bounds the error it leaves
+(:func:`~diracvi.solvers.newton._within`): the estimate then moves by at most 0.01 of a
+tolerance; the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
+judged (inductors: ``p_c`` reads ``q_c`` through the inductance matrix, coupled windings
+each other's, and ``μ_c`` through ``A(q)ᵀc``; not bounded here) and in a circuit with
+switches (whose event location reads ``q_c``) the coarse step is solved to round-off as
+before. The fine steps stop by the ordinary test or, with the
+loop's default solver, when the next chord update predicted from the observed
+contraction would pass it (``NewtonSolver.predict_stop``). On the bridge rectifier of
+:mod:`diracvi.spice._ngspice` the iterations fell 26 407 → 22 933 (coarse) → 18 416
+(predicted stop), with the same steps and tries and the errors to three digits (not
+bitwise: each solve ends elsewhere within its tolerance).
+
 **Algebraic momenta.** The momenta of coordinates with no velocity in ``L`` and no
 constraint row (a diode's flux without junction charge) are held at their exact value 0
 after each step: their round-off would alternate undamped (:mod:`.algebraic`). The
@@ -180,6 +200,10 @@ MESSAGES = {
 
 #: the loop's state at a try's start, kept to take an accepted try again (gap_error)
 _UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
+
+#: the coarse step's Newton stops within this share of what the step-doubling estimate
+#: can notice (module doc): the estimate moves by at most this many tolerances
+COARSE_SHARE = 0.01
 
 #: names this path in ``AdaptiveRun.solver``
 DESCRIBE = "variable steps, Newton in one compiled loop (dense or band-plus-border Jacobians)"
@@ -302,12 +326,24 @@ def _march(system, rule, solver, capacity, x):
     # (.junction_end; read at the call's start: a diode's pairing is constant)
     end_pair = pairs(system, x["q"], x["t"])
 
-    def step(modes, h, t, q, p, dq, mu):
+    def step(modes, h, t, q, p, dq, mu, atol=None):
         stepped = events.with_modes(system, modes)
-        q1, p1, mu1, ok, its = one_step(stepped, rule, solver, h, t, q, p, q + dq, mu)
+        q1, p1, mu1, ok, its = one_step(stepped, rule, solver, h, t, q, p, q + dq, mu, atol)
         # the momenta of algebraic coordinates held at their exact value 0 (their
         # round-off would alternate undamped: driver/algebraic.py)
         return q1, jnp.where(x["algebraic"], 0.0, p1), mu1, ok, its
+
+    def coarse_accuracy(c, h_try):
+        # the coarse step is read only through the step-doubling difference (module
+        # doc, "The coarse step's Newton"): each unknown solved to COARSE_SHARE of the
+        # smallest change of it that moves the estimate by one tolerance, with the
+        # running peaks at the try's start (this try's can only raise them)
+        share = x["safety"] * rtol
+        order = 2.0**_ORDER - 1.0
+        tol_q = jnp.minimum(share * c["q_peak"] + atol_q, h_try * (share * c["v_peak"] + atol_v))
+        bound_q = COARSE_SHARE * order * tol_q
+        bound_m = COARSE_SHARE * 0.5 * order * h_try * (share * c["m_peak"] + x["atol_m"])
+        return jnp.concatenate([bound_q, bound_m])
 
     def cond(packed):
         c = carry.unpack(packed)
@@ -347,8 +383,9 @@ def _march(system, rule, solver, capacity, x):
         pin = (x["pinned"], (c["y_mean2"], c["y_mean1"]), c["h_last"], c["gap_ok"])
         back = (c["v_last"], 0.5 * h_last)  # the last mean velocity, at t − h_last/2
         (qc, q1, q2), (pc, p1, p2), (mu_c, mu1, mu2), oks, its, means = three_steps(
-            step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict
-        )
+            step, modes, h_try, t, q, p, vel, mu_g, pin, last=back, predict=predict,
+            coarse_atol=None if found or judge_p else coarse_accuracy(c, h_try),
+        )  # fmt: skip
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
         # the period-2 part at the start (a neutral mode, not truncation error:
@@ -639,7 +676,7 @@ def adaptive(
         solver = (
             NewtonSolver(reuse_jacobian=True)
             if events.relays(system)
-            else newton_for(system, rule, reuse_jacobian=True)
+            else newton_for(system, rule, reuse_jacobian=True, predict_stop=True)
         )
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)

@@ -16,20 +16,28 @@ from ..discretization.equations import StepEquations, first_guess, split
 from . import pinned as pinned_positions
 
 
-def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess):
+def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess, atol=None):
     """One discrete Dirac step of size ``h`` from ``(q, p)`` at ``t`` (the (+) midpoint
     equations solved by ``solver`` from the guess ``q_guess``, ``mu_guess``): ``(q₁, p₁,
-    μ, ok, Newton iterations)``, ``ok`` when Newton converged to finite values."""
+    μ, ok, Newton iterations)``, ``ok`` when Newton converged to finite values.
+    ``atol`` (optional, one per unknown ``(q₁, μ)``): the absolute accuracy the solve
+    may stop at (:meth:`~diracvi.NewtonSolver.solve`); by default it converges to
+    round-off."""
     eqs = StepEquations(system, rule, "plus", h, q, p, t)
     guess = first_guess(system, rule, q, q_guess, mu_guess)
-    res = solver.solve(eqs, guess, solver.init(eqs))
+    if atol is None:
+        res = solver.solve(eqs, guess, solver.init(eqs))
+    else:
+        res = solver.solve(eqs, guess, solver.init(eqs), atol=atol)
     q1, mu = split(system, res.x)
     p1 = solver.momentum(eqs, res.x, res.state)
     ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
     return q1, p1, mu[: system.m], ok, res.iterations
 
 
-def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, *, last, predict):
+def three_steps(
+    step, modes, h_try, t, q, p, vel, mu_g, pin=None, *, last, predict, coarse_atol=None
+):
     """A try's three steps from ``(q, p)`` at ``t``: the coarse one of ``H``, the first
     fine one of ``H/2``, the second fine one of ``H/2`` from the first's end. ``(q ends,
     p ends, μ's, oks, Newton iterations, means)``, the first four stacked in that order;
@@ -61,6 +69,12 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, *, last, predi
     and the first fine one: the last two recorded; the second fine one: the last recorded
     and the first fine one).
 
+    ``coarse_atol`` (optional, one per unknown ``(q_c, μ_c)``): the accuracy the coarse
+    step is solved to (read only through the step-doubling difference, it need not be
+    solved to round-off: :mod:`diracvi.driver.adaptive`); ``step`` then takes it as its
+    last argument, and 0 for the two fine steps, which are recorded and converge to
+    round-off.
+
     One step solve in a loop of three iterations, each picking its inputs, rather than
     three solves written out: the step (Newton, its Jacobian, the limiting) is then
     traced, lowered and compiled once instead of three times — most of a first call's
@@ -87,8 +101,9 @@ def three_steps(step, modes, h_try, t, q, p, vel, mu_g, pin=None, *, last, predi
         else:  # each from the last velocity, the second fine step on from the first's
             dq = jnp.where(fine2, qs[1] - q, h * vel)
         guess_mu = jnp.where(fine2, mus[1], jnp.where(k == 0, mu_g, 0.5 * mu_g))
+        extra = () if coarse_atol is None else (jnp.where(k == 0, coarse_atol, 0.0),)
         qk, pk, muk, okk, itk = step(modes, h, t + jnp.where(fine2, half, 0.0), start_q, start_p,
-                                dq, guess_mu)  # fmt: skip
+                                dq, guess_mu, *extra)  # fmt: skip
         mean = 0.5 * (start_q + qk)
         if pin is not None:
             mask, (m2, m1), h_last, use = pin

@@ -391,8 +391,9 @@ class BorderedNewtonSolver(NewtonSolver):
     def init(self, eqs):
         return (*empty_factors(self.layout(eqs), eqs.q.dtype), jnp.asarray(False))
 
-    def solve(self, eqs, guess, state) -> StepResult:
-        """Solve ``eqs.residual(x) = 0`` from ``guess``."""
+    def solve(self, eqs, guess, state, atol=None) -> StepResult:
+        """Solve ``eqs.residual(x) = 0`` from ``guess`` (``atol``: see
+        :meth:`NewtonSolver.solve`)."""
         fn = eqs.residual
         layout = self.layout(eqs)
         # each equation's size: the known momentum and the linearized change over the step
@@ -411,5 +412,6 @@ class BorderedNewtonSolver(NewtonSolver):
             limit=junction_limiter(eqs) if self.limit_junctions else None,
             row_scale=lambda both, x: known + magnitude(both[1], jnp.abs(x - x_ref), layout),
             reference=x_ref,
+            atol=atol,
         )
         return StepResult(x, status, iterations, res_norm, (factors, parts, status == 0))
