@@ -113,9 +113,12 @@ An error ``η`` left in ``q_c,j`` moves ``e_q,j`` by ``η/(3 tol_q,j)`` and ``e_
 ``η/(3H tol_v,j)``; one left in ``μ_c,i`` moves ``e_m,i`` by ``2η/(3H tol_m,i)``. So its
 Newton stops once every update is within :data:`COARSE_SHARE` (1e-2) of
 ``3 min(tol_q,j, H tol_v,j)`` and ``1.5 H tol_m,i`` (the tolerances of the estimate with the
-running peaks at the try's start), where the update bounds the error it leaves
-(:func:`~diracvi.solvers.newton._within`): the estimate then moves by at most 0.01 of a
-tolerance; the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
+running peaks at the try's start), taken on an update that contracted by ``θ ≤ 1/4``
+against the one before it in the same solve, so that it bounds the error it leaves
+(:func:`~diracvi.solvers.newton._within`; ``tests/test_newton_stopping.py``): the
+estimate then moves by at most about 0.01 of a tolerance (before Newton's contracting
+phase an update bounds nothing: a diode turning on within a step, solved from the last
+state, stopped 1.5 times its bound off; the loop's coarse guess is an extrapolation); the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
 judged (inductors: ``p_c`` reads ``q_c`` through the inductance matrix, coupled windings
 each other's, and ``μ_c`` through ``A(q)ᵀc``; not bounded here) and in a circuit with
 switches (whose event location reads ``q_c``) the coarse step is solved to round-off as
