@@ -118,7 +118,8 @@ against the one before it in the same solve, so that it bounds the error it leav
 (:func:`~diracvi.solvers.newton._within`; ``tests/test_newton_stopping.py``): the
 estimate then moves by at most about 0.01 of a tolerance (before Newton's contracting
 phase an update bounds nothing: a diode turning on within a step, solved from the last
-state, stopped 1.5 times its bound off; the loop's coarse guess is an extrapolation); the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
+state, stopped 1.5 times its bound off; the loop's coarse guess is an extrapolation);
+the recorded fine steps are solved to Newton's own tolerance. Where the nodal momenta are
 judged (inductors: ``p_c`` reads ``q_c`` through the inductance matrix, coupled windings
 each other's, and ``μ_c`` through ``A(q)ᵀc``; not bounded here) and in a circuit with
 switches (whose event location reads ``q_c``) the coarse step is solved to round-off as
