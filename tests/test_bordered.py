@@ -58,8 +58,7 @@ def test_structure_keeps_a_dense_pattern_without_a_border():
     assert k == 0 and kl + ku + 1 == 59
 
 
-# seed 1 in `-m slow` (the default suite's time on CI): seed 0 keeps the property
-@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("seed", [0, 1])
 def test_factors_solve_as_the_dense_lu(seed):
     """The Jacobian formed from kl + ku + 1 + k JVPs and k VJPs and factorized as a band
     with a border solves ``J x = b`` as ``numpy.linalg.solve`` does, to round-off; its
@@ -254,9 +253,7 @@ def test_a_core_singular_at_the_point_falls_back_to_the_dense_lu():
     assert np.max(np.abs(x - exact)) <= 1e-14 * cond * np.max(np.abs(exact))
 
 
-# without the fallback in `-m slow`: test_a_core_singular_at_the_point_falls_back_to_the_dense_lu
-# shows the block elimination alone is not finite there
-@pytest.mark.parametrize("fallback", [True, pytest.param(False, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("fallback", [True, False])
 def test_newton_from_a_singular_core_converges_with_the_fallback(fallback):
     """Newton's first Jacobian is taken at ``x0``, where the core is singular: with the
     fallback the chord iteration converges to the root as the dense Newton does; without

@@ -133,8 +133,6 @@ def _unjudged(system, q0, t0, which):
     return np.zeros(system.n)
 
 
-# 40 s on a loaded machine: in `-m slow` (the default suite's time on CI)
-@pytest.mark.slow
 def test_a_coupled_windings_flux_is_judged_against_its_own_peak(monkeypatch):
     # each winding's nodal flux is judged against its own running peak (at least its own
     # inductance times its current's): the secondary's flux is mostly M i₁, and judged as

@@ -45,11 +45,7 @@ def _assert_kept(system, full, part):
 
 
 @pytest.mark.parametrize(
-    ("source", "save_every"),
-    # the autonomous ladder in `-m slow` (the default suite's time on CI): the driven
-    # ones cover the same columns with the drivers' offsets on top
-    [(True, 1), (True, 4), pytest.param(False, 1, marks=pytest.mark.slow)],
-    ids=["driven", "every4", "free"],
+    ("source", "save_every"), [(True, 1), (True, 4), (False, 1)], ids=["driven", "every4", "free"]
 )
 def test_sparse_path_keeps_the_whole_runs_columns(source, save_every):
     """A 20-stage ladder over 300 steps (two blocks of the sparse map, the second
