@@ -155,6 +155,7 @@ class PartitionedSolver(StepSolver):
     floor: float = eqx.field(static=True, default=1e-9)
     reuse_jacobian: bool = eqx.field(static=True, default=True)
     contraction: float = eqx.field(static=True, default=0.25)
+    predict_stop: bool = eqx.field(static=True, default=False)
     local_factors: str = eqx.field(static=True, default="auto")
 
     def __check_init__(self):
