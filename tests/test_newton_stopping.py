@@ -17,6 +17,8 @@ tolerance made loose (1e-6 of the increment) so the error left is far above roun
 
 from __future__ import annotations
 
+import functools
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -38,6 +40,7 @@ C1 out 0 1u
 LOOSE = 1e-6
 
 
+@functools.cache
 def _step(h):
     netlist = spice.read(DECK)
     system = netlist.system
@@ -48,7 +51,10 @@ def _step(h):
     return eqs, guess
 
 
-def _converged(eqs, guess):
+@functools.cache
+def _exact(h):
+    """The step of ``_step(h)`` from its guess, solved to round-off: (x, iterations)."""
+    eqs, guess = _step(h)
     solver = NewtonSolver(reuse_jacobian=True)
     res = solver.solve(eqs, guess, solver.init(eqs))
     assert int(res.status) == 0
@@ -57,7 +63,7 @@ def _converged(eqs, guess):
 
 def test_a_predicted_stop_keeps_an_iterate_within_the_test_of_the_solution():
     eqs, guess = _step(2.5e-4)
-    exact, _ = _converged(eqs, guess)
+    exact, _ = _exact(2.5e-4)
     increment = np.max(np.abs(exact - np.asarray(eqs.reference())))
     counts = {}
     for predict in (False, True):
@@ -74,7 +80,7 @@ def test_a_predicted_stop_waits_for_a_contraction_of_its_own_solve():
     """Factors kept from another solve (another step size) have no contraction observed
     in this one: the first chord update with them is not a stop by prediction."""
     eqs, guess = _step(2.5e-4)
-    exact, _ = _converged(eqs, guess)
+    exact, _ = _exact(2.5e-4)
     increment = np.max(np.abs(exact - np.asarray(eqs.reference())))
     solver = NewtonSolver(rtol=LOOSE, reuse_jacobian=True, predict_stop=True)
     other, other_guess = _step(1.0e-4)
@@ -91,7 +97,7 @@ def test_an_absolute_stop_leaves_at_most_its_bound():
     loop's coarse step starts from an extrapolation), the first update within ``atol``
     after a contraction leaves less than ``atol`` in every unknown."""
     eqs, _ = _step(2.5e-4)
-    exact, _ = _converged(eqs, _step(2.5e-4)[1])
+    exact, _ = _exact(2.5e-4)
     change = exact - np.asarray(eqs.reference())
     guess = jnp.asarray(exact + 0.05 * change)
     solver = NewtonSolver(reuse_jacobian=True)
@@ -108,8 +114,8 @@ def test_an_absolute_stop_waits_for_a_contraction():
     """An update of a solve that has not yet contracted (the first, with fresh factors)
     is not taken as final however small: from 1e-8 of the increment off the solution the
     first update is within a bound of 1e-6 of it, and a second is still taken."""
-    eqs, guess = _step(2.5e-4)
-    exact, _ = _converged(eqs, guess)
+    eqs, _ = _step(2.5e-4)
+    exact, _ = _exact(2.5e-4)
     change = exact - np.asarray(eqs.reference())
     solver = NewtonSolver(reuse_jacobian=True)
     atol = jnp.asarray(np.full_like(exact, 1e-6 * np.max(np.abs(change))))
