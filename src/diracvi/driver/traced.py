@@ -193,11 +193,11 @@ class ImplicitStep(StepSolver):
     def momentum(self, eqs, x, state=None):
         return self.inner.momentum(eqs, x, state)
 
-    def solve(self, eqs, guess, state) -> StepResult:
+    def solve(self, eqs, guess, state, atol=None) -> StepResult:
         trees = []
 
         def solve(x0):
-            res = self.inner.solve(eqs, x0, state)
+            res = self.inner.solve(eqs, x0, state, atol)
             aux = (res.status, res.iterations, res.residual_norm, res.state)
             leaves, tree = jax.tree.flatten(aux)
             trees[:] = [tree]

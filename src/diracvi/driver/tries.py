@@ -25,10 +25,7 @@ def one_step(system, rule, solver, h, t, q, p, q_guess, mu_guess, atol=None):
     round-off."""
     eqs = StepEquations(system, rule, "plus", h, q, p, t)
     guess = first_guess(system, rule, q, q_guess, mu_guess)
-    if atol is None:
-        res = solver.solve(eqs, guess, solver.init(eqs))
-    else:
-        res = solver.solve(eqs, guess, solver.init(eqs), atol=atol)
+    res = solver.solve(eqs, guess, solver.init(eqs), atol)
     q1, mu = split(system, res.x)
     p1 = solver.momentum(eqs, res.x, res.state)
     ok = (res.status == 0) & jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))

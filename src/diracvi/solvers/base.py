@@ -70,9 +70,11 @@ class StepSolver(eqx.Module):
         """The solver state before the first step of a chunk (traceable)."""
         raise NotImplementedError
 
-    def solve(self, eqs, guess, state) -> StepResult:
+    def solve(self, eqs, guess, state, atol=None) -> StepResult:
         """Solve ``eqs.residual(x) = 0`` from ``guess`` (traceable; failures are reported
-        in the returned status, not raised)."""
+        in the returned status, not raised). ``atol`` (optional, shaped as ``x``): the
+        absolute accuracy per unknown the caller reads the solution to (the variable-step
+        loop's coarse step); a solver may stop there or solve further."""
         raise NotImplementedError
 
     def momentum(self, eqs, x, state=None):

@@ -214,8 +214,9 @@ class PartitionedSolver(StepSolver):
         factors = jax.tree.map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
         return tuple(a for a, _ in step.stacks), factors, jnp.asarray(False)
 
-    def solve(self, eqs, guess, state) -> StepResult:
-        """Solve the step equations from ``guess`` (``x`` in the system's global order)."""
+    def solve(self, eqs, guess, state, atol=None) -> StepResult:
+        """Solve the step equations from ``guess`` (``x`` in the system's global order;
+        ``atol``: see :meth:`~diracvi.NewtonSolver.solve`)."""
         step = self._prepare(eqs, state)
         stacked, factors, valid = state
         x, status, iterations, res_norm, factors = chord_newton(
@@ -228,6 +229,7 @@ class PartitionedSolver(StepSolver):
             valid,
             eqs.scale(),
             reference=step.split(eqs.reference()),
+            atol=None if atol is None else step.split(atol),
         )
         state = (stacked, factors, status == 0)
         return StepResult(step.join(*x), status, iterations, res_norm, state)
