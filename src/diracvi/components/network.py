@@ -40,7 +40,9 @@ class Assembly:
 
     Attributes:
         system: the :class:`~diracvi.InterconnectedSystem` (or the single part).
-        q0, p0: initial coordinates and momenta (``p0 = ∂L/∂v(q0, v0)`` per part).
+        q0, p0: initial coordinates and momenta (``p0 = ∂L/∂v(q0, v0)`` per part;
+            computed at its first use — a netlist's transient without UIC starts from
+            its operating point's momenta and never asks).
         nodes: the electrical nodes with a KCL row, in row order.
         kcl_rows: node -> name of its interaction row (a multiplier name).
         currents: element label -> coordinate name whose velocity is ``i(label)``.
@@ -49,11 +51,17 @@ class Assembly:
 
     system: object
     q0: np.ndarray
-    p0: np.ndarray
+    _momenta: object = field(repr=False, compare=False)  # () -> p0, called once by p0
     nodes: tuple[str, ...]
     kcl_rows: dict = field(default_factory=dict)
     currents: dict = field(default_factory=dict)
     mechanical: dict = field(default_factory=dict)
+
+    @functools.cached_property
+    def p0(self) -> np.ndarray:
+        """``p0 = ∂L/∂v(q0, v0)``, the parts' momenta side by side (:func:`_momenta`:
+        NumPy, or JAX's where a part's parameter or the state is traced)."""
+        return self._momenta()
 
 
 class Circuit:
@@ -309,14 +317,14 @@ class Circuit:
                 )
             system = interconnect([p for p, _ in parts], interactions, name=self.name)
             prefix = None
-        p0 = _momenta(system, parts, q0, v0, offsets)
+        momenta = functools.partial(_momenta, system, parts, q0, v0, offsets)
         currents = {}
         for f in table:
             name = f["name"]
             for label, coord in f["currents"]:
                 currents[label or name] = f"{name}.{coord}" if prefix is None else coord
         mechanical = {node: members[0][0] for node, members in at_node.items()}
-        return Assembly(system, q0, p0, tuple(node_list), kcl_rows, currents, mechanical)
+        return Assembly(system, q0, momenta, tuple(node_list), kcl_rows, currents, mechanical)
 
     def _sense_rows(self, table, offsets) -> list:
         """One row ``dc − dq_element = 0`` per current-controlled source (``part.senses``):
