@@ -163,7 +163,8 @@ def main() -> None:
                 print(f"\n{name}: seconds per phase, wall (CPU), XLA compilations")
                 print("| phase | cold | cold compiles | warm | warm compiles |")
                 print("|---|---|---|---|---|")
-                for phase, (cw, cc, cn, ww, wc, wn) in phases(runnable(deck_path(name), work), work):
+                deck = runnable(deck_path(name), work)
+                for phase, (cw, cc, cn, ww, wc, wn) in phases(deck, work):
                     print(f"| {phase} | {cw} ({cc}) | {cn} | {ww} ({wc}) | {wn} |", flush=True)
     print(f"load average at end: {os.getloadavg()[0]:.2f}")
 
