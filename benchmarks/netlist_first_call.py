@@ -26,6 +26,7 @@ import subprocess
 import sys
 import tempfile
 import time
+import tomllib
 from pathlib import Path
 
 from _phases import child_source
@@ -33,6 +34,31 @@ from _phases import child_source
 HERE = Path(__file__).resolve().parent
 NETLISTS = HERE.parent / "tests" / "data" / "netlists"
 DECKS = ("ng_rc", "liec_cap_charging", "liec_halfwave", "es_rc", "xy_rlc")
+
+
+def deck_path(name: str) -> Path:
+    """The corpus deck ``name``: its ``file`` in ``EXPECTED.toml`` (a deck in a folder
+    with its includes, as ``es_bjt_amp``), else ``NAME.cir`` beside it."""
+    with open(NETLISTS / "EXPECTED.toml", "rb") as f:
+        entry = tomllib.load(f).get(name)
+    path = NETLISTS / (entry["file"] if entry else f"{name}.cir")
+    if not path.is_file():
+        raise SystemExit(f"deck {name!r}: {path} does not exist; name a deck of {NETLISTS}.")
+    return path
+
+
+def runnable(deck: Path, work: Path) -> Path:
+    """``deck``, or where ``diracvi run`` takes it as a netlist: a deck named otherwise
+    (``BJT_amplifier.cir.out``) is copied with its folder (its includes) into ``work``
+    and given the suffix ``.cir``, unedited."""
+    if deck.suffix.lower() in (".cir", ".sp", ".spice", ".net", ".ckt"):
+        return deck
+    folder = work / "deck"
+    shutil.rmtree(folder, ignore_errors=True)
+    shutil.copytree(deck.parent, folder)
+    copy = folder / f"{deck.name}.cir"
+    shutil.copy(deck, copy)
+    return copy
 
 
 def timed(command: list[str], env: dict, cwd: Path, check: bool = True) -> tuple[float, float]:
@@ -121,7 +147,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory(prefix="diracvi-first-call-") as tmp:
         work = Path(tmp)
         for name in args.decks:
-            deck = NETLISTS / f"{name}.cir"
+            deck = runnable(deck_path(name), work)
             rounds = [measure(deck, work) for _ in range(args.repeats)]
             best = {k: min(r[k][0] for r in rounds) for k in rounds[0]}
             cpu = {k: min(r[k][1] for r in rounds) for k in rounds[0]}
@@ -137,7 +163,8 @@ def main() -> None:
                 print(f"\n{name}: seconds per phase, wall (CPU), XLA compilations")
                 print("| phase | cold | cold compiles | warm | warm compiles |")
                 print("|---|---|---|---|---|")
-                for phase, (cw, cc, cn, ww, wc, wn) in phases(NETLISTS / f"{name}.cir", work):
+                deck = runnable(deck_path(name), work)
+                for phase, (cw, cc, cn, ww, wc, wn) in phases(deck, work):
                     print(f"| {phase} | {cw} ({cc}) | {cn} | {ww} ({wc}) | {wn} |", flush=True)
     print(f"load average at end: {os.getloadavg()[0]:.2f}")
 

@@ -24,7 +24,7 @@ import numpy as np
 from ..errors import ModelError
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
-from ._part import finite, positive
+from ._part import array_module, finite, positive
 from .controlled import ControlledPart
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
@@ -117,11 +117,12 @@ def bulk_limits(sign, saturation: dict):
     for name, i_s in saturation.items():
         if isinstance(i_s, float) and i_s <= 0.0:
             continue
-        vcrit = THERMAL_VOLTAGE * jnp.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
+        xp = array_module(i_s, sign)
+        vcrit = THERMAL_VOLTAGE * xp.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
         names.append(name)
-        rows.append(jnp.stack([jnp.asarray(x, float) for x in
-                               (THERMAL_VOLTAGE, vcrit, jnp.inf, sign, -1.0)]))  # fmt: skip
-    return tuple(names), (jnp.stack(rows) if rows else None)
+        rows.append(xp.stack([xp.asarray(x, float) for x in
+                              (THERMAL_VOLTAGE, vcrit, np.inf, sign, -1.0)]))  # fmt: skip
+    return tuple(names), (array_module(*rows).stack(rows) if rows else None)
 
 
 class Device(NamedTuple):

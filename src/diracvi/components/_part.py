@@ -159,6 +159,17 @@ def traced(value) -> bool:
     return isinstance(value, jax.core.Tracer)
 
 
+def array_module(*values):
+    """The array module for a part's tables computed from its parameters ``values``
+    (a junction's ``V_crit`` row): ``jax.numpy`` when one of them is traced, so the
+    derivative or the map flows through, else NumPy. An eager ``jax.numpy`` operation
+    compiles an XLA program per operation and shape, once per process and whatever the
+    disk cache holds: reading a deck with one BJT model cost 8 of them."""
+    import jax.numpy as jnp
+
+    return jnp if any(traced(v) for v in values) else np
+
+
 def positive(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it
     (a traced value passes through unchecked, so parts are differentiable)."""

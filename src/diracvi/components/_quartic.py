@@ -29,13 +29,14 @@ from __future__ import annotations
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 TOLERANCE = 1e-6
 #: the signs of A, of B and of the quadratic's root for the eight candidates
 _SIGNS = (
-    jnp.array([1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0]),
-    jnp.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0]),
-    jnp.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0]),
+    np.array([1.0, 1.0, -1.0, -1.0, 1.0, 1.0, -1.0, -1.0]),
+    np.array([1.0, 1.0, 1.0, 1.0, -1.0, -1.0, -1.0, -1.0]),
+    np.array([1.0, -1.0, 1.0, -1.0, 1.0, -1.0, 1.0, -1.0]),
 )
 
 

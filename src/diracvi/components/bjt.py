@@ -50,7 +50,7 @@ import numpy as np
 from ..errors import ModelError
 from ._charge_port import ChargePortPart
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, diffusion_coenergy, pn_current
-from ._part import finite, positive
+from ._part import array_module, finite, positive
 from .controlled import ControlledPart, coefficient
 
 KINDS = {"npn": 1.0, "pnp": -1.0}
@@ -296,8 +296,9 @@ def BJT(
         initial_v[idx["wsub"]] = v0[2]
     # SPICE's pnjlim on both junctions, with ngspice's BJT values: V_T (not N·V_T) and
     # V_crit = V_T ln(V_T/(√2 I_S))
-    vcrit = THERMAL_VOLTAGE * jnp.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * p["is"]))
-    row = jnp.stack([jnp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit, jnp.inf)])
+    xp = array_module(p["is"])
+    vcrit = THERMAL_VOLTAGE * xp.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * p["is"]))
+    row = xp.stack([xp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit, np.inf)])
     constraints = np.array(rows) if rows else None
     params = {"is": p["is"], "bf": p["bf"], "br": p["br"]}
     extra = {}
@@ -321,7 +322,7 @@ def BJT(
         role="transistor",
         branch_roles=(),
         junctions=("wbe", "wbc"),
-        junction_limits=jnp.stack([row, row]),
+        junction_limits=xp.stack([row, row]),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
         **extra,
     )

@@ -51,10 +51,11 @@ from __future__ import annotations
 import math
 
 import jax.numpy as jnp
+import numpy as np
 
 from ..errors import ModelError
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, exp_capped, exp_capped_integral
-from ._part import Part, finite, positive, traced
+from ._part import Part, array_module, finite, positive, traced
 
 #: ngspice's diode model parameters that diracvi accepts (``.model NAME D(...)``):
 #: name -> (default, unit, meaning). ``None``: not given (no breakdown; NBV = N).
@@ -86,11 +87,12 @@ SPICE_ALIASES = {"cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "
 def breakdown_knee(i_s, bv, ibv, nbv_vt):
     """ngspice's adjusted breakdown voltage ``BV'`` (``diotemp.c``), see the module text."""
     vt = THERMAL_VOLTAGE
-    cbv = jnp.maximum(ibv, i_s * bv / vt)
-    x = bv - nbv_vt * jnp.log(1.0 + cbv / i_s)
+    xp = array_module(i_s, bv, ibv, nbv_vt)
+    cbv = xp.maximum(ibv, i_s * bv / vt)
+    x = bv - nbv_vt * xp.log(1.0 + cbv / i_s)
     for _ in range(60):  # a contraction: converged to round-off long before
-        x = bv - nbv_vt * jnp.log(cbv / i_s + 1.0 - x / vt)
-    return jnp.where(ibv < i_s * bv / vt, bv, x)
+        x = bv - nbv_vt * xp.log(cbv / i_s + 1.0 - x / vt)
+    return xp.where(ibv < i_s * bv / vt, bv, x)
 
 
 class _Junction:
@@ -237,8 +239,9 @@ def Diode(
         series = -rs * v[0] if has_rs else 0.0 * v[0]
         return jnp.stack([series, -(junction.current(v[1]) + g * v[1])])
 
-    vcrit = nvt * jnp.log(nvt / (math.sqrt(2.0) * i_s))
-    limits = jnp.stack([jnp.asarray(x, float) for x in (nvt, vcrit, jnp.inf if bv is None else bv)])
+    xp = array_module(nvt, i_s, bv)
+    vcrit = nvt * xp.log(nvt / (math.sqrt(2.0) * i_s))
+    limits = xp.stack([xp.asarray(x, float) for x in (nvt, vcrit, np.inf if bv is None else bv)])
     limits = limits[None, :]
     return Part(
         ("q", "w"),

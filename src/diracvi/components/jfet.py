@@ -180,7 +180,7 @@ def JFET(
     # SPICE's pnjlim on both junctions with ngspice's JFET values: V_T and
     # V_crit = V_T ln(V_T/(√2 I_S)) (jfettemp)
     vcrit = THERMAL_VOLTAGE * math.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * i_s)) if i_s > 0 else 0.0
-    row = jnp.asarray([THERMAL_VOLTAGE, vcrit, jnp.inf])
+    row = np.asarray([THERMAL_VOLTAGE, vcrit, np.inf])  # (NumPy: see _part.array_module)
     params = {"vto": law["vto"], "beta": law["beta"], "lambda": law["lambda_"], "b": law["b"]}
     return ControlledPart(
         tuple(coords),
@@ -195,6 +195,6 @@ def JFET(
         role="transistor",
         branch_roles=(),
         junctions=("wgs", "wgd"),
-        junction_limits=jnp.stack([row, row]),
+        junction_limits=np.stack([row, row]),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
     )

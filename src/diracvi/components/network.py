@@ -19,7 +19,6 @@ import functools
 import itertools
 from dataclasses import dataclass, field
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -27,6 +26,7 @@ from ..errors import ModelError
 from ..model.interaction import Interaction, connect
 from ..model.interconnect import interconnect
 from ..model.sparse_rows import SparseRows
+from ..runtime.compile import run_once_jit
 from ._part import Part, fields, traced
 from ._topology import GROUND, Graph
 from .electrical import CoupledInductors, Ground, MutualInductance, template_momentum
@@ -40,7 +40,9 @@ class Assembly:
 
     Attributes:
         system: the :class:`~diracvi.InterconnectedSystem` (or the single part).
-        q0, p0: initial coordinates and momenta (``p0 = ∂L/∂v(q0, v0)`` per part).
+        q0, p0: initial coordinates and momenta (``p0 = ∂L/∂v(q0, v0)`` per part;
+            computed at its first use — a netlist's transient without UIC starts from
+            its operating point's momenta and never asks).
         nodes: the electrical nodes with a KCL row, in row order.
         kcl_rows: node -> name of its interaction row (a multiplier name).
         currents: element label -> coordinate name whose velocity is ``i(label)``.
@@ -49,11 +51,17 @@ class Assembly:
 
     system: object
     q0: np.ndarray
-    p0: np.ndarray
+    _momenta: object = field(repr=False, compare=False)  # () -> p0, called once by p0
     nodes: tuple[str, ...]
     kcl_rows: dict = field(default_factory=dict)
     currents: dict = field(default_factory=dict)
     mechanical: dict = field(default_factory=dict)
+
+    @functools.cached_property
+    def p0(self) -> np.ndarray:
+        """``p0 = ∂L/∂v(q0, v0)``, the parts' momenta side by side (:func:`_momenta`:
+        NumPy, or JAX's where a part's parameter or the state is traced)."""
+        return self._momenta()
 
 
 class Circuit:
@@ -309,14 +317,14 @@ class Circuit:
                 )
             system = interconnect([p for p, _ in parts], interactions, name=self.name)
             prefix = None
-        p0 = _momenta(system, parts, q0, v0, offsets)
+        momenta = functools.partial(_momenta, system, parts, q0, v0, offsets)
         currents = {}
         for f in table:
             name = f["name"]
             for label, coord in f["currents"]:
                 currents[label or name] = f"{name}.{coord}" if prefix is None else coord
         mechanical = {node: members[0][0] for node, members in at_node.items()}
-        return Assembly(system, q0, p0, tuple(node_list), kcl_rows, currents, mechanical)
+        return Assembly(system, q0, momenta, tuple(node_list), kcl_rows, currents, mechanical)
 
     def _sense_rows(self, table, offsets) -> list:
         """One row ``dc − dq_element = 0`` per current-controlled source (``part.senses``):
@@ -369,16 +377,27 @@ class Circuit:
 _BATCH_MOMENTA = 8
 
 
-@eqx.filter_jit
+@run_once_jit
 def _packed_momentum(system, q, v):
+    """``p = ∂L/∂v(q, v, 0)`` of the packed interconnection: one program, kept in the
+    store (a later process loads it untraced)."""
     return system.momentum(q, v, 0.0)
+
+
+@run_once_jit
+def _part_momenta(parts, qs, vs):
+    """``p_i = ∂L_i/∂v(q_i, v_i)`` (and a charge port's ``Q_i``) of each of ``parts`` at
+    its own ``(q_i, v_i)``: one program, kept in the store. Evaluated eagerly, each
+    operation of each part's Lagrangian was an XLA program of its own, compiled in every
+    process (a deck with two BJTs: 40 of them, 2 s of its read)."""
+    return tuple(part.momentum(q, v) for part, q, v in zip(parts, qs, vs, strict=True))
 
 
 def _closed_momenta(parts, q0, v0, offsets):
     """The momenta of a circuit whose parts are linear R, L, C but for fewer than
     :data:`_BATCH_MOMENTA` others (a source, a diode): the template parts' in closed
-    form (:func:`~.electrical.template_momentum`), the others' by one eager call each;
-    ``None`` otherwise, or where a part's parameter is traced."""
+    form (:func:`~.electrical.template_momentum`), the others' by one compiled call
+    (:func:`_part_momenta`); ``None`` otherwise, or where a part's parameter is traced."""
     p0, rest = np.zeros(len(v0)), []
     for (part, _), a, b in zip(parts, offsets[:-1].tolist(), offsets[1:].tolist(), strict=True):
         known = template_momentum(fields(part), v0[a]) if b - a == 1 else None
@@ -388,11 +407,16 @@ def _closed_momenta(parts, q0, v0, offsets):
                 return None
         else:
             p0[a] = known
-    for part, a, b in rest:
-        p = part.momentum(q0[a:b], v0[a:b])
-        if traced(p):
+    if rest:
+        found = _part_momenta(
+            tuple(part for part, _, _ in rest),
+            tuple(q0[a:b] for _, a, b in rest),
+            tuple(v0[a:b] for _, a, b in rest),
+        )
+        if any(traced(p) for p in found):
             return None
-        p0[a:b] = np.asarray(p)
+        for (_, a, b), p in zip(rest, found, strict=True):
+            p0[a:b] = np.asarray(p)
     return p0
 
 

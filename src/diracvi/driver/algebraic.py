@@ -113,8 +113,10 @@ def inertia(system, q0, t0=0.0, which=None) -> np.ndarray:
     which = np.arange(n) if which is None else np.asarray(which, dtype=np.int32).reshape(-1)
     out = np.zeros(n)
     if which.size:
-        q = jnp.asarray(np.asarray(q0, dtype=np.float64).reshape(n))
-        out[which] = np.asarray(_inertia(system, q, np.float64(t0), jnp.asarray(which)))
+        # NumPy arguments, as the program takes them: jnp.asarray of NumPy data is an
+        # eager program per shape, compiled in every process
+        q = np.asarray(q0, dtype=np.float64).reshape(n)
+        out[which] = np.asarray(_inertia(system, q, np.float64(t0), which))
     return out
 
 

@@ -163,6 +163,15 @@ def _lift_literals(jaxpr):
     return lifted, values
 
 
+def _on_device(value):
+    """``jnp.asarray(value)``, NumPy data put on the device as it is: JAX's ``asarray``
+    of NumPy data is an eager ``stage`` program, compiled once per shape and process
+    whatever the disk cache holds (a model's constants: a few of them per deck)."""
+    if isinstance(value, np.ndarray | np.generic):
+        return jax.device_put(value)
+    return jnp.asarray(value)
+
+
 def lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     """``(program, consts, out_aval)`` for ``fn`` traced on float64 arrays of ``shapes``,
     or ``None`` when it cannot be traced that way (the caller keeps the function whole)."""
@@ -174,7 +183,7 @@ def lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     if len(closed.out_avals) != 1 or any(isinstance(c, jax.core.Tracer) for c in closed.consts):
         return None
     jaxpr, literals = _lift_literals(closed.jaxpr)
-    consts = [jnp.asarray(c) for c in closed.consts] + [jnp.asarray(v) for v in literals]
+    consts = [_on_device(c) for c in closed.consts] + [_on_device(v) for v in literals]
     found: list = []
     _opaque_params(jaxpr, found)
     # a derivative rule that is a module's own function is named by it; any other

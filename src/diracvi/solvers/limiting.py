@@ -72,12 +72,26 @@ def limit_rows(v_new, v_old, limits, xp=jnp):
     return s * lim
 
 
-def _five(limits):
+def _five(limits, xp=jnp):
     """``(nV_T, V_crit, BV, s, start)`` rows of a part's three- or five-column table."""
-    limits = jnp.asarray(limits, dtype=float)
+    limits = xp.asarray(limits, dtype=float)
     if limits.shape[1] == 5:
         return limits
-    return jnp.concatenate([limits, jnp.ones_like(limits[:, :1]), limits[:, 1:2]], axis=1)
+    return xp.concatenate([limits, xp.ones_like(limits[:, :1]), limits[:, 1:2]], axis=1)
+
+
+def _tables(limits) -> list:
+    """The parts' tables as they are if one is traced (inside a compiled step whose system
+    is an argument), else as NumPy arrays: gathered on the host, each eager
+    ``jax.numpy`` operation would compile a program per shape once per process (the
+    operating point and the march ask for the junctions before their programs)."""
+    if any(isinstance(x, jax.core.Tracer) for x in limits):
+        return [jnp.asarray(x) for x in limits]
+    return [np.asarray(x, dtype=np.float64) for x in limits]
+
+
+def _xp(tables: list):
+    return np if all(isinstance(x, np.ndarray) for x in tables) else jnp
 
 
 def start_voltages(limits):
@@ -100,7 +114,7 @@ def junctions(system):
         found = tuple(getattr(system, "junctions", ()) or ())
         if not found:
             return None
-        return np.asarray(found, dtype=np.int64), jnp.asarray(system.junction_limits)
+        return np.asarray(found, dtype=np.int64), _tables([system.junction_limits])[0]
     kinds = type(system)._kinds(system)
     if not any(getattr(k, "junctions", ()) for k in kinds):
         return None
@@ -111,10 +125,12 @@ def junctions(system):
         own = getattr(sub, "junctions", ()) or ()
         if own:
             index += [int(offset) + int(j) for j in own]
-            limits.append(jnp.asarray(sub.junction_limits))
+            limits.append(sub.junction_limits)
+    limits = _tables(limits)
+    xp = _xp(limits)
     if any(x.shape[1] == 5 for x in limits):
-        limits = [_five(x) for x in limits]
-    return np.asarray(index, dtype=np.int64), jnp.concatenate(limits, axis=0)
+        limits = [_five(x, xp) for x in limits]
+    return np.asarray(index, dtype=np.int64), xp.concatenate(limits, axis=0)
 
 
 def _packed_junctions(system, kinds):
@@ -134,15 +150,16 @@ def _packed_junctions(system, kinds):
         index.append((offsets[members][:, None] + own[None, :]).reshape(-1))
         stacked = getattr(packing.stacks[g], "junction_limits", None)
         if stacked is None:  # not an array leaf: one table shared by the whole group
-            shared = jnp.asarray(packing.tables.rests[g].junction_limits)
-            stacked = jnp.broadcast_to(shared, (len(members), *shared.shape))
-        stacked = jnp.asarray(stacked)
+            (shared,) = _tables([packing.tables.rests[g].junction_limits])
+            stacked = _xp([shared]).broadcast_to(shared, (len(members), *shared.shape))
+        (stacked,) = _tables([stacked])
         limits.append(stacked.reshape(-1, stacked.shape[-1]))
+    xp = _xp(limits)
     if any(x.shape[1] == 5 for x in limits):
-        limits = [_five(x) for x in limits]
+        limits = [_five(x, xp) for x in limits]
     index = np.concatenate(index)
     order = np.argsort(index, kind="stable")
-    limits = jnp.concatenate(limits, axis=0)
+    limits = xp.concatenate(limits, axis=0)
     if not np.array_equal(order, np.arange(len(order))):
         limits = limits[order]
     return index[order], limits
@@ -154,7 +171,8 @@ def junction_limiter(eqs):
     if found is None:
         return None
     index, limits = found
-    limits = jax.lax.stop_gradient(limits)
+    if not isinstance(limits, np.ndarray):  # (NumPy tables carry no derivative)
+        limits = jax.lax.stop_gradient(limits)
     sign = 1.0 if eqs.scheme == "plus" else -1.0
     known = eqs.q[index]
 
