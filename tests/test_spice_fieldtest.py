@@ -43,3 +43,26 @@ def test_several_unbraced_assignments_are_refused_naming_the_fix():
         spice.read("t\n.param a = 1 + 2, b = 3\nv1 1 0 {a}\nr1 1 0 1\n.tran 1m 2m\n.end\n")
     text = str(info.value)
     assert "line 2:" in text and "in braces" in text and ".param x={a + b}" in text
+
+
+# CIDER's numerical BJT (examples/cider/bjt/invchain.cir): its card holds words
+# (concmod=sg), so the type is checked before any value is read
+CIDER_BJT = """numerical bjt
+vcc 1 0 5
+rc 1 2 1k
+q1 2 1 0 qmod area = 100p
+.model qmod nbjt level=1 x.mesh node=1 loc=0.0 x.mesh node=61 loc=3.0
++ mobility material=1 concmod=sg fieldmod=sg
++ doping unif n.type conc=1e17 x.l=0.0 x.h=1.0
+.tran 1n 10n
+.end
+"""
+
+
+def test_cider_model_is_refused_as_such_not_by_a_parameter():
+    with pytest.raises(spice.NetlistError) as info:
+        spice.read(CIDER_BJT)
+    text = str(info.value)
+    assert "the netlist has 1 problem:" in text
+    assert "line 4: model 'qmod' (line 5) is a NBJT (CIDER's numerical device" in text
+    assert "needs NPN/PNP" in text and "unknown parameter" not in text
