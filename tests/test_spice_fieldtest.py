@@ -66,3 +66,30 @@ def test_cider_model_is_refused_as_such_not_by_a_parameter():
     assert "the netlist has 1 problem:" in text
     assert "line 4: model 'qmod' (line 5) is a NBJT (CIDER's numerical device" in text
     assert "needs NPN/PNP" in text and "unknown parameter" not in text
+
+
+# an SOI MOSFET has five to seven nodes before its model (tests/bsim3soifd/ring51.cir:
+# 'mn1 ss ss ss ss ss n1 …'); the sixth token is a node, not a model to define
+SOI = """soi mosfet
+vdd dd 0 1.5
+mn1 dd dd 0 0 0 n1 w=4u l=0.15u
+.model n1 nmos level=55 tox=4.5e-9
+.tran 1n 10n
+.end
+"""
+
+
+def test_soi_mosfet_is_refused_by_its_level_not_as_a_missing_model():
+    with pytest.raises(spice.NetlistError) as info:
+        spice.read(SOI)
+    text = str(info.value)
+    assert "line 3: model 'n1' (line 4): NMOS level 55 is not supported" in text
+    assert "is not defined" not in text
+
+
+def test_five_nodes_before_a_four_node_mosfet_model_are_refused_by_count():
+    with pytest.raises(spice.NetlistError) as info:
+        spice.read(SOI.replace("level=55 tox=4.5e-9", "level=1"))
+    assert "element 'mn1' has 5 nodes before its model 'n1'; a MOSFET of levels 1" in str(
+        info.value
+    )
