@@ -5,6 +5,7 @@ its manual defines."""
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import _ngspice as ng
@@ -93,3 +94,30 @@ def test_five_nodes_before_a_four_node_mosfet_model_are_refused_by_count():
     assert "element 'mn1' has 5 nodes before its model 'n1'; a MOSFET of levels 1" in str(
         info.value
     )
+
+
+# 'DC' with no value (examples/transient-noise/rts-1.cir: 'VW1of 21 0 DC  trnoise(…)'):
+# ngspice 39 reads it as DC 0; the transient follows the function
+DC_NO_VALUE = """dc keyword without a value
+v1 1 0 DC  pulse(1 2 1m 1m 1m 1 2)
+v2 2 0 DC
+v3 3 0 DC ac 1
+r1 1 0 1
+r2 2 0 1
+r3 3 0 1
+.tran 1m 4m
+.end
+"""
+
+
+def test_dc_keyword_without_a_value_is_zero_as_in_ngspice():
+    result = spice.run(DC_NO_VALUE)
+    v1, v2, v3 = (np.asarray(result.at([0.0, 4e-3])[f"v({n})"]) for n in "123")
+    np.testing.assert_allclose(v1, [1.0, 2.0], rtol=1e-12)  # the PULSE at 0 and 4 ms
+    assert np.all(v2 == 0.0) and np.all(v3 == 0.0)
+
+
+@needs_ngspice
+def test_dc_keyword_without_a_value_as_ngspice_reads_it():
+    op = ng.operating_point(DC_NO_VALUE)  # the .op takes DC values: all three 0
+    assert op["i(v1)"] == op["i(v2)"] == op["i(v3)"] == 0.0
