@@ -10,6 +10,7 @@ import pytest
 
 import _ngspice as ng
 from diracvi import spice
+from diracvi.spice._expr import evaluate_constant
 
 needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 
@@ -121,3 +122,10 @@ def test_dc_keyword_without_a_value_is_zero_as_in_ngspice():
 def test_dc_keyword_without_a_value_as_ngspice_reads_it():
     op = ng.operating_point(DC_NO_VALUE)  # the .op takes DC values: all three 0
     assert op["i(v1)"] == op["i(v2)"] == op["i(v3)"] == 0.0
+
+
+def test_temper_is_the_circuit_temperature_27_in_b_expressions():
+    # ngspice 39: 'b1 1 0 v=temper*2' on 1 ohm, .op: v(1) = 54
+    assert evaluate_constant("temper*2", {}) == 54.0
+    with pytest.raises(spice.NetlistError, match=r"temperature 91\.0 °C"):
+        spice.read("t\nb1 1 0 v=temper*2\nr1 1 0 1\n.temp 91\n.tran 1m 2m\n.end\n")
