@@ -110,7 +110,6 @@ def test_expression_of_nodes_currents_and_time_is_a_jax_function():
         ("min(1)", "min takes 2 argument"),
         ("idt(v(1))", "idt .* is not supported; integrate with a capacitor"),
         ("ddt(ddt(v(1)))", "ddt inside ddt"),
-        ("temper", "circuit temperature"),
         ("v(a,b,c)", r"write v\(node\) or v\(node1, node2\)"),
     ],
 )

@@ -167,6 +167,28 @@ def test_missing_model_file_is_named(tmp_path):
     assert "does not exist" in result.output
 
 
+RC_DECK = "rc\nv1 1 0 pulse(0 1 0 1u 1u 1m 2m)\nr1 1 2 1k\nc1 2 0 1u\n.tran 10u 100u\n.end\n"
+
+
+@pytest.mark.parametrize("name", ["RC.cir.out", "rc.spi"])
+def test_netlists_named_as_esim_and_ngspice_name_them_run(tmp_path, name):
+    # eSim hands ngspice <project>.cir.out (the field test's eSim decks); .spi is ngspice's
+    deck = tmp_path / name
+    deck.write_text(RC_DECK)
+    result = invoke("run", deck, "--out", tmp_path / "rc.nc")
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "rc.nc").is_file()
+
+
+def test_a_file_neither_python_nor_a_netlist_by_name_is_refused_naming_both(tmp_path):
+    deck = tmp_path / "rc.txt"
+    deck.write_text(RC_DECK)
+    result = invoke("run", deck)
+    assert result.exit_code == EXIT_USAGE
+    assert "neither a model file (.py) nor a netlist" in result.output
+    assert ".cir.out" in result.output and "cannot be imported as Python" not in result.output
+
+
 @pytest.mark.parametrize(
     ("args", "option", "value"),
     [

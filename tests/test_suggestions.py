@@ -350,17 +350,6 @@ C1 out 0 1
 """
 
 
-def test_dc_without_value_suggests_a_line_that_runs():
-    from diracvi import spice
-
-    bad = RC.replace("DC 1", "DC")
-    with pytest.raises(ModelError, match="without a value") as err:
-        spice.run(bad, dt=0.1)
-    written = suggestion(str(err.value), r"\(write (DC [0-9.]+)\)")
-    result = spice.run(bad.replace("DC\n", written + "\n"), dt=0.1)
-    assert result["v(in)"][-1] == pytest.approx(float(written.split()[1]))
-
-
 @pytest.mark.parametrize("line", [".temp 50", ".options temp=50"])
 def test_temperature_error_suggests_a_temperature_that_runs(line):
     from diracvi import spice

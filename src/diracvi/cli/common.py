@@ -143,13 +143,21 @@ def _solver_option(name: str | None):
     }[name]()
 
 
-NETLIST_SUFFIXES = (".cir", ".sp", ".spice", ".net", ".ckt")
+#: the endings of a SPICE netlist's file name: ngspice reads any, so these are the ones
+#: its users write (``.cir.out`` is the deck eSim writes from a KiCad schematic and
+#: hands to ngspice, ``.spi`` ngspice's examples' and LTspice's export's)
+NETLIST_SUFFIXES = (".cir", ".sp", ".spice", ".net", ".ckt", ".spi", ".cir.out")
+
+
+def is_netlist(target) -> bool:
+    """Whether ``target``'s file name ends as a SPICE netlist's (:data:`NETLIST_SUFFIXES`)."""
+    return str(target).lower().endswith(NETLIST_SUFFIXES)
 
 
 def _resolve_model(target: str):
     """A built-in problem name or a model file path → a ModelSpec-like object."""
     path = Path(target)
-    if path.suffix.lower() in NETLIST_SUFFIXES:
+    if is_netlist(target):
         if not path.is_file():
             _fail(f"netlist {target!r} does not exist.", EXIT_USAGE)
         from .. import spice
@@ -164,6 +172,13 @@ def _resolve_model(target: str):
     if looks_like_path or (path.is_file() and target not in problems.REGISTRY):
         if not path.is_file():
             _fail(f"model file {target!r} does not exist.", EXIT_USAGE)
+        if path.suffix.lower() != ".py":
+            _fail(
+                f"{target!r} is neither a model file (.py) nor a netlist by its name (a SPICE "
+                f"netlist ends in {', '.join(NETLIST_SUFFIXES)}, a robot in .urdf); a netlist "
+                "named otherwise: copy it to a name ending in .cir",
+                EXIT_USAGE,
+            )
         with _library_errors():
             return load_model_file(path)
     if target not in problems.REGISTRY:

@@ -13,7 +13,6 @@ from ..discretization.names import BUILT_IN as RULE_NAMES
 from ..driver.step_error import ERRORS as STEP_ERRORS
 from .common import (
     EXIT_USAGE,
-    NETLIST_SUFFIXES,
     SOLVERS,
     _choice,
     _fail,
@@ -25,6 +24,7 @@ from .common import (
     _resolve_model,
     _rule_names,
     _solver_option,
+    is_netlist,
 )
 
 
@@ -55,7 +55,8 @@ def run(
         typer.Argument(
             help="A built-in problem (see `diracvi list`), a model file path/to/model.py "
             "defining build() -> (system, q0, p0) or a dict with system, q0, p0, and "
-            "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt; "
+            "optionally dt, steps, or a SPICE netlist (.cir, .sp, .spice, .net, .ckt, .spi, "
+            ".cir.out; "
             "run as SPICE does: variable steps, output every TSTEP from TSTART, or a fixed "
             "step with --dt; the NetCDF holds v(<node>) and i(<element>)), or a URDF robot "
             "(.urdf; fixed base, released from rest under gravity, 2000 steps of 1 ms by "
@@ -145,7 +146,7 @@ def run(
     tolerances = {k: v for k, v in tolerances.items() if v is not None}
     if step_error is not None:  # (spice.run's keyword; the CLI spells it --step-error)
         tolerances["step_error"] = step_error
-    if tolerances and Path(problem).suffix.lower() not in NETLIST_SUFFIXES:
+    if tolerances and not is_netlist(problem):
         given = " ".join(f"--{k.replace('_', '-')}" for k in tolerances)
         _fail(
             f"{given}: a SPICE netlist's variable-step settings; {problem!r} is not a netlist.",

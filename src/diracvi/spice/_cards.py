@@ -17,6 +17,12 @@ from typing import NamedTuple
 
 #: ngspice's nominal temperature, the only one diracvi simulates
 TNOM = {"tnom": (27.0, "TNOM={x:g} is not supported; only 27 °C (drop it)")}
+#: CIDER's numerical device models (a device simulated from its doping profile by a
+#: 1-D or 2-D semiconductor solver), whose cards are words (``concmod=sg``), not numbers
+CIDER = {
+    k: " (CIDER's numerical device simulation, not supported)"
+    for k in ("NUMD", "NUMD2", "NBJT", "NBJT2", "NUMOS")
+}
 #: the noise coefficients (they act in noise analyses only)
 NOISE = {k: "ignored (noise only)" for k in ("kf", "af", "nlev", "gdsnoi")}
 
@@ -72,11 +78,14 @@ class ElementCard(NamedTuple):
 def element_card(ctx, token: str, line, kinds: tuple[str, ...], needs: str = "this element"):
     """The :class:`ElementCard` of the ``.model`` named ``token`` that an element line
     uses, its type checked among ``kinds``."""
-    kind, params, where = ctx.model(token, line)
-    if kind not in kinds:
+    declared = ctx.declared(token, line)
+    kind, where = declared.kind, declared.where
+    if kind not in kinds:  # before its values are read: another type's words are no numbers
+        what = CIDER.get(kind, "")
         raise line.fail(
-            f"model {token!r} ({where}) is a {kind} model; {needs} needs {'/'.join(kinds)}"
+            f"model {token!r} ({where}) is a {kind}{what} model; {needs} needs {'/'.join(kinds)}"
         )
+    kind, params, where = ctx.model(token, line)
 
     def fail(why):
         return line.fail(f"model {token!r} ({where}): {why}")

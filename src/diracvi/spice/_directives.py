@@ -13,10 +13,7 @@ from __future__ import annotations
 import re
 
 from ._lines import card
-from ._values import number
-
-#: ngspice's nominal temperature, the only one diracvi's parts are written for
-NOMINAL_TEMPERATURE = 27.0
+from ._values import NOMINAL_TEMPERATURE, number
 
 
 def _tran(reader, line, pos, kw):

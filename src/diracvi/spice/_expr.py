@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 
 import jax.numpy as jnp
 
-from ._values import _micro, _scaled
+from ._values import NOMINAL_TEMPERATURE, _micro, _scaled
 
 
 class ExprError(ValueError):
@@ -268,7 +268,6 @@ _BIN = {
 }
 #: names ngspice's B source knows that diracvi does not evaluate, with the reason
 _REFUSED = {
-    "temper": "the circuit temperature (diracvi runs at TNOM = 27 °C); write 27",
     "hertz": "the AC-analysis frequency (diracvi runs transients only)",
 }
 DISCONTINUOUS = ("u", "sgn", "floor", "ceil", "<", "<=", ">", ">=", "==", "!=", "&&", "||", "!")
@@ -346,6 +345,8 @@ def _build(node, out, params, funcs, local, problems, in_ddt, depth):
             return lambda v, i, t, d: x
         if key == "pi":
             return lambda v, i, t, d: math.pi
+        if key == "temper":  # the circuit temperature: 27 °C, the only one diracvi runs at
+            return lambda v, i, t, d: NOMINAL_TEMPERATURE
         if key in _REFUSED:
             problems.append(f"{node[2]!r} (column {col + 1}) is {_REFUSED[key]}")
         else:

@@ -123,6 +123,8 @@ def m_line(ctx, name, pos, kw, line):
         return vdmos_line(ctx, name, pos, kw, line)
     if len(pos) < 6:
         raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
+    if pos[5].lower() not in ctx.models:
+        _more_nodes(ctx, pos, line)
     kind, params, _, fail = element_card(ctx, pos[5], line, ("NMOS", "PMOS"))
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
@@ -131,3 +133,20 @@ def m_line(ctx, name, pos, kw, line):
     for note in notes:
         ctx.note(line, note)
     return part, nodes
+
+
+def _more_nodes(ctx, pos, line):
+    """An M line whose model follows five to seven nodes (ngspice's SOI MOSFETs, the
+    BSIM3SOI and BSIM4SOI levels: ``Mname d g s e [p] [b] [t] model``): refused by its model's
+    level, or, for a level with four nodes, by the count, not as a model to define
+    named by a node (ngspice takes the model as the first token after the nodes that
+    names one)."""
+    at = next((k for k in range(6, min(len(pos), 9)) if pos[k].lower() in ctx.models), None)
+    if at is None:
+        return  # no model further on: element_card names the missing one at pos[5]
+    kind, params, _, fail = element_card(ctx, pos[at], line, ("NMOS", "PMOS"))
+    read_mos_model(kind, params, fail, [])  # refuses a level diracvi does not have
+    raise line.fail(
+        f"element {pos[0]!r} has {at - 1} nodes before its model {pos[at]!r}; a MOSFET of "
+        "levels 1, 2 and 6 has four (Mname d g s b model)"
+    )

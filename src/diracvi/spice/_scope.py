@@ -231,7 +231,7 @@ def _directive(scope: Scope, line: Line) -> None:
     if word == ".param":
         pos, kw = split(line)
         if pos[1:]:
-            raise line.fail(f"'.param' expects name=value pairs, got {pos[1:]}")
+            kw = _one_assignment(line, pos[1:])
         for key, token in kw.items():
             if not scope.path and key in scope.reader.overrides:
                 continue  # read(..., params=) wins over the netlist's own value
@@ -255,6 +255,28 @@ def _directive(scope: Scope, line: Line) -> None:
             "may be there); move it outside the '.subckt … .ends'"
         )
     scope.reader.directive(line)
+
+
+_ASSIGNMENT = re.compile(r"(?<![<>!=])=(?!=)")  # an '=', not part of ==, <=, >=, !=
+
+
+def _one_assignment(line: Line, extra: list[str]) -> dict[str, str]:
+    """``.param NAME = EXPR`` with an unbraced expression written with blanks
+    (``.param tgain = 1. + (TEMPER/27. - 1.) * {fact}``): ngspice reads the whole rest of
+    the line as the one expression, a ``{name}`` in it standing for the parameter's value
+    (``.param g2 = 3 * 2 + 1`` is 7, ngspice 39). With several assignments on the line
+    ngspice's reading is not that (``.param a = 1 + 2, b = 3`` gives a = 1), so such a
+    line is refused, naming the fix."""
+    body = line.text.split(None, 1)[1] if len(line.text.split()) > 1 else ""
+    parts = _ASSIGNMENT.split(body)
+    name = parts[0].strip()
+    if len(parts) != 2 or not re.fullmatch(r"[A-Za-z_][\w.]*", name):
+        raise line.fail(
+            f"'.param' expects name=value pairs, got {extra}; write an expression with "
+            "blanks in braces (.param x={a + b}) or as the only assignment of its line"
+        )
+    expr = re.sub(r"\{([^{}]*)\}", r"(\1)", parts[1].strip())  # {fact} is fact's value
+    return {name.lower(): "{" + expr + "}"}
 
 
 def _model(scope: Scope, line: Line) -> None:

@@ -45,7 +45,10 @@ def source(ctx, pos, kw, line):
         word = ALIASES.get(rest[k].lower(), rest[k].lower())
         if word == "dc":
             if k + 1 >= len(rest) or _keyword(rest[k + 1]):
-                raise line.fail("'DC' without a value (write DC 1.5)")
+                # ngspice reads 'DC' with no value as DC 0 ('V1 1 0 DC PULSE(…)': .op 0 V,
+                # the transient the PULSE; 'V2 2 0 DC': 0 V; ngspice 39)
+                dc, k = 0.0, k + 1
+                continue
             dc, k = ctx.value(rest[k + 1], line, "DC value"), k + 2
         elif word in ("ac", "distof1", "distof2"):
             k += 1

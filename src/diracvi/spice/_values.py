@@ -95,6 +95,11 @@ def _traced(x) -> bool:
     return isinstance(x, jax.core.Tracer)
 
 
+#: ngspice's nominal temperature (°C), the only one diracvi's parts are written for (a
+#: ``.temp`` or ``.options temp`` at another is refused), so the value of ``TEMPER``
+NOMINAL_TEMPERATURE = 27.0
+
+
 def evaluate(text: str, params: dict[str, float]) -> float:
     """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
     source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
@@ -120,6 +125,8 @@ def _walk(node, params, text):
             return params[key]
         if key == "pi":
             return math.pi
+        if key == "temper":  # the circuit's temperature, as ngspice's .param reads it
+            return NOMINAL_TEMPERATURE
         raise ExpressionError(f"unknown parameter {node.id!r} in {text!r} (define it with .param)")
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
         x = _walk(node.operand, params, text)
