@@ -117,3 +117,25 @@ def test_a_voltage_source_shorted_by_an_inductor_is_reported_singular():
     netlist = "Shorted source\nV1 a 0 DC 1\nL1 a 0 1m\nR1 a 0 1k\n.tran 1u 10u\n.end\n"
     with pytest.raises(ModelError, match=r"its equations are singular.*a loop of inductors"):
         operating_point(netlist)
+
+
+def test_out_of_memory_in_the_dense_analysis_is_a_clear_error(monkeypatch):
+    """XLA refusing the dense Jacobian's memory (a held-out deck of 17 472 coordinates,
+    Xyce's ``sram.cir``, asked 61 GB) is reported as the operating point's limit, with
+    its size and the fix (UIC), not as a runtime traceback."""
+    import jax
+
+    from diracvi.spice import _operating_point as op_module
+
+    def exhausted(*args, **kwargs):
+        raise jax.errors.JaxRuntimeError("RESOURCE_EXHAUSTED: Out of memory allocating 6e10 bytes.")
+
+    monkeypatch.setattr(op_module, "_linearized", exhausted)
+    deck = read("rc\nV1 1 0 DC 1\nR1 1 2 1k\nC1 2 0 1u\n.tran 1u 1m\n.end\n")
+    with pytest.raises(ModelError, match=r"out of memory.*dense Jacobian.*UIC") as info:
+        operating_point(deck)
+    import re
+
+    assert re.search(
+        r"\(\d+ × \d+, [\d.]+ GB .* \d+ coordinates and \d+ constraints", str(info.value)
+    )

@@ -163,11 +163,28 @@ class _Equations:
 
     def _program(self, modes, v, mu, q, hold_i, source, gmin):
         data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
-        out = _linearized(
-            self.stepped, self.t0, *data, *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
-            np.float64(source), np.float64(gmin),
-        )  # fmt: skip
-        return tuple(np.asarray(a) for a in out)
+        try:
+            out = _linearized(
+                self.stepped, self.t0, *data,
+                *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+                np.float64(source), np.float64(gmin),
+            )  # fmt: skip
+            return tuple(np.asarray(a) for a in out)
+        except jax.errors.JaxRuntimeError as err:
+            if "RESOURCE_EXHAUSTED" not in str(err):
+                raise
+            # the static equations' Jacobian is formed dense, (n + m) × (2n + m): a
+            # circuit of ~10⁴ coordinates asks tens of GB (a held-out deck, Xyce's
+            # sram.cir, n = 17 472: 61 GB), which the machine refuses
+            rows, cols = self.n + self.m + len(self.held), 2 * self.n + self.m + len(self.held)
+            raise ModelError(
+                f"operating point: out of memory forming the DC analysis's dense Jacobian "
+                f"({rows} × {cols}, {8 * rows * cols / 1e9:.1f} GB for the result alone; the "
+                f"circuit has {self.n} coordinates and {self.m} constraints). The transient "
+                "is stepped sparse but the operating point is not. Fix: give the .tran line "
+                "UIC (with .ic for the node voltages it should start from) to skip the DC "
+                "analysis."
+            ) from None
 
     def _dependent(self) -> np.ndarray:
         """The coordinates whose value enters the static equations (a capacitor's charge):
