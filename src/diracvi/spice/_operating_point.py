@@ -180,9 +180,9 @@ class _Equations:
             raise ModelError(
                 f"operating point: out of memory forming the DC analysis's dense Jacobian "
                 f"({rows} × {cols}, {8 * rows * cols / 1e9:.1f} GB for the result alone; the "
-                f"circuit has {self.n} coordinates and {self.m} constraints). Fix: give the .tran line "
-                "UIC (with .ic for the node voltages it should start from) to skip the DC "
-                "analysis."
+                f"circuit has {self.n} coordinates and {self.m} constraints). Fix: give the "
+                ".tran line UIC (with .ic for the node voltages it should start from) to skip "
+                "the DC analysis."
             ) from None
 
     def _dependent(self) -> np.ndarray:
