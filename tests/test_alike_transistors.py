@@ -14,7 +14,7 @@ import pytest
 from _jaxpr import count_equations
 from diracvi import spice
 from diracvi.discretization.rules import get_rule
-from diracvi.driver import events
+from diracvi.driver import adaptive, events
 from diracvi.driver.tries import one_step
 from diracvi.model import stacked
 from diracvi.model.interconnect import InterconnectedSystem
@@ -155,3 +155,34 @@ def test_packed_variable_steps_equal_part_by_part(monkeypatch):
     for key in plain:
         a, b = np.asarray(plain[key]), np.asarray(packed[key])
         assert np.max(np.abs(a - b)) <= 1e-4 * max(1.0, np.max(np.abs(a))), key
+
+
+class _Traced(Exception):
+    """Raised by the stand-in for the loop's program once its jaxpr is counted."""
+
+
+@pytest.mark.slow  # (two chains read, each loop traced with its probes: ~30 s of CPU)
+def test_alike_transistors_share_one_loop_program(monkeypatch):
+    # the whole variable-step loop (tries, error estimate, the junctions' end check, the
+    # gap check, recording), not only its step: the same size for 2 and 3 inverters (both
+    # under bordered.MIN_SIZE unknowns, so both dense Newton), so its compilation does
+    # not grow with the number of alike transistors
+    monkeypatch.setattr(stacked, "MAX_RUNS", 0)
+    sizes = {}
+
+    def count(system, rule, solver, capacity, x):
+        jaxpr = jax.make_jaxpr(lambda x: adaptive._march(system, rule, solver, capacity, x))(x)
+        sizes[system.n] = count_equations(jaxpr.jaxpr)
+        raise _Traced
+
+    monkeypatch.setattr(adaptive, "_program", count)
+    for n in (2, 3):
+        netlist = spice.read(inverters(n))
+        system = events.packed_unless_switched(netlist.system)
+        assert system.packed
+        zero = np.zeros(system.n)
+        ctl = adaptive.Controls(1e-3, 1e-14, 1e-6, np.full(system.m, 1e-6), 1e-8, 1e-16, 1e-9)
+        with pytest.raises(_Traced):
+            adaptive.adaptive(system, zero, zero, t0=0.0, t_stop=1e-6, controls=ctl)
+    assert len(sizes) == 2
+    assert len(set(sizes.values())) == 1, sizes

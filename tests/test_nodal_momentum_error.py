@@ -170,3 +170,20 @@ def _windings(netlist):
     """The windings' coordinates (their branch charges, the coupling's)."""
     coords = list(netlist.system.coords)
     return [coords.index(name) for name in ("K1.q1", "K1.q2")]
+
+
+@pytest.mark.slow  # (a 28-part deck read, its inertia traced twice: ~5 s)
+def test_the_inertia_of_a_packed_circuit_is_the_part_by_part_one():
+    # the step control probes the inductances on the packed system the march steps (one
+    # trace per kind of part): the same masses as part by part, bitwise, at any state
+    from diracvi.driver import events
+    from diracvi.driver.algebraic import inertia
+
+    netlist = spice.read(RLC.parent / "xy_sandler23.cir")
+    plain = netlist.system
+    packed = events.packed_unless_switched(plain)
+    assert packed is not plain
+    q = np.random.default_rng(5).standard_normal(plain.n)
+    a, b = inertia(plain, q), inertia(packed, q)
+    assert np.count_nonzero(a) >= 1  # its inductor
+    assert np.array_equal(a, b)
