@@ -93,3 +93,29 @@ def test_a_warm_cache_serves_every_program_of_a_run(tmp_path, deck):
     _child("run", [path], cache=tmp_path)
     warm = _child("run", [path], cache=tmp_path)
     assert warm[str(path)] == {"read": 0, "operating point": 0, "march": 0}
+
+
+def test_a_netlist_read_inside_a_trace_keeps_its_parameters_traced():
+    """The parts' initial momenta are one stored program with its own XLA options, which
+    a nested ``jit`` refuses; read inside a trace (``params=`` of a traced fit, as
+    ``examples/fit_netlist.py`` does) they are evaluated in the enclosing trace instead,
+    and the run's value and derivative are the untraced ones (central differences)."""
+    import jax
+    import jax.numpy as jnp
+    import numpy as np
+
+    from diracvi import spice
+
+    deck = (
+        "rectifier\n.param rload=1k\nV1 in 0 SIN(0 5 1k)\nD1 in out dmod\n"
+        "R1 out 0 {rload}\nC1 out 0 1u\n.model dmod D(IS=1e-14)\n.tran 20u 0.4m UIC\n.end\n"
+    )
+
+    def last(r):
+        return spice.run(deck, dt=20e-6, params={"rload": r})["v(out)"][-1]
+
+    value, slope = jax.jit(jax.value_and_grad(last))(jnp.float64(1e3))
+    assert np.isclose(float(value), float(last(1e3)), rtol=1e-12, atol=0.0)
+    step = 1.0
+    fd = (float(last(1e3 + step)) - float(last(1e3 - step))) / (2 * step)
+    assert np.isclose(float(slope), fd, rtol=1e-5)
