@@ -393,20 +393,6 @@ def _part_momenta(parts, qs, vs):
     return tuple(part.momentum(q, v) for part, q, v in zip(parts, qs, vs, strict=True))
 
 
-def _outside_a_trace(program, *args):
-    """``program(*args)``, or ``None`` when the call is inside another trace: a part's
-    parameter traced in a closure (a netlist read inside a traced fit, its values
-    ``params=`` of the fit's tracers) cannot be seen from the arguments, and a stored
-    program's XLA options are refused on a nested ``jit`` — the caller then evaluates
-    inline, in the enclosing trace, which compiles nothing of its own."""
-    try:
-        return program(*args)
-    except ValueError as err:
-        if "top-level" not in str(err):
-            raise
-        return None
-
-
 def _closed_momenta(parts, q0, v0, offsets):
     """The momenta of a circuit whose parts are linear R, L, C but for fewer than
     :data:`_BATCH_MOMENTA` others (a source, a diode): the template parts' in closed
@@ -422,13 +408,12 @@ def _closed_momenta(parts, q0, v0, offsets):
         else:
             p0[a] = known
     if rest:
-        found = _outside_a_trace(
-            _part_momenta,
+        found = _part_momenta(
             tuple(part for part, _, _ in rest),
             tuple(q0[a:b] for _, a, b in rest),
             tuple(v0[a:b] for _, a, b in rest),
         )
-        if found is None or any(traced(p) for p in found):
+        if any(traced(p) for p in found):
             return None
         for (_, a, b), p in zip(rest, found, strict=True):
             p0[a:b] = np.asarray(p)
@@ -447,9 +432,7 @@ def _momenta(system, parts, q0, v0, offsets):
     # and checks every leaf of the system — 0.5 s per call at 10⁴ parts
     packed = getattr(type(system), "_packed", None)
     if len(parts) >= _BATCH_MOMENTA and packed is not None:
-        p0 = _outside_a_trace(_packed_momentum, packed(system), q0, v0)
-        if p0 is None:  # inside a trace (a netlist read in a traced fit): traced inline
-            p0 = packed(system).momentum(q0, v0, 0.0)
+        p0 = _packed_momentum(packed(system), q0, v0)
     else:
         p0 = jnp.concatenate(
             [

@@ -166,11 +166,27 @@ class StoredJit:
         # (id of a first argument, shapes of the others) → (its weakref, program, its
         # array leaves): a repeated call on one model skips flattening it
         self._by_object: OrderedDict = OrderedDict()
-        self._make_plain = plain or (
-            lambda: eqx.filter_jit(self._fn, compiler_options=self._options() or None)
-        )
+        self._make_plain = plain or self._filter_jit
         self._plain = None
         functools.update_wrapper(self, fn)
+
+    def _filter_jit(self):
+        """``eqx.filter_jit(fn)`` with the options; inside another trace (a part's
+        parameter traced in a closure, which the arguments do not show: a netlist read in a
+        traced fit) without them — JAX refuses XLA options on a nested ``jit``, and the
+        enclosing program's own apply there."""
+        with_options = eqx.filter_jit(self._fn, compiler_options=self._options() or None)
+        nested = eqx.filter_jit(self._fn)
+
+        def call(*args, **kwargs):
+            try:
+                return with_options(*args, **kwargs)
+            except ValueError as err:
+                if "compiler_options" not in str(err):
+                    raise
+                return nested(*args, **kwargs)
+
+        return call
 
     def plain(self, *args, **kwargs):
         """The call as it is without the store (made at its first use)."""
