@@ -147,11 +147,16 @@ def test_packed_variable_steps_equal_part_by_part(monkeypatch):
     monkeypatch.setattr(spice_run, "PACKED_MARCH", False)
     plain = spice.run(deck)
     # not step for step: the next step's size is read from an error estimate, a
-    # difference of nearly equal states, so round-off moves the sizes (the 0.6 µs run's
-    # last steps end at 5.628516e-07 against 5.628562e-07 s), and the two runs differ
-    # as two runs of the step control do: the waveforms on the TSTEP grid agree far
-    # inside its RELTOL = 1e-3 (measured 1.4e-9 and 1.9e-6 of the peak in two runs)
-    assert len(packed.trajectory.t) == pytest.approx(len(plain.trajectory.t), rel=0.02)
+    # difference of nearly equal states, and the two Newtons (dense part by part, packed
+    # by the stacked parts) stop at different iterates inside their tolerance, so the
+    # sizes drift apart (the 0.6 µs run's last steps end at 5.628516e-07 against
+    # 5.628562e-07 s) as two runs of the step control do. Measured 2026-11-30: 493 packed
+    # against 483 part by part under the tests' compile options, 491 against 487 under the
+    # default ones — the compile options alone, which change only round-off, move the
+    # part-by-part count by 4. A wrong error estimate moves it by far more (a factor 2 in
+    # a second-order estimate: 2^(1/3), 26 %), hence 5 %. The waveforms on the TSTEP grid
+    # agree far inside its RELTOL = 1e-3 (7.2e-5 of the peak at the worst node)
+    assert len(packed.trajectory.t) == pytest.approx(len(plain.trajectory.t), rel=0.05)
     for key in plain:
         a, b = np.asarray(plain[key]), np.asarray(packed[key])
         assert np.max(np.abs(a - b)) <= 1e-4 * max(1.0, np.max(np.abs(a))), key
