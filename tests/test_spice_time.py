@@ -121,6 +121,31 @@ C1 out 0 1u
 """,
         ("v(out)", "i(V1)"),
     ),
+    # SFFM with every value given, phases included (ngspice 39's order: VO VA FC MDI FS
+    # PHASEC PHASES), into an RC whose corner sits between the FM band's edges
+    "sffm-rc": (
+        """An FM wave into an RC
+V1 in 0 SFFM(0.2 1 10k 3 1k 30 60)
+R1 in out 100
+C1 out 0 0.1u
+.tran 2u 2m uic
+.end
+""",
+        ("v(in)", "v(out)", "i(V1)"),
+    ),
+    # a current source's SFFM with ngspice 39's defaults: FS = 1/TSTOP (the 0 given),
+    # FC = 1/TSTOP when absent is covered by the reader's test; the current flows from
+    # n+ through the source to n-, so into node a here
+    "isffm-rl": (
+        """An FM current into an RL
+I1 0 a SFFM(0 1m 5k 2 0)
+R1 a 0 1k
+L1 a 0 10m
+.tran 2u 1m uic
+.end
+""",
+        ("v(a)",),
+    ),
 }
 
 
@@ -656,3 +681,32 @@ def test_source_option_mistakes_name_the_line_and_the_fix():
         spice.read("x\nV1 a 0 SIN(0 1 1k) TD=1m\nR1 a 0 1\n.tran 0.1m 5m\n.end\n")
     with pytest.raises(spice.NetlistError, match=r"line 2: EXP\(V1 V2 \[TD1"):
         spice.read("x\nV1 a 0 EXP(0)\nR1 a 0 1\n.tran 0.1m 5m\n.end\n")
+
+
+def test_sffm_defaults_and_refused_functions_without_ngspice():
+    """SFFM's defaults as ngspice 39 takes them (FC and FS absent or 0: 1/TSTOP; MDI
+    absent: 0; the decks above check the formula against ngspice itself), a note where
+    a deck gives the values ngspice 46 reads otherwise, and AM, TRNOISE refused with why."""
+    netlist = spice.read(
+        "x\nV1 a 0 SFFM(0.5 2)\nV2 b 0 SFFM(0 1 1k 2 0 90 0)\nR1 a b 1\n.tran 1u 4m\n.end\n"
+    )
+    plain, phased = _source(netlist, "V1"), _source(netlist, "V2")
+    t = 0.3e-3
+    # MDI = 0: a sine of 1/TSTOP = 250 Hz
+    assert float(plain(t)) == pytest.approx(0.5 + 2 * math.sin(2 * math.pi * 250 * t), rel=1e-14)
+    # FS given as 0 is 1/TSTOP; PHASEC = 90°
+    want = math.sin(2 * math.pi * 1e3 * t + math.pi / 2 + 2 * math.sin(2 * math.pi * 250 * t))
+    assert float(phased(t)) == pytest.approx(want, rel=1e-13)
+    assert plain.breakpoints(0.0, 4e-3) == ()
+    assert [n for n in netlist.notes if "6th and 7th" in n] == [
+        "line 3: SFFM's 6th and 7th values read as ngspice 39 reads them, the carrier's and "
+        "the signal's phases in degrees (ngspice 46 reads TD and PHASEM there)"
+    ]
+    with pytest.raises(spice.NetlistError, match=r"line 2: .*AM's values mean different things"):
+        spice.read("x\nV1 a 0 AM(1 0 1k 10k)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: .*transient noise is random"):
+        spice.read("x\nV1 a 0 TRNOISE(1m 1n 0 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: SFFM\(VO VA \[FC .* 2 to 7 values"):
+        spice.read("x\nI1 a 0 SFFM(0 1 1k 2 1k 0 0 5)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: SFFM FC and FS default to 1/TSTOP"):
+        spice.read("x\nV1 a 0 SFFM(0 1)\nR1 a 0 1\n.end\n")

@@ -75,6 +75,7 @@ _PUBLIC = {
     "PWL": "waveforms",
     "Exp": "waveforms",
     "Pulse": "waveforms",
+    "SFFM": "waveforms",
     "Sine": "waveforms",
     "Waveform": "waveforms",
 }
@@ -121,7 +122,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .switch import CurrentSwitch, Relay, VoltageSwitch
     from .urdf import parse_urdf, read_urdf
     from .vdmos import VDMOS, GateDrainCapacitance
-    from .waveforms import DC, PWL, Exp, Pulse, Sine, Waveform
+    from .waveforms import DC, PWL, SFFM, Exp, Pulse, Sine, Waveform
 
 
 __getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
@@ -137,6 +138,7 @@ __all__ = [
     "MOSFET2",
     "MOSFET6",
     "PWL",
+    "SFFM",
     "SPICE_PARAMETERS",
     "VCCS",
     "VCVS",

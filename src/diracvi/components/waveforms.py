@@ -248,6 +248,46 @@ class Exp(Waveform):
         return _within((self.delay_rise, self.delay_fall), t_start, t_stop)
 
 
+class SFFM(Waveform):
+    r"""SPICE ``SFFM(VO VA FC MDI FS PHASEC PHASES)``: a single-frequency FM wave,
+
+    ``u = VO + VA sin(2π FC t + φ_c + MDI sin(2π FS t + φ_s))``, ``φ = PHASE·π/180``,
+
+    as ngspice 39 (and SPICE3, PSpice's ``SFFM(VOFF VAMPL FC MOD FM)``) has it: no delay,
+    smooth everywhere, so no breakpoints. ngspice ≥ 46 reads the sixth and seventh values
+    as TD and PHASEM (and defaults FC = 5/TSTOP, MDI = 90, FS = 500/TSTOP, against 39's
+    1/TSTOP, 0, 1/TSTOP): the reader notes it where a deck gives them.
+    """
+
+    offset: object
+    amplitude: object
+    carrier: object
+    index: object
+    signal: object
+    carrier_phase: object
+    signal_phase: object
+
+    def __init__(
+        self, offset, amplitude, carrier, index=0.0, signal=None, carrier_phase=0.0,
+        signal_phase=0.0,
+    ):  # fmt: skip
+        self.offset = _data(_num("SFFM", "VO", offset))
+        self.amplitude = _data(_num("SFFM", "VA", amplitude))
+        self.carrier = _data(_num("SFFM", "FC", carrier, nonneg=True))
+        self.index = _data(_num("SFFM", "MDI", index))
+        self.signal = _data(_num("SFFM", "FS", carrier if signal is None else signal, nonneg=True))
+        self.carrier_phase = _data(_num("SFFM", "PHASEC", carrier_phase))
+        self.signal_phase = _data(_num("SFFM", "PHASES", signal_phase))
+
+    def __call__(self, t):
+        phi_c = self.carrier_phase * math.pi / 180.0
+        phi_s = self.signal_phase * math.pi / 180.0
+        modulation = self.index * jnp.sin(2.0 * math.pi * self.signal * t + phi_s)
+        return self.offset + self.amplitude * jnp.sin(
+            2.0 * math.pi * self.carrier * t + phi_c + modulation
+        )
+
+
 def _within(times, t_start: float, t_stop: float) -> tuple[float, ...]:
     """``times`` inside ``[t_start, t_stop]``, sorted, each once."""
     return tuple(sorted({float(x) for x in times if t_start <= x <= t_stop}))
@@ -264,7 +304,7 @@ def as_waveform(value, where: str) -> Waveform:
     except ModelError:
         raise ModelError(
             f"{where}: source value {value!r} is not a number, a waveform (DC, Sine, "
-            "Pulse, PWL) or a function u(t)."
+            "Pulse, PWL, Exp, SFFM) or a function u(t)."
         ) from None
 
 

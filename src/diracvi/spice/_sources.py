@@ -17,9 +17,18 @@ from .. import components as cp
 from ..errors import ModelError
 from ._lines import NetlistError
 
-FUNCTIONS = ("sin", "pulse", "pwl", "exp")
-#: transient functions ngspice knows and diracvi does not build (refused by name)
-OTHER_FUNCTIONS = ("sffm", "am", "trnoise", "trrandom", "external")
+FUNCTIONS = ("sin", "pulse", "pwl", "exp", "sffm")
+#: transient functions ngspice knows and diracvi does not build (refused by name), and why
+OTHER_FUNCTIONS = {
+    "am": (
+        "AM's values mean different things in ngspice 39 (AM(VA VO MF FC TD)) and ngspice "
+        "46 (AM(VO VMO VMA FM FC TD PHASEM PHASEC)); write the wave you mean as a B source, "
+        "'Bname n+ n- V=…' with 'time' in the expression"
+    ),
+    "trnoise": "transient noise is random: no two runs agree; rewrite it as a PWL",
+    "trrandom": "random values: no two runs agree; rewrite it as a PWL",
+    "external": "a value set from outside the simulator (shared ngspice); rewrite it as a PWL",
+}
 _KEYWORDS = ("dc", "ac", "distof1", "distof2")
 #: other spellings ngspice accepts for a function (KiCad and eSim write SINE)
 ALIASES = {"sine": "sin"}
@@ -29,7 +38,7 @@ def source(ctx, pos, kw, line):
     """The waveform of a ``V``/``I`` line (``pos[3:]`` is the specification)."""
     form = (
         f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] "
-        "[SIN(…) | PULSE(…) | EXP(…) | PWL(…) [TD=t] [R=t]]"
+        "[SIN(…) | PULSE(…) | EXP(…) | SFFM(…) | PWL(…) [TD=t] [R=t]]"
     )
     if len(pos) < 3:
         raise line.fail(f"expected '{form}' (a source has two nodes)")
@@ -62,7 +71,7 @@ def source(ctx, pos, kw, line):
             if word in OTHER_FUNCTIONS:
                 raise line.fail(
                     f"source function {rest[k]!r} is not supported (diracvi builds DC, SIN, "
-                    "PULSE, EXP and PWL sources); rewrite it as a PWL"
+                    f"PULSE, EXP, SFFM and PWL sources): {OTHER_FUNCTIONS[word]}"
                 )
             fn, k = word, k + 1
             while k < len(rest) and not _keyword(rest[k]):
@@ -134,6 +143,22 @@ def _function(ctx, fn, args, line, options):
         td2 = given[2] if given[2] is not None else td1 + step
         tau2 = given[3] if given[3] is not None else step
         return cp.Exp(args[0], args[1], td1, tau1, td2, tau2)
+    if fn == "sffm":
+        if not 2 <= len(args) <= 7:
+            raise line.fail("SFFM(VO VA [FC [MDI [FS [PHASEC [PHASES]]]]]) takes 2 to 7 values")
+        # ngspice 39: FC and FS absent or 0 → 1/TSTOP, MDI absent → 0
+        args = args + [0.0] * (5 - len(args))
+        if (args[2] == 0.0 or args[4] == 0.0) and stop is None:
+            raise line.fail("SFFM FC and FS default to 1/TSTOP, but there is no '.tran'; give them")
+        args[2] = args[2] or 1.0 / stop
+        args[4] = args[4] or 1.0 / stop
+        if len(args) > 5:
+            ctx.note(
+                line,
+                "SFFM's 6th and 7th values read as ngspice 39 reads them, the carrier's and "
+                "the signal's phases in degrees (ngspice 46 reads TD and PHASEM there)",
+            )
+        return cp.SFFM(*args)
     if len(args) < 2 or len(args) % 2:
         raise line.fail("PWL(T1 V1 T2 V2 …) takes pairs of values")
     return cp.PWL(args[0::2], args[1::2], options.get("td", 0.0), options.get("r"))
