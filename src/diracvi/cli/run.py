@@ -319,6 +319,10 @@ def _run_netlist(
         _print_summary(netlist.name, result.trajectory)
     else:
         _print_variable_summary(netlist, result)
+    with _library_errors():
+        measurements = result.measurements
+    for line in measurements:  # as ngspice prints them, after the run
+        _out().print(str(line), markup=False, soft_wrap=True)
     for note in netlist.notes:
         _note(f"note: {note}")
     if out is not None:

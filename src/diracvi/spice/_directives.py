@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 
 from ._lines import card
+from ._measure import read_measure
 from ._values import NOMINAL_TEMPERATURE, number
 
 
@@ -149,7 +150,14 @@ def _refused(why):
     return handler
 
 
-_OUTPUT = _noted("ignored (ngspice's printing/measuring; diracvi writes all saved vectors)")
+_OUTPUT = _noted("ignored (ngspice's printing; diracvi writes all saved vectors)")
+
+
+def _measure(reader, line, pos, kw):
+    """``.meas[ure] tran NAME …`` (:mod:`._measure`); another analysis's noted."""
+    read_measure(reader, line)
+
+
 _ANALYSIS = _noted("ignored (another analysis; diracvi runs the transient)")
 
 #: card -> handler(reader, line, pos, kw)
@@ -165,7 +173,9 @@ DIRECTIVES = {
     ".global": _global,
     ".title": _title,
     ".op": _op,
-    **dict.fromkeys((".four", ".print", ".plot", ".probe", ".meas", ".measure", ".width"), _OUTPUT),
+    ".meas": _measure,
+    ".measure": _measure,
+    **dict.fromkeys((".four", ".print", ".plot", ".probe", ".width"), _OUTPUT),
     **dict.fromkeys(
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
     ),

@@ -24,6 +24,7 @@ from ._directives import DIRECTIVES
 from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._magnetic import assemble
+from ._measure import check_measures
 from ._save import select
 from ._scope import Scope, read_body
 
@@ -59,6 +60,8 @@ class Netlist:
         potentials: the MMF nodes of XSPICE's magnetic loops (no KCL row: their "voltage"
             is an MMF, a sum of the windings' ampere-turns), node ->
             ``((current label, turns), …)`` (:mod:`._magnetic`).
+        measures: the ``.measure tran`` lines, read (:mod:`._measure`); a run's
+            ``result.measurements`` are their values.
     """
 
     title: str
@@ -79,6 +82,7 @@ class Netlist:
     op: bool = False
     off: frozenset = frozenset()
     potentials: dict = field(default_factory=dict)
+    measures: tuple = ()
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
     _op: object = field(default=None, repr=False)
@@ -172,6 +176,7 @@ class _Reader:
         self.notes: list[str] = []
         self.options: dict = {}
         self.saves: list = []
+        self.measures: list = []  # .measure tran lines (spice/_measure.py)
         self.globals: set[str] = set()
         self.all_models: list = []
         self.display: dict[str, str] = {}
@@ -250,6 +255,10 @@ class _Reader:
             potentials=dict(self.potentials),
         )
         netlist.vectors = select(netlist, self.saves, self.problems)
+        netlist.measures = check_measures(
+            self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),
+            self.problems,
+        )  # fmt: skip
         self.problems.check()
         return netlist
 

@@ -19,6 +19,7 @@ import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import jax
@@ -34,6 +35,7 @@ from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
 from . import _netcdf
+from ._measure import Measurement, measure
 from ._operating_point import OperatingPoint
 from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
@@ -73,7 +75,9 @@ class Result(Mapping):
     ``internal=True`` keeps them);
     ``result.trajectory``: the :class:`~diracvi.Trajectory` of a fixed-step run, the
     :class:`~diracvi.driver.adaptive.AdaptiveRun` of a variable-step one;
-    ``result.settings``: the :class:`~diracvi.spice._tran.TranSettings` used.
+    ``result.settings``: the :class:`~diracvi.spice._tran.TranSettings` used;
+    ``result.measurements``: the netlist's ``.measure tran`` lines, measured
+    (:mod:`._measure`).
     """
 
     netlist: Netlist
@@ -110,6 +114,12 @@ class Result(Mapping):
         return {
             k: np.interp(times, t, np.asarray(v, dtype=float)) for k, v in self.waveforms.items()
         }
+
+    @cached_property
+    def measurements(self) -> tuple[Measurement, ...]:
+        """The ``.measure tran`` results in the netlist's order (each with its
+        ``value``, or ``failed`` saying why there is none)."""
+        return measure(self.netlist.measures, self)
 
     def _saved(self) -> dict:
         vectors = self.netlist.vectors or tuple((k, k) for k in self.waveforms)
@@ -200,10 +210,20 @@ class Result(Mapping):
                 )
             ds = ds.assign(data).assign_coords({k: v for k, v in coords.items() if k != "time"})
             ds.attrs["vectors"] = layout
+            ds.attrs.update(self._measure_attrs())
             return ds
         ds = xr.Dataset(data, coords=coords)
         ds.attrs.update(self._variable_attrs(layout))
+        ds.attrs.update(self._measure_attrs())
         return ds
+
+    def _measure_attrs(self) -> dict:
+        """``measure_<name>``: each measurement's value, or why it failed (a later line
+        of the same name wins, as ngspice's last print does)."""
+        return {
+            f"measure_{m.name}": m.value if m.failed is None else f"failed: {m.failed}"
+            for m in self.measurements
+        }
 
     def _variable_attrs(self, layout: str) -> dict:
         """A variable-step run's file attributes: the layout, the run and its settings."""
@@ -244,6 +264,7 @@ class Result(Mapping):
             if len(saved) <= SEPARATE_MAX:  # the same file, without importing xarray
                 waves = {name: self.waveforms[key] for name, key in saved.items()}
                 attrs = self._variable_attrs("one variable per vector")
+                attrs.update(self._measure_attrs())
                 _netcdf.write(tmp, self.time, waves, attrs)
             else:
                 self.to_xarray().to_netcdf(tmp, engine="h5netcdf")
