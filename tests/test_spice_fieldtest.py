@@ -129,3 +129,18 @@ def test_temper_is_the_circuit_temperature_27_in_b_expressions():
     assert evaluate_constant("temper*2", {}) == 54.0
     with pytest.raises(spice.NetlistError, match=r"temperature 91\.0 °C"):
         spice.read("t\nb1 1 0 v=temper*2\nr1 1 0 1\n.temp 91\n.tran 1m 2m\n.end\n")
+
+
+def test_unsupported_models_are_refused_for_what_they_are_not_for_their_words():
+    # ngspice's examples/cider/diode/diotran.cir: a CIDER diode whose card holds words
+    # (concmod=ct) was refused as "unknown parameter 'ct'"; examples/Monte_Carlo/MC_ring.sp:
+    # a BSIM3 card with version=3.3.0 as "cannot parse expression '3.3.0'"
+    cider = "t\nv1 1 0 1\nd1 1 0 m_pn area=100\n.model m_pn numd level=1\n+ options defa=1p\n"
+    cider += "+ doping unif n.type conc=1e16\n+ models concmod=ct\n.tran 1n 10n\n.end\n"
+    with pytest.raises(spice.NetlistError) as err:
+        spice.read(cider)
+    assert "model 'm_pn' (line 4) is a NUMD (CIDER's numerical device simulation" in str(err.value)
+    bsim = "t\nv1 1 0 1\nm1 1 1 0 0 n1 w=1u l=1u\n.model n1 nmos level=8 version=3.3.0\n"
+    bsim += ".tran 1n 10n\n.end\n"
+    with pytest.raises(spice.NetlistError, match=r"NMOS level 8 \(BSIM3v3\.3\.0\) is not supp"):
+        spice.read(bsim)

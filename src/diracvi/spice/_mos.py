@@ -39,7 +39,7 @@ def level_name(level: float, version=None) -> str:
     """``"level 8 (BSIM3v3.2)"``: the level and the model ngspice runs at it."""
     name = LEVELS.get(int(level), "") if level == int(level) else ""
     if name.startswith("BSIM") and version is not None:
-        name += f"v{version:g}"
+        name += f"v{version:g}" if isinstance(version, float) else f"v{version}"
     return f"level {level:g}" + (f" ({name})" if name else "")
 
 

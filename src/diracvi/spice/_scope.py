@@ -15,6 +15,7 @@ import re
 from dataclasses import dataclass, field
 
 from ..errors import ModelError
+from ._cards import CIDER
 from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
 from ._lines import Line, LineError, NetlistError, card, split
 from ._subckt import MAX_DEPTH, collect, instance_parts
@@ -100,10 +101,16 @@ class Scope:
     def model(self, token: str, line: Line):
         """The visible ``.model`` named ``token``: ``(kind, {param: value}, where)``."""
         model = self.declared(token, line)
-        params = {
-            key: model.scope.value(tok, model.line, f".model {model.name} {key}")
-            for key, tok in model.tokens.items()
-        }
+        if model.kind in CIDER:  # its values are words (concmod=sg): refused before they are read
+            raise line.fail(
+                f"model {token!r} ({model.where}) is a {model.kind}{CIDER[model.kind]} model"
+            )
+        params = {}
+        for key, tok in model.tokens.items():
+            if key == "version" and re.fullmatch(r"\d+(\.\d+){2,}", tok):
+                params[key] = tok  # a BSIM card's release, '3.3.0', kept as written
+                continue
+            params[key] = model.scope.value(tok, model.line, f".model {model.name} {key}")
         return model.kind, params, model.where
 
     def find_model(self, tokens):
