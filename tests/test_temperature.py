@@ -175,3 +175,26 @@ def test_the_diode_temperature_update_is_differentiable():
     slope = jax.grad(i_s)(t)
     assert float(slope) == pytest.approx((i_s(t + h) - i_s(t - h)) / (2 * h), rel=1e-6)
     assert np.isfinite(float(slope)) and float(slope) > 0.0
+
+
+@pytest.mark.parametrize(
+    ("element", "model", "what"),
+    [
+        ("J1 d g 0 jm", ".model jm NJF", "JFET"),
+        ("M1 d g 0 0 mm", ".model mm NMOS LEVEL=2", "MOSFET"),
+        ("M1 d g 0 vd", ".model vd VDMOS", "VDMOS"),
+    ],
+)
+@pytest.mark.parametrize("setting", [".temp 50", ".options tnom=40", ""])
+def test_a_device_without_a_temperature_update_is_refused_away_from_27C(
+    element, model, what, setting
+):
+    line = element + (" temp=60" if not setting else "")
+    deck = f"t\nVD d 0 1\nVG g 0 1\n{line}\n{model}\n{setting}\n.tran 1n 10n\n.end\n"
+    refusal = rf"{what}.*no temperature dependence"
+    if what == "VDMOS" and not setting:  # its line takes no instance parameter at all
+        refusal = "instance parameters are not supported"
+    with pytest.raises(spice.NetlistError, match=refusal):
+        spice.read(deck)
+    if setting:  # the same device with its TEMP at the circuit's 27 °C reads
+        spice.read(deck.replace(setting, ""))

@@ -14,7 +14,7 @@ import re
 from dataclasses import dataclass, field
 
 from .. import components as cp
-from ._cards import NodeIC, element_card
+from ._cards import NodeIC, element_card, nominal_only
 
 KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
 
@@ -153,6 +153,7 @@ def q_line(ctx, name, pos, kw, line):
         )
     token = found[0]
     model = _card(ctx, token, line, ("NPN", "PNP"))
+    nominal_only(ctx, pos[0], kw, line, f"the BJT ({model.kind.upper()})")
     notes: list[str] = []
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = bjt(

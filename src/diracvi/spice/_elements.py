@@ -28,6 +28,7 @@ from .. import components as cp
 from ..components._temperature import DIODE_IGNORED_BY_NGSPICE39
 from ..components.diode import SPICE_ALIASES
 from ._behavioural import b_line
+from ._cards import device_temperature
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
@@ -127,18 +128,6 @@ def _d(ctx, name, pos, kw, line):
 
 #: the instance temperature keywords of ngspice's semiconductor lines
 _TEMP = ("temp", "dtemp")
-
-
-def device_temperature(ctx, element, kw, line) -> float:
-    """A device's temperature (°C) as ngspice sets it: ``TEMP=`` where the line gives it
-    (its ``DTEMP=`` then ignored, with a note), else the circuit temperature plus
-    ``DTEMP=`` (0 by default)."""
-    if "temp" in kw:
-        if "dtemp" in kw:
-            ctx.note(line, f"{element}: TEMP given, so DTEMP is ignored (as ngspice does)")
-        return ctx.value(kw["temp"], line, f"{element} TEMP")
-    dtemp = ctx.value(kw["dtemp"], line, f"{element} DTEMP") if "dtemp" in kw else 0.0
-    return ctx.temperature + dtemp
 
 
 def _x(ctx, name, pos, kw, line):

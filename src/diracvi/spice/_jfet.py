@@ -11,7 +11,7 @@ and other levels (ngspice's level 2, Parker–Skellern) are refused naming the m
 from __future__ import annotations
 
 from .. import components as cp
-from ._cards import NOISE, TNOM, Card, element_card
+from ._cards import NOISE, TNOM, Card, element_card, nominal_only
 
 _DEFAULTS = {
     "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
@@ -38,6 +38,7 @@ def j_line(ctx, name, pos, kw, line):
     if len(pos) < 5 or len(rest) > 1:
         raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
     kind, params, _, fail = element_card(ctx, pos[4], line, ("NJF", "PJF"), "a J line")
+    nominal_only(ctx, pos[0], kw, line, f"the JFET ({kind})")
     notes: list[str] = []
     v = CARD.read(kind, params, fail, notes)
     area = ctx.value(rest[0], line, f"{pos[0]} area") if rest else 1.0

@@ -18,7 +18,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components._mos1 import process_parameters
 from ..errors import ModelError
-from ._cards import NodeIC, element_card
+from ._cards import NodeIC, element_card, nominal_only
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
 from ._mos6 import law, read_mos6_model
@@ -128,6 +128,7 @@ def m_line(ctx, name, pos, kw, line):
     kind, params, _, fail = element_card(ctx, pos[5], line, ("NMOS", "PMOS"))
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
+    nominal_only(ctx, pos[0], kw, line, f"the MOSFET (level {params.get('level', 1.0):g})")
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = mosfet(name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes)
     for note in notes:
