@@ -198,3 +198,58 @@ def test_a_device_without_a_temperature_update_is_refused_away_from_27C(
         spice.read(deck)
     if setting:  # the same device with its TEMP at the circuit's 27 °C reads
         spice.read(deck.replace(setting, ""))
+
+
+# ---------------------------------------------------------------------------- BJT
+BJTS = """bjt temperatures
+VCC vcc 0 5
+VB1 vb1 0 0.72
+RB1 vb1 b1 2k
+RC1 vcc c1 1k
+Q1 c1 b1 0 qn
+VB2 vb2 0 4.25
+RB2 vb2 b2 5k
+RC2 c2 0 2k
+Q2 c2 b2 vcc qp dtemp=10
+VB3 vb3 0 0.2
+Q3 c3 vb3 0 qn temp=-20
+VC3 c3 0 -0.3
+VB4 vb4 0 0.69
+Q4 vcc vb4 e4 qt
+RE4 e4 0 100
+.model qn NPN(IS=1e-15 BF=120 BR=3 VAF=60 VAR=20 IKF=20m IKR=5m ISE=1e-13 NE=1.6 ISC=1e-13 NC=1.8
++ RB=50 RC=5 RE=1 XTB=1.5 XTI=3.2 EG=1.12 CJE=1p CJC=1p TNF1=1e-4 TVAF1=1e-3 TRB1=2e-3
++ TRM1=2e-3 TRE1=3e-3 TRC1=1e-3 TIKF1=-2e-3)
+.model qp PNP(IS=2e-15 BF=80 BR=2 VAF=40 ISE=5e-14 NE=1.5 RB=30 XTB=1.7 TBF1=2e-3 TNE1=1e-4 TNOM=40)
+.model qt NPN(IS=3e-16 BF=200 XTB=2 EG=1.0 XTI=4 RE=2 TRE2=1e-5 TBR1=1e-3)
+{setting}
+.tran 1n 10n
+.end
+"""
+BJT_SETTINGS = [*SETTINGS, ".options temp=-40 tnom=0"]
+
+
+@needs_ngspice
+@pytest.mark.parametrize("setting", BJT_SETTINGS)
+def test_bjts_match_ngspice_away_from_27C(setting):
+    """IS (EG, XTI), BF/BR (XTB; TBF1, TBR1), ISE/ISC (with NE, NC and XTB), the
+    quadratic coefficients (TNF1, TNE1, TVAF1, TIKF1, TRB1 = TRM1, TRC1, TRE1, TRE2), an
+    NPN and a PNP, the instance's TEMP and DTEMP, a model TNOM and ``.options tnom``:
+    every source's current at the operating point."""
+    deck = BJTS.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-8, abs=0), source
+
+
+def test_bjt_temperature_levels_and_a_moving_rbm_are_refused_by_name():
+    for card, refusal in (
+        ("TLEV=1", "TLEV=1 is not supported"),
+        ("TLEVC=1", "TLEVC=1 is not supported"),
+        ("TRM1=0", "RB and RBM move apart"),
+    ):
+        deck = BJTS.format(setting=".temp 50").replace("TRM1=2e-3", card)
+        with pytest.raises(spice.NetlistError, match=refusal):
+            spice.read(deck)

@@ -146,3 +146,83 @@ def diode(p: dict, t, tnom, *, name: str) -> dict:
     out["rs"] = _poly(p["rs"], p["trs"], p["trs2"], dt)
     out["tt"] = _poly(p["tt"], p["ttt1"], p["ttt2"], dt)
     return out
+
+
+# ------------------------------------------------------------------------- BJT
+#: the BJT's temperature parameters read (ngspice 39 ``bjt.c``; ``None``: not given):
+#: XTB, EG, XTI, the levels, and the quadratic coefficients ``TX1``, ``TX2`` of each
+#: parameter ``X`` they scale (:data:`BJT_QUADRATIC`)
+BJT = {"tnom": None, "xtb": 0.0, "eg": 1.11, "xti": 3.0, "tlev": 0.0, "tlevc": 0.0,
+       "tbf1": None, "tbf2": None, "tbr1": None, "tbr2": None,
+       **{f"t{x}{k}": 0.0 for x in ("vaf", "var", "ikf", "ikr", "rc", "re", "rb", "rm", "nf",
+                                    "nr", "ne", "nc", "itf", "tf", "tr", "mje", "mjc", "mjs")
+          for k in "12"}}  # fmt: skip
+BJT_ALIASES = {"trb": "trb1", "trc": "trc1", "tre": "tre1"}
+#: parameter -> the name stem of its coefficients: ``X(T) = X (1 + TX1 ΔT + TX2 ΔT²)``
+BJT_QUADRATIC = {"vaf": "vaf", "var": "var", "ikf": "ikf", "ikr": "ikr", "rc": "rc",
+                 "re": "re", "nf": "nf", "nr": "nr", "ne": "ne", "nc": "nc", "itf": "itf",
+                 "tf": "tf", "tr": "tr", "mje": "mje", "mjc": "mjc", "mjs": "mjs"}  # fmt: skip
+#: the emission coefficients: the part's ``V_T`` is 27 °C's, so a device at ``T``
+#: carries ``N V_T(T)/V_T(27 °C)`` (the junction laws depend on ``N V_T`` only)
+BJT_EMISSIONS = ("nf", "nr", "ne", "nc")
+#: ngspice 39 limits a temperature-adjusted grading coefficient of the BJT to this
+BJT_GRADING_LIMIT = 0.999
+
+
+def bjt(p: dict, t, tnom, *, name: str) -> dict:
+    r"""ngspice 39's BJT temperature update (``bjttemp.c``, ``TLEV = TLEVC = 0``) of the
+    model values ``p`` at ``t`` for a model measured at ``tnom`` (kelvin),
+    ``ΔT = T − T_nom``, ``L = (T/T_nom − 1) E_g/V_T(T) + X_TI ln(T/T_nom)``,
+    ``b = (T/T_nom)^{X_TB}``:
+
+        I_S(T)  = I_S e^L,
+        B_F(T)  = B_F b   (B_F (1 + TBF1 ΔT + TBF2 ΔT²) when TBF1 or TBF2 is given; B_R alike),
+        I_SE(T) = I_SE e^{L/N_E} / b,   I_SC(T) = I_SC e^{L/N_C} / b,
+        X(T)    = X (1 + TX1 ΔT + TX2 ΔT²) for X in VAF, VAR, IKF, IKR, RC, RE, RB (TRB),
+                  RBM (TRM), NF, NR, NE, NC, ITF, TF, TR, MJE, MJC, MJS (these ≤ 0.999),
+        VJE, CJE, VJC, CJC, VJS, CJS from the junction update (module docstring, with
+                  the adjusted gradings),
+
+    then the emission coefficients times ``V_T(T)/V_T(27 °C)`` (:data:`BJT_EMISSIONS`).
+    A base resistance whose RB and RBM move apart (TRB ≠ TRM) becomes bias-dependent,
+    which diracvi does not model: refused. Returns the updated copy.
+    """
+    for key in ("tlev", "tlevc"):
+        if not traced(p[key]) and p[key] != 0:
+            raise ModelError(
+                f"BJT {name!r}: {key.upper()}={p[key]:g} is not supported; only ngspice's "
+                f"default {key.upper()}=0 (drop it)"
+            )
+    out = dict(p)
+    if _nominal(t, tnom) and t == REFERENCE:
+        return out
+    xp = array_module(t, tnom, p["is"], p["eg"], p["xti"], p["xtb"])
+    dt = t - tnom
+    for x, stem in BJT_QUADRATIC.items():
+        out[x] = _poly(p[x], p[f"t{stem}1"], p[f"t{stem}2"], dt)
+    for x in ("mje", "mjc", "mjs"):
+        out[x] = xp.minimum(out[x], BJT_GRADING_LIMIT)
+    rb, rbm = _poly(p["rb"], p["trb1"], p["trb2"], dt), _poly(p["rb"], p["trm1"], p["trm2"], dt)
+    if not traced(rb) and not traced(rbm) and rb != rbm:
+        raise ModelError(
+            f"BJT {name!r}: at {t - KELVIN:g} °C RB and RBM move apart (TRB1/TRB2 ≠ "
+            "TRM1/TRM2), a bias-dependent base resistance diracvi does not model; give "
+            "TRM1/TRM2 equal to TRB1/TRB2"
+        )
+    out["rb"] = rb
+    ratlog = xp.log(t / tnom)
+    factlog = (t / tnom - 1.0) * p["eg"] / thermal_voltage(t) + p["xti"] * ratlog
+    bfactor = xp.exp(ratlog * p["xtb"])
+    out["is"] = p["is"] * xp.exp(factlog)
+    for beta in ("bf", "br"):
+        c1, c2 = p[f"t{beta}1"], p[f"t{beta}2"]
+        given = c1 is not None or c2 is not None
+        out[beta] = _poly(p[beta], c1 or 0.0, c2 or 0.0, dt) if given else p[beta] * bfactor
+    out["ise"] = p["ise"] * xp.exp(factlog / p["ne"]) / bfactor
+    out["isc"] = p["isc"] * xp.exp(factlog / p["nc"]) / bfactor
+    for v, c, m in (("vje", "cje", "mje"), ("vjc", "cjc", "mjc"), ("vjs", "cjs", "mjs")):
+        out[v], out[c] = junction(p[v], p[c], out[m], t, tnom)
+    ratio = thermal_voltage(t) / thermal_voltage(REFERENCE)
+    for n in BJT_EMISSIONS:
+        out[n] = out[n] * ratio
+    return out
