@@ -194,6 +194,8 @@ def test_a_device_without_a_temperature_update_is_refused_away_from_27C(
     refusal = rf"{what}.*no temperature dependence"
     if what == "VDMOS" and not setting:  # its line takes no instance parameter at all
         refusal = "instance parameters are not supported"
+    if what == "JFET" and not setting:  # the J line's own refusal of its TEMP
+        refusal = "TEMP=60 is not supported"
     with pytest.raises(spice.NetlistError, match=refusal):
         spice.read(deck)
     if setting:  # the same device with its TEMP at the circuit's 27 °C reads
@@ -253,3 +255,43 @@ def test_bjt_temperature_levels_and_a_moving_rbm_are_refused_by_name():
         deck = BJTS.format(setting=".temp 50").replace("TRM1=2e-3", card)
         with pytest.raises(spice.NetlistError, match=refusal):
             spice.read(deck)
+
+
+# ---------------------------------------------------------------------- MOSFET level 1
+MOSFETS = """mos1 temperatures
+VDD vdd 0 3
+VG1 g1 0 1.6
+RD1 vdd d1 2k
+M1 d1 g1 0 0 nm L=2u W=20u
+VG2 g2 0 1.2
+RD2 d2 0 3k
+M2 d2 g2 vdd vdd pm L=2u W=40u dtemp=15
+VG3 g3 0 2
+VB3 b3 0 0.45
+M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
+RS3 s3 0 1k
+VG4 g4 0 1.5
+M4 d4 g4 0 0 nm L=2u W=20u temp=-20
+VD4 d4 0 0.2
+.model nm NMOS(LEVEL=1 VTO=0.7 KP=50u GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15 TNOM=40)
+.model pm PMOS(LEVEL=1 TOX=20n NSUB=2e16 U0=250 LAMBDA=0.03)
+.model np NMOS(LEVEL=1 TOX=15n NSUB=5e16 NSS=1e10 TPG=1 U0=500 JS=1e-4 CJ=1e-4 CJSW=1e-10 PB=0.9)
+{setting}
+.tran 1n 10n
+.end
+"""
+
+
+@needs_ngspice
+@pytest.mark.parametrize("setting", BJT_SETTINGS)
+def test_level1_mosfets_match_ngspice_away_from_27C(setting):
+    """KP (given, and from U0·C'ox), VTO through PHI (given, and from NSUB at TNOM), the
+    bulk junction's JS (reverse-biased, its current ∝ JS(T)), an NMOS and a PMOS, the
+    instance's TEMP and DTEMP, a model TNOM and ``.options tnom``: every source's current
+    at the operating point."""
+    deck = MOSFETS.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VDD", "VB3", "VD4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source

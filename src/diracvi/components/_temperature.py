@@ -226,3 +226,41 @@ def bjt(p: dict, t, tnom, *, name: str) -> dict:
     for n in BJT_EMISSIONS:
         out[n] = out[n] * ratio
     return out
+
+
+# ------------------------------------------------------------------ MOSFET level 1
+def mos1(v: dict, process: dict, sign, t, tnom) -> tuple[dict, dict, object]:
+    r"""ngspice 39's level-1 MOSFET temperature update (``mos1temp.c``) of the card values
+    ``v`` and the process values ``process`` (KP, PHI, GAMMA, VTO, derived at ``tnom``) at
+    ``t`` (kelvin), ``r = T/T_nom``, ``type = sign`` (±1):
+
+        KP(T)   = KP r^{−3/2},
+        PHI(T)  = (T/T_ref) φ₀ + p(T),   φ₀ = (PHI − p(T_nom))/(T_nom/T_ref),
+        VBI(T)  = VTO − type GAMMA √PHI + (E_g(T_nom) − E_g(T))/2 + type (PHI(T) − PHI)/2,
+        VTO(T)  = VBI(T) + type GAMMA √PHI(T),
+        IS(T), JS(T) = IS, JS · exp(−E_g(T)/V_T(T) + E_g(T_nom)/V_T(T_nom)),
+        PB(T), and CBD, CBS, CJ (grading MJ), CJSW (grading MJSW, with PB's γ) by the
+        junction update of the module docstring,
+
+    returning ``(v, process, emission)``: the bulk junctions' ``V_T(T)/V_T(27 °C)`` (their
+    law depends on ``V_T`` only through ``N V_T`` with ``N = 1``)."""
+    if _nominal(t, tnom) and t == REFERENCE:
+        return v, process, 1.0
+    xp = array_module(t, tnom, v["pb"], process["phi"], process["kp"])
+    v, process = dict(v), dict(process)
+    ratio = t / tnom
+    process["kp"] = process["kp"] / (ratio * xp.sqrt(ratio))
+    phi, gamma = process["phi"], process["gamma"]
+    phio = (phi - _pbfact(tnom, xp)) / (tnom / REFERENCE)
+    tphi = (t / REFERENCE) * phio + _pbfact(t, xp)
+    vbi = process["vto"] - sign * gamma * xp.sqrt(phi)
+    vbi = vbi + 0.5 * (_gap(tnom) - _gap(t)) + sign * 0.5 * (tphi - phi)
+    process["phi"], process["vto"] = tphi, vbi + sign * gamma * xp.sqrt(tphi)
+    factor = xp.exp(-_gap(t) / thermal_voltage(t) + _gap(tnom) / thermal_voltage(tnom))
+    v["is"], v["js"] = v["is"] * factor, v["js"] * factor
+    pb = v["pb"]
+    bottom = {k: v[k] for k in ("cbd", "cbs", "cj") if k in v}
+    for k, c in bottom.items():
+        v["pb"], v[k] = junction(pb, c, v["mj"], t, tnom)
+    v["pb"], v["cjsw"] = junction(pb, v["cjsw"], v["mjsw"], t, tnom)
+    return v, process, thermal_voltage(t) / thermal_voltage(REFERENCE)

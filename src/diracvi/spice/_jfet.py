@@ -38,7 +38,6 @@ def j_line(ctx, name, pos, kw, line):
     if len(pos) < 5 or len(rest) > 1:
         raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
     kind, params, _, fail = element_card(ctx, pos[4], line, ("NJF", "PJF"), "a J line")
-    nominal_only(ctx, pos[0], kw, line, f"the JFET ({kind})")
     notes: list[str] = []
     v = CARD.read(kind, params, fail, notes)
     area = ctx.value(rest[0], line, f"{pos[0]} area") if rest else 1.0
@@ -60,6 +59,7 @@ def j_line(ctx, name, pos, kw, line):
                 f"element {pos[0]!r}: parameter {key.upper()} is not supported on J lines "
                 f"(form '{FORM}')"
             )
+    nominal_only(ctx, pos[0], kw, line, f"the JFET ({kind})")
     if flags:
         notes.append(f"{pos[0]} OFF ignored (it only seeds ngspice's DC solve)")
     for note in notes:
