@@ -46,6 +46,12 @@ def test_the_circuit_temperature_follows_ngspices_rules(extra, temp):
     assert got == pytest.approx(1e3 * (1 + 0.01 * (temp - 27.0)), rel=1e-12)
 
 
+def test_tc_on_the_resistor_line_is_tc1_as_ngspice_reads_it():
+    # ngspice 39, 'R2 2 0 1k tc=0.01' at '.temp 47': i = 1/1200 A
+    netlist = spice.read(_resistor(".temp 47").replace("tc1=0.01", "tc=0.01"))
+    assert -spice.operating_point(netlist).currents["V1"] == pytest.approx(1 / 1200, rel=1e-12)
+
+
 def test_several_temperatures_on_one_line_are_refused_naming_the_fix():
     with pytest.raises(spice.NetlistError, match=r"'.temp' with 2 values.*give one"):
         spice.read(_resistor(".temp 0 91"))

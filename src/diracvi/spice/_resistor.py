@@ -1,7 +1,7 @@
 r"""The R line as ngspice reads it, with its semiconductor-resistor ``.model``.
 
 ``Rname n+ n- [value] [mname] [l=L] [w=W] [m=M] [scale=S] [temp=T] [dtemp=D] [tc1=…]
-[tc2=…] [tce=…] [ac=…] [noisy=…]`` is a resistor ``v = R_eff · i`` with (ngspice's
+[tc2=…] [tce=…] [ac=…] [noisy=…]`` (``tc=a``: TC1, as ngspice 39 reads it) is a resistor ``v = R_eff · i`` with (ngspice's
 ``RESupdate_conduct``)
 
     R_eff = R · f · S / M,  f = 1 + tc1·Δ + tc2·Δ²  (or 1.01^(tce·Δ) when TCE is given),
@@ -78,6 +78,8 @@ def r_line(ctx, name, pos, kw, line):
             "n": pos[2],
         }
     kw = dict(kw)
+    if "tc" in kw and "tc1" not in kw:  # ngspice 39 reads 'tc=a' as TC1 (not 'tc=a,b')
+        kw["tc1"] = kw.pop("tc")
     for key in ("r", "resistance"):  # ngspice's keyword form of the value
         if key in kw and len(pos) == 3:
             pos = [*pos, kw.pop(key)]
