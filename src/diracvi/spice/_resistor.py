@@ -1,8 +1,8 @@
 r"""The R line as ngspice reads it, with its semiconductor-resistor ``.model``.
 
 ``Rname n+ n- [value] [mname] [l=L] [w=W] [m=M] [scale=S] [temp=T] [dtemp=D] [tc1=…]
-[tc2=…] [tce=…] [ac=…] [noisy=…]`` (``tc=a``: TC1, as ngspice 39 reads it) is a resistor ``v = R_eff · i`` with (ngspice's
-``RESupdate_conduct``)
+[tc2=…] [tce=…] [ac=…] [noisy=…]`` (``tc=a``: TC1, as ngspice 39 reads it) is a resistor
+``v = R_eff · i`` with (ngspice's ``RESupdate_conduct``)
 
     R_eff = R · f · S / M,  f = 1 + tc1·Δ + tc2·Δ²  (or 1.01^(tce·Δ) when TCE is given),
     Δ = T − TNOM,  T = TEMP if given (DTEMP then ignored, as ngspice 39 does), else
