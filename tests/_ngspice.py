@@ -68,14 +68,20 @@ def fine_transient(netlist: str, probes, points: int = 20000):
     return t, values
 
 
-def operating_point(netlist: str) -> dict:
+def _analysis(line: str) -> bool:
+    """A ``.tran`` or ``.op`` line (not ``.options``, which stays in the deck)."""
+    return line.lower().split()[:1] in ([".tran"], [".op"])
+
+
+def operating_point(netlist: str, extra=()) -> dict:
     """ngspice's ``.op`` of ``netlist`` (its analyses replaced), 15 digits:
-    ``{"v(node)": …, "i(source)": …}`` (names lower-case)."""
+    ``{"v(node)": …, "i(source)": …}`` (names lower-case), and the device quantities
+    ``extra`` (``"@d1[cd]"``) under their own names."""
     import subprocess
     import tempfile
 
     body, _, _ = netlist.rpartition(".end")
-    lines = [ln for ln in body.strip().splitlines() if not ln.lower().startswith((".tran", ".op"))]
+    lines = [ln for ln in body.strip().splitlines() if not _analysis(ln)]
     deck = "\n".join(
         [
             *lines,
@@ -84,6 +90,7 @@ def operating_point(netlist: str) -> dict:
             "set numdgt=15",
             "op",
             "print all",
+            *(f"print {x}" for x in extra),
             ".endc",
             ".end",
             "",
@@ -105,6 +112,7 @@ def operating_point(netlist: str) -> dict:
         except ValueError:
             continue
         key = f"i({name[: -len('#branch')]})" if name.endswith("#branch") else f"v({name})"
+        key = name if name.startswith("@") else key
         values[key] = x
     if not values:
         raise RuntimeError(f"ngspice .op gave nothing:\n{out[-2000:]}")
@@ -116,7 +124,7 @@ def dc_sweep(netlist: str, sweep: str, probes):
     0.5 vg -3 0 0.5"``), 15 digits: ``{probe: values}`` over the sweep's points, the first
     source varying fastest (``"sweep"`` holds its values)."""
     body, _, _ = netlist.rpartition(".end")
-    lines = [ln for ln in body.strip().splitlines() if not ln.lower().startswith((".tran", ".op"))]
+    lines = [ln for ln in body.strip().splitlines() if not _analysis(ln)]
     options = ".options reltol=1e-12 abstol=1e-18 vntol=1e-15"
     data = batch(lines, options, f"dc {sweep}", probes, timeout=120)
     return {"sweep": data[:, 0], **{p: data[:, 1 + j] for j, p in enumerate(probes)}}

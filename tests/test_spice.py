@@ -85,7 +85,7 @@ def test_reader_understands_the_supported_syntax():
         (".subckt amp a b", r"line 2: '.subckt' without its '.ends'"),
         (".func f {x}", r"line 2: expected '.func NAME\(arg1, arg2, …\) = expr'"),
         ("R1 a 0", r"line 2: expected 'Rname n\+ n- \[value\] \[model\].*a resistor \.model"),
-        ("R1 a 0 1k tc=1", r"line 2: unsupported parameters \['tc'\]"),
+        ("R1 a 0 1k tcx=1", r"line 2: unsupported parameters \['tcx'\]"),
         ("R1 a 0 {1/0}", r"line 2: R1 value: '1/0'"),
         ("R1 a 0 abc", r"line 2: R1 value: unknown parameter 'abc'"),
         ("R1 a 0 -5", r"line 2: Resistor 'R1': resistance=-5.0"),

@@ -13,7 +13,9 @@ not give is derived — KP whenever ``TOX`` is given, the others only with ``NSU
     V_FB  = Φ_ms − NSS·10⁴ q / C'_ox,   Φ_ms = W_gate − (3.25 + E_g/2 + type PHI/2)
     W_gate = 3.2 (TPG = 0, aluminium);  3.25 + E_g/2 − type TPG E_g/2 (polysilicon)
 
-``E_g = 1.16 − 7.02·10⁻⁴ T²/(T + 1108)`` eV at ``T`` = 300.15 K, TPG defaulting to 1.
+``E_g = 1.16 − 7.02·10⁻⁴ T²/(T + 1108)`` eV and ``V_T`` at the model's TNOM (300.15 K by
+default), TPG defaulting to 1; the temperature update from there is
+:func:`diracvi.components._temperature.mos1`.
 
 **Meyer's capacitances** (``DEVqmeyer``): with ``V_GST = V_GS − V_on`` and
 ``V_dsat = max(V_DSAT, 0.025 V)`` (ngspice's guard), in the NMOS-oriented forward mode
@@ -50,11 +52,14 @@ E_GAP = 1.16 - 7.02e-4 * T_NOM * T_NOM / (T_NOM + 1108.0)
 MAGIC_VDS = 0.025
 
 
-def process_parameters(sign: float, given: dict, where: str) -> dict:
+def process_parameters(sign: float, given: dict, where: str, tnom: float = T_NOM) -> dict:
     """KP, PHI, GAMMA, VTO derived from ``TOX``, ``U0``, ``NSUB``, ``NSS``, ``TPG``
     (module docstring) where ``given`` lacks them; returns ``{"kp", "phi", "gamma",
     "vto", "cox"}`` with ``cox = C'_ox`` in F/m² (0 without ``TOX``). ``given`` maps
-    ngspice's lower-case names to the card's values."""
+    ngspice's lower-case names to the card's values; ``V_T`` and ``E_g`` are taken at the
+    model's ``tnom`` (kelvin), as ``mos1temp.c`` does."""
+    vtnom = THERMAL_VOLTAGE * tnom / T_NOM
+    gap = 1.16 - 7.02e-4 * tnom * tnom / (tnom + 1108.0)
     out = {k: given.get(k) for k in ("kp", "phi", "gamma", "vto")}
     defaults = {"kp": 2e-5, "phi": 0.6, "gamma": 0.0, "vto": 0.0}
     tox = given.get("tox", 0.0) or 0.0
@@ -72,12 +77,12 @@ def process_parameters(sign: float, given: dict, where: str) -> dict:
                     f"{NI * 1e-6:g} cm⁻³ (ngspice: 'Nsub < Ni')."
                 )
             if out["phi"] is None:
-                out["phi"] = max(0.1, 2.0 * THERMAL_VOLTAGE * math.log(nsub * 1e6 / NI))
+                out["phi"] = max(0.1, 2.0 * vtnom * math.log(nsub * 1e6 / NI))
             phi = out["phi"]
             fermis = sign * 0.5 * phi
             tpg = given.get("tpg", 1.0)
-            wkfng = 3.2 if tpg == 0 else 3.25 + 0.5 * E_GAP - sign * tpg * 0.5 * E_GAP
-            wkfngs = wkfng - (3.25 + 0.5 * E_GAP + fermis)
+            wkfng = 3.2 if tpg == 0 else 3.25 + 0.5 * gap - sign * tpg * 0.5 * gap
+            wkfngs = wkfng - (3.25 + 0.5 * gap + fermis)
             if out["gamma"] is None:
                 out["gamma"] = math.sqrt(2.0 * EPS_SI * CHARGE * nsub * 1e6) / cox
             if out["vto"] is None:

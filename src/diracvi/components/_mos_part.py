@@ -96,6 +96,7 @@ SHARED = {
     "ld": 0.0, "m": 1.0, "is_": 1e-14, "cgso": 0.0, "cgdo": 0.0, "cgbo": 0.0, "cox": 0.0,
     "rd": 0.0, "rs": 0.0, "cbd": 0.0, "cbs": 0.0, "cbdsw": 0.0, "cbssw": 0.0, "pb": 0.8,
     "mj": 0.5, "mjsw": 0.5, "fc": 0.5, "gmin": 1e-12, "v0": (0.0, 0.0, 0.0),
+    "emission": 1.0,
 }  # fmt: skip
 
 
@@ -193,6 +194,7 @@ def _assemble(
     v0,
     params,
     name,
+    emission=1.0,
 ) -> ControlledPart:
     """The part of a MOSFET with pins ``d g s b`` (:func:`build`'s)."""
     sign = KINDS[kind]
@@ -292,10 +294,10 @@ def _assemble(
             i_ch = channel_current(vgs, vds, vbs, sign, forward)
         f = f.at[idx["w"]].set(-i_ch)
         f = f.at[idx["wbs"]].set(
-            -(sign * pn_current(sign * vbs, i_ss, reverse="constant") + g * vbs)
+            -(sign * pn_current(sign * vbs, i_ss, emission, reverse="constant") + g * vbs)
         )
         f = f.at[idx["wbd"]].set(
-            -(sign * pn_current(sign * vbd, i_sd, reverse="constant") + g * vbd)
+            -(sign * pn_current(sign * vbd, i_sd, emission, reverse="constant") + g * vbd)
         )
         for k in "ds":
             if res[k] > 0.0:

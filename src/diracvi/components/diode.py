@@ -1,4 +1,4 @@
-r"""The SPICE junction diode (ngspice's level 1 at its nominal 27 °C) as a Lagrange–Dirac part.
+r"""The SPICE junction diode (ngspice's level 1) as a Lagrange–Dirac part.
 
 A diode is *voltage-controlled*: its current is a function of its junction voltage, while
 a force ``F(q, q̇)`` can only give a voltage as a function of current. The part therefore
@@ -44,6 +44,10 @@ charge of ``C_J = CJO·AREA``, ``V_d = FC·VJ``::
 
 (the linear extension of the capacitance above ``V_d``); ``Φ`` is its integral in closed
 form.
+
+**Temperature**: ``V_T = kT/q`` at the device's temperature (``thermal_voltage``; 27 °C
+by default), and :func:`spice_diode` moves ``IS``, ``VJ``, ``CJO``, ``M``, ``BV``, ``RS``,
+``TT`` to it as ngspice 39 does (:func:`diracvi.components._temperature.diode`).
 """
 
 from __future__ import annotations
@@ -56,11 +60,13 @@ import numpy as np
 from ..errors import ModelError
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, exp_capped, exp_capped_integral
 from ._part import Part, array_module, finite, positive, traced
+from ._temperature import DIODE, DIODE_ALIASES, kelvin
+from ._temperature import diode as diode_at
 
 #: ngspice's diode model parameters that diracvi accepts (``.model NAME D(...)``):
 #: name -> (default, unit, meaning). ``None``: not given (no breakdown; NBV = N).
-#: EG, XTI, KF, AF only act away from the nominal temperature or in noise analyses,
-#: so they are accepted and have no effect here; TNOM must stay 27 °C.
+#: KF, AF only act in noise analyses, so they are accepted and have no effect here; the
+#: temperature parameters (EG, XTI, TNOM, TCV, TRS, …) are those of ``_temperature.DIODE``.
 SPICE_PARAMETERS = {
     "is": (1e-14, "A", "saturation current"),
     "n": (1.0, "", "emission coefficient"),
@@ -73,20 +79,18 @@ SPICE_PARAMETERS = {
     "bv": (None, "V", "reverse breakdown voltage"),
     "ibv": (1e-3, "A", "current at the breakdown voltage"),
     "nbv": (None, "", "breakdown emission coefficient (default N)"),
-    "eg": (1.11, "eV", "activation energy (temperature only)"),
-    "xti": (3.0, "", "saturation-current temperature exponent (temperature only)"),
     "kf": (0.0, "", "flicker noise coefficient (noise only)"),
     "af": (1.0, "", "flicker noise exponent (noise only)"),
-    "tnom": (27.0, "°C", "nominal temperature (only 27 °C is supported)"),
     "level": (1.0, "", "model level (only 1)"),
 }
 #: other spellings ngspice accepts -> the name above
+SPICE_PARAMETERS |= DIODE
 SPICE_ALIASES = {"cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "rs0": "rs"}
+SPICE_ALIASES |= DIODE_ALIASES
 
 
-def breakdown_knee(i_s, bv, ibv, nbv_vt):
+def breakdown_knee(i_s, bv, ibv, nbv_vt, vt=THERMAL_VOLTAGE):
     """ngspice's adjusted breakdown voltage ``BV'`` (``diotemp.c``), see the module text."""
-    vt = THERMAL_VOLTAGE
     xp = array_module(i_s, bv, ibv, nbv_vt)
     cbv = xp.maximum(ibv, i_s * bv / vt)
     x = bv - nbv_vt * xp.log(1.0 + cbv / i_s)
@@ -183,13 +187,15 @@ def Diode(
     breakdown_emission=None,
     area=1.0,
     v0=0.0,
+    thermal_voltage=THERMAL_VOLTAGE,
 ) -> Part:
     r"""A junction diode from anode ``p`` to cathode ``n`` (SPICE's ``D``; see the module).
 
     Arguments are ngspice's model parameters in SI units: ``IS``, ``N``, ``GMIN``, ``RS``,
     ``CJO``, ``VJ``, ``M``, ``FC``, ``TT``, ``BV`` (``None``: no breakdown), ``IBV``,
     ``NBV`` (``None``: ``N``) and the instance's ``AREA``; ``v0`` is the initial junction
-    voltage (SPICE's ``IC=``, used by the junction charge). Every value may be traced
+    voltage (SPICE's ``IC=``, used by the junction charge); ``thermal_voltage`` is
+    ``kT/q`` at the device's temperature. Every value may be traced
     (``jax.grad`` flows to it). Coordinates ``(q, w)``: branch charge and flux linkage.
     """
     where = f"Diode {name!r}"
@@ -217,14 +223,15 @@ def Diode(
     rs, cj = rs / area, cj * area  # ngspice's area scaling (level 1)
     if not traced(fc) and not traced(vj) and fc * vj > 1.0:  # ngspice limits VJ to 1/FC
         vj = 1.0 / fc
-    nvt = n * THERMAL_VOLTAGE
+    vt = positive(where, "thermal_voltage", thermal_voltage)
+    nvt = n * vt
     bv = None
     nbv_vt = nvt
     if breakdown_voltage is not None:
         bv = positive(where, "breakdown_voltage", breakdown_voltage)
         if breakdown_emission is not None:
-            nbv_vt = positive(where, "breakdown_emission", breakdown_emission) * THERMAL_VOLTAGE
-        bv = breakdown_knee(i_s, bv, ibv, nbv_vt)
+            nbv_vt = positive(where, "breakdown_emission", breakdown_emission) * vt
+        bv = breakdown_knee(i_s, bv, ibv, nbv_vt, vt)
     junction = _Junction(i_s, nvt, g, bv, nbv_vt, cj, vj, m, fc, tt)
     has_charge = not (isinstance(cj, float) and cj == 0.0 and isinstance(tt, float) and tt == 0.0)
     has_rs = not (isinstance(rs, float) and rs == 0.0)
@@ -256,9 +263,13 @@ def Diode(
     )
 
 
-def spice_diode(model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12) -> Part:
+def spice_diode(
+    model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12, temperature=27.0, tnom=27.0
+) -> Part:
     """A :func:`Diode` from ngspice model parameters (lower-case names of
-    :data:`SPICE_PARAMETERS`, aliases allowed; missing ones take their defaults)."""
+    :data:`SPICE_PARAMETERS`, aliases allowed; missing ones take their defaults) at the
+    device's ``temperature`` (°C); ``tnom`` (°C) is the model's TNOM where it gives none
+    (ngspice's ``.options tnom``)."""
     values = {SPICE_ALIASES.get(k, k): v for k, v in model.items()}
     unknown = sorted(set(values) - set(SPICE_PARAMETERS))
     if unknown:
@@ -269,11 +280,8 @@ def spice_diode(model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12) -> Part
     p = {k: values.get(k, d[0]) for k, d in SPICE_PARAMETERS.items()}
     if float(p["level"]) != 1.0:
         raise ModelError(f"diode {name!r}: LEVEL={p['level']} is not supported (only level 1).")
-    if float(p["tnom"]) != 27.0:
-        raise ModelError(
-            f"diode {name!r}: TNOM={p['tnom']} is not supported (diracvi simulates at ngspice's "
-            "nominal 27 °C; remove TNOM or set it to 27)."
-        )
+    nominal = kelvin(tnom if p["tnom"] is None else p["tnom"])
+    p = diode_at(p, kelvin(temperature), nominal, name=name)
     return Diode(
         p["is"],
         p["n"],
@@ -290,4 +298,5 @@ def spice_diode(model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12) -> Part
         breakdown_emission=p["nbv"],
         area=area,
         v0=ic,
+        thermal_voltage=p["vt"],
     )

@@ -126,9 +126,10 @@ def MOSFET(
     capacitances), ``rd``, ``rs`` the drain and source resistances (Ω, 0: none), ``cbd``,
     ``cbs`` the bulk junctions' zero-bias bottom capacitances and ``cbdsw``, ``cbssw``
     their sidewall ones (F, graded by ``mj`` and ``mjsw``, ``pb = 0.8`` V, ``mj = mjsw =
-    fc = 0.5``), all before ``m``, ``gmin`` across each junction, and ``v0 = (V_GS, V_GD,
-    V_GB)``: the initial gate voltages (the overlap capacitors' charges and Meyer's
-    voltage coordinates); see the module docstring for the coordinates.
+    fc = 0.5``), all before ``m``, ``gmin`` across each junction, ``emission`` (1: the bulk
+    junctions' ``V_T`` is 27 °C's; ``V_T(T)/V_T(27 °C)`` for a device at ``T``), and
+    ``v0 = (V_GS, V_GD, V_GB)``: the initial gate voltages (the overlap capacitors'
+    charges and Meyer's voltage coordinates); see the module docstring for the coordinates.
     """
     dev = device("MOSFET", kind, w, l, name, shared)
     where = dev.where

@@ -101,3 +101,33 @@ class NodeIC:
 
     def get(self, node, default=0.0):
         return self.ctx.ic(node)
+
+
+def device_temperature(ctx, element, kw, line) -> float:
+    """A device's temperature (°C) as ngspice sets it: ``TEMP=`` where the line gives it
+    (its ``DTEMP=`` then ignored, with a note), else the circuit temperature plus
+    ``DTEMP=`` (0 by default)."""
+    if "temp" in kw:
+        if "dtemp" in kw:
+            ctx.note(line, f"{element}: TEMP given, so DTEMP is ignored (as ngspice does)")
+        return ctx.value(kw["temp"], line, f"{element} TEMP")
+    dtemp = ctx.value(kw["dtemp"], line, f"{element} DTEMP") if "dtemp" in kw else 0.0
+    return ctx.temperature + dtemp
+
+
+#: ngspice's default temperature and TNOM (°C)
+NOMINAL = 27.0
+
+
+def nominal_only(ctx, element, kw, line, what: str) -> None:
+    """Refuse a device whose model has no temperature update in diracvi yet (its part
+    is written for ``V_T`` at 27 °C and its parameters at TNOM = 27 °C) anywhere but at
+    27 °C with TNOM = 27 °C, naming the device kind and the fix."""
+    temp = device_temperature(ctx, element, kw, line)
+    if temp != NOMINAL or ctx.tnom != NOMINAL:
+        raise line.fail(
+            f"element {element!r}: {what} has no temperature dependence in diracvi yet; "
+            f"it would run at {temp:g} °C with TNOM {ctx.tnom:g} °C, and diracvi simulates "
+            "this device only at ngspice's nominal 27 °C (drop .temp, .options temp=/tnom= "
+            "and the line's TEMP=/DTEMP=, or set them to 27 °C)"
+        )

@@ -3,18 +3,23 @@ and NMOS/PMOS cards are :mod:`._mos`).
 
 Parameter names, aliases and defaults are ngspice's (Gummel–Poon level 1). A parameter is
 either used, or accepted with a note because at its value it cannot change the answer
-(noise coefficients, the grading of a capacitance that is zero, temperature coefficients
-at the nominal 27 °C), or refused with the reason. Other levels are refused at the element
-line, naming the model's line.
+(noise coefficients, the grading of a capacitance that is zero, the temperature
+coefficients of the refused TLEV = 3 and TLEVC = 1), or refused with the reason; the
+temperature update is ngspice 39's (:func:`diracvi.components._temperature.bjt`). Other
+levels are refused at the element line, naming the model's line.
 """
 
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from .. import components as cp
-from ._cards import NodeIC, element_card
+from ..components._temperature import BJT as BJT_TEMPERATURE
+from ..components._temperature import BJT_ALIASES as BJT_TEMPERATURE_ALIASES
+from ..components._temperature import bjt as bjt_at
+from ..components._temperature import kelvin
+from ._cards import NodeIC, device_temperature, element_card
 
 KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
 
@@ -35,13 +40,13 @@ _BJT_FIXED = {
     "ptf": (0.0, "excess phase"),
     "xcjc": (1.0, "fraction of the B-C capacitance at the internal base"),
     "iss": (0.0, "substrate saturation current"),
-    "tnom": (27.0, "nominal temperature"),
 }  # fmt: skip
-# only act with ISS ≠ 0, away from 27 °C, or on noise
-_BJT_INERT = ("ns", "xtb", "eg", "xti", "kf", "af")
+# only act with ISS ≠ 0 or on noise (the temperature ones: components._temperature.BJT)
+_BJT_INERT = ("ns", "kf", "af")
 # the substrate junction's place: to c′ (vertical, 1: NPN's default) or b′ (lateral, −1)
 _BJT_SUBS = {"NPN": 1.0, "PNP": -1.0}
-_TEMPCO = re.compile(r"^(t[a-z]+[12]|ctc|cte|cts|tvj[ces]|tlevc?)$")
+# the temperature coefficients of TLEV = 3 and TLEVC = 1 (refused) and of ISS, IRB (fixed 0)
+_TEMPCO = re.compile(r"^(t[a-z]+[12]|ctc|cte|cts|tvj[ces])$")
 
 
 @dataclass
@@ -60,12 +65,14 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     ``fail(why)`` builds the line's error."""
     table, alias = _BJT, _BJT_ALIAS
     fixed, inert = _BJT_FIXED, _BJT_INERT
-    values, notes, level = dict(table), [], 1.0
+    values, notes, level = dict(table) | BJT_TEMPERATURE, [], 1.0
     for key, token in kw.items():
-        key = alias.get(key, key)
+        key = BJT_TEMPERATURE_ALIASES.get(key, alias.get(key, key))
         x = value(token, f"{kind} {key.upper()}")
         if key == "level":
             level = x
+        elif key in BJT_TEMPERATURE:
+            values[key] = x
         elif key in table:
             values[key] = x
         elif key in fixed:
@@ -143,7 +150,8 @@ def _card(ctx, token, line, kinds):
 
 
 def q_line(ctx, name, pos, kw, line):
-    """``Qname c b e [s] model [area] [OFF]`` (Gummel–Poon level 1)."""
+    """``Qname c b e [s] model [area] [OFF] [TEMP=t] [DTEMP=d]`` (Gummel–Poon level 1) at
+    its temperature (ngspice 39's update, :func:`~diracvi.components._temperature.bjt`)."""
     found = ctx.find_model(pos[4:6])
     if found is None:
         token = pos[4] if len(pos) > 4 else "?"
@@ -153,6 +161,11 @@ def q_line(ctx, name, pos, kw, line):
         )
     token = found[0]
     model = _card(ctx, token, line, ("NPN", "PNP"))
+    temp = device_temperature(ctx, pos[0], kw, line)
+    nominal = ctx.tnom if model.values["tnom"] is None else model.values["tnom"]
+    values = bjt_at(model.values, kelvin(temp), kelvin(nominal), name=name)
+    model = replace(model, values=values)
+    kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
     notes: list[str] = []
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = bjt(

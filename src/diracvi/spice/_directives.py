@@ -10,11 +10,13 @@ does not need is accepted with a note (``netlist.notes``).
 
 from __future__ import annotations
 
+import contextlib
 import re
 
-from ._lines import card
+from ._lines import LineError, card, split
 from ._measure import read_measure
-from ._values import NOMINAL_TEMPERATURE, number
+from ._scope import Scope
+from ._values import KELVIN, NOMINAL_TEMPERATURE, number
 
 
 def _tran(reader, line, pos, kw):
@@ -66,8 +68,6 @@ def _options(reader, line, pos, kw):
             if not value > 0.0:
                 raise line.fail(f".options {key}={token} must be a positive number")
         reader.options[key] = value if value is not None else token
-        if key == "temp":
-            _check_temperature(line, value)
     reader.options.update({p.lower(): True for p in pos[1:]})
     reader.note(
         line,
@@ -77,17 +77,73 @@ def _options(reader, line, pos, kw):
 
 
 def _temp(reader, line, pos, kw):
-    if len(pos) != 2 or kw:
-        raise line.fail("'.temp' expects one temperature in °C")
-    _check_temperature(line, reader.top.value(pos[1], line, ".temp"))
+    """``.temp T``: read with ``.options temp=``/``tnom=`` before the body
+    (:func:`circuit_temperatures`); here a note of what it set."""
+    reader.note(line, f"circuit temperature {reader.temperature:g} °C (ngspice's .temp)")
 
 
-def _check_temperature(line, value):
-    if value is None or value != NOMINAL_TEMPERATURE:
-        raise line.fail(
-            f"temperature {value} °C: diracvi's parts are written for 27 °C (ngspice's "
-            "default) and have no temperature dependence; remove it or set 27"
-        )
+#: the ``.options`` spellings
+_OPTIONS = (".options", ".option", ".opt")
+
+
+def circuit_temperatures(reader, lines) -> None:
+    """Set ``reader.temperature`` and ``reader.tnom`` (°C) from the top-level ``.temp`` and
+    ``.options temp=… tnom=…`` lines, before any ``.param`` or element is read: ngspice
+    evaluates ``TEMPER`` in ``.param`` expressions at the circuit temperature, and every
+    device's temperature update needs both.
+
+    ngspice 39's rules (``inp.c``, checked against ngspice): the default is 27 °C for
+    both; ``.options temp=`` sets the circuit temperature, and a ``.temp`` line wins over
+    it wherever it stands (the last ``.temp`` if there are several lines); ``.temp=T`` is
+    the same card. A ``.temp`` with several values (a temperature sweep) is not run by
+    ngspice either: it warns and runs at 27 °C; diracvi refuses it, naming the fix.
+    """
+    depth, temp, option = 0, None, None
+    for line in lines:
+        word = card(line)
+        if word == ".subckt":
+            depth += 1
+        elif word == ".ends":
+            depth -= 1
+        if depth:
+            continue
+        try:
+            if word == ".temp" or word.startswith(".temp="):
+                values = re.sub(r"^\.temp\s*=?", "", line.text, flags=re.I).split()
+                if len(values) != 1:
+                    raise line.fail(
+                        f"'.temp' with {len(values)} values: ngspice runs one temperature "
+                        "(with several it warns and runs at 27 °C); give one, e.g. '.temp 85' "
+                        "(run the others as separate decks or with `diracvi sweep`)"
+                    )
+                temp = _temperature(reader, line, values[0], ".temp", lines)
+            elif word in _OPTIONS:
+                _, kw = split(line)
+                if "temp" in kw:
+                    option = _temperature(reader, line, kw["temp"], ".options temp")
+                if "tnom" in kw:
+                    reader.tnom = _temperature(reader, line, kw["tnom"], ".options tnom")
+        except LineError as exc:
+            reader.problems.add(exc)
+    reader.temperature = next(t for t in (temp, option, NOMINAL_TEMPERATURE) if t is not None)
+
+
+def _temperature(reader, line, token, what, lines=()) -> float:
+    """A temperature in °C, above absolute zero; an expression is evaluated over the
+    top-level ``.param`` values (read here ahead of the body, ``TEMPER`` at 27 °C)."""
+    scope = reader.top
+    if number(token) is None:
+        scope = Scope(reader, params=dict(reader.top.params))
+        for other in lines:
+            if card(other) == ".param":
+                for key, text in split(other)[1].items():
+                    if key not in reader.overrides:
+                        with contextlib.suppress(LineError):
+                            scope.params[key] = scope.value(text, other, key)
+    value = scope.value(token, line, what)
+    if not value > -KELVIN:
+        raise line.fail(f"{what}={token}: a temperature must be above −273.15 °C")
+    return value
 
 
 def _save(reader, line, pos, kw):

@@ -25,8 +25,10 @@ A handler has the shape
 from __future__ import annotations
 
 from .. import components as cp
+from ..components._temperature import DIODE_IGNORED_BY_NGSPICE39
 from ..components.diode import SPICE_ALIASES
 from ._behavioural import b_line
+from ._cards import device_temperature
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
@@ -86,16 +88,26 @@ def _i(ctx, name, pos, kw, line):
 
 
 def _d(ctx, name, pos, kw, line):
-    """``Dname anode cathode model [area] [OFF] [IC=v]`` with a ``.model NAME D(…)`` of
-    :data:`~diracvi.components.SPICE_PARAMETERS` (ngspice's names, aliases and defaults)."""
-    form = "Dname anode cathode model [area] [OFF] [IC=v]"
+    """``Dname anode cathode model [area] [OFF] [IC=v] [TEMP=t] [DTEMP=d]`` with a
+    ``.model NAME D(…)`` of :data:`~diracvi.components.SPICE_PARAMETERS` (ngspice's names,
+    aliases and defaults), at :func:`device_temperature`."""
+    form = "Dname anode cathode model [area] [OFF] [IC=v] [TEMP=t] [DTEMP=d]"
     flags = [t for t in pos[4:] if t.lower() == "off"]
     rest = [t for t in pos[4:] if t.lower() != "off"]
-    if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area"}:
+    if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area", *_TEMP}:
         raise line.fail(f"expected '{form}'")
     kind, params, where = ctx.model(pos[3], line)
     if kind != "D":
         raise line.fail(f"model {pos[3]!r} ({where}) is a {kind} model, not a diode (D) model")
+    for key in DIODE_IGNORED_BY_NGSPICE39:
+        if key in params:
+            ctx.note(
+                line,
+                f"diode model {pos[3]!r}: {key.upper()} ignored, as ngspice 39 does (not one "
+                "of its diode parameters: it warns 'unrecognized parameter'; ngspice ≥ 40 "
+                "reads TBV1 as TCV)",
+            )
+            params = {k: v for k, v in params.items() if k != key}
     known = set(cp.SPICE_PARAMETERS) | set(SPICE_ALIASES)
     refused = sorted(k for k in params if k not in known)
     if refused:
@@ -109,8 +121,13 @@ def _d(ctx, name, pos, kw, line):
     if flags:
         ctx.note(line, f"{pos[0]} OFF: its junction starts the operating point at 0 V")
         ctx.reader.off.add(name)
-    part = cp.spice_diode(params, name=name, area=area, ic=ic)
+    temp = device_temperature(ctx, pos[0], kw, line)
+    part = cp.spice_diode(params, name=name, area=area, ic=ic, temperature=temp, tnom=ctx.tnom)
     return part, {"p": pos[1], "n": pos[2]}
+
+
+#: the instance temperature keywords of ngspice's semiconductor lines
+_TEMP = ("temp", "dtemp")
 
 
 def _x(ctx, name, pos, kw, line):

@@ -345,7 +345,7 @@ def _build(node, out, params, funcs, local, problems, in_ddt, depth):
             return lambda v, i, t, d: x
         if key == "pi":
             return lambda v, i, t, d: math.pi
-        if key == "temper":  # the circuit temperature: 27 °C, the only one diracvi runs at
+        if key == "temper":  # no reader: 27 °C (a netlist puts its .temp in params)
             return lambda v, i, t, d: NOMINAL_TEMPERATURE
         if key in _REFUSED:
             problems.append(f"{node[2]!r} (column {col + 1}) is {_REFUSED[key]}")

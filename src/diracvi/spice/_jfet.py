@@ -11,7 +11,7 @@ and other levels (ngspice's level 2, Parker–Skellern) are refused naming the m
 from __future__ import annotations
 
 from .. import components as cp
-from ._cards import NOISE, TNOM, Card, element_card
+from ._cards import NOISE, TNOM, Card, element_card, nominal_only
 
 _DEFAULTS = {
     "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
@@ -59,6 +59,7 @@ def j_line(ctx, name, pos, kw, line):
                 f"element {pos[0]!r}: parameter {key.upper()} is not supported on J lines "
                 f"(form '{FORM}')"
             )
+    nominal_only(ctx, pos[0], kw, line, f"the JFET ({kind})")
     if flags:
         notes.append(f"{pos[0]} OFF ignored (it only seeds ngspice's DC solve)")
     for note in notes:

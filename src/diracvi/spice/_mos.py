@@ -17,8 +17,10 @@ from __future__ import annotations
 
 from .. import components as cp
 from ..components._mos1 import process_parameters
+from ..components._temperature import kelvin
+from ..components._temperature import mos1 as mos1_at
 from ..errors import ModelError
-from ._cards import NodeIC, element_card
+from ._cards import NodeIC, device_temperature, element_card, nominal_only
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
 from ._mos6 import law, read_mos6_model
@@ -26,7 +28,7 @@ from ._mos_card import PROCESS, level_card
 from ._vdmos import vdmos_line
 
 _ALIAS = {"vt0": "vto", "uo": "u0"}
-CARD = level_card(1, "Shichman–Hodges", {"lambda": 0.0}, ("kp", *PROCESS))
+CARD = level_card(1, "Shichman–Hodges", {"lambda": 0.0}, ("kp", *PROCESS, "tnom"))
 # ngspice's MOSFET levels, for refusals that name the model a card asks for
 LEVELS = {
     2: "MOS2, Grove–Frohman", 3: "MOS3, semi-empirical", 4: "BSIM1", 5: "BSIM2",
@@ -66,9 +68,11 @@ _INSTANCE = {"l": 100e-6, "w": 100e-6, "m": 1.0, "ad": 0.0, "as": 0.0, "pd": 0.0
              "nrd": 1.0, "nrs": 1.0}  # fmt: skip
 
 
-def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
+def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tnom=27.0):
     """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)
-    for the card values ``v`` (:func:`read_mos_model`)."""
+    for the card values ``v`` (:func:`read_mos_model`); a level-1 device at
+    ``temperature`` (°C) from its card's TNOM, else ``tnom`` (°C), by ngspice 39's update
+    (:func:`~diracvi.components._temperature.mos1`)."""
     extra = [t for t in pos[6:] if t.lower() != "off"]
     if len(pos) < 6 or extra:
         raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
@@ -81,9 +85,13 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
         notes.append(f"{name} OFF ignored (it only seeds ngspice's DC solve)")
     sign = 1.0 if kind == "nmos" else -1.0
     try:
-        process = process_parameters(sign, v, f"model of {name!r}")
+        nominal = kelvin(tnom if v.get("tnom") is None else v["tnom"])
+        process = process_parameters(sign, v, f"model of {name!r}", nominal)
     except ModelError as exc:
         raise fail(str(exc)) from None
+    emission = 1.0
+    if v.get("level", 1.0) == 1.0:
+        v, process, emission = mos1_at(v, process, sign, kelvin(temperature), nominal)
 
     def resistance(r, squares):  # RD over RSH·NRD, as mos1temp
         return v[r] if r in v else v["rsh"] * geo[squares]
@@ -103,6 +111,8 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
         cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"], mjsw=v["mjsw"], fc=v["fc"],
         v0=v0, name=name,
     )  # fmt: skip
+    if emission != 1.0:  # V_T(T)/V_T(27 °C) of the bulk junctions (level 1 only)
+        common["emission"] = emission
     if v.get("level") == 6.0:
         part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
     elif v.get("level") == 2.0:
@@ -128,8 +138,15 @@ def m_line(ctx, name, pos, kw, line):
     kind, params, _, fail = element_card(ctx, pos[5], line, ("NMOS", "PMOS"))
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
+    level = params.get("level", 1.0)
+    if level != 1.0:  # levels 2 and 6 have no temperature update yet
+        nominal_only(ctx, pos[0], kw, line, f"the MOSFET (level {level:g})")
+    temp = device_temperature(ctx, pos[0], kw, line)
+    kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
-    part, nodes = mosfet(name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes)
+    part, nodes = mosfet(
+        name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes, temp, ctx.tnom
+    )
     for note in notes:
         ctx.note(line, note)
     return part, nodes

@@ -6,7 +6,8 @@ The shared parameters: the bulk junctions (``IS`` or ``JS`` times the line's ``A
 ``MJSW``, ``FC``), the overlaps ``CGSO``, ``CGDO``, ``CGBO`` and ``LD``, the resistances
 ``RD``/``RS`` or ``RSH`` times ``NRD``/``NRS``, the process (``TOX``, ``U0``, ``NSUB``,
 ``NSS``, ``TPG``: :func:`~diracvi.components._mos1.process_parameters`), the noise
-coefficients (a note), ``TNOM`` at 27 °C; any other name is refused naming the level.
+coefficients (a note), ``TNOM`` at 27 °C (level 1 reads any TNOM: its temperature update);
+any other name is refused naming the level.
 """
 
 from __future__ import annotations

@@ -20,13 +20,14 @@ from pathlib import Path
 from .. import components as cp
 from ..errors import ModelError
 from ._behavioural import check_names
-from ._directives import DIRECTIVES
+from ._directives import DIRECTIVES, circuit_temperatures
 from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._magnetic import assemble
 from ._measure import check_measures
 from ._save import select
 from ._scope import Scope, read_body
+from ._values import NOMINAL_TEMPERATURE
 
 __all__ = ["Netlist", "NetlistError", "read"]
 
@@ -185,6 +186,10 @@ class _Reader:
         self.magnetics: list = []  # XSPICE lcouple and core lines (spice/_magnetic.py)
         self.potentials: dict = {}  # MMF node -> its current coefficients
         self.top = Scope(self, params=dict(self.overrides))
+        # the circuit temperature and ngspice's TNOM option (°C), set before the body is
+        # read (directives.circuit_temperatures); every device's TEMP defaults to the first
+        self.temperature = NOMINAL_TEMPERATURE
+        self.tnom = NOMINAL_TEMPERATURE
 
     def note(self, line: Line, text: str) -> None:
         self.notes.append(f"{line.where}: {text}")
@@ -192,6 +197,7 @@ class _Reader:
     def directive(self, line: Line) -> None:
         """A top-level directive other than .param/.model/.subckt."""
         word = card(line)
+        word = ".temp" if word.startswith(".temp=") else word  # ngspice's '.temp=125'
         handler = DIRECTIVES.get(word)
         if handler is None:
             raise line.fail(
@@ -212,6 +218,10 @@ class _Reader:
             if control:  # a `tran` command of a .control block stands for the .tran
                 lines = [*lines, control[0].with_text("." + control[0].text)]
                 self.note(control[0], "the .control block's 'tran' is used as the .tran")
+        circuit_temperatures(self, lines)
+        # TEMPER in every expression (.param, element values, B sources) is the circuit
+        # temperature, as ngspice evaluates it
+        self.top.params.setdefault("temper", self.temperature)
         read_body(self.top, lines)
         assemble(self)  # XSPICE's windings and cores: one part per magnetic loop
         check_names(self)
@@ -243,7 +253,7 @@ class _Reader:
             steps,
             stop,
             self.uic,
-            dict(self.top.params),
+            {k: v for k, v in self.top.params.items() if k != "temper"},
             self.notes,
             start=self.start,
             tmax=self.tmax,

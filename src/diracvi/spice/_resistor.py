@@ -1,11 +1,12 @@
 r"""The R line as ngspice reads it, with its semiconductor-resistor ``.model``.
 
 ``Rname n+ n- [value] [mname] [l=L] [w=W] [m=M] [scale=S] [temp=T] [dtemp=D] [tc1=…]
-[tc2=…] [tce=…] [ac=…] [noisy=…]`` is a resistor ``v = R_eff · i`` with (ngspice's
-``RESupdate_conduct``)
+[tc2=…] [tce=…] [ac=…] [noisy=…]`` (``tc=a``: TC1, as ngspice 39 reads it) is a resistor
+``v = R_eff · i`` with (ngspice's ``RESupdate_conduct``)
 
     R_eff = R · f · S / M,  f = 1 + tc1·Δ + tc2·Δ²  (or 1.01^(tce·Δ) when TCE is given),
-    Δ = (T or 27 °C) + D − TNOM,
+    Δ = T − TNOM,  T = TEMP if given (DTEMP then ignored, as ngspice 39 does), else
+    the circuit temperature + DTEMP;  TNOM the model's, else ``.options tnom`` (27 °C),
 
 where ``R`` is ``value`` when given; else, when ``L·W·RSH > 0`` (``L`` defaults to the
 model's ``L``, ``W`` to its ``DEFW``, both 10 µm),
@@ -31,18 +32,19 @@ INSTANCE = ("ac", "l", "w", "m", "scale", "temp", "dtemp", "tc1", "tc2", "tce", 
 #: model parameters (ngspice's names and aliases) and their defaults
 MODEL = {"rsh": 0.0, "narrow": 0.0, "dw": None, "short": 0.0, "dlr": None, "tc1": 0.0,
          "tc2": 0.0, "tce": None, "defw": 1e-5, "w": None, "l": 1e-5, "r": None, "res": None,
-         "tnom": 27.0, "kf": 0.0, "af": 0.0, "lf": 1.0, "wf": 1.0, "ef": 1.0,
+         "tnom": None, "kf": 0.0, "af": 0.0, "lf": 1.0, "wf": 1.0, "ef": 1.0,
          "bv_max": 1e99}  # fmt: skip
 #: the model's aliases → the parameter they set
 ALIASES = {"dw": "narrow", "dlr": "short", "w": "defw", "res": "r"}
-#: the circuit temperature (diracvi's parts are written for ngspice's default)
+#: ngspice's default circuit and nominal temperature (°C)
 TEMP = 27.0
 
 
-def effective(value, model: dict, kw: dict) -> float:
+def effective(value, model: dict, kw: dict, temperature=TEMP, tnom=TEMP) -> float:
     """``R_eff`` of the module docstring (``math.inf`` for ngspice's zero conductance)
     from the instance's ``value`` (or ``None``), the model's parameters (aliases
-    resolved) and the instance keywords, all numbers."""
+    resolved) and the instance keywords, all numbers; ``temperature`` and ``tnom`` are
+    the circuit's (°C)."""
     p = {k: v for k, v in MODEL.items() if k not in ALIASES}
     for key, v in model.items():
         p[ALIASES.get(key, key)] = v
@@ -57,7 +59,8 @@ def effective(value, model: dict, kw: dict) -> float:
             value = p["r"]
         else:
             value = 1e-3
-    delta = kw.get("temp", TEMP) + kw.get("dtemp", 0.0) - p["tnom"]
+    here = kw["temp"] if "temp" in kw else temperature + kw.get("dtemp", 0.0)
+    delta = here - (tnom if p["tnom"] is None else p["tnom"])
     tc1, tc2 = kw.get("tc1", p["tc1"]), kw.get("tc2", p["tc2"])
     tce = kw.get("tce", p["tce"])
     factor = 1.01 ** (tce * delta) if tce is not None else 1.0 + (tc1 + tc2 * delta) * delta
@@ -75,6 +78,8 @@ def r_line(ctx, name, pos, kw, line):
             "n": pos[2],
         }
     kw = dict(kw)
+    if "tc" in kw and "tc1" not in kw:  # ngspice 39 reads 'tc=a' as TC1 (not 'tc=a,b')
+        kw["tc1"] = kw.pop("tc")
     for key in ("r", "resistance"):  # ngspice's keyword form of the value
         if key in kw and len(pos) == 3:
             pos = [*pos, kw.pop(key)]
@@ -112,7 +117,9 @@ def r_line(ctx, name, pos, kw, line):
     for key in ("m", "scale"):
         if key in numbers and numbers[key] <= 0.0:
             raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
-    r = effective(value, model, numbers)
+    if "temp" in numbers and "dtemp" in numbers:
+        ctx.note(line, f"{pos[0]}: TEMP given, so DTEMP is ignored (as ngspice does)")
+    r = effective(value, model, numbers, ctx.temperature, ctx.tnom)
     if math.isinf(r):
         ctx.note(
             line,

@@ -62,6 +62,16 @@ class Scope:
         return self.reader.tran
 
     @property
+    def temperature(self) -> float:
+        """The circuit temperature (°C): ``.temp``, else ``.options temp=``, else 27."""
+        return self.reader.temperature
+
+    @property
+    def tnom(self) -> float:
+        """ngspice's ``.options tnom=`` (°C, default 27): a model card's TNOM default."""
+        return self.reader.tnom
+
+    @property
     def funcs(self):
         """The ``.func`` functions (top level): name -> (argument names, body text)."""
         return self.reader.funcs

@@ -95,9 +95,11 @@ def _traced(x) -> bool:
     return isinstance(x, jax.core.Tracer)
 
 
-#: ngspice's nominal temperature (°C), the only one diracvi's parts are written for (a
-#: ``.temp`` or ``.options temp`` at another is refused), so the value of ``TEMPER``
+#: ngspice's default circuit and nominal temperature (°C): ``TEMPER`` without ``.temp``
+#: (the reader puts the circuit temperature in the parameters as ``temper``)
 NOMINAL_TEMPERATURE = 27.0
+#: 0 °C in kelvin (ngspice's CONSTCtoK)
+KELVIN = 273.15
 
 
 def evaluate(text: str, params: dict[str, float]) -> float:
@@ -125,7 +127,9 @@ def _walk(node, params, text):
             return params[key]
         if key == "pi":
             return math.pi
-        if key == "temper":  # the circuit's temperature, as ngspice's .param reads it
+        if (
+            key == "temper"
+        ):  # no reader: ngspice's default temperature (a netlist sets it in params)
             return NOMINAL_TEMPERATURE
         raise ExpressionError(f"unknown parameter {node.id!r} in {text!r} (define it with .param)")
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):

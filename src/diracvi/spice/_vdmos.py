@@ -16,7 +16,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components.vdmos import VDMOS, GateDrainCapacitance
 from ..errors import ModelError
-from ._cards import Card, element_card
+from ._cards import Card, element_card, nominal_only
 
 #: the card's parameters diracvi reads, with ngspice's defaults
 DEFAULTS = {
@@ -48,6 +48,7 @@ def vdmos_line(ctx, name, pos, kw, line):
             f"parameters are not supported; got {' '.join(pos[1:])} {kw or ''})"
         )
     _, params, _, fail = element_card(ctx, pos[4], line, ("VDMOS",))
+    nominal_only(ctx, pos[0], kw, line, "the VDMOS")
     notes: list[str] = []
     kind = "pmos" if "pchan" in params else "nmos"
     v = CARD.read("VDMOS", params, fail, notes)

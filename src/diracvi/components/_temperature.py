@@ -1,0 +1,266 @@
+r"""ngspice 39's temperature updates of the semiconductor models, done once per device
+before a run (ngspice's ``DIOtemp``, ``BJTtemp``, ``MOS1temp``), from the device's
+temperature ``T`` and its model's nominal ``T_nom`` (kelvin).
+
+Shared pieces (``q`` the electron charge, ``k`` Boltzmann's constant, ngspice's
+``const.h``; ``T_ref = 300.15`` K):
+
+    V_T(T) = k T / q,
+    E_g(T) = 1.16 − 7.02·10⁻⁴ T² / (T + 1108)                      (silicon's gap, eV),
+    p(T)   = −2 V_T(T) [1.5 ln(T/T_ref) + q (−E_g(T)/(2kT) + 1.1150877/(2k T_ref))],
+
+and a junction potential and zero-bias depletion capacitance (grading ``M``) move as
+(ngspice's ``TLEVC = 0``)
+
+    φ₀ = (φ − p(T_nom)) / (T_nom/T_ref),   γ(φ) = (φ − φ₀)/φ₀,
+    φ(T) = p(T) + (T/T_ref) φ₀,
+    C(T) = C · [1 + M (4·10⁻⁴ (T − T_ref) − γ(φ(T)))] / [1 + M (4·10⁻⁴ (T_nom − T_ref) − γ(φ))].
+
+At ``T = T_nom`` each update is the identity (up to round-off), so it is skipped there
+and a nominal run is unchanged bit for bit. Every function works on NumPy floats or on
+traced JAX values (:func:`~diracvi.components._part.array_module`), so a gradient flows
+through the temperature update to the model parameters.
+"""
+
+from __future__ import annotations
+
+from ..errors import ModelError
+from ._part import array_module, traced
+
+#: ngspice's const.h: electron charge (C), Boltzmann's constant (J/K), 0 °C (K)
+CHARGE = 1.6021766208e-19
+BOLTZMANN = 1.38064852e-23
+KELVIN = 273.15
+#: ngspice's REFTEMP, 27 °C in kelvin
+REFERENCE = 300.15
+
+
+def thermal_voltage(t):
+    """``V_T = kT/q`` at ``t`` kelvin."""
+    return BOLTZMANN * t / CHARGE
+
+
+def _gap(t):
+    return 1.16 - 7.02e-4 * t * t / (t + 1108.0)
+
+
+def _pbfact(t, xp):
+    arg = -_gap(t) / (2.0 * BOLTZMANN * t) + 1.1150877 / (BOLTZMANN * (2.0 * REFERENCE))
+    return -2.0 * thermal_voltage(t) * (1.5 * xp.log(t / REFERENCE) + CHARGE * arg)
+
+
+def junction(potential, capacitance, grading, t, tnom):
+    """``(φ(T), C(T))`` of the module docstring for a junction of potential ``φ``,
+    zero-bias capacitance ``C`` and grading ``M`` measured at ``tnom`` (kelvin)."""
+    xp = array_module(potential, capacitance, grading, t, tnom)
+    fact1, fact2 = tnom / REFERENCE, t / REFERENCE
+    pbo = (potential - _pbfact(tnom, xp)) / fact1
+    gmaold = (potential - pbo) / pbo
+    pot = _pbfact(t, xp) + fact2 * pbo
+    gmanew = (pot - pbo) / pbo
+    cap = capacitance / (1.0 + grading * (4e-4 * (tnom - REFERENCE) - gmaold))
+    return pot, cap * (1.0 + grading * (4e-4 * (t - REFERENCE) - gmanew))
+
+
+def _poly(x, c1, c2, dt):
+    """ngspice's quadratic temperature factor ``x (1 + c1 ΔT + c2 ΔT²)``."""
+    return x * (1.0 + c1 * dt + c2 * dt * dt)
+
+
+def _nominal(t, tnom) -> bool:
+    return not traced(t) and not traced(tnom) and t == tnom
+
+
+def kelvin(celsius):
+    """°C → K."""
+    return celsius + KELVIN
+
+
+# ----------------------------------------------------------------------- diode
+#: the diode's temperature parameters (ngspice 39 ``dio.c``, defaults of ``diosetup.c``):
+#: name -> (default, unit, meaning)
+DIODE = {
+    "tnom": (None, "°C", "nominal temperature (default .options tnom, 27 °C)"),
+    "eg": (1.11, "eV", "activation energy of IS"),
+    "xti": (3.0, "", "saturation-current temperature exponent"),
+    "tcv": (0.0, "V/K", "breakdown-voltage temperature coefficient"),
+    "trs": (0.0, "1/K", "RS first-order temperature coefficient"),
+    "trs2": (0.0, "1/K²", "RS second-order temperature coefficient"),
+    "ttt1": (0.0, "1/K", "TT first-order temperature coefficient"),
+    "ttt2": (0.0, "1/K²", "TT second-order temperature coefficient"),
+    "tm1": (0.0, "1/K", "M first-order temperature coefficient"),
+    "tm2": (0.0, "1/K²", "M second-order temperature coefficient"),
+    "tlev": (0.0, "", "temperature equations of BV (only 0)"),
+    "tlevc": (0.0, "", "temperature equations of VJ, CJO (only 0)"),
+    "cta": (0.0, "1/K", "CJO temperature coefficient (TLEVC = 1 only)"),
+    "ctp": (0.0, "1/K", "sidewall CJ temperature coefficient (TLEVC = 1 only)"),
+    "tpb": (0.0, "V/K", "VJ temperature coefficient (TLEVC = 1 only)"),
+    "tphp": (0.0, "V/K", "sidewall VJ temperature coefficient (TLEVC = 1 only)"),
+}
+DIODE_ALIASES = {"tref": "tnom", "trs1": "trs", "ctc": "cta", "tvj": "tpb"}
+#: names ngspice 39 does not know (it warns "unrecognized parameter … ignored" and runs
+#: without them; ngspice ≥ 40 reads TBV1 as TCV): read the same way, with a note
+DIODE_IGNORED_BY_NGSPICE39 = ("tbv1", "tbv2")
+#: ngspice 39 limits the temperature-adjusted grading coefficient to this (diotemp.c)
+GRADING_LIMIT = 0.9
+
+
+def diode(p: dict, t, tnom, *, name: str) -> dict:
+    r"""ngspice 39's diode temperature update (``diotemp.c``, ``TLEV = TLEVC = 0``) of
+    the model values ``p`` (lower-case names, defaults filled) at ``t`` for a model
+    measured at ``tnom`` (kelvin), ``ΔT = T − T_nom``:
+
+        I_S(T) = I_S exp[(T/T_nom − 1) E_g/(N V_T(T)) + (X_TI/N) ln(T/T_nom)],
+        M(T)   = min(M (1 + TM1 ΔT + TM2 ΔT²), 0.9),
+        VJ(T), CJO(T) from the junction update (module docstring, with M(T)),
+        BV(T)  = BV − TCV ΔT,
+        R_S(T) = R_S (1 + TRS ΔT + TRS2 ΔT²),   TT(T) = TT (1 + TTT1 ΔT + TTT2 ΔT²),
+
+    and the junction's thermal voltage becomes ``V_T(T)`` (returned as ``"vt"``); the
+    breakdown knee ``BV'`` is then solved at ``V_T(T)`` too. Returns the updated copy.
+    """
+    for key in ("tlev", "tlevc"):
+        if not traced(p[key]) and p[key] != 0:
+            raise ModelError(
+                f"diode {name!r}: {key.upper()}={p[key]:g} is not supported; only ngspice's "
+                f"default {key.upper()}=0 (drop it)"
+            )
+    out = dict(p)
+    m = p["m"]
+    if not traced(m) and m > GRADING_LIMIT:  # ngspice 39 limits M (with a warning)
+        out["m"] = m = GRADING_LIMIT
+    out["vt"] = thermal_voltage(t)
+    if _nominal(t, tnom):
+        return out
+    xp = array_module(t, tnom, p["is"], p["n"], p["eg"], p["xti"])
+    dt = t - tnom
+    vt_n = p["n"] * thermal_voltage(t)
+    out["is"] = p["is"] * xp.exp(
+        (t / tnom - 1.0) * p["eg"] / vt_n + p["xti"] / p["n"] * xp.log(t / tnom)
+    )
+    m = _poly(p["m"], p["tm1"], p["tm2"], dt)
+    out["m"] = xp.minimum(m, GRADING_LIMIT)
+    out["vj"], out["cjo"] = junction(p["vj"], p["cjo"], out["m"], t, tnom)
+    if p["bv"] is not None:
+        out["bv"] = p["bv"] - p["tcv"] * dt
+    out["rs"] = _poly(p["rs"], p["trs"], p["trs2"], dt)
+    out["tt"] = _poly(p["tt"], p["ttt1"], p["ttt2"], dt)
+    return out
+
+
+# ------------------------------------------------------------------------- BJT
+#: the BJT's temperature parameters read (ngspice 39 ``bjt.c``; ``None``: not given):
+#: XTB, EG, XTI, the levels, and the quadratic coefficients ``TX1``, ``TX2`` of each
+#: parameter ``X`` they scale (:data:`BJT_QUADRATIC`)
+BJT = {"tnom": None, "xtb": 0.0, "eg": 1.11, "xti": 3.0, "tlev": 0.0, "tlevc": 0.0,
+       "tbf1": None, "tbf2": None, "tbr1": None, "tbr2": None,
+       **{f"t{x}{k}": 0.0 for x in ("vaf", "var", "ikf", "ikr", "rc", "re", "rb", "rm", "nf",
+                                    "nr", "ne", "nc", "itf", "tf", "tr", "mje", "mjc", "mjs")
+          for k in "12"}}  # fmt: skip
+BJT_ALIASES = {"trb": "trb1", "trc": "trc1", "tre": "tre1"}
+#: parameter -> the name stem of its coefficients: ``X(T) = X (1 + TX1 ΔT + TX2 ΔT²)``
+BJT_QUADRATIC = {"vaf": "vaf", "var": "var", "ikf": "ikf", "ikr": "ikr", "rc": "rc",
+                 "re": "re", "nf": "nf", "nr": "nr", "ne": "ne", "nc": "nc", "itf": "itf",
+                 "tf": "tf", "tr": "tr", "mje": "mje", "mjc": "mjc", "mjs": "mjs"}  # fmt: skip
+#: the emission coefficients: the part's ``V_T`` is 27 °C's, so a device at ``T``
+#: carries ``N V_T(T)/V_T(27 °C)`` (the junction laws depend on ``N V_T`` only)
+BJT_EMISSIONS = ("nf", "nr", "ne", "nc")
+#: ngspice 39 limits a temperature-adjusted grading coefficient of the BJT to this
+BJT_GRADING_LIMIT = 0.999
+
+
+def bjt(p: dict, t, tnom, *, name: str) -> dict:
+    r"""ngspice 39's BJT temperature update (``bjttemp.c``, ``TLEV = TLEVC = 0``) of the
+    model values ``p`` at ``t`` for a model measured at ``tnom`` (kelvin),
+    ``ΔT = T − T_nom``, ``L = (T/T_nom − 1) E_g/V_T(T) + X_TI ln(T/T_nom)``,
+    ``b = (T/T_nom)^{X_TB}``:
+
+        I_S(T)  = I_S e^L,
+        B_F(T)  = B_F b   (B_F (1 + TBF1 ΔT + TBF2 ΔT²) when TBF1 or TBF2 is given; B_R alike),
+        I_SE(T) = I_SE e^{L/N_E} / b,   I_SC(T) = I_SC e^{L/N_C} / b,
+        X(T)    = X (1 + TX1 ΔT + TX2 ΔT²) for X in VAF, VAR, IKF, IKR, RC, RE, RB (TRB),
+                  RBM (TRM), NF, NR, NE, NC, ITF, TF, TR, MJE, MJC, MJS (these ≤ 0.999),
+        VJE, CJE, VJC, CJC, VJS, CJS from the junction update (module docstring, with
+                  the adjusted gradings),
+
+    then the emission coefficients times ``V_T(T)/V_T(27 °C)`` (:data:`BJT_EMISSIONS`).
+    A base resistance whose RB and RBM move apart (TRB ≠ TRM) becomes bias-dependent,
+    which diracvi does not model: refused. Returns the updated copy.
+    """
+    for key in ("tlev", "tlevc"):
+        if not traced(p[key]) and p[key] != 0:
+            raise ModelError(
+                f"BJT {name!r}: {key.upper()}={p[key]:g} is not supported; only ngspice's "
+                f"default {key.upper()}=0 (drop it)"
+            )
+    out = dict(p)
+    if _nominal(t, tnom) and t == REFERENCE:
+        return out
+    xp = array_module(t, tnom, p["is"], p["eg"], p["xti"], p["xtb"])
+    dt = t - tnom
+    for x, stem in BJT_QUADRATIC.items():
+        out[x] = _poly(p[x], p[f"t{stem}1"], p[f"t{stem}2"], dt)
+    for x in ("mje", "mjc", "mjs"):
+        out[x] = xp.minimum(out[x], BJT_GRADING_LIMIT)
+    rb, rbm = _poly(p["rb"], p["trb1"], p["trb2"], dt), _poly(p["rb"], p["trm1"], p["trm2"], dt)
+    if not traced(rb) and not traced(rbm) and rb != rbm:
+        raise ModelError(
+            f"BJT {name!r}: at {t - KELVIN:g} °C RB and RBM move apart (TRB1/TRB2 ≠ "
+            "TRM1/TRM2), a bias-dependent base resistance diracvi does not model; give "
+            "TRM1/TRM2 equal to TRB1/TRB2"
+        )
+    out["rb"] = rb
+    ratlog = xp.log(t / tnom)
+    factlog = (t / tnom - 1.0) * p["eg"] / thermal_voltage(t) + p["xti"] * ratlog
+    bfactor = xp.exp(ratlog * p["xtb"])
+    out["is"] = p["is"] * xp.exp(factlog)
+    for beta in ("bf", "br"):
+        c1, c2 = p[f"t{beta}1"], p[f"t{beta}2"]
+        given = c1 is not None or c2 is not None
+        out[beta] = _poly(p[beta], c1 or 0.0, c2 or 0.0, dt) if given else p[beta] * bfactor
+    out["ise"] = p["ise"] * xp.exp(factlog / p["ne"]) / bfactor
+    out["isc"] = p["isc"] * xp.exp(factlog / p["nc"]) / bfactor
+    for v, c, m in (("vje", "cje", "mje"), ("vjc", "cjc", "mjc"), ("vjs", "cjs", "mjs")):
+        out[v], out[c] = junction(p[v], p[c], out[m], t, tnom)
+    ratio = thermal_voltage(t) / thermal_voltage(REFERENCE)
+    for n in BJT_EMISSIONS:
+        out[n] = out[n] * ratio
+    return out
+
+
+# ------------------------------------------------------------------ MOSFET level 1
+def mos1(v: dict, process: dict, sign, t, tnom) -> tuple[dict, dict, object]:
+    r"""ngspice 39's level-1 MOSFET temperature update (``mos1temp.c``) of the card values
+    ``v`` and the process values ``process`` (KP, PHI, GAMMA, VTO, derived at ``tnom``) at
+    ``t`` (kelvin), ``r = T/T_nom``, ``type = sign`` (±1):
+
+        KP(T)   = KP r^{−3/2},
+        PHI(T)  = (T/T_ref) φ₀ + p(T),   φ₀ = (PHI − p(T_nom))/(T_nom/T_ref),
+        VBI(T)  = VTO − type GAMMA √PHI + (E_g(T_nom) − E_g(T))/2 + type (PHI(T) − PHI)/2,
+        VTO(T)  = VBI(T) + type GAMMA √PHI(T),
+        IS(T), JS(T) = IS, JS · exp(−E_g(T)/V_T(T) + E_g(T_nom)/V_T(T_nom)),
+        PB(T), and CBD, CBS, CJ (grading MJ), CJSW (grading MJSW, with PB's γ) by the
+        junction update of the module docstring,
+
+    returning ``(v, process, emission)``: the bulk junctions' ``V_T(T)/V_T(27 °C)`` (their
+    law depends on ``V_T`` only through ``N V_T`` with ``N = 1``)."""
+    if _nominal(t, tnom) and t == REFERENCE:
+        return v, process, 1.0
+    xp = array_module(t, tnom, v["pb"], process["phi"], process["kp"])
+    v, process = dict(v), dict(process)
+    ratio = t / tnom
+    process["kp"] = process["kp"] / (ratio * xp.sqrt(ratio))
+    phi, gamma = process["phi"], process["gamma"]
+    phio = (phi - _pbfact(tnom, xp)) / (tnom / REFERENCE)
+    tphi = (t / REFERENCE) * phio + _pbfact(t, xp)
+    vbi = process["vto"] - sign * gamma * xp.sqrt(phi)
+    vbi = vbi + 0.5 * (_gap(tnom) - _gap(t)) + sign * 0.5 * (tphi - phi)
+    process["phi"], process["vto"] = tphi, vbi + sign * gamma * xp.sqrt(tphi)
+    factor = xp.exp(-_gap(t) / thermal_voltage(t) + _gap(tnom) / thermal_voltage(tnom))
+    v["is"], v["js"] = v["is"] * factor, v["js"] * factor
+    pb = v["pb"]
+    bottom = {k: v[k] for k in ("cbd", "cbs", "cj") if k in v}
+    for k, c in bottom.items():
+        v["pb"], v[k] = junction(pb, c, v["mj"], t, tnom)
+    v["pb"], v["cjsw"] = junction(pb, v["cjsw"], v["mjsw"], t, tnom)
+    return v, process, thermal_voltage(t) / thermal_voltage(REFERENCE)
