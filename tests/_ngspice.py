@@ -68,9 +68,11 @@ def fine_transient(netlist: str, probes, points: int = 20000):
     return t, values
 
 
-def operating_point(netlist: str) -> dict:
+def operating_point(netlist: str, behavior: str | None = None) -> dict:
     """ngspice's ``.op`` of ``netlist`` (its analyses replaced), 15 digits:
-    ``{"v(node)": …, "i(source)": …}`` (names lower-case)."""
+    ``{"v(node)": …, "i(source)": …}`` (names lower-case). ``behavior`` sets ngspice's
+    compatibility mode (``set ngbehavior=…`` in a ``.spiceinit`` beside the deck; ``"psa"``
+    reads PSpice's VSWITCH/ISWITCH models)."""
     import subprocess
     import tempfile
 
@@ -91,6 +93,8 @@ def operating_point(netlist: str) -> dict:
     )
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / "deck.cir").write_text(deck)
+        if behavior is not None:
+            (Path(tmp) / ".spiceinit").write_text(f"set ngbehavior={behavior}\n")
         out = subprocess.run(
             ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=120
         ).stdout
