@@ -126,7 +126,8 @@ def test_operating_points_are_ngspices_in_pspice_mode():
     ],
 )
 def test_bad_cards_are_named(model, match):
-    deck = f"t\nV1 c 0 1\nV2 d 0 1\nS1 d o c 0 sx\nR1 o 0 1k\n.model sx {model}\n.tran 1u 1m\n.end\n"
+    deck = f"t\nV1 c 0 1\nV2 d 0 1\nS1 d o c 0 sx\nR1 o 0 1k\n.model sx {model}\n"
+    deck += ".tran 1u 1m\n.end\n"
     with pytest.raises(spice.NetlistError, match=match):
         spice.read(deck)
 
