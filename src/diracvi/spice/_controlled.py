@@ -192,17 +192,18 @@ def poly_line(ctx, name, pos, kw, line):
     per = 2 if letter in "EG" else 1  # fields per control
     written = pos[0]
     ic = _IC.search(line.text)
+    guesses = []
     if ic is not None:  # IC=a,b,… : its values (comma-separated) leave the positions
-        cut = dataclasses.replace(line, text=line.text[: ic.start()])
-        pos, kw = split(cut)
+        pos, kw = split(dataclasses.replace(line, text=line.text[: ic.start()]))
         guesses, _ = split(dataclasses.replace(line, text=line.text[ic.end() :]))
-        for g in guesses:
-            ctx.value(g, line, f"{written} IC")
-        ctx.note(line, f"{written}: IC= (the first guess of the controls) is not needed")
     has_poly = len(pos) > 3 and pos[3].lower() == "poly"
     linear = 6 if per == 2 else 5  # the linear form's field count
     if not has_poly and (len(pos) <= linear or pos[3].lower() in ("value", "table")):
         return None
+    for g in guesses:
+        ctx.value(g, line, f"{written} IC")
+    if guesses:
+        ctx.note(line, f"{written}: IC= (the first guess of the controls) is not needed")
     if has_poly:
         dim = pos[4] if len(pos) > 4 else ""
         if not re.fullmatch(r"\d+", dim) or int(dim) < 1:
