@@ -73,10 +73,12 @@ def _analysis(line: str) -> bool:
     return line.lower().split()[:1] in ([".tran"], [".op"])
 
 
-def operating_point(netlist: str, extra=()) -> dict:
+def operating_point(netlist: str, extra=(), behavior: str | None = None) -> dict:
     """ngspice's ``.op`` of ``netlist`` (its analyses replaced), 15 digits:
     ``{"v(node)": …, "i(source)": …}`` (names lower-case), and the device quantities
-    ``extra`` (``"@d1[cd]"``) under their own names."""
+    ``extra`` (``"@d1[cd]"``) under their own names. ``behavior`` sets ngspice's
+    compatibility mode (``set ngbehavior=…`` in a ``.spiceinit`` beside the deck; ``"psa"``
+    reads PSpice's VSWITCH/ISWITCH models)."""
     import subprocess
     import tempfile
 
@@ -98,6 +100,8 @@ def operating_point(netlist: str, extra=()) -> dict:
     )
     with tempfile.TemporaryDirectory() as tmp:
         (Path(tmp) / "deck.cir").write_text(deck)
+        if behavior is not None:
+            (Path(tmp) / ".spiceinit").write_text(f"set ngbehavior={behavior}\n")
         out = subprocess.run(
             ["ngspice", "-b", "deck.cir"], cwd=tmp, capture_output=True, text=True, timeout=120
         ).stdout

@@ -94,20 +94,28 @@ def _build(ctx, name, line, kind, text, a, b, written, table=None):
             f"{written}: the expression jumps ({ops}); Newton steps over the jump as "
             "written (no smoothing, no breakpoint)",
         )
-    currents = [ctx.ref(c) for c in expr.currents]
+    return source_part(
+        ctx, name, line, kind, law, a, b, written, expr.pairs, expr.currents, expr.derivatives
+    )
+
+
+def source_part(ctx, name, line, kind, law, a, b, written, pairs, currents, derivatives=()):
+    """The :func:`~diracvi.components.BehaviouralSource` of ``law`` with its control
+    ``pairs`` (node pairs as written) and ``currents`` (element names as written), and
+    its nodes; the names are checked once the netlist is read (:func:`check_names`)."""
     nodes = {"p": a, "n": b}
-    for k, (n1, n2) in enumerate(expr.pairs):
+    for k, (n1, n2) in enumerate(pairs):
         nodes[f"c{k}p"], nodes[f"c{k}n"] = n1, n2
     ctx.reader.name_checks.append(
-        (line, ctx, written, [n for pair in expr.pairs for n in pair], list(expr.currents))
+        (line, ctx, written, [n for pair in pairs for n in pair], list(currents))
     )
     part = cp.BehaviouralSource(
         kind,
         law,
         name=name,
-        pairs=len(expr.pairs),
-        currents=currents,
-        derivatives=expr.derivatives,
+        pairs=len(pairs),
+        currents=[ctx.ref(c) for c in currents],
+        derivatives=derivatives,
         tau=ctx.tran[1] if ctx.tran else cp.behavioural.TAU,  # TSTOP: see TAU
     )
     return part, nodes
