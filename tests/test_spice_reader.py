@@ -539,3 +539,12 @@ def test_what_kicad_and_ngspice_decks_write_reads_as_ngspice_does():
     micro_u = spice.read(base.format("PULSE(0 1 2u 1u 1u 5u 20u)", ""))
     (w_mu,), (w_u,) = (n.system.subsystems[0].waveforms for n in (micro, micro_u))
     assert np.array_equal(w_mu(t), w_u(t)) and w_mu(3.5e-6) == 1.0 and w_mu(1.9e-6) == 0.0
+
+
+def test_a_dos_end_of_file_mark_ends_an_included_file(tmp_path):
+    # ngspice's examples/Opamp/TL072.301 (a vendor model file) ends with ctrl-Z, 0x1A,
+    # which DOS editors wrote as the end of a file; it was read as an element '\x1a'
+    (tmp_path / "model.lib").write_text("R2 b 0 2k\n\x1a")
+    deck = tmp_path / "top.cir"
+    deck.write_text("ctrl-z\nV1 a 0 1\nR1 a b 1k\n.include model.lib\n.tran 1u 1m\n.end\n")
+    assert set(_parts(spice.read(deck))) == {"V1", "R1", "R2"}

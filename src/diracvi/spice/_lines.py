@@ -142,10 +142,16 @@ def card(line: Line) -> str:
     return line.text.split(None, 1)[0].lower()
 
 
+def _physical_lines(text: str) -> list[str]:
+    """The file's lines up to a DOS end-of-file mark (ctrl-Z, 0x1A), which vendor model
+    files still carry (``TL072.301`` in ngspice's examples) and ngspice ignores."""
+    return text.split("\x1a", 1)[0].splitlines()
+
+
 def load(text: str, base: Path | None, problems: Problems) -> Source:
     """The logical lines of netlist ``text`` (its includes expanded; ``base`` is the
     folder of the netlist file, ``None`` for text)."""
-    raw = text.splitlines()
+    raw = _physical_lines(text)
     if not raw or not any(r.strip() for r in raw):
         raise NetlistError("the netlist is empty (SPICE expects a title line, then elements).")
     source = Source(raw[0].strip(), [])
@@ -264,7 +270,7 @@ def _include(line, word, args, base, source, problems, depth) -> None:
             )
         )
         return
-    raw = text.splitlines()
+    raw = _physical_lines(text)
     if word == ".lib" and len(args) == 2:
         words = [r.lower().split() for r in raw]
         heads = [j for j, w in enumerate(words) if len(w) == 2 and w[0] == ".lib"]
