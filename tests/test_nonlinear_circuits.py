@@ -403,8 +403,8 @@ R1 out 0 1k
 """
     read = spice.read(netlist)
     assert any("OFF" in note for note in read.notes)
-    with pytest.raises(spice.NetlistError, match=r"diode model 'dall' \(line 5\) sets \['ikf'\]"):
-        spice.read(netlist.replace("M=0.33", "M=0.33 IKF=1"))
+    with pytest.raises(spice.NetlistError, match=r"diode model 'dall' \(line 5\) sets \['jtun'\]"):
+        spice.read(netlist.replace("M=0.33", "M=0.33 JTUN=1"))
     with pytest.raises(spice.NetlistError, match="TNOM"):
         spice.read(netlist.replace("TNOM=27", "TNOM=50"))
     with pytest.raises(dv.ModelError, match="grading"):
