@@ -1,6 +1,7 @@
 """Gummel–Poon parameters ngspice 39 uses that diracvi refused (issue 29), against it:
-the bias-dependent base resistance ``RBM``, ``IRB`` and the split ``XCJC`` of the B-C
-depletion capacitance between the internal and the external base."""
+the bias-dependent base resistance ``RBM``, ``IRB``, the split ``XCJC`` of the B-C
+depletion capacitance between the internal and the external base, and the substrate
+junction's current ``ISS``, ``NS``."""
 
 from __future__ import annotations
 
@@ -37,6 +38,26 @@ q4 c4 b4 vcc qpnp
 .end
 """
 
+SUBSTRATE = """substrate junction current
+vcc vcc 0 5
+vs1 s1 0 3
+vs2 s2 0 6
+v1 i1 0 1.2
+v2 i2 0 -1.2
+r1 i1 b1 10k
+r2 i2 b2 10k
+rs1 s1 n1 10k
+rs2 s2 n2 10k
+rc1 vcc c1 1k
+rc2 0 c2 1k
+q1 c1 b1 0 n1 qn
+q2 c2 b2 vcc n2 qp
+.model qn NPN (IS=1e-15 BF=80 RC=20 RB=50 ISS=1e-14 NS=1.2)
+.model qp PNP (IS=1e-15 BF=50 RB=50 RC=20 ISS=2e-15 NS=1.1)
+.tran 1n 10n
+.end
+"""
+
 SWITCH = """BJT switch with XCJC and a bias-dependent base resistance
 vcc vcc 0 5
 vin in 0 PULSE(0 5 20n 2n 2n 100n 200n)
@@ -59,6 +80,18 @@ def test_bias_dependent_base_resistance_matches_ngspice_operating_points():
     result = spice.run(BASE_RESISTANCE, dt=1e-9)
     for node in ("b1", "c1", "b2", "c2", "b3", "c3", "b4", "c4"):
         assert float(result[f"v({node})"][0]) == pytest.approx(ref[f"v({node})"], abs=1e-9), node
+
+
+@needs_ngspice
+def test_substrate_junction_current_matches_ngspice_operating_points():
+    """ISS with NS: an NPN's substrate forward-biased to its collector (vertical, 87 µA)
+    and a PNP's to its base (lateral), each fed through 10 kΩ: every node within 1e-9 V of
+    ngspice's .op (measured 6e-13); without ISS the substrate nodes sit at their sources."""
+    ref = ng.operating_point(SUBSTRATE)
+    result = spice.run(SUBSTRATE, dt=1e-9)
+    for node in ("b1", "c1", "n1", "b2", "c2", "n2"):
+        assert float(result[f"v({node})"][0]) == pytest.approx(ref[f"v({node})"], abs=1e-9), node
+    assert ref["v(n1)"] < 2.5 and ref["v(n2)"] < 5.5  # both substrate junctions conduct
 
 
 @pytest.mark.slow

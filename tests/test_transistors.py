@@ -476,7 +476,7 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             "m1 3 2 0 0 qn\n.model qn NPN",
             r"line 5: model 'qn' \(line 6\) is a NPN .*needs NMOS/PMOS",
         ),
-        ("q1 3 2 0 qn\n.model qn NPN (ISS=1f)", r"line 5: model 'qn' \(line 6\): .*ISS"),
+        ("q1 3 2 0 qn\n.model qn NPN (NKF=0.6)", r"line 5: model 'qn' \(line 6\): .*NKF"),
         ("q1 3 2 0 qn\n.model qn NPN (TF=1n PTF=30)", r"line 5: model 'qn' .*PTF=30.*excess"),
         ("q1 3 2 0 qn\n.model qn NPN (SUBS=-1)", r"line 5: model 'qn' .*SUBS=-1.*collector"),
         ("q1 3 2 0 zz\n.model qn NPN", r"line 5: element 'q1': no defined model"),

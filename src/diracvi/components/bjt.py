@@ -176,6 +176,8 @@ def BJT(
     xcjc=1.0,
     rbm=None,
     irb=0.0,
+    iss=0.0,
+    ns=1.0,
 ) -> ControlledPart:
     r"""A Gummel–Poon BJT with pins ``c b e s`` (substrate ``s``: ground it when unused).
 
@@ -191,7 +193,10 @@ def BJT(
     at ``V_BX = type·(φ_b − φ_c′)``, no diffusion charge), a branch ``bx`` carrying only that
     charge; with ``RB = 0`` the two bases are one node and the split changes nothing.
     ``rbm``, ``irb``: the bias-dependent base resistance (:func:`base_resistance`;
-    ``rbm`` ``None``: ``RB``, a constant resistance).
+    ``rbm`` ``None``: ``RB``, a constant resistance). ``iss``, ``ns``: the substrate
+    junction's current ``ISS·AREA (e^{V_sub/(NS V_T)} − 1)`` (ngspice's reverse branch below
+    ``−3 NS V_T``) beside its ``G_min``, the junction limited as ngspice does when ``ISS`` is
+    given.
     """
     where = f"BJT {name!r}"
     if kind not in KINDS:
@@ -231,6 +236,9 @@ def BJT(
     if base_r["rbm"] < 0.0 or base_r["irb"] < 0.0:
         raise ModelError(f"{where}: rbm={rbm!r} and irb={irb!r} must be ≥ 0.")
     varying_rb = res["rb"] > 0.0 and base_r["rbm"] != res["rb"]
+    substrate = (finite(where, "iss", iss) * a, positive(where, "ns", ns))
+    if substrate[0] < 0.0:
+        raise ModelError(f"{where}: iss={iss!r} must be ≥ 0.")
     junction = {
         "be": (
             finite(where, "cje", cje) * a,
@@ -337,7 +345,11 @@ def BJT(
         f = f.at[idx["wbe"]].set(-i_be)
         f = f.at[idx["wbc"]].set(-i_bc)
         f = f.at[idx["wce"]].set(-i_ce)
-        f = f.at[idx["wsub"]].set(-p["gmin"] * v[idx["wsub"]])
+        vsub = v[idx["wsub"]]
+        i_sub = p["gmin"] * vsub
+        if substrate[0] > 0.0:
+            i_sub = i_sub + pn_current(vsub, *substrate)
+        f = f.at[idx["wsub"]].set(-i_sub)
         for k in ("rb", "rc", "re"):
             if k in branches:
                 r = res[k]
@@ -358,6 +370,13 @@ def BJT(
     xp = array_module(p["is"])
     vcrit = THERMAL_VOLTAGE * xp.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * p["is"]))
     row = xp.stack([xp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit, np.inf)])
+    limited, limit_rows = ("wbe", "wbc"), [row, row]
+    if substrate[0] > 0.0:  # ngspice limits V_sub with V_T and ISS's own V_crit
+        vcrit_sub = THERMAL_VOLTAGE * np.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * substrate[0]))
+        limited += ("wsub",)
+        limit_rows.append(
+            xp.stack([xp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit_sub, np.inf)])
+        )
     constraints = np.array(rows) if rows else None
     params = {"is": p["is"], "bf": p["bf"], "br": p["br"]}
     extra = {}
@@ -380,8 +399,8 @@ def BJT(
         initial_v=initial_v,
         role="transistor",
         branch_roles=(),
-        junctions=("wbe", "wbc"),
-        junction_limits=xp.stack([row, row]),
+        junctions=limited,
+        junction_limits=xp.stack(limit_rows),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
         **extra,
     )

@@ -31,14 +31,13 @@ _BJT_ALIAS = {
     "ms": "mjs",
 }  # fmt: skip
 # B-C capacitance split, bias-dependent base resistance (RBM: RB when not given)
-_BJT.update({"xcjc": 1.0, "irb": 0.0, "rbm": None})
+_BJT.update({"xcjc": 1.0, "irb": 0.0, "rbm": None, "iss": 0.0, "ns": 1.0})
 _BJT_FIXED = {
     "ptf": (0.0, "excess phase"),
-    "iss": (0.0, "substrate saturation current"),
     "tnom": (27.0, "nominal temperature"),
 }  # fmt: skip
-# only act with ISS ≠ 0, away from 27 °C, or on noise
-_BJT_INERT = ("ns", "xtb", "eg", "xti", "kf", "af")
+# only act away from 27 °C, or on noise
+_BJT_INERT = ("xtb", "eg", "xti", "kf", "af")
 # the substrate junction's place: to c′ (vertical, 1: NPN's default) or b′ (lateral, −1)
 _BJT_SUBS = {"NPN": 1.0, "PNP": -1.0}
 _TEMPCO = re.compile(r"^(t[a-z]+[12]|ctc|cte|cts|tvj[ces]|tlevc?)$")
@@ -122,7 +121,7 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
         vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
         tr=v["tr"], xtf=v["xtf"], vtf=v["vtf"], itf=v["itf"], cjs=v["cjs"], vjs=v["vjs"],
         mjs=v["mjs"], fc=v["fc"], area=area, name=name, xcjc=v["xcjc"], rbm=v["rbm"],
-        irb=v["irb"],
+        irb=v["irb"], iss=v["iss"], ns=v["ns"],
         v0=(vb - ve, vb - vc, vs - (vc if model.kind == "npn" else vb)),
     )  # fmt: skip
     return part, nodes
