@@ -62,8 +62,9 @@ def _current(part, v):
 def test_static_current_matches_ngspice_39(name):
     """On a DC sweep from −9 V (past every card's breakdown) to 1 V (below the 40 nV_T
     where diracvi continues the exponential by its tangent), instance AREA=2 M=1.5 PJ=2:
-    measured within 1.5e-12 of ngspice's current, relative. A knee formula without its
-    area (IKF not × AREA·M) is off by 0.2 at 1 V, ISR's generation factor left out by 0.3."""
+    measured within 1.5e-12 of ngspice's current, relative. Broken on purpose: the knees
+    not × AREA·M are 0.42 off (ikf, ikr cards); ISR without its generation factor, 0.13
+    (1n4148) to 2.8 (isr)."""
     deck = _deck(CARDS[name])
     out = dc_sweep(deck, "V1 -9 1 0.01", ["i(v1)"])
     mine = _current(netlist_part(deck, "D1"), out["sweep"])
@@ -114,7 +115,8 @@ def test_junction_charge_matches_ngspice_39():
     equal to the bottom's, see the next test), ``TT·i`` with ISR and IKF — against ngspice's
     ``@d1[charge]`` along a ramp from −3 V to 1 V (past both FC·VJ extensions): within 1e-9
     of the largest charge (measured 4e-10: ngspice's charge holds ``TT·G_min·V`` too).
-    With ``TT·i`` taken without IKF it is 0.5 off at 1 V; with CJSW not × PJ·M, 0.6."""
+    Broken on purpose: ``TT·i`` without the knee is 350 times the largest charge off at
+    1 V; CJSW not × PJ·M, 9e-4."""
     v, ref, mine = _ramp_charges(RAMP.format(php=0.8, mjsw=0.45, fcs=0.5))
     assert v[-1] == pytest.approx(1.0) and np.sum(v > 0.4) > 10
     assert np.max(np.abs(ref - mine)) <= 1e-9 * np.max(np.abs(ref))
@@ -198,8 +200,8 @@ def test_reverse_recovery_of_the_pspice_1n4148_converges_to_ngspice():
     """A ±5 V pulse through 100 Ω into the PSpice 1N4148 (IKF, ISR, TT: the stored charge
     ``TT·i`` with the knee sets the recovery): at forced steps 0.1 ns and 0.025 ns the worst
     error over the signals' peaks falls at least 4× toward a fine ngspice run (measured
-    0.043 → 0.0057 on v(a)). Without the knee in the stored charge the recovery's
-    charge doubles (i ≈ IKF): measured 0.5 off."""
+    0.043 → 0.0057 on v(a)). With the stored charge ``TT·i`` taken without the knee the
+    finer step is 1.14 off (v(a))."""
     deck = f"""reverse recovery, PSpice 1N4148 card
 V1 in 0 PULSE(-5 5 0 1n 1n 50n 100n)
 R1 in a 100
