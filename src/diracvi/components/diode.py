@@ -433,6 +433,8 @@ def spice_diode(model: dict, *, name: str, area=None, ic=0.0, gmin=1e-12, pj=Non
             "nominal 27 °C; remove TNOM or set it to 27)."
         )
     mult = positive(f"diode {name!r}", "m", m)
+    # ngspice limits the grading coefficient to 0.9 (diotemp.c: DIOgradingCoeffMax, warned)
+    grading = p["m"] if traced(p["m"]) or float(p["m"]) <= 0.9 else 0.9
     area = p["area"] if area is None else area
     pj = p["pj"] if pj is None else pj
     return Diode(
@@ -443,7 +445,7 @@ def spice_diode(model: dict, *, name: str, area=None, ic=0.0, gmin=1e-12, pj=Non
         series_resistance=p["rs"],
         junction_capacitance=p["cjo"],
         junction_potential=p["vj"],
-        grading=p["m"],
+        grading=grading,
         depletion_coefficient=p["fc"],
         transit_time=p["tt"],
         breakdown_voltage=p["bv"],
