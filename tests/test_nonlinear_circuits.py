@@ -403,8 +403,8 @@ R1 out 0 1k
 """
     read = spice.read(netlist)
     assert any("OFF" in note for note in read.notes)
-    with pytest.raises(spice.NetlistError, match=r"diode model 'dall' \(line 5\) sets \['ikf'\]"):
-        spice.read(netlist.replace("M=0.33", "M=0.33 IKF=1"))
+    with pytest.raises(spice.NetlistError, match=r"diode model 'dall' \(line 5\) sets \['jtun'\]"):
+        spice.read(netlist.replace("M=0.33", "M=0.33 JTUN=1"))
     # TNOM ≠ 27 is read (tests/test_temperature.py); a temperature level is refused
     with pytest.raises(spice.NetlistError, match="TLEV=2 is not supported"):
         spice.read(netlist.replace("TNOM=27", "TLEV=2"))

@@ -157,7 +157,7 @@ def test_diode_temperature_levels_other_than_0_are_refused_by_name():
 def test_tbv1_is_ignored_as_ngspice_39_does():
     deck = DIODES.format(setting=".temp 50").replace("TCV=2e-3", "TCV=2e-3 TBV1=-1e-3")
     netlist = spice.read(deck)
-    assert any("TBV1 ignored, as ngspice 39 does" in n for n in netlist.notes)
+    assert any("TBV1 ignored (ngspice 39's diode does not have" in n for n in netlist.notes)
     plain = spice.operating_point(spice.read(DIODES.format(setting=".temp 50")))
     assert spice.operating_point(netlist).voltages["d"] == plain.voltages["d"]
 
@@ -250,15 +250,28 @@ def test_bjts_match_ngspice_away_from_27C(setting):
         assert op.currents[source] == pytest.approx(want, rel=1e-8, abs=0), source
 
 
-def test_bjt_temperature_levels_and_a_moving_rbm_are_refused_by_name():
+def test_bjt_temperature_levels_and_unscaled_parameters_are_refused_by_name():
     for card, refusal in (
         ("TLEV=1", "TLEV=1 is not supported"),
         ("TLEVC=1", "TLEVC=1 is not supported"),
-        ("TRM1=0", "RB and RBM move apart"),
+        ("TRM1=2e-3 ISS=1e-15", r"ISS at 50 °C \(TNOM 27 °C\): their temperature dep"),
+        ("TRM1=2e-3 IRB=1e-3", r"IRB at 50 °C"),
     ):
         deck = BJTS.format(setting=".temp 50").replace("TRM1=2e-3", card)
         with pytest.raises(spice.NetlistError, match=refusal):
             spice.read(deck)
+
+
+@needs_ngspice
+def test_a_base_resistance_that_parts_from_rbm_with_temperature_matches_ngspice():
+    # TRM1 = 0 against TRB1 = 2e-3: at 50 °C RB(T) ≠ RBM(T), ngspice's bias-dependent
+    # base resistance RBM + (RB − RBM)/q_b (components/bjt.py)
+    deck = BJTS.format(setting=".temp 50").replace("TRM1=2e-3", "TRM1=0")
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-8, abs=0), source
 
 
 # ---------------------------------------------------------------------- MOSFET level 1
@@ -299,3 +312,11 @@ def test_level1_mosfets_match_ngspice_away_from_27C(setting):
     for source in ("VDD", "VB3", "VD4"):
         want = ref[f"i({source.lower()})"]
         assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+
+
+def test_diode_terms_without_a_temperature_update_are_refused_away_from_tnom():
+    # ISR, JSW, CJSW: ngspice 39 scales them with temperature (diotemp.c), diracvi not yet
+    deck = DIODES.format(setting=".temp 50").replace("M=0.4 ", "M=0.4 ISR=1n ")
+    with pytest.raises(spice.NetlistError, match=r"ISR at 50 °C \(TNOM 27 °C\): their temp"):
+        spice.read(deck)
+    assert spice.read(DIODES.format(setting=".temp 27").replace("M=0.4 ", "M=0.4 ISR=1n "))

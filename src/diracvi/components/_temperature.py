@@ -164,7 +164,7 @@ BJT_QUADRATIC = {"vaf": "vaf", "var": "var", "ikf": "ikf", "ikr": "ikr", "rc": "
                  "tf": "tf", "tr": "tr", "mje": "mje", "mjc": "mjc", "mjs": "mjs"}  # fmt: skip
 #: the emission coefficients: the part's ``V_T`` is 27 °C's, so a device at ``T``
 #: carries ``N V_T(T)/V_T(27 °C)`` (the junction laws depend on ``N V_T`` only)
-BJT_EMISSIONS = ("nf", "nr", "ne", "nc")
+BJT_EMISSIONS = ("nf", "nr", "ne", "nc", "ns")
 #: ngspice 39 limits a temperature-adjusted grading coefficient of the BJT to this
 BJT_GRADING_LIMIT = 0.999
 
@@ -202,14 +202,18 @@ def bjt(p: dict, t, tnom, *, name: str) -> dict:
         out[x] = _poly(p[x], p[f"t{stem}1"], p[f"t{stem}2"], dt)
     for x in ("mje", "mjc", "mjs"):
         out[x] = xp.minimum(out[x], BJT_GRADING_LIMIT)
-    rb, rbm = _poly(p["rb"], p["trb1"], p["trb2"], dt), _poly(p["rb"], p["trm1"], p["trm2"], dt)
-    if not traced(rb) and not traced(rbm) and rb != rbm:
+    unscaled = [k.upper() for k in ("iss", "irb") if p.get(k) not in (None, 0.0)]
+    if unscaled and not traced(dt) and dt != 0.0:
         raise ModelError(
-            f"BJT {name!r}: at {t - KELVIN:g} °C RB and RBM move apart (TRB1/TRB2 ≠ "
-            "TRM1/TRM2), a bias-dependent base resistance diracvi does not model; give "
-            "TRM1/TRM2 equal to TRB1/TRB2"
+            f"BJT {name!r}: {', '.join(unscaled)} at {t - KELVIN:g} °C (TNOM "
+            f"{tnom - KELVIN:g} °C): their temperature dependence is not implemented; run "
+            "at TNOM, or drop them"
         )
-    out["rb"] = rb
+    # RB(T) and RBM(T) each by its own coefficients; RBM not given is RB at TNOM, so the
+    # two may part with temperature: the bias-dependent base resistance (components/bjt.py)
+    rbm = p["rb"] if p.get("rbm") is None else p["rbm"]
+    out["rb"] = _poly(p["rb"], p["trb1"], p["trb2"], dt)
+    out["rbm"] = _poly(rbm, p["trm1"], p["trm2"], dt)
     ratlog = xp.log(t / tnom)
     factlog = (t / tnom - 1.0) * p["eg"] / thermal_voltage(t) + p["xti"] * ratlog
     bfactor = xp.exp(ratlog * p["xtb"])

@@ -95,6 +95,27 @@ def base_charge(vbe, vbc, ibe, ibc, p):
     return q1 * (1.0 + jnp.sqrt(jnp.maximum(1.0 + 4.0 * q2, 0.0))) / 2.0
 
 
+def base_resistance(vbe, vbc, p, rb, rbm, irb):
+    r"""ngspice's bias-dependent base resistance ``r_bb`` (``bjtload.c``, area applied):
+
+        IRB = 0:  r_bb = RBM + (RB − RBM)/q_b
+        IRB > 0:  r_bb = RBM + 3 (RB − RBM) (tan z − z)/(z tan² z),
+                  z = (√(1 + 14.59025 x) − 1)/(2.4317 √x),   x = max(I_B/IRB, 10⁻⁹)
+
+    with ``q_b`` Gummel–Poon's base charge and ``I_B`` the static base current at the
+    internal junction voltages (``x`` ≥ 10⁻⁹ keeps ``z`` > 0; ``(tan z − z)/(z tan² z)`` →
+    1/3 as ``z`` → 0, so ``r_bb`` → ``RB`` at small currents)."""
+    if irb == 0.0:
+        ibe = pn_current(vbe, p["is"], p["nf"])
+        ibc = pn_current(vbc, p["is"], p["nr"])
+        return rbm + (rb - rbm) / base_charge(vbe, vbc, ibe, ibc, p)
+    i_b = gummel_poon(vbe, vbc, p)[1]
+    x = jnp.maximum(i_b / irb, 1e-9)
+    z = (jnp.sqrt(1.0 + 14.59025 * x) - 1.0) / (2.4317 * jnp.sqrt(x))
+    t = jnp.tan(z)
+    return rbm + 3.0 * (rb - rbm) * (t - z) / (z * t * t)
+
+
 def forward_diffusion_charge(vbe, vbc, p):
     r"""ngspice's base–emitter diffusion charge ``Q_F(V_BE, V_BC)`` (type-normalised),
     ``TF·I_be (1 + arg_tf)/q_b`` with ``arg_tf = XTF e^{V_BC/(1.44 VTF)} (I_be/(I_be + ITF))²``.
@@ -152,6 +173,11 @@ def BJT(
     gmin=1e-12,
     v0=(0.0, 0.0),
     name: str,
+    xcjc=1.0,
+    rbm=None,
+    irb=0.0,
+    iss=0.0,
+    ns=1.0,
 ) -> ControlledPart:
     r"""A Gummel–Poon BJT with pins ``c b e s`` (substrate ``s``: ground it when unused).
 
@@ -161,6 +187,16 @@ def BJT(
     ``v0 = (V_BE, V_BC[, V_sub])``: the initial junction voltages (they set the initial
     junction charges when ``CJE``/``CJC``/``CJS``/``TF``/``TR`` ≠ 0); ``V_sub = φ_s − φ_c′``
     (NPN) or ``φ_s − φ_b′`` (PNP), 0 V when not given.
+
+    ``xcjc``: the fraction of ``CJC`` between the internal base ``b′`` and ``c′``; the rest,
+    ``(1 − XCJC)·CJC``, sits between the external base ``b`` and ``c′`` (ngspice's ``qbx``
+    at ``V_BX = type·(φ_b − φ_c′)``, no diffusion charge), a branch ``bx`` carrying only that
+    charge; with ``RB = 0`` the two bases are one node and the split changes nothing.
+    ``rbm``, ``irb``: the bias-dependent base resistance (:func:`base_resistance`;
+    ``rbm`` ``None``: ``RB``, a constant resistance). ``iss``, ``ns``: the substrate
+    junction's current ``ISS·AREA (e^{V_sub/(NS V_T)} − 1)`` (ngspice's reverse branch below
+    ``−3 NS V_T``) beside its ``G_min``, the junction limited as ngspice does when ``ISS`` is
+    given.
     """
     where = f"BJT {name!r}"
     if kind not in KINDS:
@@ -190,6 +226,19 @@ def BJT(
     if not all(isinstance(p[k], float) for k in ("ova", "ovb", "oik", "oikr", "ovtf")):
         raise ModelError(f"{where}: vaf, var, ikf, ikr, vtf must be plain numbers (not traced).")
     res = {k: finite(where, k, x) / a for k, x in (("rb", rb), ("rc", rc), ("re", re))}
+    xcjc = finite(where, "xcjc", xcjc)
+    if not 0.0 <= xcjc <= 1.0:
+        raise ModelError(f"{where}: xcjc={xcjc!r} must lie in [0, 1] (a fraction of CJC).")
+    base_r = {
+        "rbm": res["rb"] if rbm is None else finite(where, "rbm", rbm) / a,
+        "irb": finite(where, "irb", irb) * a,
+    }
+    if base_r["rbm"] < 0.0 or base_r["irb"] < 0.0:
+        raise ModelError(f"{where}: rbm={rbm!r} and irb={irb!r} must be ≥ 0.")
+    varying_rb = res["rb"] > 0.0 and base_r["rbm"] != res["rb"]
+    substrate = (finite(where, "iss", iss) * a, positive(where, "ns", ns))
+    if substrate[0] < 0.0:
+        raise ModelError(f"{where}: iss={iss!r} must be ≥ 0.")
     junction = {
         "be": (
             finite(where, "cje", cje) * a,
@@ -207,11 +256,22 @@ def BJT(
         positive(where, "vjs", vjs),
         finite(where, "mjs", mjs),
     )
+    # XCJC < 1 with RB > 0: (1 − XCJC)·CJC moves to the external base (branch bx)
+    split = res["rb"] > 0.0 and xcjc < 1.0 and junction["bc"][0] > 0.0
+    if split:
+        cjc_total, vjc_, mjc_ = junction["bc"]
+        junction["bc"] = (cjc_total * xcjc, vjc_, mjc_)
+        junction["bx"] = (cjc_total * (1.0 - xcjc), vjc_, mjc_)
     # the B-E diffusion charge is a co-energy's gradient only when q_b ≡ 1 and XTF = 0
     ported = _nonzero(p["tf"]) and (
         p["xtf"] != 0.0 or any(p[k] != 0.0 for k in ("ova", "ovb", "oik", "oikr"))
     )
-    transit = {"be": 0.0 if ported else p["tf"], "bc": finite(where, "tr", tr), "sub": 0.0}
+    transit = {
+        "be": 0.0 if ported else p["tf"],
+        "bc": finite(where, "tr", tr),
+        "sub": 0.0,
+        "bx": 0.0,
+    }
     fc = finite(where, "fc", fc)
     if min(res.values()) < 0.0 or min(c for c, _, _ in junction.values()) < 0.0:
         raise ModelError(f"{where}: rb, rc, re, cje, cjc, cjs must be ≥ 0.")
@@ -234,6 +294,8 @@ def BJT(
     else:
         branches = {"be": ("E", "B"), "bc": ("C", "B"), "ce": ("E", "C")}
     branches["sub"] = ("s", "C" if kind == "npn" else "B")
+    if split:  # ẇ_bx = V_BX = type·(φ_b − φ_c′)
+        branches["bx"] = ("b", "C") if kind == "npn" else ("C", "b")
     for k, (node, inner) in {"rb": ("b", "B"), "rc": ("c", "C"), "re": ("e", "E")}.items():
         if res[k] > 0.0:
             branches[k] = (node, inner)
@@ -258,8 +320,8 @@ def BJT(
 
     charges = {
         k: (junction[k], transit[k], p["is"], p["nf" if k == "be" else "nr"])
-        for k in ("be", "bc", "sub")
-        if junction[k][0] > 0.0 or _nonzero(transit[k])
+        for k in ("be", "bc", "sub", "bx")
+        if k in junction and (junction[k][0] > 0.0 or _nonzero(transit[k]))
     }
 
     def stored(vn, k):  # co-energy C*(V) of junction k (type-normalised V)
@@ -283,10 +345,17 @@ def BJT(
         f = f.at[idx["wbe"]].set(-i_be)
         f = f.at[idx["wbc"]].set(-i_bc)
         f = f.at[idx["wce"]].set(-i_ce)
-        f = f.at[idx["wsub"]].set(-p["gmin"] * v[idx["wsub"]])
+        vsub = v[idx["wsub"]]
+        i_sub = p["gmin"] * vsub
+        if substrate[0] > 0.0:
+            i_sub = i_sub + pn_current(vsub, *substrate)
+        f = f.at[idx["wsub"]].set(-i_sub)
         for k in ("rb", "rc", "re"):
             if k in branches:
-                f = f.at[idx[f"q{k}"]].set(-res[k] * v[idx[f"q{k}"]])
+                r = res[k]
+                if k == "rb" and varying_rb:
+                    r = base_resistance(vbe, vbc, p, res["rb"], **base_r)
+                f = f.at[idx[f"q{k}"]].set(-r * v[idx[f"q{k}"]])
         return f
 
     initial_v = np.zeros(len(coords))
@@ -294,11 +363,20 @@ def BJT(
     initial_v[idx["wce"]] = sign * (v0[0] - v0[1])
     if len(v0) == 3:
         initial_v[idx["wsub"]] = v0[2]
+    if split:
+        initial_v[idx["wbx"]] = sign * v0[1]  # V_BX = V_BC while no current flows in RB
     # SPICE's pnjlim on both junctions, with ngspice's BJT values: V_T (not N·V_T) and
     # V_crit = V_T ln(V_T/(√2 I_S))
     xp = array_module(p["is"])
     vcrit = THERMAL_VOLTAGE * xp.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * p["is"]))
     row = xp.stack([xp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit, np.inf)])
+    limited, limit_rows = ("wbe", "wbc"), [row, row]
+    if substrate[0] > 0.0:  # ngspice limits V_sub with V_T and ISS's own V_crit
+        vcrit_sub = THERMAL_VOLTAGE * np.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * substrate[0]))
+        limited += ("wsub",)
+        limit_rows.append(
+            xp.stack([xp.asarray(x, float) for x in (THERMAL_VOLTAGE, vcrit_sub, np.inf)])
+        )
     constraints = np.array(rows) if rows else None
     params = {"is": p["is"], "bf": p["bf"], "br": p["br"]}
     extra = {}
@@ -321,8 +399,8 @@ def BJT(
         initial_v=initial_v,
         role="transistor",
         branch_roles=(),
-        junctions=("wbe", "wbc"),
-        junction_limits=xp.stack([row, row]),
+        junctions=limited,
+        junction_limits=xp.stack(limit_rows),
         parameters={k: x for k, x in params.items() if isinstance(x, float)},
         **extra,
     )

@@ -58,6 +58,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ._diode_static import diffusion_coenergy, static_current
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, exp_capped, exp_capped_integral
 from ._part import Part, array_module, finite, positive, traced
 from ._temperature import DIODE, DIODE_ALIASES, kelvin
@@ -83,9 +84,43 @@ SPICE_PARAMETERS = {
     "af": (1.0, "", "flicker noise exponent (noise only)"),
     "level": (1.0, "", "model level (only 1)"),
 }
+#: ngspice 39's optional terms (``dioload.c``; see :mod:`._diode_static`): ``None`` = not
+#: given (the term is off). ``NR`` defaults to 1 in ngspice 39's code (its manual says 2).
+SPICE_PARAMETERS.update(
+    {
+        "isr": (None, "A", "recombination saturation current"),
+        "nr": (1.0, "", "recombination emission coefficient"),
+        "ikf": (None, "A", "forward knee current (high injection)"),
+        "ikr": (None, "A", "reverse knee current"),
+        "jsw": (0.0, "A", "sidewall saturation current (× PJ)"),
+        "ns": (None, "", "sidewall emission coefficient (not given: JSW joins IS)"),
+        "cjsw": (0.0, "F", "sidewall junction capacitance (× PJ)"),
+        "php": (1.0, "V", "sidewall junction potential"),
+        "mjsw": (0.33, "", "sidewall grading coefficient"),
+        "fcs": (0.5, "", "sidewall forward-bias depletion capacitance coefficient"),
+        "area": (1.0, "", "area factor (the D line's AREA overrides it)"),
+        "pj": (0.0, "", "perimeter factor (the D line's PJ overrides it)"),
+    }
+)
+#: parameters with no effect in a transient/DC analysis: the safe-operating-area limits
+#: (warnings only) and self-heating's (needs a thermal node, which the D line has not);
+#: the temperature coefficients are read (:mod:`._temperature`)
+SPICE_INERT = ("fv_max", "bv_max", "id_max", "te_max", "pd_max", "rth0", "cth0")
+#: every model parameter name ngspice 39's diode knows (``dio.c``): a card's name outside
+#: it is *ignored* by ngspice 39 ("unrecognized parameter - ignored", e.g. PSpice's IBVL,
+#: NBVL, TBV1 and VJSW, which later ngspice releases alias): diracvi ignores it too, noted
+NGSPICE39_NAMES = frozenset(
+    "level is js jsw tnom tref rs trs trs1 trs2 n ns tt ttt1 ttt2 cjo cj0 cj vj pb m mj "
+    "tm1 tm2 cjp cjsw php mjsw ikf ik ikr nbv area pj tlev tlevc eg xti cta ctc ctp tpb "
+    "tvj tphp jtun jtunsw ntun xtitun keg kf af fc fcs bv ibv ib tcv isr nr fv_max bv_max "
+    "id_max te_max pd_max rth0 cth0 lm lp wm wp xom xoi xm xp d".split()
+)
 #: other spellings ngspice accepts -> the name above
 SPICE_PARAMETERS |= DIODE
-SPICE_ALIASES = {"cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "rs0": "rs"}
+SPICE_ALIASES = {
+    "cj0": "cjo", "cj": "cjo", "pb": "vj", "mj": "m", "js": "is", "rs0": "rs",
+    "ik": "ikf", "ib": "ibv", "cjp": "cjsw",
+}  # fmt: skip
 SPICE_ALIASES |= DIODE_ALIASES
 
 
@@ -164,6 +199,90 @@ class _Junction:
         return out
 
 
+def _optional_terms(where, base, given):
+    """``(JSW·PJ joined to I_S, the optional terms' tables or None)`` (see :func:`Diode`)."""
+    vt = base["vt"]
+    pj = finite(where, "perimeter", given["pj"])
+    area = base["area"]
+    jsw = finite(where, "sidewall_current", given["jsw"]) * pj
+    cjsw = finite(where, "sidewall_capacitance", given["cjsw"]) * pj
+    checks = (("perimeter", pj), ("sidewall_current", jsw), ("sidewall_capacitance", cjsw))
+    for arg, value in checks:
+        if not traced(value) and value < 0.0:
+            raise ModelError(f"{where}: {arg}={value!r} must be ≥ 0 (ngspice's range).")
+    prm = {"is": base["is_"], "nvt": base["nvt"], "nbv_vt": base["nbv_vt"], "tt": base["tt"]}
+    if base["bv"] is not None:
+        prm["bv"] = base["bv"]
+    sidewall = given["ns"] is not None
+    merged = 0.0
+    if sidewall:
+        prm["issw"] = jsw
+        prm["nvtsw"] = positive(where, "sidewall_emission", given["ns"]) * vt
+    else:
+        merged = jsw
+        prm["is"] = prm["is"] + jsw
+    recombination = given["isr"] is not None
+    if recombination:
+        prm["isr"] = positive(where, "recombination_current", given["isr"]) * area
+        prm["nrvt"] = positive(where, "recombination_emission", given["nr"]) * vt
+        prm["vj"], prm["m"] = base["vj"], base["m"]
+    knees = []
+    for key, arg in (("ikf", "forward_knee"), ("ikr", "reverse_knee")):
+        value = given[key]
+        if value is not None and not traced(value):
+            value = finite(where, arg, value)
+            if value < 1e-28:  # ngspice: "IKF too small - model effect disabled"
+                value = None
+        if value is not None:
+            prm[key] = value * area
+        knees.append(value is not None)
+    flags = (sidewall, recombination, *knees)
+    has_cjsw = traced(cjsw) or cjsw != 0.0
+    if not any(flags) and not has_cjsw:
+        return merged, None
+    depletion = None
+    if has_cjsw:
+        fcs = finite(where, "sidewall_coefficient", given["fcs"])
+        mjsw = finite(where, "sidewall_grading", given["mjsw"])
+        php = positive(where, "sidewall_potential", given["php"])
+        for arg, value in (("sidewall_grading", mjsw), ("sidewall_coefficient", fcs)):
+            if not traced(value) and not 0.0 <= value < 1.0:
+                raise ModelError(f"{where}: {arg}={value!r} must be in [0, 1) (ngspice's range).")
+        if not traced(fcs) and not traced(php) and fcs * php > 1.0:  # ngspice: PHP ≤ 1/FCS
+            php = 1.0 / fcs
+        depletion = (cjsw, php, mjsw, fcs)
+    return merged, {"prm": prm, "flags": flags, "depletion": depletion}
+
+
+class _Extended:
+    """A :class:`_Junction` with ngspice's optional terms (:mod:`._diode_static`)."""
+
+    def __init__(self, junction, extra):
+        self.junction = junction  # its bottom depletion charge and, without terms, its current
+        self.prm, self.flags, self.depletion = extra["prm"], extra["flags"], extra["depletion"]
+
+    def current(self, v):
+        """``i(V)`` without G_min (:func:`~._diode_static.static_current`)."""
+        if not any(self.flags):
+            return self.junction.current(v)
+        return static_current(v, self.prm, self.flags)
+
+    def coenergy(self, v):
+        """``Φ(V) = ∫₀^V Q_j``: bottom and sidewall depletion, diffusion ``TT·i``."""
+        j = self.junction
+        out = 0.0 * v
+        if not (isinstance(j.cj, float) and j.cj == 0.0):
+            out = out + j._depletion_integral(v)
+        if self.depletion is not None:
+            out = out + depletion_coenergy(v, *self.depletion)
+        if not (isinstance(j.tt, float) and j.tt == 0.0):
+            if any(self.flags):
+                out = out + diffusion_coenergy(v, self.prm, self.flags)
+            else:
+                out = out + j.tt * j.current_integral(v)
+        return out
+
+
 def shockley_current(v, saturation_current, emission, gmin):
     """``I_S (e^{V/(N V_T)} − 1) + G_min V`` with the linear continuation above 40 N V_T."""
     nvt = emission * THERMAL_VOLTAGE
@@ -188,6 +307,17 @@ def Diode(
     area=1.0,
     v0=0.0,
     thermal_voltage=THERMAL_VOLTAGE,
+    recombination_current=None,
+    recombination_emission=1.0,
+    forward_knee=None,
+    reverse_knee=None,
+    sidewall_current=0.0,
+    sidewall_emission=None,
+    sidewall_capacitance=0.0,
+    sidewall_potential=1.0,
+    sidewall_grading=0.33,
+    sidewall_coefficient=0.5,
+    perimeter=0.0,
 ) -> Part:
     r"""A junction diode from anode ``p`` to cathode ``n`` (SPICE's ``D``; see the module).
 
@@ -197,6 +327,11 @@ def Diode(
     voltage (SPICE's ``IC=``, used by the junction charge); ``thermal_voltage`` is
     ``kT/q`` at the device's temperature. Every value may be traced
     (``jax.grad`` flows to it). Coordinates ``(q, w)``: branch charge and flux linkage.
+
+    ngspice's optional terms (:mod:`._diode_static`): ``ISR``, ``NR`` (recombination
+    current; ``None``: none), ``IKF``, ``IKR`` (knee currents; ``None`` or below 10⁻²⁸:
+    none), the sidewall ``JSW``, ``NS`` (``None``: ``JSW`` joins ``IS``), ``CJSW``, ``PHP``,
+    ``MJSW``, ``FCS`` scaled by the instance's ``perimeter`` (``PJ``).
     """
     where = f"Diode {name!r}"
     area = positive(where, "area", area)
@@ -232,8 +367,23 @@ def Diode(
         if breakdown_emission is not None:
             nbv_vt = positive(where, "breakdown_emission", breakdown_emission) * vt
         bv = breakdown_knee(i_s, bv, ibv, nbv_vt, vt)
-    junction = _Junction(i_s, nvt, g, bv, nbv_vt, cj, vj, m, fc, tt)
-    has_charge = not (isinstance(cj, float) and cj == 0.0 and isinstance(tt, float) and tt == 0.0)
+    merged, extra = _optional_terms(
+        where,
+        dict(is_=i_s, nvt=nvt, vt=vt, bv=bv, nbv_vt=nbv_vt, area=area, vj=vj, m=m, fc=fc, tt=tt),
+        dict(
+            isr=recombination_current, nr=recombination_emission, ikf=forward_knee,
+            ikr=reverse_knee, jsw=sidewall_current, ns=sidewall_emission,
+            cjsw=sidewall_capacitance, php=sidewall_potential, mjsw=sidewall_grading,
+            fcs=sidewall_coefficient, pj=perimeter,
+        ),
+    )  # fmt: skip
+    # JSW·PJ without NS joins I_S (ngspice: csat + csatsw), after BV' and V_crit (I_S only)
+    junction = _Junction(i_s + merged, nvt, g, bv, nbv_vt, cj, vj, m, fc, tt)
+    if extra is not None:
+        junction = _Extended(junction, extra)
+    has_charge = extra is not None or not (
+        isinstance(cj, float) and cj == 0.0 and isinstance(tt, float) and tt == 0.0
+    )
     has_rs = not (isinstance(rs, float) and rs == 0.0)
 
     def lagrangian(q, v):
@@ -264,14 +414,19 @@ def Diode(
 
 
 def spice_diode(
-    model: dict, *, name: str, area=1.0, ic=0.0, gmin=1e-12, temperature=27.0, tnom=27.0
-) -> Part:
+    model: dict, *, name: str, area=None, ic=0.0, gmin=1e-12, pj=None, m=1.0,
+    temperature=27.0, tnom=27.0,
+) -> Part:  # fmt: skip
     """A :func:`Diode` from ngspice model parameters (lower-case names of
-    :data:`SPICE_PARAMETERS`, aliases allowed; missing ones take their defaults) at the
-    device's ``temperature`` (°C); ``tnom`` (°C) is the model's TNOM where it gives none
-    (ngspice's ``.options tnom``)."""
+    :data:`SPICE_PARAMETERS`, aliases allowed; missing ones take their defaults;
+    :data:`SPICE_INERT` ones accepted, without effect in a transient) at the device's
+    ``temperature`` (°C); ``tnom`` (°C) is the model's TNOM where it gives none (ngspice's
+    ``.options tnom``). The instance's ``area`` and ``pj`` (``None``: the model's ``AREA``,
+    ``PJ``) and multiplier ``m`` scale as ngspice 39's level 1: ``AREA·M`` multiplies
+    ``IS``, ``ISR``, ``IKF``, ``IKR``, ``CJO`` and divides ``RS``; ``PJ·M`` multiplies
+    ``JSW``, ``CJSW``; ``M`` multiplies ``IBV``."""
     values = {SPICE_ALIASES.get(k, k): v for k, v in model.items()}
-    unknown = sorted(set(values) - set(SPICE_PARAMETERS))
+    unknown = sorted(set(values) - set(SPICE_PARAMETERS) - set(SPICE_INERT))
     if unknown:
         raise ModelError(
             f"diode {name!r}: parameters {unknown} are not supported; supported: "
@@ -281,7 +436,21 @@ def spice_diode(
     if float(p["level"]) != 1.0:
         raise ModelError(f"diode {name!r}: LEVEL={p['level']} is not supported (only level 1).")
     nominal = kelvin(tnom if p["tnom"] is None else p["tnom"])
+    if kelvin(temperature) != nominal:
+        # ngspice 39 scales these with temperature too (diotemp.c); diracvi does not yet
+        scaled = [k.upper() for k in ("isr", "jsw", "cjsw") if values.get(k) not in (None, 0.0)]
+        if scaled:
+            raise ModelError(
+                f"diode {name!r}: {', '.join(scaled)} at {temperature:g} °C (TNOM "
+                f"{nominal - 273.15:g} °C): their temperature dependence is not implemented; "
+                "run at TNOM, or drop them"
+            )
     p = diode_at(p, kelvin(temperature), nominal, name=name)
+    mult = positive(f"diode {name!r}", "m", m)
+    # ngspice limits the grading coefficient to 0.9 (diotemp.c: DIOgradingCoeffMax, warned)
+    grading = p["m"] if traced(p["m"]) or float(p["m"]) <= 0.9 else 0.9
+    area = p["area"] if area is None else area
+    pj = p["pj"] if pj is None else pj
     return Diode(
         p["is"],
         p["n"],
@@ -290,13 +459,24 @@ def spice_diode(
         series_resistance=p["rs"],
         junction_capacitance=p["cjo"],
         junction_potential=p["vj"],
-        grading=p["m"],
+        grading=grading,
         depletion_coefficient=p["fc"],
         transit_time=p["tt"],
         breakdown_voltage=p["bv"],
-        breakdown_current=p["ibv"],
+        breakdown_current=p["ibv"] * mult,
         breakdown_emission=p["nbv"],
-        area=area,
+        area=area * mult,
         v0=ic,
         thermal_voltage=p["vt"],
+        recombination_current=p["isr"],
+        recombination_emission=p["nr"],
+        forward_knee=p["ikf"],
+        reverse_knee=p["ikr"],
+        sidewall_current=p["jsw"],
+        sidewall_emission=p["ns"],
+        sidewall_capacitance=p["cjsw"],
+        sidewall_potential=p["php"],
+        sidewall_grading=p["mjsw"],
+        sidewall_coefficient=p["fcs"],
+        perimeter=pj * mult,
     )

@@ -35,14 +35,13 @@ _BJT_ALIAS = {
     "pc": "vjc", "mc": "mjc", "tref": "tnom", "csub": "cjs", "ccs": "cjs", "ps": "vjs",
     "ms": "mjs",
 }  # fmt: skip
+# B-C capacitance split, bias-dependent base resistance (RBM: RB when not given)
+_BJT.update({"xcjc": 1.0, "irb": 0.0, "rbm": None, "iss": 0.0, "ns": 1.0})
 _BJT_FIXED = {
-    "irb": (0.0, "base-resistance roll-off current (a bias-dependent RB)"),
     "ptf": (0.0, "excess phase"),
-    "xcjc": (1.0, "fraction of the B-C capacitance at the internal base"),
-    "iss": (0.0, "substrate saturation current"),
 }  # fmt: skip
-# only act with ISS ≠ 0 or on noise (the temperature ones: components._temperature.BJT)
-_BJT_INERT = ("ns", "kf", "af")
+# only act on noise (the temperature ones: components._temperature.BJT)
+_BJT_INERT = ("kf", "af")
 # the substrate junction's place: to c′ (vertical, 1: NPN's default) or b′ (lateral, −1)
 _BJT_SUBS = {"NPN": 1.0, "PNP": -1.0}
 # the temperature coefficients of TLEV = 3 and TLEVC = 1 (refused) and of ISS, IRB (fixed 0)
@@ -84,8 +83,6 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
                 )
         elif key in inert or _TEMPCO.match(key):
             notes.append(f"{number}: {kind} {key.upper()} ignored (no effect here)")
-        elif key == "rbm":
-            values["rbm"] = x
         elif key == "subs":
             if x != _BJT_SUBS[kind]:
                 raise fail(
@@ -95,9 +92,6 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
                 )
         else:
             raise fail(f"{kind} parameter {key.upper()!r} is not known or not supported")
-    if values.get("rbm", values["rb"]) != values["rb"]:
-        raise fail("BJT RBM ≠ RB (a bias-dependent base resistance) is not supported")
-    values.pop("rbm", None)
     return DeviceModel(KINDS[kind], level, values, number, notes)
 
 
@@ -133,7 +127,8 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
         isc=v["isc"], nc=v["nc"], rb=v["rb"], rc=v["rc"], re=v["re"], cje=v["cje"],
         vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
         tr=v["tr"], xtf=v["xtf"], vtf=v["vtf"], itf=v["itf"], cjs=v["cjs"], vjs=v["vjs"],
-        mjs=v["mjs"], fc=v["fc"], area=area, name=name,
+        mjs=v["mjs"], fc=v["fc"], area=area, name=name, xcjc=v["xcjc"], rbm=v["rbm"],
+        irb=v["irb"], iss=v["iss"], ns=v["ns"],
         v0=(vb - ve, vb - vc, vs - (vc if model.kind == "npn" else vb)),
     )  # fmt: skip
     return part, nodes

@@ -25,8 +25,7 @@ A handler has the shape
 from __future__ import annotations
 
 from .. import components as cp
-from ..components._temperature import DIODE_IGNORED_BY_NGSPICE39
-from ..components.diode import SPICE_ALIASES
+from ..components.diode import NGSPICE39_NAMES, SPICE_ALIASES, SPICE_INERT
 from ._behavioural import b_line
 from ._cards import device_temperature
 from ._controlled import cccs, ccvs, vccs, vcvs
@@ -88,27 +87,32 @@ def _i(ctx, name, pos, kw, line):
 
 
 def _d(ctx, name, pos, kw, line):
-    """``Dname anode cathode model [area] [OFF] [IC=v] [TEMP=t] [DTEMP=d]`` with a
-    ``.model NAME D(…)`` of :data:`~diracvi.components.SPICE_PARAMETERS` (ngspice's names,
-    aliases and defaults), at :func:`device_temperature`."""
-    form = "Dname anode cathode model [area] [OFF] [IC=v] [TEMP=t] [DTEMP=d]"
+    """``Dname anode cathode model [area] [AREA=a] [PJ=p] [M=m] [OFF] [IC=v] [TEMP=t]
+    [DTEMP=d]`` with a ``.model NAME D(…)`` of :data:`~diracvi.components.SPICE_PARAMETERS`
+    (ngspice's names, aliases and defaults), at :func:`device_temperature`. A model name
+    ngspice 39's diode does not know (PSpice's ``IBVL``, ``NBVL``, ``TBV1``…) is ignored
+    with a note, as ngspice 39 ignores it."""
+    form = "Dname anode cathode model [area] [AREA=a] [PJ=p] [M=m] [OFF] [IC=v] [TEMP=t] [DTEMP=d]"
     flags = [t for t in pos[4:] if t.lower() == "off"]
     rest = [t for t in pos[4:] if t.lower() != "off"]
-    if len(pos) < 4 or len(rest) > 1 or len(flags) > 1 or set(kw) - {"ic", "area", *_TEMP}:
+    if (
+        len(pos) < 4 or len(rest) > 1 or len(flags) > 1
+        or set(kw) - {"ic", "area", "pj", "m", *_TEMP}
+    ):  # fmt: skip
         raise line.fail(f"expected '{form}'")
     kind, params, where = ctx.model(pos[3], line)
     if kind != "D":
         raise line.fail(f"model {pos[3]!r} ({where}) is a {kind} model, not a diode (D) model")
-    for key in DIODE_IGNORED_BY_NGSPICE39:
-        if key in params:
-            ctx.note(
-                line,
-                f"diode model {pos[3]!r}: {key.upper()} ignored, as ngspice 39 does (not one "
-                "of its diode parameters: it warns 'unrecognized parameter'; ngspice ≥ 40 "
-                "reads TBV1 as TCV)",
-            )
-            params = {k: v for k, v in params.items() if k != key}
-    known = set(cp.SPICE_PARAMETERS) | set(SPICE_ALIASES)
+    foreign = sorted(k for k in params if k not in NGSPICE39_NAMES)
+    if foreign:
+        ctx.note(
+            line,
+            f"diode model {pos[3]!r} ({where}): {', '.join(k.upper() for k in foreign)} "
+            "ignored (ngspice 39's diode does not have them and ignores them too"
+            + ("; ngspice ≥ 40 reads TBV1 as TCV)" if "tbv1" in foreign else ")"),
+        )
+        params = {k: x for k, x in params.items() if k not in foreign}
+    known = set(cp.SPICE_PARAMETERS) | set(SPICE_ALIASES) | set(SPICE_INERT)
     refused = sorted(k for k in params if k not in known)
     if refused:
         raise line.fail(
@@ -116,13 +120,18 @@ def _d(ctx, name, pos, kw, line):
             f"not have (it reads {', '.join(k.upper() for k in cp.SPICE_PARAMETERS)}); "
             "remove them to run without"
         )
-    area = ctx.value(rest[0] if rest else kw.get("area", "1"), line, "diode area")
+    area = rest[0] if rest else kw.get("area")
+    area = None if area is None else ctx.value(area, line, "diode area")
+    pj = ctx.value(kw["pj"], line, "diode PJ") if "pj" in kw else None
+    mult = ctx.value(kw["m"], line, "diode M") if "m" in kw else 1.0
     ic = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
     if flags:
         ctx.note(line, f"{pos[0]} OFF: its junction starts the operating point at 0 V")
         ctx.reader.off.add(name)
     temp = device_temperature(ctx, pos[0], kw, line)
-    part = cp.spice_diode(params, name=name, area=area, ic=ic, temperature=temp, tnom=ctx.tnom)
+    part = cp.spice_diode(
+        params, name=name, area=area, ic=ic, pj=pj, m=mult, temperature=temp, tnom=ctx.tnom
+    )
     return part, {"p": pos[1], "n": pos[2]}
 
 
