@@ -44,7 +44,7 @@ Z1 c b 0 mod1
 R1 a 0 1k
 C1 a 0 -1u
 .func f {x*2}
-.temp 85
+.temp 85 90
 D1 a 0 nomodel
 .tran 1u 1m
 .end
@@ -72,7 +72,7 @@ def test_every_problem_is_reported_at_once_with_line_text_and_fix():
     assert "line 6:" not in text
     assert "element 'R1' is defined twice (first line 3)" in text
     assert "Capacitor 'C1'" in text
-    assert "temperature 85.0 °C" in text and "set 27" in text
+    assert "'.temp' with 2 values" in text and "give one" in text
     assert "model 'nomodel' is not defined" in text
 
 

@@ -461,7 +461,11 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             "m1 3 2 0 0 nch\n.model nch NMOS (TOX=1e-8 NSUB=1e9)",
             r"line 5: .*NSUB=1e\+09.*intrinsic",
         ),
-        ("m1 3 2 0 0 nch\n.model nch NMOS (TNOM=50)", r"line 5: model 'nch' .*TNOM=50.*27"),
+        # (level 1 reads TNOM: tests/test_temperature.py; level 2 does not)
+        (
+            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=2 TNOM=50)",
+            r"line 5: model 'nch' .*TNOM=50.*27",
+        ),
         ("m1 3 2 0 0 nch\n.model nch NMOS (MJ=2.2 CBD=1p)", r"line 5: .*mj=2\.2.*\[0, 2\)"),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (FOO=1)",
