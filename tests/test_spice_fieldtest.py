@@ -144,3 +144,10 @@ def test_unsupported_models_are_refused_for_what_they_are_not_for_their_words():
     bsim += ".tran 1n 10n\n.end\n"
     with pytest.raises(spice.NetlistError, match=r"NMOS level 8 \(BSIM3v3\.3\.0\) is not supp"):
         spice.read(bsim)
+
+
+def test_a_bjt_of_another_level_is_refused_by_its_level_not_its_parameters():
+    # ngspice's examples/vbic/DFF_Y_ECL.sp was refused for VBIC's RCI, "not known"
+    deck = "t\nv1 c 0 5\nv2 b 0 0.7\nq1 c b 0 nv\n.model nv npn(level=4 rci=10 is=1e-16)\n"
+    with pytest.raises(spice.NetlistError, match=r"LEVEL=4 \(VBIC\); only level 1 is supp"):
+        spice.read(deck + ".tran 1n 10n\n.end\n")

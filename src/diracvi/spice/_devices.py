@@ -65,6 +65,10 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     table, alias = _BJT, _BJT_ALIAS
     fixed, inert = _BJT_FIXED, _BJT_INERT
     values, notes, level = dict(table) | BJT_TEMPERATURE, [], 1.0
+    if "level" in kw and value(kw["level"], f"{kind} LEVEL") != 1.0:
+        # another model (VBIC, HICUM, …): refused by its level at the element line, not
+        # by the first of its parameters that Gummel–Poon lacks
+        return DeviceModel(KINDS[kind], value(kw["level"], f"{kind} LEVEL"), values, number)
     for key, token in kw.items():
         key = BJT_TEMPERATURE_ALIASES.get(key, alias.get(key, key))
         x = value(token, f"{kind} {key.upper()}")
@@ -95,11 +99,17 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     return DeviceModel(KINDS[kind], level, values, number, notes)
 
 
+#: ngspice's BJT levels, for refusals that name the model a card asks for
+BJT_LEVELS = {4: "VBIC", 8: "HICUM level 2"}
+
+
 def _level(name, model: DeviceModel, fail):
     if model.level != 1:
+        known = BJT_LEVELS.get(int(model.level)) if model.level == int(model.level) else None
         raise fail(
-            f"element {name!r}: model ({model.line}) is LEVEL={model.level:g}; only "
-            "level 1 is supported (Shichman–Hodges MOSFET, Gummel–Poon BJT)"
+            f"element {name!r}: model ({model.line}) is LEVEL={model.level:g}"
+            + (f" ({known})" if known else "")
+            + "; only level 1 is supported (Gummel–Poon)"
         )
 
 
