@@ -16,11 +16,13 @@ parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos6
 from __future__ import annotations
 
 from .. import components as cp
-from ..components._mos1 import process_parameters
+from ..components._mos1 import NI, NI_NOM, process_parameters
 from ..errors import ModelError
 from ._cards import NodeIC, element_card
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
+from ._mos3 import law as law3
+from ._mos3 import read_mos3_model
 from ._mos6 import law, read_mos6_model
 from ._mos_card import PROCESS, level_card
 from ._vdmos import vdmos_line
@@ -54,10 +56,13 @@ def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
         return read_mos6_model(kind, kw, fail, notes)
     if level == 2.0:
         return read_mos2_model(kind, kw, fail, notes)
+    if level == 3.0:
+        return read_mos3_model(kind, kw, fail, notes)
     if level != 1.0:
         raise fail(
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
-            "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman) and 6 (Sakurai–Newton)"
+            "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman), 3 (semi-empirical) and 6 "
+            "(Sakurai–Newton)"
         )
     return CARD.read(kind, kw, fail, notes)
 
@@ -81,7 +86,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
         notes.append(f"{name} OFF ignored (it only seeds ngspice's DC solve)")
     sign = 1.0 if kind == "nmos" else -1.0
     try:
-        process = process_parameters(sign, v, f"model of {name!r}")
+        # mos3temp takes n_i at TNOM, levels 1 and 2 at 300 K
+        ni = NI_NOM if v.get("level") == 3.0 else NI
+        process = process_parameters(sign, v, f"model of {name!r}", ni)
     except ModelError as exc:
         raise fail(str(exc)) from None
 
@@ -108,6 +115,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
     elif v.get("level") == 2.0:
         del common["cox"]  # level 2 always has an oxide: C'ox from TOX (or 0.1 µm)
         part = cp.MOSFET2(kind, w=geo["w"], l=geo["l"], **law2(v, process), **common)
+    elif v.get("level") == 3.0:
+        del common["cox"]  # level 3 always has an oxide: C'ox from TOX (or 0.1 µm)
+        part = cp.MOSFET3(kind, w=geo["w"], l=geo["l"], **law3(v, process), **common)
     else:
         part = cp.MOSFET(
             kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
