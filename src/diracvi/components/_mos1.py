@@ -49,8 +49,10 @@ T_NOM = 300.15
 E_GAP = 1.16 - 7.02e-4 * T_NOM * T_NOM / (T_NOM + 1108.0)
 #: the intrinsic density at ``T_NOM`` as ``mos3temp`` takes it (levels 1 and 2 take
 #: :data:`NI`, the 300 K value): ``n_i(T) = NI (T/300)^1.5 exp(E_g(T)(1/300 − 1/T)/(2k/q))``
-NI_NOM = NI * (T_NOM / 300.0) ** 1.5 * math.exp(
-    0.5 * E_GAP * (1.0 / 300.0 - 1.0 / T_NOM) / (THERMAL_VOLTAGE / T_NOM)
+NI_NOM = (
+    NI
+    * (T_NOM / 300.0) ** 1.5
+    * math.exp(0.5 * E_GAP * (1.0 / 300.0 - 1.0 / T_NOM) / (THERMAL_VOLTAGE / T_NOM))
 )
 MAGIC_VDS = 0.025
 
