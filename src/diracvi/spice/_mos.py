@@ -1,5 +1,6 @@
 """NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges; level
-2, Grove–Frohman: :mod:`._mos2`; level 6, Sakurai–Newton: :mod:`._mos6`).
+2, Grove–Frohman: :mod:`._mos2`; level 3, semi-empirical: :mod:`._mos3`; level 6,
+Sakurai–Newton: :mod:`._mos6`).
 
 Parameter names, aliases, units and defaults are ngspice's ``mos1``: the process
 parameters (``TOX`` m, ``U0`` cm²/V·s, ``NSUB`` cm⁻³, ``NSS`` cm⁻², ``TPG``) derive KP,
@@ -7,10 +8,11 @@ PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's g
 capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
-``MJ``, ``MJSW``, ``FC``. Other levels (MOS3, BSIM …) are refused at the element line, by
+``MJ``, ``MJSW``, ``FC``. Other levels (MOS9, BSIM …) are refused at the element line, by
 name, naming the model's line; a ``VDMOS`` card makes the line ngspice's three-terminal
-VDMOS (:mod:`._vdmos`). Levels 2 and 6 share all of this but the drain current's
-parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos6`).
+VDMOS (:mod:`._vdmos`). Levels 2, 3 and 6 share all of this but the drain current's
+parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos3`,
+:mod:`._mos6`); level 3 derives PHI with ``mos3temp``'s intrinsic density at TNOM.
 """
 
 from __future__ import annotations
@@ -48,8 +50,9 @@ def level_name(level: float, version=None) -> str:
 def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
     :data:`CARD` (:mod:`._mos_card`), its optional and process ones only where given.
-    Raises ``fail(why)`` naming the level of a card that is neither level 1
-    nor level 2 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos6.read_mos6_model`)."""
+    Raises ``fail(why)`` naming the level of a card that is neither level 1 nor level 2,
+    3 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos3.read_mos3_model`,
+    :func:`~._mos6.read_mos6_model`)."""
     kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
     level = kw.get("level", 1.0)
     if level == 6.0:
@@ -127,7 +130,7 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes):
 
 
 def m_line(ctx, name, pos, kw, line):
-    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2 and 6)."""
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2, 3 and 6)."""
     found = ctx.find_model(pos[4:6])
     if found is not None and found[1] == "VDMOS":
         return vdmos_line(ctx, name, pos, kw, line)
@@ -158,5 +161,5 @@ def _more_nodes(ctx, pos, line):
     read_mos_model(kind, params, fail, [])  # refuses a level diracvi does not have
     raise line.fail(
         f"element {pos[0]!r} has {at - 1} nodes before its model {pos[at]!r}; a MOSFET of "
-        "levels 1, 2 and 6 has four (Mname d g s b model)"
+        "levels 1, 2, 3 and 6 has four (Mname d g s b model)"
     )
