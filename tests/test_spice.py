@@ -148,8 +148,7 @@ def test_a_subcircuits_floating_node_gets_its_gmin_too():
     as a top-level one does (a part's name holds no dot; the CircuitSim90 deck gm1 was
     refused over it)."""
     netlist = spice.read(
-        "sub\n.subckt cap a\nC1 a d 1u\nR1 d e 1k\n.ends\nV1 b 0 1\nX1 b cap\n"
-        ".tran 10u 1m\n.end\n"
+        "sub\n.subckt cap a\nC1 a d 1u\nR1 d e 1k\n.ends\nV1 b 0 1\nX1 b cap\n.tran 10u 1m\n.end\n"
     )
     assert any("node 'x1.d' has no DC path to ground" in n for n in netlist.notes)
     assert sum(p.name.startswith("gmin:x1") for p in netlist.circuit.parts) == 2
