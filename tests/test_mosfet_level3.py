@@ -210,6 +210,8 @@ def test_level3_cards_note_what_ngspice_ignores_and_refuse_what_it_lacks():
             spice.read(base.format("", bad))
     with pytest.raises(spice.NetlistError, match=r"effective width W − 2·WD \+ XW = -1e-06"):
         spice.read(base.format("W=2u", "WD=1.5u"))
+    with pytest.raises(spice.NetlistError, match=r"effective length L − 2·LD \+ XL = -1e-06"):
+        spice.read(base.format("L=2u", "LD=1u XL=-1u"))
     with pytest.raises(spice.NetlistError, match=r"level 9 \(MOS9\) is not supported"):
         spice.read(base.format("", "").replace("LEVEL=3", "LEVEL=9"))
 

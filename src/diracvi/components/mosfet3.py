@@ -77,6 +77,12 @@ def MOSFET3(
             f"(w={w:g}, wd={wd:g}, xw={xw:g})."
         )
     length = positive(where, "l", l) + xl  # device() takes 2·LD off it: L_eff
+    ld = finite(where, "ld", shared.get("ld", 0.0))
+    if length - 2.0 * ld <= 0.0:
+        raise ModelError(
+            f"{where}: the effective length L − 2·LD + XL = {length - 2.0 * ld:g} m must be "
+            f"> 0 (l={l:g}, ld={ld:g}, xl={xl:g})."
+        )
     dev = device("MOSFET3", kind, width, length, name, shared, SHARED2)
     traced = {
         k: coefficient(where, k, x)
