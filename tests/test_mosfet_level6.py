@@ -180,8 +180,8 @@ def test_level6_cards_note_what_ngspice_ignores_and_refuse_what_it_lacks():
         spice.read(base.format("KP=2e-5"))
     with pytest.raises(spice.NetlistError, match=r"PHI=-0.5 must be > 0"):
         spice.read(base.format("PHI=-0.5"))
-    with pytest.raises(spice.NetlistError, match=r"level 3 \(MOS3, semi-empirical\) is not"):
-        spice.read(base.format("").replace("LEVEL=6", "LEVEL=3"))
+    with pytest.raises(spice.NetlistError, match=r"level 5 \(BSIM2\) is not"):
+        spice.read(base.format("").replace("LEVEL=6", "LEVEL=5"))
 
 
 MEYER = """meyer

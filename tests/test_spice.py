@@ -143,6 +143,17 @@ def test_a_node_with_one_connection_carries_no_current_as_in_spice():
     np.testing.assert_allclose(result["v(d)"], 0.0, atol=1e-6)
 
 
+def test_a_subcircuits_floating_node_gets_its_gmin_too():
+    """A node inside a subcircuit (``x1.d``) with only a capacitor to the rest gets GMIN
+    as a top-level one does (a part's name holds no dot; the CircuitSim90 deck gm1 was
+    refused over it)."""
+    netlist = spice.read(
+        "sub\n.subckt cap a\nC1 a d 1u\nR1 d e 1k\n.ends\nV1 b 0 1\nX1 b cap\n.tran 10u 1m\n.end\n"
+    )
+    assert any("node 'x1.d' has no DC path to ground" in n for n in netlist.notes)
+    assert sum(p.name.startswith("gmin:x1") for p in netlist.circuit.parts) == 2
+
+
 _TOKENS = st.sampled_from(
     ["R1", "C2", "L3", "V4", "I5", "D6", "K7", "X8", "Q9", "E1", "a", "b", "0", "gnd",
      "1k", "2u", "-3", "{1+}", "{x}", "'2*3'", "(", ")", "=", "IC=1", "DC", "SIN", "PULSE",

@@ -448,10 +448,10 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
     ("lines", "match"),
     [
         (
-            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=3 VTO=1)",
-            r"line 5: model 'nch' \(line 6\): NMOS level 3 \(MOS3, semi-empirical\) is not "
-            r"supported; diracvi has levels 1 \(Shichman–Hodges\), 2 \(Grove–Frohman\) and 6 "
-            r"\(Sakurai–Newton\)",
+            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=9 VTO=1)",
+            r"line 5: model 'nch' \(line 6\): NMOS level 9 \(MOS9\) is not supported; diracvi "
+            r"has levels 1 \(Shichman–Hodges\), 2 \(Grove–Frohman\), 3 \(semi-empirical\) and "
+            r"6 \(Sakurai–Newton\)",
         ),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=49 VERSION=3.3)",

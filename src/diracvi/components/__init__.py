@@ -58,6 +58,7 @@ _PUBLIC = {
     "TorsionSpring": "mechanical",
     "MOSFET": "mosfet",
     "MOSFET2": "mosfet2",
+    "MOSFET3": "mosfet3",
     "MOSFET6": "mosfet6",
     "Multibody": "multibody",
     "MultibodyModel": "multibody",
@@ -115,6 +116,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     )
     from .mosfet import MOSFET
     from .mosfet2 import MOSFET2
+    from .mosfet3 import MOSFET3
     from .mosfet6 import MOSFET6
     from .multibody import Multibody, MultibodyModel
     from .network import Assembly, Circuit
@@ -136,6 +138,7 @@ __all__ = [
     "JFET",
     "MOSFET",
     "MOSFET2",
+    "MOSFET3",
     "MOSFET6",
     "PWL",
     "SFFM",

@@ -49,15 +49,26 @@ CHARGE = 1.6021766208e-19
 NI = 1.45e16  # intrinsic carrier density of silicon, m⁻³
 T_NOM = 300.15
 E_GAP = 1.16 - 7.02e-4 * T_NOM * T_NOM / (T_NOM + 1108.0)
+#: the intrinsic density at ``T_NOM`` as ``mos3temp`` takes it (levels 1 and 2 take
+#: :data:`NI`, the 300 K value): ``n_i(T) = NI (T/300)^1.5 exp(E_g(T)(1/300 − 1/T)/(2k/q))``
+NI_NOM = (
+    NI
+    * (T_NOM / 300.0) ** 1.5
+    * math.exp(0.5 * E_GAP * (1.0 / 300.0 - 1.0 / T_NOM) / (THERMAL_VOLTAGE / T_NOM))
+)
 MAGIC_VDS = 0.025
 
 
-def process_parameters(sign: float, given: dict, where: str, tnom: float = T_NOM) -> dict:
+def process_parameters(
+    sign: float, given: dict, where: str, tnom: float = T_NOM, ni: float = NI
+) -> dict:
     """KP, PHI, GAMMA, VTO derived from ``TOX``, ``U0``, ``NSUB``, ``NSS``, ``TPG``
     (module docstring) where ``given`` lacks them; returns ``{"kp", "phi", "gamma",
     "vto", "cox"}`` with ``cox = C'_ox`` in F/m² (0 without ``TOX``). ``given`` maps
     ngspice's lower-case names to the card's values; ``V_T`` and ``E_g`` are taken at the
-    model's ``tnom`` (kelvin), as ``mos1temp.c`` does."""
+    model's ``tnom`` (kelvin), as ``mos1temp.c`` does; ``ni`` is the intrinsic density
+    PHI's derivation and the ``NSUB`` check read (:data:`NI`, or level 3's
+    :data:`NI_NOM`)."""
     vtnom = THERMAL_VOLTAGE * tnom / T_NOM
     gap = 1.16 - 7.02e-4 * tnom * tnom / (tnom + 1108.0)
     out = {k: given.get(k) for k in ("kp", "phi", "gamma", "vto")}
@@ -71,13 +82,13 @@ def process_parameters(sign: float, given: dict, where: str, tnom: float = T_NOM
             out["kp"] = given.get("u0", 600.0) * cox * 1e-4  # cm²/V·s → m²/V·s
         nsub = given.get("nsub")
         if nsub is not None:
-            if nsub * 1e6 <= NI:
+            if nsub * 1e6 <= ni:
                 raise ModelError(
                     f"{where}: NSUB={nsub:g} cm⁻³ is not above the intrinsic density "
-                    f"{NI * 1e-6:g} cm⁻³ (ngspice: 'Nsub < Ni')."
+                    f"{ni * 1e-6:g} cm⁻³ (ngspice: 'Nsub < Ni')."
                 )
             if out["phi"] is None:
-                out["phi"] = max(0.1, 2.0 * vtnom * math.log(nsub * 1e6 / NI))
+                out["phi"] = max(0.1, 2.0 * vtnom * math.log(nsub * 1e6 / ni))
             phi = out["phi"]
             fermis = sign * 0.5 * phi
             tpg = given.get("tpg", 1.0)

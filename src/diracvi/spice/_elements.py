@@ -190,7 +190,7 @@ UNSUPPORTED = {
 }
 
 SUPPORTED = (
-    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2 and 6), A (XSPICE's "
+    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2, 3 and 6), A (XSPICE's "
     "lcouple and core) and X (subcircuits)"
 )
 

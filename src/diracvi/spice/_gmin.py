@@ -64,7 +64,9 @@ def islands(circuit) -> list[str]:
 def add_shunts(circuit, gmin: float, note) -> None:
     """Join each node of :func:`islands` to ground by ``1/gmin`` Ω (``note(text)``)."""
     for node in islands(circuit):
-        name = f"gmin:{node}"
+        # a subcircuit's node is 'x8.2'; a part's name may not hold a dot (it separates
+        # subsystem and coordinate names): ':' as the subcircuit elements' names have it
+        name = f"gmin:{node}".replace(".", ":")
         circuit.add(cp.Resistor(1.0 / gmin, name=name), p=node, n="0")
         circuit.origin[name] = f"GMIN at node {node!r}"
         note(

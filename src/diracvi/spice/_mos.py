@@ -1,5 +1,6 @@
 """NMOS/PMOS ``.model`` cards and the ``M`` line (ngspice's level 1, Shichman–Hodges; level
-2, Grove–Frohman: :mod:`._mos2`; level 6, Sakurai–Newton: :mod:`._mos6`).
+2, Grove–Frohman: :mod:`._mos2`; level 3, semi-empirical: :mod:`._mos3`; level 6,
+Sakurai–Newton: :mod:`._mos6`).
 
 Parameter names, aliases, units and defaults are ngspice's ``mos1``: the process
 parameters (``TOX`` m, ``U0`` cm²/V·s, ``NSUB`` cm⁻³, ``NSS`` cm⁻², ``TPG``) derive KP,
@@ -7,22 +8,25 @@ PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's g
 capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
-``MJ``, ``MJSW``, ``FC``. Other levels (MOS3, BSIM …) are refused at the element line, by
+``MJ``, ``MJSW``, ``FC``. Other levels (MOS9, BSIM …) are refused at the element line, by
 name, naming the model's line; a ``VDMOS`` card makes the line ngspice's three-terminal
-VDMOS (:mod:`._vdmos`). Levels 2 and 6 share all of this but the drain current's
-parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos6`).
+VDMOS (:mod:`._vdmos`). Levels 2, 3 and 6 share all of this but the drain current's
+parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos3`,
+:mod:`._mos6`); level 3 derives PHI with ``mos3temp``'s intrinsic density at TNOM.
 """
 
 from __future__ import annotations
 
 from .. import components as cp
-from ..components._mos1 import process_parameters
+from ..components._mos1 import NI, NI_NOM, process_parameters
 from ..components._temperature import kelvin
 from ..components._temperature import mos1 as mos1_at
 from ..errors import ModelError
 from ._cards import NodeIC, device_temperature, element_card, nominal_only
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
+from ._mos3 import law as law3
+from ._mos3 import read_mos3_model
 from ._mos6 import law, read_mos6_model
 from ._mos_card import PROCESS, level_card
 from ._vdmos import vdmos_line
@@ -48,18 +52,22 @@ def level_name(level: float, version=None) -> str:
 def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of an NMOS/PMOS card, checked: ``{name: value}`` with the defaults of
     :data:`CARD` (:mod:`._mos_card`), its optional and process ones only where given.
-    Raises ``fail(why)`` naming the level of a card that is neither level 1
-    nor level 2 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos6.read_mos6_model`)."""
+    Raises ``fail(why)`` naming the level of a card that is neither level 1 nor level 2,
+    3 or 6 (:func:`~._mos2.read_mos2_model`, :func:`~._mos3.read_mos3_model`,
+    :func:`~._mos6.read_mos6_model`)."""
     kw = {_ALIAS.get(k, k): x for k, x in kw.items()}
     level = kw.get("level", 1.0)
     if level == 6.0:
         return read_mos6_model(kind, kw, fail, notes)
     if level == 2.0:
         return read_mos2_model(kind, kw, fail, notes)
+    if level == 3.0:
+        return read_mos3_model(kind, kw, fail, notes)
     if level != 1.0:
         raise fail(
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
-            "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman) and 6 (Sakurai–Newton)"
+            "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman), 3 (semi-empirical) and 6 "
+            "(Sakurai–Newton)"
         )
     return CARD.read(kind, kw, fail, notes)
 
@@ -86,7 +94,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
     sign = 1.0 if kind == "nmos" else -1.0
     try:
         nominal = kelvin(tnom if v.get("tnom") is None else v["tnom"])
-        process = process_parameters(sign, v, f"model of {name!r}", nominal)
+        # mos3temp takes n_i at TNOM, levels 1 and 2 at 300 K
+        ni = NI_NOM if v.get("level") == 3.0 else NI
+        process = process_parameters(sign, v, f"model of {name!r}", nominal, ni)
     except ModelError as exc:
         raise fail(str(exc)) from None
     emission = 1.0
@@ -118,6 +128,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
     elif v.get("level") == 2.0:
         del common["cox"]  # level 2 always has an oxide: C'ox from TOX (or 0.1 µm)
         part = cp.MOSFET2(kind, w=geo["w"], l=geo["l"], **law2(v, process), **common)
+    elif v.get("level") == 3.0:
+        del common["cox"]  # level 3 always has an oxide: C'ox from TOX (or 0.1 µm)
+        part = cp.MOSFET3(kind, w=geo["w"], l=geo["l"], **law3(v, process), **common)
     else:
         part = cp.MOSFET(
             kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
@@ -127,7 +140,7 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
 
 
 def m_line(ctx, name, pos, kw, line):
-    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2 and 6)."""
+    """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2, 3 and 6)."""
     found = ctx.find_model(pos[4:6])
     if found is not None and found[1] == "VDMOS":
         return vdmos_line(ctx, name, pos, kw, line)
@@ -139,7 +152,7 @@ def m_line(ctx, name, pos, kw, line):
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
     level = params.get("level", 1.0)
-    if level != 1.0:  # levels 2 and 6 have no temperature update yet
+    if level != 1.0:  # levels 2, 3 and 6 have no temperature update yet
         nominal_only(ctx, pos[0], kw, line, f"the MOSFET (level {level:g})")
     temp = device_temperature(ctx, pos[0], kw, line)
     kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
@@ -165,5 +178,5 @@ def _more_nodes(ctx, pos, line):
     read_mos_model(kind, params, fail, [])  # refuses a level diracvi does not have
     raise line.fail(
         f"element {pos[0]!r} has {at - 1} nodes before its model {pos[at]!r}; a MOSFET of "
-        "levels 1, 2 and 6 has four (Mname d g s b model)"
+        "levels 1, 2, 3 and 6 has four (Mname d g s b model)"
     )
