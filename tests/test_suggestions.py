@@ -350,15 +350,28 @@ C1 out 0 1
 """
 
 
+JFET_RC = """RC with a JFET across it
+V1 in 0 DC 1
+R1 in out 1k
+C1 out 0 1u
+J1 out in 0 jm
+.model jm NJF(VTO=-2 BETA=1e-4)
+.tran 0.1m 1m
+.end
+"""
+
+
 @pytest.mark.parametrize("line", [".temp 50", ".options temp=50"])
 def test_temperature_error_suggests_a_temperature_that_runs(line):
+    # a device with no temperature update yet (the JFET; tests/test_temperature.py has
+    # the ones that have one)
     from diracvi import spice
 
     with pytest.raises(ModelError, match="27 °C") as err:
-        spice.run(RC.replace(".end", f"{line}\n.end"), dt=0.1)
-    value = suggestion(str(err.value), r"remove it or set (\d+)")
-    fixed = spice.run(RC.replace(".end", f"{line.replace('50', value)}\n.end"), dt=0.1)
-    removed = spice.run(RC, dt=0.1)
+        spice.run(JFET_RC.replace(".end", f"{line}\n.end"), dt=1e-4)
+    value = suggestion(str(err.value), r"or set them to (\d+) °C")
+    fixed = spice.run(JFET_RC.replace(".end", f"{line.replace('50', value)}\n.end"), dt=1e-4)
+    removed = spice.run(JFET_RC, dt=1e-4)
     assert np.array_equal(fixed["v(out)"], removed["v(out)"])
 
 
