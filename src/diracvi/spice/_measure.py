@@ -193,12 +193,11 @@ def read_measure(reader, line) -> None:
         )
 
 
-def _words(text: str) -> list[str]:
-    """The words of a measure line: blanks around ``=`` dropped, parentheses and quotes
-    kept whole (``par('v(a) * v(b)')`` is one word)."""
-    text = re.sub(r"\s*=\s*", "=", text.strip())
-    words, depth, quote, word = [], 0, None, ""
-    for ch in text:
+def _top_level(text: str):
+    """``(index, character)`` of ``text``'s characters outside parentheses, braces and
+    quotes."""
+    depth, quote = 0, None
+    for k, ch in enumerate(text):
         if quote:
             quote = None if ch == quote else quote
         elif ch in "'\"":
@@ -207,15 +206,17 @@ def _words(text: str) -> list[str]:
             depth += 1
         elif ch in ")}":
             depth -= 1
-        elif ch.isspace() and depth == 0:
-            if word:
-                words.append(word)
-            word = ""
-            continue
-        word += ch
-    if word:
-        words.append(word)
-    return words
+        elif depth == 0:
+            yield k, ch
+
+
+def _words(text: str) -> list[str]:
+    """The words of a measure line: blanks around ``=`` dropped, parentheses and quotes
+    kept whole (``par('v(a) * v(b)')`` is one word)."""
+    text = re.sub(r"\s*=\s*", "=", text.strip())
+    cuts = [k for k, ch in _top_level(text) if ch.isspace()]
+    bounds = zip([-1, *cuts], [*cuts, len(text)], strict=True)
+    return [text[a + 1 : b] for a, b in bounds if b > a + 1]
 
 
 def _unquote(text: str) -> str:
@@ -294,17 +295,8 @@ def _crossing(words, value_of, line, name, role, condition=False) -> Crossing:
 
 def _split_condition(word: str):
     """``lhs=rhs`` at the ``=`` outside parentheses and quotes."""
-    depth, quote = 0, None
-    for k, ch in enumerate(word):
-        if quote:
-            quote = None if ch == quote else quote
-        elif ch in "'\"":
-            quote = ch
-        elif ch in "({":
-            depth += 1
-        elif ch in ")}":
-            depth -= 1
-        elif ch == "=" and depth == 0:
+    for k, ch in _top_level(word):
+        if ch == "=":
             return _variable(word[:k]), "=", word[k + 1 :]
     return word, "", ""
 
