@@ -105,6 +105,16 @@ DIODE_IGNORED_BY_NGSPICE39 = ("tbv1", "tbv2")
 GRADING_LIMIT = 0.9
 
 
+def _default_equations(p: dict, where: str) -> None:
+    """Refuse ``TLEV``/``TLEVC`` other than ngspice's default 0 (the only equations here)."""
+    for key in ("tlev", "tlevc"):
+        if not traced(p[key]) and p[key] != 0:
+            raise ModelError(
+                f"{where}: {key.upper()}={p[key]:g} is not supported; only ngspice's default "
+                f"{key.upper()}=0 (drop it)"
+            )
+
+
 def diode(p: dict, t, tnom, *, name: str) -> dict:
     r"""ngspice 39's diode temperature update (``diotemp.c``, ``TLEV = TLEVC = 0``) of
     the model values ``p`` (lower-case names, defaults filled) at ``t`` for a model
@@ -119,12 +129,7 @@ def diode(p: dict, t, tnom, *, name: str) -> dict:
     and the junction's thermal voltage becomes ``V_T(T)`` (returned as ``"vt"``); the
     breakdown knee ``BV'`` is then solved at ``V_T(T)`` too. Returns the updated copy.
     """
-    for key in ("tlev", "tlevc"):
-        if not traced(p[key]) and p[key] != 0:
-            raise ModelError(
-                f"diode {name!r}: {key.upper()}={p[key]:g} is not supported; only ngspice's "
-                f"default {key.upper()}=0 (drop it)"
-            )
+    _default_equations(p, f"diode {name!r}")
     out = dict(p)
     m = p["m"]
     if not traced(m) and m > GRADING_LIMIT:  # ngspice 39 limits M (with a warning)
@@ -184,15 +189,11 @@ def bjt(p: dict, t, tnom, *, name: str) -> dict:
                   the adjusted gradings),
 
     then the emission coefficients times ``V_T(T)/V_T(27 °C)`` (:data:`BJT_EMISSIONS`).
-    A base resistance whose RB and RBM move apart (TRB ≠ TRM) becomes bias-dependent,
-    which diracvi does not model: refused. Returns the updated copy.
+    RB and RBM each by their own coefficients (TRB1/TRB2, TRM1/TRM2; RBM not given is RB
+    at TNOM); ISS and IRB, which ngspice also scales, refused away from TNOM. Returns the
+    updated copy.
     """
-    for key in ("tlev", "tlevc"):
-        if not traced(p[key]) and p[key] != 0:
-            raise ModelError(
-                f"BJT {name!r}: {key.upper()}={p[key]:g} is not supported; only ngspice's "
-                f"default {key.upper()}=0 (drop it)"
-            )
+    _default_equations(p, f"BJT {name!r}")
     out = dict(p)
     if _nominal(t, tnom) and t == REFERENCE:
         return out

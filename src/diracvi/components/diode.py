@@ -61,7 +61,7 @@ from ..errors import ModelError
 from ._diode_static import diffusion_coenergy, static_current
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, exp_capped, exp_capped_integral
 from ._part import Part, array_module, finite, positive, traced
-from ._temperature import DIODE, DIODE_ALIASES, kelvin
+from ._temperature import DIODE, DIODE_ALIASES, KELVIN, kelvin
 from ._temperature import diode as diode_at
 
 #: ngspice's diode model parameters that diracvi accepts (``.model NAME D(...)``):
@@ -442,13 +442,12 @@ def spice_diode(
         if scaled:
             raise ModelError(
                 f"diode {name!r}: {', '.join(scaled)} at {temperature:g} °C (TNOM "
-                f"{nominal - 273.15:g} °C): their temperature dependence is not implemented; "
+                f"{nominal - KELVIN:g} °C): their temperature dependence is not implemented; "
                 "run at TNOM, or drop them"
             )
+    # (the update also limits the grading coefficient to 0.9, as ngspice 39 does)
     p = diode_at(p, kelvin(temperature), nominal, name=name)
     mult = positive(f"diode {name!r}", "m", m)
-    # ngspice limits the grading coefficient to 0.9 (diotemp.c: DIOgradingCoeffMax, warned)
-    grading = p["m"] if traced(p["m"]) or float(p["m"]) <= 0.9 else 0.9
     area = p["area"] if area is None else area
     pj = p["pj"] if pj is None else pj
     return Diode(
@@ -459,7 +458,7 @@ def spice_diode(
         series_resistance=p["rs"],
         junction_capacitance=p["cjo"],
         junction_potential=p["vj"],
-        grading=grading,
+        grading=p["m"],
         depletion_coefficient=p["fc"],
         transit_time=p["tt"],
         breakdown_voltage=p["bv"],

@@ -46,11 +46,9 @@ def _linear_form(name, pos, kw, line, form, count):
             if letter in "EG"
             else "or a B source 'Bname n+ n- I=expr' / 'V=expr' with i(Vname) in expr"
         )
-        forms = "VALUE= and TABLE forms"
-        verb = "are"
         raise line.fail(
-            f"element {name!r}: the {forms} of {letter} sources {verb} not supported; write the "
-            f"linear form '{form}' {alt}"
+            f"element {name!r}: the VALUE= and TABLE forms of {letter} sources are not "
+            f"supported; write the linear form '{form}' {alt}"
         )
     if kw or len(pos) != count:
         extra = f" and {sorted(kw)}" if kw else ""

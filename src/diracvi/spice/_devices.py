@@ -64,11 +64,12 @@ def read_model(kind: str, kw: dict, value, fail, number) -> DeviceModel:
     ``fail(why)`` builds the line's error."""
     table, alias = _BJT, _BJT_ALIAS
     fixed, inert = _BJT_FIXED, _BJT_INERT
-    values, notes, level = dict(table) | BJT_TEMPERATURE, [], 1.0
-    if "level" in kw and value(kw["level"], f"{kind} LEVEL") != 1.0:
+    values, notes = dict(table) | BJT_TEMPERATURE, []
+    level = value(kw["level"], f"{kind} LEVEL") if "level" in kw else 1.0
+    if level != 1.0:
         # another model (VBIC, HICUM, …): refused by its level at the element line, not
         # by the first of its parameters that Gummel–Poon lacks
-        return DeviceModel(KINDS[kind], value(kw["level"], f"{kind} LEVEL"), values, number)
+        return DeviceModel(KINDS[kind], level, values, number)
     for key, token in kw.items():
         key = BJT_TEMPERATURE_ALIASES.get(key, alias.get(key, key))
         x = value(token, f"{kind} {key.upper()}")

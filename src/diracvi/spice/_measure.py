@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -149,9 +149,9 @@ def read_measure(reader, line) -> None:
         targ = _crossing(rest[k + 1 :], value_of, line, name, "TARG")
         # ngspice: a FROM given on one side only holds for both
         if trig.start and not targ.start:
-            targ = _replace(targ, start=trig.start)
+            targ = replace(targ, start=trig.start)
         elif targ.start and not trig.start:
-            trig = _replace(trig, start=targ.start)
+            trig = replace(trig, start=targ.start)
         reader.measures.append(Measure(name, "trig", line.where, trig=trig, targ=targ, source=line))
     elif function == "when":
         when = _crossing(rest, value_of, line, name, "WHEN", condition=True)
@@ -301,12 +301,6 @@ def _split_condition(word: str):
     return word, "", ""
 
 
-def _replace(crossing: Crossing, **changes) -> Crossing:
-    from dataclasses import replace
-
-    return replace(crossing, **changes)
-
-
 def check_measures(measures, params: dict, funcs: dict, vectors, problems) -> tuple:
     """``measures`` whose expressions read only the netlist's parameters and vectors
     (``vectors``: ``(ngspice name, key)`` of what a run can save, ``v(n)`` and
@@ -354,8 +348,7 @@ class Traces:
             self._sample = result.at
         else:  # a fixed step (its nodes), or a large run's TSTEP grid
             self.t = np.asarray(result.time, dtype=float)
-            waves = {k.lower(): np.asarray(result[k], dtype=float) for k in result}
-            waves.update({k.lower(): np.asarray(v, float) for k, v in result.waveforms.items()})
+            waves = {k.lower(): np.asarray(v, float) for k, v in result.waveforms.items()}
             self._sample = lambda times: {k: np.interp(times, self.t, v) for k, v in waves.items()}
         self._dense = {k.lower(): np.asarray(v, float) for k, v in self._sample(self.t).items()}
         self.params = dict(result.netlist.params)

@@ -265,10 +265,11 @@ class _Reader:
             potentials=dict(self.potentials),
         )
         netlist.vectors = select(netlist, self.saves, self.problems)
-        netlist.measures = check_measures(
-            self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),
-            self.problems,
-        )  # fmt: skip
+        if self.measures:  # their names against every vector a run can give
+            netlist.measures = check_measures(
+                self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),
+                self.problems,
+            )  # fmt: skip
         self.problems.check()
         return netlist
 

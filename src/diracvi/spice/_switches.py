@@ -69,13 +69,8 @@ def _card(ctx, token, line, kind):
         raise line.fail(
             f"model {token!r} ({where}) is a {found} model; {what} needs a {kind} model"
         )
-    known = (threshold, hysteresis, "ron", "roff")
-    unknown = sorted(k for k in params if k not in known)
-    if unknown:
-        raise line.fail(
-            f"{kind} model {token!r} ({where}) sets {unknown}; diracvi's switch reads "
-            f"{', '.join(k.upper() for k in known)} (remove the others)"
-        )
+    _only(params, (threshold, hysteresis, "ron", "roff"), line, f"{kind} model {token!r} "
+          f"({where})", "diracvi's switch")  # fmt: skip
     return {
         "r_on": params.get("ron", 1.0),
         "r_off": params.get("roff", 1e12),
@@ -84,14 +79,18 @@ def _card(ctx, token, line, kind):
     }
 
 
-def _smooth_card(token, params, where, line, smooth, on, off):
-    known = (on, off, "ron", "roff")
+def _only(params, known, line, card, reader):
+    """Refuse a card that sets a parameter outside ``known``, naming them and the fix."""
     unknown = sorted(k for k in params if k not in known)
     if unknown:
         raise line.fail(
-            f"{smooth} model {token!r} ({where}) sets {unknown}; diracvi reads "
+            f"{card} sets {unknown}; {reader} reads "
             f"{', '.join(k.upper() for k in known)} (remove the others)"
         )
+
+
+def _smooth_card(token, params, where, line, smooth, on, off):
+    _only(params, (on, off, "ron", "roff"), line, f"{smooth} model {token!r} ({where})", "diracvi")
     r_on, r_off = max(params.get("ron", 1.0), 1e-3), params.get("roff", 1e6)
     x_on, x_off = params.get(on, 1.0), params.get(off, 0.0)
     if smooth == "VSWITCH":
