@@ -412,6 +412,39 @@ def test_save_lines_choose_the_vectors():
     assert [w for w, _, _ in info.value.problems] == ["line 12", "line 12"]
 
 
+_MOS_DECK = """A MOSFET whose internal quantity is asked for
+Vd d 0 5
+Vg g 0 2
+M1 d g 0 0 nm
+.model nm nmos
+{save}
+.tran 1n 10n
+.end
+"""
+
+
+def test_a_device_quantity_is_noted_not_a_refusal():
+    # ngspice saves @m1[id]; diracvi has no such waveform, says so and runs the deck on
+    # (it is a request for output, not part of the circuit)
+    net = spice.read(_MOS_DECK.format(save=".save v(d) @m1[id]"))
+    assert [n for n, _ in net.vectors] == ["v(d)"]
+    assert any("'.save @m1[id]' not saved" in n and "line 6" in n for n in net.notes)
+    alone = spice.read(_MOS_DECK.format(save=".save @m1[id]"))
+    default = spice.read(_MOS_DECK.format(save="")).vectors
+    assert [n for n, _ in alone.vectors] == [n for n, _ in default]
+    assert any("the default vectors are" in n for n in alone.notes)
+    with pytest.raises(spice.NetlistError, match="@m7\\[id\\]"):  # no element m7: a typo
+        spice.read(_MOS_DECK.format(save=".save @m7[id]"))
+
+
+def test_a_malformed_output_line_is_noted_as_ngspice_goes_on():
+    # ngspice warns on a broken .probe/.plot and runs; it is not read word by word
+    net = spice.read(_MOS_DECK.format(save=".probe i(m1:z) hhhh) i(()"))
+    assert any("line 6: .probe ignored" in n for n in net.notes)
+    with pytest.raises(spice.NetlistError, match="unbalanced"):  # a circuit line is read
+        spice.read(_MOS_DECK.format(save="R1 d (0 1k"))
+
+
 def test_result_is_a_short_read_only_mapping():
     result = spice.run(DECK.replace(".tran", ".save v(2) @r9[i]\n.tran"))
     assert list(result) == list(result.keys()) == ["v(2)", "i(@r9[i])"]

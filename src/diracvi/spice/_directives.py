@@ -196,6 +196,9 @@ def _noted(what):
     def handler(reader, line, pos, kw):
         reader.note(line, f"{card(line)} {what}")
 
+    # a line that is only noted is not read word by word: ngspice goes on past a
+    # malformed .probe or .plot (it warns), and so does diracvi
+    handler.reads_words = False
     return handler
 
 

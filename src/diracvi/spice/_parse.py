@@ -205,7 +205,7 @@ class _Reader:
                 ".model, .subckt, .include, .lib, .options, .save, .global, .temp and "
                 "tolerates the output and analysis directives)"
             )
-        pos, kw = split(line)
+        pos, kw = split(line) if getattr(handler, "reads_words", True) else ([], {})
         handler(self, line, pos, kw)
 
     def read(self, text: str, base: Path | None) -> Netlist:
@@ -264,7 +264,7 @@ class _Reader:
             off=frozenset(self.off),
             potentials=dict(self.potentials),
         )
-        netlist.vectors = select(netlist, self.saves, self.problems)
+        netlist.vectors = select(netlist, self.saves, self.problems, self.note)
         if self.measures:  # their names against every vector a run can give
             netlist.measures = check_measures(
                 self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),

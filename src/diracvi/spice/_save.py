@@ -18,12 +18,18 @@ from ..components._part import fields
 BRANCH_ROLES = ("voltage", "inductor")
 
 
-def select(netlist, saves, problems) -> tuple:
+def select(netlist, saves, problems, note=None) -> tuple:
     """``((ngspice name, waveform key), …)`` for ``netlist``; ``saves`` are the
-    ``(token, line)`` of its ``.save`` lines; unknown names are added to ``problems``."""
+    ``(token, line)`` of its ``.save`` lines; unknown names are added to ``problems``.
+
+    A device's internal quantity (``@m1[id]``, ``@q1[ic]``, ``@d1[cd]``) is not a waveform
+    of diracvi's: it is noted through ``note(line, text)`` and left out, and the run goes
+    on, as ngspice goes on past a vector it cannot save; if nothing else was asked for,
+    the default set is saved."""
     assembly = netlist.assembly
     display = netlist.display
     table = [fields(p) for p, _ in netlist.circuit._parts]  # (read once: see fields)
+    elements = {display.get(f["name"], f["name"]).lower() for f in table}
     roles = {f["name"]: f["role"] for f in table}
     # an XSPICE winding's current is no vector of ngspice's (its ports are the A device's)
     windings = {k for f in table if f["role"] == "wound core" for k, _ in f["currents"]}
@@ -41,7 +47,7 @@ def select(netlist, saves, problems) -> tuple:
     default = nodes + branch
     if not saves:
         return tuple(default)
-    chosen = []
+    chosen, skipped = [], []
     for token, line in saves:
         t = token.lower().replace(" ", "")
         if t == "all":
@@ -55,15 +61,23 @@ def select(netlist, saves, problems) -> tuple:
             continue
         kind, inner, device, what, bare = m.groups()
         if device is not None:
-            if what != "i" or device not in currents:
+            if what == "i" and device in currents:
+                chosen.append((f"i(@{device}[i])", currents[device]))
+            elif device in elements and note is not None:
+                skipped.append(token)
+                note(
+                    line,
+                    f"'.save {token}' not saved: diracvi saves @name[i] of elements that "
+                    f"carry a current of their own ({', '.join(sorted(currents)[:6])}"
+                    f"{', …' if len(currents) > 6 else ''}), node voltages and i(Vname)",
+                )
+            else:
                 problems.add(
                     line.fail(
                         f"'.save {token}': diracvi saves a device's current only "
                         f"(@name[i]) of an element of the circuit; elements: {sorted(currents)}"
                     )
                 )
-                continue
-            chosen.append((f"i(@{device}[i])", currents[device]))
             continue
         if kind == "i":
             if inner not in currents:
@@ -86,4 +100,7 @@ def select(netlist, saves, problems) -> tuple:
             problems.add(line.fail(f"'.save {token}': no node {node!r} (nodes: {list(every)})"))
         else:
             chosen.append((f"v({node})", f"v({node})"))
+    if skipped and not chosen:
+        note(saves[0][1], "nothing else is saved by .save, so the default vectors are")
+        chosen = default
     return tuple(dict.fromkeys(chosen))
