@@ -67,6 +67,8 @@ TABLE = [
     ("floor(-1.5)+10*ceil(1.2)", 18.0),
     ("2*pi", 2 * math.pi),
     ("isat*2", 2e-14),
+    ("ternary_fcn(1 > 2, 3, 4)+10*ternary_fcn(-1, 3, 4)", 34.0),  # numparam's c ? a : b
+    ("'isat'*2e14 + 'isat*1e14'", 3.0),  # a quoted expression is its value
 ]
 #: functions with no ngspice-39 counterpart of the same value (docs/circuits.md)
 NOT_NGSPICE = [("limit(5,0,2)+limit(-1,0,2)*10+limit(1.5,2,0)*100", 152.0)]
@@ -106,6 +108,7 @@ def test_expression_of_nodes_currents_and_time_is_a_jax_function():
         ("1 2", re.escape("unexpected token (an operator missing before it?) at '2' (column 3)")),
         ("1 ? 2", "expected ':'"),
         ("3 # 4", "unexpected character '#' at column 3"),
+        ("'1 + 2", "a quote ' is not closed"),
         ("foo + bar(1)", "unknown name 'foo' at column 1.*unknown function 'bar' at column 7"),
         ("min(1)", "min takes 2 argument"),
         ("idt(v(1))", "idt .* is not supported; integrate with a capacitor"),

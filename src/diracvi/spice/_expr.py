@@ -60,10 +60,15 @@ def tokenize(text: str) -> list[Token]:
     """Tokens of ``text``; ``v(…)``/``i(…)`` are read whole (node names such as ``4A``
     or ``x1.n2`` are not expressions)."""
     text = _micro(text)
-    out, k = [], 0
+    out, k, quoted = [], 0, False
     while k < len(text):
         c = text[k]
         if c.isspace():
+            k += 1
+            continue
+        if c == "'":  # ngspice's numparam puts a quoted expression's value here: '(…)'
+            out.append(Token("op", ")" if quoted else "(", k))
+            quoted = not quoted
             k += 1
             continue
         probe = _PROBE.match(text, k)
@@ -90,6 +95,8 @@ def tokenize(text: str) -> list[Token]:
             raise ExprError(f"unexpected character {c!r} at column {k + 1}")
         out.append(Token("op", op, k))
         k += len(op)
+    if quoted:
+        raise ExprError("a quote ' is not closed (write 'expression')")
     out.append(Token("end", "", len(text)))
     return out
 
@@ -250,6 +257,8 @@ FUNCTIONS = {
     "pow": (2, _pow),
     "pwr": (2, lambda x, y: jnp.sign(x) * jnp.power(jnp.abs(x), y)),
     "limit": (3, lambda x, a, b: jnp.clip(x, jnp.minimum(a, b), jnp.maximum(a, b))),
+    # numparam's name for 'c ? a : b' (both branches are evaluated, as in ngspice)
+    "ternary_fcn": (3, lambda c, a, b: jnp.where(c != 0, a, b)),
 }
 _BIN = {
     "+": jnp.add,
@@ -270,7 +279,22 @@ _BIN = {
 _REFUSED = {
     "hertz": "the AC-analysis frequency (diracvi runs transients only)",
 }
-DISCONTINUOUS = ("u", "sgn", "floor", "ceil", "<", "<=", ">", ">=", "==", "!=", "&&", "||", "!")
+DISCONTINUOUS = (
+    "u",
+    "sgn",
+    "floor",
+    "ceil",
+    "ternary_fcn",
+    "<",
+    "<=",
+    ">",
+    ">=",
+    "==",
+    "!=",
+    "&&",
+    "||",
+    "!",
+)
 
 
 # ------------------------------------------------------------------ compile
