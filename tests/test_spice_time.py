@@ -605,6 +605,19 @@ def test_a_tolerance_below_round_off_stops_with_the_fix():
     assert spice.run(deck, dt=1e-4).trajectory.status == 0
 
 
+def test_a_solution_that_blows_up_is_named_as_such():
+    from diracvi import StepFailure
+
+    # C dv/dt = k v³ (the B source pushes k v³ into the node): v = v0 / sqrt(1 − 2 k v0² t / C)
+    # blows up at t* = C / (2 k v0²) = 5e-7 s; no step follows it, and the message says so
+    deck = "blow-up\nC1 n 0 1n ic=1\nB1 n 0 I=-1m*v(n)^3\n.tran 1n 1u uic\n.end\n"
+    with pytest.raises(StepFailure, match=r"below hmin.*runs away there: \|v\(n\)\|") as info:
+        spice.run(deck)
+    stop = info.value.trajectory.t[-1]
+    assert 0.99 * 5e-7 < stop < 5e-7
+    assert "Fix: a fixed step" not in str(info.value)  # (that fix does not apply here)
+
+
 def _source(netlist, name):
     (part,) = [s for s in netlist.system.subsystems if s.name == name]
     (wave,) = part.waveforms

@@ -492,6 +492,40 @@ def tries_budget(settings: TranSettings) -> int:
     return math.ceil(tighter * (10_000 + 10 * math.ceil(settings.stop / settings.max_step)))
 
 
+#: a stop is called a runaway when the largest node voltage at its end is this many
+#: times the largest one over the first nine tenths of the run's time
+RUNAWAY = 100.0
+
+
+def _runaway(netlist: Netlist, march) -> str | None:
+    """What to say when a run stops because its solution runs away: the node voltages at
+    the stop far above anything before (a finite-time blow-up such as ``dv/dt ∝ v³``,
+    which no step follows; ngspice runs on into overflow there), or ``None``."""
+    if march.mu is None or len(march.h) < 20 or march.mu.size > 5e7:
+        return None  # (a streamed or huge run: no signals kept to judge by)
+    signals = step_signals(netlist, march)
+    columns = [j for j, name in enumerate(signals.names) if name.startswith("v(")]
+    if not columns:
+        return None
+    v = np.abs(signals.values[:, columns])
+    centres = march.t[:-1] + 0.5 * march.h  # (the steps crowd in at the stop: judge by time)
+    before = centres < 0.9 * march.t[-1]
+    if not before.any():
+        return None
+    early = float(np.max(v[before]))
+    last = v[-1]
+    j = int(np.argmax(last))
+    if not np.isfinite(last[j]) or last[j] <= RUNAWAY * max(early, 1e-300):
+        return None
+    return (
+        f"The solution runs away there: |{signals.names[columns[j]]}| = {last[j]:.3g} V at "
+        f"the stop, {last[j] / early:.3g} times the largest node voltage of the run's first "
+        "nine tenths (in time) — the circuit's equations blow up in finite time (as dv/dt ∝ v³ "
+        "does), which no step size follows. Check the signs and values of its sources "
+        "and nonlinear laws (a negative resistance without a limit)."
+    )
+
+
 def _variable(netlist: Netlist, discretization, internal: bool, kwargs, overrides) -> Result:
     if discretization != "midpoint":
         raise ModelError(
@@ -517,10 +551,15 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
     march = _march(netlist, settings, breaks, stream, step_error)
     if march.status != 0:
         at = march.t[-1]
+        runaway = _runaway(netlist, march)
+        fix = (
+            f" {runaway}"
+            if runaway
+            else " Fix: a fixed step (dt=…), or looser .options reltol/abstol."
+        )
         raise StepFailure(
             f"netlist {netlist.title!r}: the variable-step run stopped at t = {at:g} after "
-            f"{len(march.h)} steps: {march.message}. Fix: a fixed step (dt=…), or looser "
-            ".options reltol/abstol.",
+            f"{len(march.h)} steps: {march.message}.{fix}",
             march,
         )
     start = _start_values(netlist)
