@@ -267,6 +267,24 @@ def test_sampler_is_exact_for_quadratics_at_the_ends_and_at_corners():
     np.testing.assert_allclose(sampler(f(centres), query), f(query), rtol=0, atol=1e-12)
 
 
+def test_a_time_an_ulp_past_a_corner_is_read_on_the_corner():
+    """ngspice's corner of ``PULSE(… td tr pw …)`` can be an ulp from this run's (another
+    order of the same sum); a current that jumps there is read as its left limit at
+    either time, not the other side of the jump."""
+    corner = np.nextafter(
+        1.04e-6, 1.0
+    )  # ngspice's 1.0400000000000002e-06 (tests/general/mosmem.cir)
+    bounds = np.array([0.0, 1.04e-6, 2e-6])
+    t = np.unique(np.concatenate([bounds, np.linspace(0.0, 2e-6, 41)]))
+    h = np.diff(t)
+    centres = t[:-1] + h / 2
+    jump = np.where(centres < bounds[1], 0.0, 1.0)  # 0 before the corner, 1 after
+    sampler = Sampler(t, h, bounds)
+    query = np.array([bounds[1], corner, np.nextafter(corner, 1.0), 1.05e-6])
+    assert corner > bounds[1]
+    np.testing.assert_allclose(sampler(jump, query), [0.0, 0.0, 0.0, 1.0], rtol=0, atol=1e-15)
+
+
 RAMP = """A current ramp into a capacitor: v(out) = t²/2 exactly
 I1 0 out PWL(0 0 1 1)
 C1 out 0 1

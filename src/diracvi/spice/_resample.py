@@ -49,6 +49,20 @@ def step_potentials(mu: np.ndarray, h: np.ndarray, out: np.ndarray | None = None
     return c
 
 
+#: a query this close after a bound (relative) is on it: the same corner computed by
+#: another program (ngspice's ``td + tr + pw``) can differ from this run's by an ulp,
+#: and a waveform that jumps there (a capacitor's current at a PULSE corner) would be
+#: read on the wrong side of its jump
+ON_BOUND = 1e-12
+
+
+def interval_of(bounds: np.ndarray, query: np.ndarray) -> np.ndarray:
+    """The interval ``[b_i, b_{i+1}]`` of each query, a query on a bound (up to
+    :data:`ON_BOUND`) in the one before it, the run's start in the first."""
+    snapped = query - ON_BOUND * np.abs(query)
+    return np.clip(np.searchsorted(bounds, snapped, side="left") - 1, 0, len(bounds) - 2)
+
+
 class Sampler:
     """Quadratic interpolation of step-centred values within the intervals between
     consecutive ``bounds`` (the run's start, its breakpoints, its end).
@@ -67,14 +81,13 @@ class Sampler:
 
     def weights(self, query: np.ndarray):
         """``(index (Q, 4), weights (Q, 4))``: each query's four step centres and their
-        weights. A query on a bound belongs to the interval before it (the run's start to
-        the first interval). An interval of four steps or more: the four nearest centres
+        weights. A query on a bound (up to round-off, :func:`interval_of`) belongs to the
+        interval before it (the run's start to the first interval). An interval of four steps or more: the four nearest centres
         around the query, weights exact for quadratics that take out the midpoint rule's
         period-2 alternation (:mod:`._smooth`); of three, the quadratic through them; of
         two, the line; of one, the constant (the unused columns weigh 0)."""
         query = np.asarray(query, dtype=np.float64)
-        count = len(self.bounds) - 1
-        interval = np.clip(np.searchsorted(self.bounds, query, side="left") - 1, 0, count - 1)
+        interval = interval_of(self.bounds, query)
         lo, hi = self.first[interval], self.first[interval + 1]
         size = hi - lo
         # windows in the interval's steps: up to 4, the nearest around the query

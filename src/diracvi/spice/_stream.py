@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._magnetic import potentials
-from ._resample import COLUMNS, Sampler, Signals, step_potentials
+from ._resample import COLUMNS, Sampler, Signals, interval_of, step_potentials
 
 #: a run's records and signals are kept (besides the streamed grid) up to this many
 #: numbers (128 MB: a 100-stage ladder's 6940 steps fit, a 1000-stage one's do not);
@@ -157,7 +157,7 @@ class StreamSampler:
             ready = len(pending)
         else:
             count = len(self.bounds) - 1
-            interval = np.clip(np.searchsorted(self.bounds, pending, side="left") - 1, 0, count - 1)
+            interval = interval_of(self.bounds, pending)
             last = sampler.interval[-1]
             lo = sampler.first[np.minimum(interval, count)]
             closed = interval < last
