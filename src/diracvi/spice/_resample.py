@@ -82,10 +82,11 @@ class Sampler:
     def weights(self, query: np.ndarray):
         """``(index (Q, 4), weights (Q, 4))``: each query's four step centres and their
         weights. A query on a bound (up to round-off, :func:`interval_of`) belongs to the
-        interval before it (the run's start to the first interval). An interval of four steps or more: the four nearest centres
-        around the query, weights exact for quadratics that take out the midpoint rule's
-        period-2 alternation (:mod:`._smooth`); of three, the quadratic through them; of
-        two, the line; of one, the constant (the unused columns weigh 0)."""
+        interval before it (the run's start to the first interval). An interval of four
+        steps or more: the four nearest centres around the query, weights exact for
+        quadratics that take out the midpoint rule's period-2 alternation
+        (:mod:`._smooth`); of three, the quadratic through them; of two, the line; of
+        one, the constant (the unused columns weigh 0)."""
         query = np.asarray(query, dtype=np.float64)
         interval = interval_of(self.bounds, query)
         lo, hi = self.first[interval], self.first[interval + 1]
