@@ -478,3 +478,27 @@ def test_a_problems_notes_print_as_whole_lines():
     notes = [line for line in result.output.splitlines() if line.startswith("note:")]
     assert notes and all(len(line) > len("note: x") for line in notes)
     assert any("resistor sign" in line for line in notes)
+
+
+def test_the_process_exit_skips_the_collectors_walk_and_the_test_runner_does_not():
+    """A ``diracvi`` process moves what is left after its command to the collector's
+    permanent generation (``gc.freeze``, ``cli/main.py: _Command``: the interpreter's
+    exit then does not walk JAX's millions of objects); a command run by
+    ``CliRunner`` — many in one test process — freezes nothing."""
+    import gc
+    import subprocess
+    import sys
+
+    probe = (
+        "import atexit, gc\nfrom diracvi.cli import app\n"
+        "atexit.register(lambda: print('@@', gc.get_freeze_count()))\napp()"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe, "--version"],
+        capture_output=True, text=True, timeout=300, check=True,
+    )  # fmt: skip
+    frozen = int(out.stdout.rpartition("@@")[2])
+    assert frozen > 10_000, out.stdout  # the imported modules' objects, at least
+    before = gc.get_freeze_count()
+    assert runner.invoke(app, ["--version"]).exit_code == 0
+    assert gc.get_freeze_count() == before
