@@ -20,6 +20,7 @@ from typing import Annotated
 
 import typer
 
+from . import common
 from .bench import bench
 from .cache import cache_app
 from .common import (
@@ -48,6 +49,7 @@ class _Command(typer.Typer):
     that runs many commands keeps collecting as usual."""
 
     def __call__(self, *args, **kwargs):
+        common.PROCESS[0] = True  # the run may freeze what its imports made (_settle)
         try:
             return super().__call__(*args, **kwargs)
         finally:
