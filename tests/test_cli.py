@@ -478,3 +478,38 @@ def test_a_problems_notes_print_as_whole_lines():
     notes = [line for line in result.output.splitlines() if line.startswith("note:")]
     assert notes and all(len(line) > len("note: x") for line in notes)
     assert any("resistor sign" in line for line in notes)
+
+
+def test_the_process_exit_skips_the_collectors_walk_and_the_test_runner_does_not(tmp_path):
+    """A ``diracvi`` process moves what is left after its command to the collector's
+    permanent generation (``gc.freeze``, ``cli/main.py: _Command``: the interpreter's
+    exit then does not walk JAX's millions of objects), and a netlist run what exists
+    before it runs (``cli/common.py: _settle``); a command run by ``CliRunner`` — many
+    in one test process — freezes nothing."""
+    import gc
+    import subprocess
+    import sys
+
+    deck = tmp_path / "rc.cir"
+    deck.write_text(RC_DECK)
+    probe = (
+        "import gc, sys\nfrom diracvi import spice\nfrom diracvi.cli import app\n"
+        "run = spice.run\n"
+        "def counted(*a, **k):\n    print('@@ before the run', gc.get_freeze_count())\n"
+        "    return run(*a, **k)\n"
+        "spice.run = counted\n"
+        "try:\n    app()\nfinally:\n    print('@@ at the end', gc.get_freeze_count())\n"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", probe, "run", str(deck)],
+        capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    counts = [int(line.split()[-1]) for line in out.stdout.splitlines() if line[:2] == "@@"]
+    assert len(counts) == 2, out.stdout + out.stderr
+    # the imported modules' objects, at least, then more (the run's)
+    assert 10_000 < counts[0] < counts[1], counts
+    before = gc.get_freeze_count()
+    assert runner.invoke(app, ["--version"]).exit_code == 0
+    result = invoke("run", deck, "--out", tmp_path / "rc.nc")
+    assert result.exit_code == 0, result.output
+    assert gc.get_freeze_count() == before

@@ -55,8 +55,10 @@ def test_a_netlist_run_writes_its_file_without_xarray(tmp_path):
 def test_a_netlist_run_from_the_command_line_imports_only_what_it_runs(tmp_path):
     """``diracvi run deck.cir`` imports neither the built-in problems nor the model-file
     loader, nor the parts a linear deck does not build (rigid bodies, multibody systems,
-    URDF robots, the level-2 MOSFET), nor the partitioned solver; ``diracvi --help``
-    imports neither the rules nor the variable-step loops (issue 30)."""
+    URDF robots, the level-2 MOSFET), nor the partitioned solver, nor SciPy's sparse
+    matrices and graph algorithms (the band-plus-border plan's, from 200 unknowns on;
+    jaxlib's LAPACK binding imports ``scipy.linalg`` alone); ``diracvi --help`` imports
+    neither the rules nor the variable-step loops (issue 30)."""
     deck = tmp_path / "rc.cir"
     deck.write_text("RC\nV1 in 0 DC 1\nR1 in out 1k\nC1 out 0 1u\n.tran 0.5m 5m uic\n.end\n")
     unneeded = (
@@ -66,6 +68,7 @@ def test_a_netlist_run_from_the_command_line_imports_only_what_it_runs(tmp_path)
         "diracvi.components.urdf",
         "diracvi.components.mosfet2",
         "diracvi.solvers.partitioned",
+        "scipy.sparse",
     )
     probe = (
         "import sys\nfrom diracvi.cli import app\n"

@@ -3,6 +3,7 @@ the resolution of a model argument (a built-in problem, a model file or a netlis
 
 from __future__ import annotations
 
+import gc
 import math
 import warnings
 from contextlib import contextmanager
@@ -13,6 +14,21 @@ from rich.console import Console
 
 EXIT_FAILURE = 1
 EXIT_USAGE = 2
+#: set by ``cli/main.py: _Command`` when the app runs as the process (the console script,
+#: ``python -m``), not under ``typer.testing.CliRunner``: see :func:`_settle`
+PROCESS = [False]
+
+
+def _settle() -> None:
+    """Before a run, in a ``diracvi`` process: move every object that exists now — the
+    imported modules (JAX's, Equinox's, SciPy's, diracvi's), the model — to the
+    collector's permanent generation (``gc.freeze``). They live until the process ends,
+    and each full collection of the run (tracing makes many objects) would walk them
+    again: measured on a cold ng_rtlinv, the full collections' CPU 0.59 → 0.21 s. Garbage
+    in cycles made before this point is left to the process's end. Under ``CliRunner``
+    (a test process running many commands) nothing is frozen."""
+    if PROCESS[0]:
+        gc.freeze()
 
 
 def _out() -> Console:

@@ -23,6 +23,7 @@ from .common import (
     _positive_int,
     _resolve_model,
     _rule_names,
+    _settle,
     _solver_option,
     is_netlist,
 )
@@ -307,6 +308,7 @@ def _run_netlist(
         )
     options = {} if solver is None else {"solver": _solver_option(solver)}
     options.update(tolerances)
+    _settle()  # the modules and the read netlist: not walked by the run's collections
     with _library_errors(partial_out=out if fixed else None):
         result = spice.run(
             netlist,

@@ -75,8 +75,6 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 import numpy as np
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import maximum_bipartite_matching, reverse_cuthill_mckee
 
 from ..discretization.equations import unknown_count
 from ..errors import ModelError
@@ -106,6 +104,12 @@ BACKWARD_ERROR = 2.0**-26
 
 def _rcm(sym: np.ndarray, core: np.ndarray):
     """RCM order of ``core`` (indices) and the bandwidths ``(kl, ku)`` it gives ``sym``."""
+    # SciPy only here and in _nonsingular: a plan is made from MIN_SIZE unknowns on, and
+    # importing scipy.sparse.csgraph (≈ 0.25 CPU s) is most of a small deck's imports
+    # beyond JAX's (issue 30)
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
     sub = sym[np.ix_(core, core)]
     order = reverse_cuthill_mckee(csr_matrix(sub), symmetric_mode=True)
     return core[order], banded.bandwidths(sub[np.ix_(order, order)])
@@ -155,6 +159,9 @@ def structure(pattern: np.ndarray):
 
 def _nonsingular(pattern: np.ndarray, core: np.ndarray) -> bool:
     """Has ``pattern[core, core]`` a perfect matching (structural full rank)?"""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
     match = maximum_bipartite_matching(csr_matrix(pattern[np.ix_(core, core)]), perm_type="column")
     return bool(np.all(match >= 0))
 
