@@ -179,11 +179,15 @@ MODELS = {
     ),
 }
 
-#: code models ngspice has that are refused, by what they need
-STATEFUL = ("int", "d_dt", "hyst", "s_xfer", "slew", "oneshot", "delay", "astate", "pwlts",
-            "sine", "square", "triangle", "file_source", "ilimit", "multi_input_pwl", "ota",
-            "table2d", "table3d", "capacitor", "inductor", "cmeter", "lmeter", "memristor",
-            "potentiometer", "pswitch", "sidiode", "seegenerator")  # fmt: skip
+#: code models ngspice has that are not built, by what each needs (refused by name)
+OTHERS = {
+    "a code model with state": ("int", "d_dt", "hyst", "s_xfer", "slew", "oneshot", "delay",
+                                "astate", "capacitor", "inductor", "memristor", "ilimit"),
+    "a source": ("sine", "square", "triangle", "file_source", "pwlts", "seegenerator"),
+    "a table read from a file": ("table2d", "table3d"),
+    "a code model": ("multi_input_pwl", "ota", "cmeter", "lmeter", "potentiometer",
+                     "pswitch", "sidiode"),
+}  # fmt: skip
 
 READS = (
     "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, aswitch "
@@ -201,15 +205,13 @@ def a_line(ctx, name, pos, kw, line):
     if kind in _magnetic.PORTS:
         return _magnetic.a_line(ctx, name, pos, kw, line)
     if kind not in MODELS:
-        what = (
-            "a digital model or a bridge"
-            if kind.startswith(("d_", "adc", "dac"))
-            else ("a code model with state or a source" if kind in STATEFUL else "a code model")
-        )
+        what = next((k for k, names in OTHERS.items() if kind in names), "a code model")
+        if kind.startswith(("d_", "adc_", "dac_")):
+            what = "a digital model or a bridge"
         raise line.fail(
             f"element {pos[0]!r}: the XSPICE code model {kind!r} (model {model.name!r}, "
             f"{model.where}) is {what} diracvi does not build; diracvi reads {READS}"
-        )  # fmt: skip
+        )
     spec = MODELS[kind]
     ports = _ports(tokens[1:-1], spec.ports, line, kind)
     params = _params(model, spec, kind)
