@@ -1,4 +1,4 @@
-r"""XSPICE's memoryless analog code models on ``A`` lines, as behavioural sources.
+r"""XSPICE's memoryless analog code models and ``d_dt`` on ``A`` lines, as behavioural sources.
 
     Aname port… model      .model model KIND(param=value … vector=[v1 v2 …] flag=TRUE)
 
@@ -59,8 +59,15 @@ slope ``s₊`` at ``x₀ + d``):
   ``−v_breakdown``), or its two-segment form when the regions overlap, plus the leakage
   ``(i_rev/v_breakdown)·V`` (:func:`_zener`; ``vt`` = 0.026 V as in ngspice).
 
+- ``d_dt``: ``y = gain · dx/dt + out_offset`` limited as ``limit`` is (``out_lower_limit``,
+  ``out_upper_limit`` required, ``limit_range`` absolute). The derivative is the
+  behavioural source's (ngspice's ``ddt`` in B sources): a held position ``τ x`` whose
+  velocity is ``τ dx/dt``, a state of the structure, not a stored history; ngspice
+  differences its input backward (first order) and outputs 0 (not ``out_offset``) at
+  ``t = 0``, where diracvi's operating point has ``dx/dt = 0`` and so ``out_offset``.
+
 Iteration aids that do not change the solution (``pwl``'s input stepping, ``zener``'s
-``limit_switch``) are not modelled. Stateful models (``int``, ``d_dt``, ``hyst``,
+``limit_switch``) are not modelled. Models with other state (``int``, ``hyst``,
 ``s_xfer``, …), the digital ones and the hybrid bridges are refused by name.
 """
 
@@ -164,6 +171,16 @@ MODELS = {
         {"cntl_off": 0.0, "cntl_on": 1.0, "log": True, "r_off": 1e12, "r_on": 1.0, "limit": False},
         ("log", "limit"),
     ),
+    "d_dt": Spec(
+        (Port("in", "v", IN), Port("out", "v", OUT)),
+        {
+            "out_offset": 0.0,
+            "gain": 1.0,
+            "out_lower_limit": None,
+            "out_upper_limit": None,
+            "limit_range": 1e-6,
+        },
+    ),
     "zener": Spec(
         (Port("z", "gd", ("gd",)),),
         {
@@ -181,7 +198,7 @@ MODELS = {
 
 #: code models ngspice has that are not built, by what each needs (refused by name)
 OTHERS = {
-    "a code model with state": ("int", "d_dt", "hyst", "s_xfer", "slew", "oneshot", "delay",
+    "a code model with state": ("int", "hyst", "s_xfer", "slew", "oneshot", "delay",
                                 "astate", "capacitor", "inductor", "memristor", "ilimit"),
     "a source": ("sine", "square", "triangle", "file_source", "pwlts", "seegenerator"),
     "a table read from a file": ("table2d", "table3d"),
@@ -190,8 +207,8 @@ OTHERS = {
 }  # fmt: skip
 
 READS = (
-    "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, aswitch "
-    "and zener, and the magnetic lcouple and core"
+    "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, d_dt, "
+    "aswitch and zener, and the magnetic lcouple and core"
 )
 
 
@@ -345,9 +362,15 @@ def _build(ctx, name, line, kind, spec, params, inputs, out_type, out_nodes, wri
         pairs.append(out_nodes)
     a, b = out_nodes if len(out_nodes) == 2 else (out_nodes[0], "0")
 
+    def inputs(v, i):
+        return [v[j] if which == "v" else i[j] for which, j in sensed]
+
+    derivatives = ()
+    if kind == "d_dt":  # its law reads d/dt of its input: a held position (ddt's)
+        derivatives = (lambda v, i, t: inputs(v, i)[0],)
+
     def f(v, i, t, d):
-        xs = [v[j] if which == "v" else i[j] for which, j in sensed]
-        return law(xs)
+        return law([d[0]] if derivatives else inputs(v, i))
 
     nodes = {"p": a, "n": b}
     for k, (n1, n2) in enumerate(pairs):
@@ -362,6 +385,8 @@ def _build(ctx, name, line, kind, spec, params, inputs, out_type, out_nodes, wri
         name=name,
         pairs=len(pairs),
         currents=[c for _, c in currents],
+        derivatives=derivatives,
+        tau=ctx.tran[1] if ctx.tran else cp.behavioural.TAU,  # TSTOP: see TAU
     )
     return part, nodes
 
@@ -430,6 +455,14 @@ def _law(kind, p, line, written):
                 f"out_lower_limit ≥ 2·limit_range (got L={lo:g}, U={hi:g}, range {d:g})"
             )
         return lambda xs: _clamp(p["gain"] * (xs[0] + p["in_offset"]), lo, hi, d)
+    if kind == "d_dt":
+        lo, hi, d = p["out_lower_limit"], p["out_upper_limit"], p["limit_range"]
+        if not d > 0.0 or hi - lo < 2.0 * d:
+            raise line.fail(
+                f"element {written!r}: d_dt needs limit_range > 0 and out_upper_limit − "
+                f"out_lower_limit ≥ 2·limit_range (got L={lo:g}, U={hi:g}, range {d:g})"
+            )
+        return lambda xs: _clamp(p["gain"] * xs[0] + p["out_offset"], lo, hi, d)
     if kind == "climit":
         if not p["limit_range"] > 0.0:
             raise line.fail(f"element {written!r}: climit needs limit_range > 0")
