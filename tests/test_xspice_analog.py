@@ -20,7 +20,7 @@ from diracvi import spice
 DECK = """xspice analog models against ngspice
 vin in 0 pwl(0 -3 1m 3)
 vb b 0 sin(0 2 2k)
-vc c 0 dc -3.5
+vc c 0 dc -3.2
 a1 in o1 g1
 r1 o1 0 1k
 a2 %vd(in c) %id(o2 0) g2
@@ -80,7 +80,7 @@ r15 o15 0 1k
 PROBES = [f"v(o{k})" for k in range(1, 16) if k != 13] + ["v(z)"]
 #: the agreement asked of each signal on the TSTEP grid, of its peak (else 1e-4). The
 #: midpoint rule evaluates a law at the step's mean input, O(h²) off at a smooth point and
-#: O(h) at a kink: measured 2.5e-5 at most (pwl p2, then the zener 2.1e-5, climit 1.4e-5),
+#: O(h) at a kink: measured 2.5e-5 at most (pwl p2, then the zener 2.1e-5, climit 1.5e-5),
 #: the linear gain to round-off, and 4.0e-4 for sw2 (the linear aswitch clipped at r_on,
 #: a corner of 16 V/V in V(o12))
 TOL = {"v(o12)": 1e-3}
@@ -93,6 +93,7 @@ def runs():
     return result, t, ref
 
 
+@pytest.mark.slow  # ~30 s CPU: a transient of ~20 instances and a 5 ns ngspice run
 @pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 def test_transient_agrees_with_ngspice(runs):
     """Each output against ngspice 39 (reltol 1e-7, 5 ns steps) on diracvi's TSTEP grid.
@@ -106,22 +107,26 @@ def test_transient_agrees_with_ngspice(runs):
         assert err <= TOL.get(p, 1e-4), (p, err)
 
 
+@pytest.mark.slow  # ~30 s CPU: a transient of ~20 instances and a 5 ns ngspice run
 @pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 def test_the_deck_visits_every_region(runs):
     """The reference reaches both hard limits of limit, climit's both limits, pwl's
     flat ends (limit=TRUE) and the zener's breakdown (a check on the deck, so that the
-    agreement above covers the smoothing regions and the clipped ones)."""
+    agreement above covers the smoothing regions and the clipped ones). To 1e-6 V: ngspice
+    ends its Newton within reltol 1e-7 of a node (3.0000000022 V for the 3 V limit)."""
     _, _, ref = runs
-    assert ref["v(o6)"].min() == pytest.approx(-2, abs=1e-9)
-    assert ref["v(o6)"].max() == pytest.approx(3, abs=1e-9)
-    assert ref["v(o7)"].min() == pytest.approx(-1, abs=1e-9)
-    assert ref["v(o7)"].max() == pytest.approx(1, abs=1e-9)
-    assert ref["v(o10)"].min() == pytest.approx(0, abs=1e-9)  # y = 0 at x = −1
-    assert ref["v(o10)"][0] == pytest.approx(1, abs=1e-9)  # flat below x = −2
+    assert ref["v(o6)"].min() == pytest.approx(-2, abs=1e-6)
+    assert ref["v(o6)"].max() == pytest.approx(3, abs=1e-6)
+    assert ref["v(o7)"].min() == pytest.approx(-1, abs=1e-6)
+    assert ref["v(o7)"].max() == pytest.approx(1, abs=1e-6)
+    # p2's corner at x = −1 (slopes −1, then 0.5; d = 0.1) lifts its minimum from the
+    # knot's y = 0 to the parabola's: −u + 1.5 (u + 0.1)²/0.4 least at u = 1/30, 1/30
+    assert ref["v(o10)"].min() == pytest.approx(1 / 30, abs=1e-6)
+    assert ref["v(o10)"][0] == pytest.approx(1, abs=1e-6)  # flat below x = −2
     assert ref["v(o12)"].max() == pytest.approx(5 * 1e3 / 1010, rel=1e-9)  # r_on
     assert ref["v(z)"].min() < -5.0  # past the breakdown
-    lo = -3.5 + 0.2  # climit's lower limit: reached at in = −3
-    assert ref["v(o8)"].min() == pytest.approx(lo + 0.3 / 4, abs=1e-3)  # its corner
+    lo = -3.2 + 0.2  # climit's lower limit, met by in = −3 at t = 0: its corner's centre
+    assert ref["v(o8)"].min() == pytest.approx(lo + 0.3 / 4, abs=1e-6)
 
 
 DDT_DECK = """d_dt against ngspice
@@ -139,6 +144,7 @@ r5 5 0 1k
 """
 
 
+@pytest.mark.slow  # ~30 s CPU: a transient of ~20 instances and a 5 ns ngspice run
 @pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
 def test_d_dt_agrees_with_ngspice():
     """``d_dt`` through both of its smoothed limits (v(2): 0.5 + 6.28 cos, clipped to
