@@ -226,8 +226,12 @@ a1 (p 0) (m1 0) primary
 REFUSED = {
     "hysteresis": ("a3 (m1 0) iron", " mode=2",
                    "mode=2 (hysteresis) is not supported; diracvi builds the core's PWL mode"),
-    "other model": ("a3 m1 0 amp\n.model amp gain(gain=2)", "",
-                    "the XSPICE code model 'gain' (model 'amp', line 8) is not supported"),
+    "other model": ("a3 m1 0 amp\n.model amp int(gain=2)", "",
+                    "the XSPICE code model 'int' (model 'amp', line 8) is a code model with "
+                    "state diracvi does not build"),
+    "analog model on an MMF node": ("a3 (m1 0) iron\na4 m1 x amp\nRx x 0 1\n"
+                                    ".model amp gain(gain=2)", "",
+                                    "line 8 (a4) joins its MMF node(s) ['m1']"),
     "two cores": ("a3 (m1 m2) iron\na4 (m2 0) iron", "", "holds two cores (a3, a4)"),
     "parallel paths": ("a3 (m1 0) iron\nRleak m1 0 1k", "",
                        "is not a single loop (node 'm1' joins 3 of its branches)"),

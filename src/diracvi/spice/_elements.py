@@ -31,11 +31,11 @@ from ._cards import device_temperature
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
-from ._magnetic import a_line
 from ._mos import m_line
 from ._resistor import r_line
 from ._sources import source
 from ._switches import s_line, w_line
+from ._xspice import a_line
 
 
 def _need(pos, count, line, form):
@@ -174,8 +174,8 @@ ELEMENTS = {
 
 #: letters read after the other elements of their scope, because their lines name other
 #: elements (K its inductors; the controlled sources F and H and the switch W their
-#: controlling V; B the sources of its i(…))
-LATE = ("K", "F", "H", "W", "B")
+#: controlling V; B the sources of its i(…); A the sources of its %vnam inputs)
+LATE = ("K", "F", "H", "W", "B", "A")
 
 #: element letters ngspice knows and diracvi does not build yet: what each one is, and
 #: whether it names a model (refused at the element line, which names the model's line)
@@ -191,7 +191,8 @@ UNSUPPORTED = {
 
 SUPPORTED = (
     "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2, 3 and 6), A (XSPICE's "
-    "lcouple and core) and X (subcircuits)"
+    "analog gain, summer, mult, divide, limit, climit, pwl, d_dt, aswitch, zener and "
+    "magnetic lcouple, core) and X (subcircuits)"
 )
 
 
