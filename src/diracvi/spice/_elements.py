@@ -60,13 +60,13 @@ def _two(ctx, pos, kw, line, form, extra=()):
 def _c(ctx, name, pos, kw, line):
     a, b, c = _two(ctx, pos, kw, line, "Cname n+ n- value [IC=v]", ("ic",))
     v0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else ctx.ic(a) - ctx.ic(b)
-    return cp.Capacitor(c, name=name, v0=v0), {"p": a, "n": b}
+    return cp.Capacitor(c, name=name, v0=v0, negative=True), {"p": a, "n": b}
 
 
 def _l(ctx, name, pos, kw, line):
     a, b, ell = _two(ctx, pos, kw, line, "Lname n+ n- value [IC=i]", ("ic",))
     i0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
-    return cp.Inductor(ell, name=name, i0=i0), {"p": a, "n": b}
+    return cp.Inductor(ell, name=name, i0=i0, negative=True), {"p": a, "n": b}
 
 
 def _k(ctx, name, pos, kw, line):
