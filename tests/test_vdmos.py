@@ -174,3 +174,19 @@ def test_the_thermal_instance_is_refused_by_name():
     )
     with pytest.raises(spice.NetlistError, match=r"line 4: .*thermal nodes"):
         spice.read(net)
+
+
+def test_a_node_behind_a_gate_and_a_current_source_gets_gmin():
+    """crss_coss_ciss.sp's ``M2 d2 0 d2`` (drain and source one node, the gate grounded)
+    fed by a VCCS: node d2 reaches ground only through the gate (capacitances, no DC
+    current) and a current source, so its DC voltage is undefined and it gets ngspice's
+    GMIN shunt; a node reached through a current source alone stays the cut-set error."""
+    net = (
+        "gate island\nvp p 0 PULSE(0 1m 10n 10n 10n 1 2)\nm2 d2 0 d2 q1\ng2 0 d2 p 0 1\n"
+        ".model q1 VDMOS (CGS=1n CGDMAX=1n CGDMIN=10p)\n.tran 1n 100n\n.end\n"
+    )
+    notes = spice.read(net).notes
+    assert any("node 'd2' has no DC path to ground" in n for n in notes)
+    alone = "cut\nvp p 0 1\ng2 0 x p 0 1\ng3 x 0 p 0 1\n.tran 1n 10n\n.end\n"
+    with pytest.raises(spice.NetlistError, match=r"\['x'\] reach ground only through current"):
+        spice.read(alone)
