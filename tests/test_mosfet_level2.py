@@ -120,9 +120,9 @@ def test_level2_cards_note_what_ngspice_ignores_and_refuse_what_it_lacks():
     assert "KF ignored (noise only)" in " ".join(read.notes)
     part = read.circuit.parts[-1]  # TOX's 0.1 µm default: KP = U0 ε_ox/TOX
     assert dict(part.parameters)["kp"] == pytest.approx(600e-4 * 3.9 * 8.854214871e-12 / 1e-7)
-    refused = r"line 4: model 'mm' \(line 5\): NMOS parameter 'UTRA' is not a level-2"
-    with pytest.raises(spice.NetlistError, match=refused):
-        spice.read(base.format("UTRA=0.3"))
+    # not in ngspice 39's mos2 table: ngspice ignores it with a warning, and so does diracvi
+    notes = " ".join(spice.read(base.format("UTRA=0.3")).notes)
+    assert "UTRA ignored (not a parameter of ngspice 39's level-2 MOSFET" in notes
     card = r"line 4: model 'mm' \(line 5\): NMOS "
     for bad, match in (("PHI=-0.5", card + r"PHI=-0.5 must be > 0"),
                        ("TOX=0", card + r"TOX=0 must be > 0"),

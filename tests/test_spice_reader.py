@@ -42,7 +42,7 @@ B1 a 0 V=2*V(in)*volume(1)
 Z1 c b 0 mod1
 .model mod1 NMF(BETA=1m)
 R1 a 0 1k
-C1 a 0 -1u
+C1 a 0 0
 .func f {x*2}
 .temp 85 90
 D1 a 0 nomodel

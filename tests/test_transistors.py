@@ -468,10 +468,6 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
         ),
         ("m1 3 2 0 0 nch\n.model nch NMOS (MJ=2.2 CBD=1p)", r"line 5: .*mj=2\.2.*\[0, 2\)"),
         (
-            "m1 3 2 0 0 nch\n.model nch NMOS (FOO=1)",
-            r"line 5: model 'nch' \(line 6\): NMOS parameter 'FOO' is not a level-1",
-        ),
-        (
             "m1 3 2 0 vd\n.model vd VDMOS (VTO=2 RQ=1)",
             r"line 5: model 'vd' \(line 6\): VDMOS parameter RQ=1 is not supported",
         ),

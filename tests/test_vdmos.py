@@ -28,6 +28,10 @@ m1 d g 0 q1
 CARDS = [
     ("NMOS", "VTO=1.5 KP=0.8 KSUBTHRES=0.05 SUBSHIFT=0.1 IS=1e-12 N=1.3", 1.0),
     ("PMOS", "VTO=-2 KP=2 PCHAN", -1.0),
+    # channel-length modulation and mobility degradation, read at the device's own v_ds
+    # and v_gs in the inverse mode too (ngspice's t0 = 1 + lambda*vds, t1 = 1 + theta*vgs)
+    ("NMOS", "VTO=1.5 KP=0.8 KSUBTHRES=0.05 LAMBDA=0.03 THETA=0.05 MTRIODE=0.8", 1.0),
+    ("PMOS", "VTO=-2 KP=2 LAMBDA=0.003 THETA=0.08 PCHAN", -1.0),
     # ng_inv_vdmos's card without RG and RB
     pytest.param("deck", "cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p cjo=0.1p", 1.0,
                  marks=pytest.mark.slow),
@@ -127,9 +131,8 @@ def test_gate_current_under_a_ramp_is_ngspices(pchan):
     ("card", "match"),
     [
         ("RQ=0.1 VQ=2", r"line 4: model 'q1' \(line 5\): VDMOS parameter RQ=0.1 is not supported"),
-        ("RTHJC=1", r"VDMOS parameter RTHJC=1 is not supported"),
-        ("LAMBDA=0.01", r"VDMOS parameter LAMBDA=0.01 is not supported"),
-        ("MTR=2", r"VDMOS parameter MTR=2 is not supported"),
+        ("RQ=0.1", r"VDMOS parameter RQ=0.1 is not supported"),
+        ("BV=100", r"VDMOS parameter BV=100 is not supported"),
     ],
 )
 def test_unimplemented_parameters_are_refused_by_name(card, match):
@@ -140,3 +143,50 @@ def test_unimplemented_parameters_are_refused_by_name(card, match):
     )
     with pytest.raises(spice.NetlistError, match=match):
         spice.read(net)
+
+
+@needs_ngspice
+def test_names_ngspice_does_not_know_are_ignored_as_it_ignores_them():
+    """ngspice 39 ignores a card name outside its VDMOS model table with a warning
+    ("unrecognized parameter (vt0) - ignored": VT0 is no VDMOS alias, MTR is no name;
+    it reads MTRIODE): diracvi notes them and runs what ngspice runs, VTO at its default 0.
+    RTHJC (read only by the thermal instance) and a temperature coefficient (no effect at
+    27 °C) are noted too; RDS is a shunt from drain to source. The drain current through
+    the shunt and the channel equals ngspice's operating point."""
+    net = (
+        "ignored names\nvd d 0 5\nvg g 0 3\nm1 d g 0 q1\n"
+        ".model q1 VDMOS (VT0=2 KP=1 MTR=3 RTHJC=1 TCVTH=2m RDS=50 LAMBDA=0.02)\n"
+        ".tran 1n 10n\n.end\n"
+    )
+    notes = spice.read(net).notes
+    for word in ("VT0", "MTR", "RTHJC", "TCVTH"):
+        assert any(f"VDMOS {word} ignored" in n for n in notes), word
+    ref = ng.operating_point(net)
+    assert ref["i(vd)"] == pytest.approx(-(0.5 * 9 * 1.1 + 5 / 50), rel=1e-9)
+    mine = spice.run(net)["i(vd)"][-1]
+    assert mine == pytest.approx(ref["i(vd)"], rel=1e-8)
+
+
+def test_the_thermal_instance_is_refused_by_name():
+    net = (
+        "thermal\nvd d 0 1\nvg g 0 1\nm1 d g 0 tj tc q1 thermal\n.model q1 VDMOS (RTHJC=1)\n"
+        ".tran 1n 10n\n.end\n"
+    )
+    with pytest.raises(spice.NetlistError, match=r"line 4: .*thermal nodes"):
+        spice.read(net)
+
+
+def test_a_node_behind_a_gate_and_a_current_source_gets_gmin():
+    """crss_coss_ciss.sp's ``M2 d2 0 d2`` (drain and source one node, the gate grounded)
+    fed by a VCCS: node d2 reaches ground only through the gate (capacitances, no DC
+    current) and a current source, so its DC voltage is undefined and it gets ngspice's
+    GMIN shunt; a node reached through a current source alone stays the cut-set error."""
+    net = (
+        "gate island\nvp p 0 PULSE(0 1m 10n 10n 10n 1 2)\nm2 d2 0 d2 q1\ng2 0 d2 p 0 1\n"
+        ".model q1 VDMOS (CGS=1n CGDMAX=1n CGDMIN=10p)\n.tran 1n 100n\n.end\n"
+    )
+    notes = spice.read(net).notes
+    assert any("node 'd2' has no DC path to ground" in n for n in notes)
+    alone = "cut\nvp p 0 1\ng2 0 x p 0 1\ng3 x 0 p 0 1\n.tran 1n 10n\n.end\n"
+    with pytest.raises(spice.NetlistError, match=r"\['x'\] reach ground only through current"):
+        spice.read(alone)

@@ -186,6 +186,16 @@ def positive(part: str, arg: str, value) -> float:
     return x
 
 
+def nonzero(part: str, arg: str, value) -> float:
+    """``float(value)`` if it is finite and not 0, else a :class:`ModelError` naming it
+    (a traced value passes through unchecked). For the linear R, L and C that SPICE
+    lets be negative (a vendor macromodel's ``C4 26 27 -39.75E-9``)."""
+    x = finite(part, arg, value)
+    if not traced(x) and x == 0.0:
+        raise ModelError(f"{part}: {arg}={value!r} must be a finite nonzero number.")
+    return x
+
+
 def finite(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite, else a :class:`ModelError` naming it (a traced
     value passes through unchecked)."""

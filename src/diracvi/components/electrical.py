@@ -22,7 +22,7 @@ from jax.tree_util import GetAttrKey
 from ..errors import ModelError
 from ..model.stacked import ALIKE
 from ..model.validate import check_name
-from ._part import Part, finite, positive, traced
+from ._part import Part, finite, nonzero, positive, traced
 from .waveforms import as_waveform
 
 _TWO_PINS = (("p", "q", 1), ("n", "q", -1))
@@ -180,16 +180,17 @@ class Ground:
     name = "ground"
 
 
-def Resistor(resistance=None, *, name: str, voltage=None) -> Part:
+def Resistor(resistance=None, *, name: str, voltage=None, negative: bool = False) -> Part:
     r"""A resistor: ``F = −R q̇`` (or ``F = −voltage(q̇)`` for a nonlinear ``V(i)``).
 
     It removes energy at the rate ``R i²``. Pass either ``resistance`` or a traceable
-    ``voltage(i)``.
+    ``voltage(i)``. ``negative=True`` lets ``R`` be any nonzero number, as SPICE does
+    (a negative resistance *supplies* energy at the rate ``|R| i²``: an active element).
     """
     if (resistance is None) == (voltage is None):
         raise ModelError(f"Resistor {name!r}: pass exactly one of resistance=R or voltage=f(i).")
     if voltage is None:
-        r = positive(f"Resistor {name!r}", "resistance", resistance)
+        r = (nonzero if negative else positive)(f"Resistor {name!r}", "resistance", resistance)
         return _like(
             "resistor", name, r,
             lambda: Part(("q",), _zero_l, force=_Damping(_value(r)), name=name, pins=_TWO_PINS,
@@ -205,18 +206,28 @@ def Resistor(resistance=None, *, name: str, voltage=None) -> Part:
 
 
 def Capacitor(
-    capacitance=None, *, name: str, v0: float = 0.0, energy=None, q0: float = 0.0
+    capacitance=None,
+    *,
+    name: str,
+    v0: float = 0.0,
+    energy=None,
+    q0: float = 0.0,
+    negative: bool = False,
 ) -> Part:
     r"""A capacitor: ``L = −q²/(2C)`` (or ``L = −energy(q)``), initial voltage ``v0``.
 
     A nonlinear capacitor is given by its stored energy ``W(q)`` (voltage ``W′(q)``) and
     its initial charge ``q0`` (its voltage would need ``W′`` inverted).
+    ``negative=True`` lets ``C`` be any nonzero number, as SPICE does (vendor op-amp
+    macromodels shape a pole–zero pair with one): then ``q²/(2C)`` is an energy of
+    either sign, the circuit's energy is indefinite, and its power balance
+    ``dE/dt = ⟨F, q̇⟩`` still holds, with no bound on ``|q|`` from it.
     """
     where = f"Capacitor {name!r}"
     if (capacitance is None) == (energy is None):
         raise ModelError(f"{where}: pass exactly one of capacitance=C or energy=W(q).")
     if energy is None:
-        c = positive(where, "capacitance", capacitance)
+        c = (nonzero if negative else positive)(where, "capacitance", capacitance)
         if q0 != 0.0:
             raise ModelError(f"{where}: give a linear capacitor's initial state as v0=, not q0=.")
         q0 = c * finite(where, "v0", v0)
@@ -241,16 +252,21 @@ def Capacitor(
     return Part(("q",), lagrangian, name=name, pins=_TWO_PINS, initial_q=[q0], role="capacitor")
 
 
-def Inductor(inductance=None, *, name: str, i0: float = 0.0, coenergy=None) -> Part:
+def Inductor(
+    inductance=None, *, name: str, i0: float = 0.0, coenergy=None, negative: bool = False
+) -> Part:
     r"""An inductor: ``L = ½ l q̇²`` (or ``L = coenergy(q̇)``), initial current ``i0``.
 
     A nonlinear inductor is given by its magnetic co-energy ``W*(i)`` (flux ``W*′(i)``).
+    ``negative=True`` lets ``l`` be any nonzero number, as SPICE does (``½ l q̇²`` is
+    then a co-energy of either sign; ``∂²L/∂q̇² = l`` stays invertible, so the step
+    equations keep their form).
     """
     if (inductance is None) == (coenergy is None):
         raise ModelError(f"Inductor {name!r}: pass exactly one of inductance=l or coenergy=W(i).")
     i0 = finite(f"Inductor {name!r}", "i0", i0)
     if coenergy is None:
-        ell = positive(f"Inductor {name!r}", "inductance", inductance)
+        ell = (nonzero if negative else positive)(f"Inductor {name!r}", "inductance", inductance)
         return _like(
             "inductor", name, ell,
             lambda: Part(("q",), _Inertia(_value(ell)), name=name, pins=_TWO_PINS,

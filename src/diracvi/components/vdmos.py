@@ -8,8 +8,16 @@ inversion, slope ``KSUBTHRES``, offset ``SUBSHIFT``), then level 1's square law 
 ``β = KP`` (no W/L: a VDMOS card describes a whole device):
 
     V_ov = K ln(1 + exp((V_GS − VTO − SUBSHIFT)/K)),   K = KSUBTHRES
-    I_D  = β V_ov²/2                 V_ov ≤ V_DS   (saturation)
-         = β V_DS (V_ov − V_DS/2)     otherwise     (linear)
+    I_D  = β′ V_ov²/2                 V_ov ≤ V_m   (saturation)
+         = β′ V_m (V_ov − V_m/2)       otherwise    (linear),   V_m = MTRIODE·V_DS
+    β′   = KP (1 + LAMBDA·v_ds) / (1 + THETA·v_gs)
+
+where ``V_GS``, ``V_DS`` are the oriented ones (``V_GD``, ``−V_DS`` in the inverse mode)
+but ngspice's channel-length modulation and mobility degradation read the device's own
+``v_ds``, ``v_gs`` in either mode (``t0 = 1 + lambda*vds``, ``t1 = 1 + theta*vgs``), so
+``β′`` is not symmetric under the swap: the law recovers them from the oriented triple,
+since the bulk is tied to the source (``V_BS = 0``, and the inverse mode's ``V_BD`` is
+``−V_DS``): ``v_ds = V_DS − 2 V_B``, ``v_gs = V_GS − V_B``.
 
 The body has no terminal (the bulk pin of the shared part is tied to the source) and no
 body effect. :func:`VDMOS` builds this on the shared MOSFET part
@@ -103,25 +111,42 @@ def GateDrainCapacitance(kind, cgdmin, cgdmax, a, *, name: str, v0=0.0) -> Charg
     )
 
 
-def vdmos_law(vto, kp, ksubthres, subshift):
-    """The channel's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, vdsat)`` of the module
-    docstring (NMOS-oriented, ``V_DS ≥ 0``; ``vto`` is ``type·VTO``; ``V_BS`` unused)."""
+def vdmos_law(vto, kp, ksubthres, subshift, lambda_=0.0, theta=0.0, mtriode=1.0):
+    """The channel's forward law ``(V_GS, V_DS, V_B) -> (I_D, von, vdsat)`` of the module
+    docstring (NMOS-oriented, ``V_DS ≥ 0``; ``vto`` is ``type·VTO``; ``V_B`` the oriented
+    bulk voltage, 0 forward and ``V_BD`` inverse, read only to undo the orientation for
+    ``LAMBDA`` and ``THETA``)."""
 
     def forward(vgs, vds, vbs):
         # softplus written as K·logaddexp(0, x): no overflow for large overdrives
         vov = ksubthres * jnp.logaddexp(0.0, (vgs - vto - subshift) / ksubthres)
-        saturation = 0.5 * kp * vov * vov
-        linear = kp * vds * (vov - 0.5 * vds)
-        i = jnp.where(vov <= vds, saturation, linear)
+        # ngspice's β′ at the device's own v_ds, v_gs (module docstring)
+        beta = kp * (1.0 + lambda_ * (vds - 2.0 * vbs)) / (1.0 + theta * (vgs - vbs))
+        saturation = 0.5 * beta * vov * vov
+        vm = mtriode * vds  # ngspice's vdss: the triode region's V_DS scaled by MTRIODE
+        linear = beta * vm * (vov - 0.5 * vm)
+        i = jnp.where(vov <= vm, saturation, linear)
         return i, vto + 0.0 * vgs, jnp.maximum(vgs - vto, 0.0)
 
     return forward
 
 
-def drain_current(vgs, vds, *, kind, vto=0.0, kp=1.0, ksubthres=0.1, subshift=0.0):
+def drain_current(
+    vgs,
+    vds,
+    *,
+    kind,
+    vto=0.0,
+    kp=1.0,
+    ksubthres=0.1,
+    subshift=0.0,
+    lambda_=0.0,
+    theta=0.0,
+    mtriode=1.0,
+):
     """The channel current into the drain for true (signed) ``V_GS``, ``V_DS``."""
     sign = KINDS[kind]
-    law = vdmos_law(sign * vto, kp, ksubthres, subshift)
+    law = vdmos_law(sign * vto, kp, ksubthres, subshift, lambda_, theta, mtriode)
     return channel_current(vgs, vds, 0.0 * vgs, sign, law)
 
 
@@ -132,6 +157,9 @@ def VDMOS(
     *,
     ksubthres=0.1,
     subshift=0.0,
+    lambda_=0.0,
+    theta=0.0,
+    mtriode=1.0,
     cgs=0.0,
     rd=0.0,
     rs=0.0,
@@ -141,8 +169,9 @@ def VDMOS(
 ):
     r"""The VDMOS channel with pins ``d g s b`` (``b`` to be tied to ``s``): the law of the
     module docstring (ngspice's defaults ``VTO = 0``, ``KP = 1`` A/V², ``KSUBTHRES = 0.1``
-    V, ``SUBSHIFT = 0``), the constant gate–source capacitance ``cgs`` and the
-    drain and source resistances ``rd``, ``rs`` (0: none). The gate–drain capacitance
+    V, ``SUBSHIFT = 0``, ``LAMBDA = THETA = 0``, ``MTRIODE = 1``), the constant
+    gate–source capacitance ``cgs`` and the drain and source resistances ``rd``, ``rs``
+    (0: none; ``lambda_``/``theta`` need ``rs = 0``). The gate–drain capacitance
     (:func:`GateDrainCapacitance`), the gate resistance and the body diode are separate
     parts beside it. ``v0 = (V_GS, V_GD)``: initial gate voltages."""
     # the shared part's bulk junctions get I_S = 0 (a VDMOS has no bulk terminal; its
@@ -153,5 +182,14 @@ def VDMOS(
     where = dev.where
     vto, kp = finite(where, "vto", vto), finite(where, "kp", kp)
     ksub = positive(where, "ksubthres", ksubthres)
-    law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift))
-    return build(dev, law, 0.6, {"vto": vto, "kp": kp, "ksubthres": ksub})
+    lam, th = finite(where, "lambda_", lambda_), finite(where, "theta", theta)
+    if (lam != 0.0 or th != 0.0) and rs != 0.0:
+        # the law reads V_BS = 0 (module docstring): the bulk must be the channel's source
+        raise ModelError(
+            f"{where}: lambda_/theta need rs=0 here (the law reads the bulk as the "
+            "channel's own source); put RS in series as a Resistor, as the netlist does."
+        )
+    mtr = positive(where, "mtriode", mtriode)
+    law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift), lam, th, mtr)
+    params = dict(vto=vto, kp=kp, ksubthres=ksub, mtriode=mtr)
+    return build(dev, law, 0.6, params | {"lambda": lam, "theta": th})

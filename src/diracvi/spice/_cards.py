@@ -7,6 +7,11 @@ ngspice itself reads but never uses), **fixed** (accepted at the one value dirac
 simulates, e.g. ``TNOM = 27`` °C, refused at any other), or **refused by name**: a
 parameter diracvi does not implement stops the run at the element line that uses the
 card, naming the card's line, rather than being silently dropped.
+
+A name that is not a parameter of ngspice 39's model at all (not in its ``IFparm`` model
+table, ``src/spicelib/devices/<model>/<model>.c``, aliases included) is ignored by ngspice
+with a warning ("unrecognized parameter (xj) - ignored"): a card whose :attr:`Card.ngspice`
+table is given ignores it too, with a note, rather than refusing a deck ngspice runs.
 """
 
 from __future__ import annotations
@@ -43,6 +48,10 @@ class Card:
     alias: Mapping[str, str] = field(default_factory=dict)
     #: names read elsewhere (a MOS card's LEVEL, a VDMOS card's PCHAN): passed over
     skip: tuple[str, ...] = ()
+    #: ngspice 39's model: its name for the notes and every name of its model table
+    #: (aliases included); a name outside it is ignored with a note, as ngspice does.
+    #: ``None``: no table, every name outside the others refused
+    ngspice: tuple[str, frozenset[str]] | None = None
 
     def read(self, kind: str, kw: dict, fail, notes: list) -> dict:
         """``{name: value}``: :attr:`defaults` with the card's values over them, the
@@ -59,6 +68,11 @@ class Card:
                 notes.append(f"{kind} {key.upper()} {self.ignored[key]}")
             elif key in self.fixed and x == self.fixed[key][0]:
                 continue
+            elif self.ngspice is not None and key not in self.ngspice[1] | set(self.fixed):
+                notes.append(
+                    f"{kind} {key.upper()} ignored (not a parameter of ngspice 39's "
+                    f"{self.ngspice[0]}, which ignores it with a warning)"
+                )
             else:
                 refusal = self.fixed.get(key, (None, None))[1] or self.unknown
                 raise fail(f"{kind} " + refusal.format(key=key.upper(), x=x))

@@ -32,6 +32,7 @@ from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
 from ._mos import m_line
+from ._reactive import c_line, l_line
 from ._resistor import r_line
 from ._sources import source
 from ._switches import s_line, w_line
@@ -55,18 +56,6 @@ def _two(ctx, pos, kw, line, form, extra=()):
     if unknown:
         raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
     return pos[1], pos[2], ctx.value(pos[3], line, f"{pos[0]} value")
-
-
-def _c(ctx, name, pos, kw, line):
-    a, b, c = _two(ctx, pos, kw, line, "Cname n+ n- value [IC=v]", ("ic",))
-    v0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else ctx.ic(a) - ctx.ic(b)
-    return cp.Capacitor(c, name=name, v0=v0), {"p": a, "n": b}
-
-
-def _l(ctx, name, pos, kw, line):
-    a, b, ell = _two(ctx, pos, kw, line, "Lname n+ n- value [IC=i]", ("ic",))
-    i0 = ctx.value(kw["ic"], line, "IC") if "ic" in kw else 0.0
-    return cp.Inductor(ell, name=name, i0=i0), {"p": a, "n": b}
 
 
 def _k(ctx, name, pos, kw, line):
@@ -152,8 +141,8 @@ def _x(ctx, name, pos, kw, line):
 #: ``ctx.ic(node)`` (today's ``self.models[...]`` and ``self.ic[...]``).
 ELEMENTS = {
     "R": r_line,
-    "C": _c,
-    "L": _l,
+    "C": c_line,
+    "L": l_line,
     "K": _k,
     "V": _v,
     "I": _i,

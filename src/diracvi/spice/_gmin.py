@@ -23,7 +23,9 @@ GMIN = 1e-12
 
 
 def islands(circuit) -> list[str]:
-    """The nodes joined to ground only through capacitors, in the order first named.
+    """The nodes joined to ground through capacitors (a MOSFET's gate branch counts as
+    one: no DC current flows into a gate) and no DC path (current sources are none), in
+    the order first named.
 
     A node with no path to ground at all, a cut-set of current sources and a circuit
     without ground stay the topology errors :meth:`~diracvi.components.Circuit.build`
@@ -31,7 +33,7 @@ def islands(circuit) -> list[str]:
     # the nodes numbered (0: ground), each branch's ends joined to its first end
     vertex = {GROUND: 0}
     order: list[str] = []  # vertex − 1 -> node
-    a, b, capacitor = [], [], []
+    a, b, kind = [], [], []  # kind: 0 a DC path, 1 a capacitor, 2 a current source
     for part, nodes in circuit._parts:
         f = fields(part)
         roles = dict(f.get("branch_roles", ()))
@@ -50,13 +52,19 @@ def islands(circuit) -> list[str]:
             for other in ends[1:]:
                 a.append(ends[0])
                 b.append(other)
-                capacitor.append(roles.get(coord, f["role"]) == "capacitor")
+                role = roles.get(coord, f["role"])
+                # a transistor's gate branch (role "current" for the cut-set check)
+                # carries only its capacitances' current: no DC path, as a capacitor
+                gate = role == "current" and f["role"] == "transistor"
+                kind.append(1 if role == "capacitor" or gate else 2 if role == "current" else 0)
     if len(vertex) == len(order) + 1:  # no ground node among them
         return []
-    a, b = np.asarray(a, dtype=np.int64), np.asarray(b, dtype=np.int64)
-    every = components(len(order) + 1, a, b)
-    direct = np.asarray(capacitor, dtype=bool)
-    direct = components(len(order) + 1, a[~direct], b[~direct])
+    a, b, kind = (np.asarray(x, dtype=np.int64) for x in (a, b, kind))
+    # joined through capacitors and DC paths (a current source's branch is neither: a
+    # node it alone joins to ground is the cut-set error build reports), and through DC
+    # paths alone
+    every = components(len(order) + 1, a[kind < 2], b[kind < 2])
+    direct = components(len(order) + 1, a[kind == 0], b[kind == 0])
     alone = (every[1:] == every[0]) & (direct[1:] != direct[0])
     return [order[k] for k in np.flatnonzero(alone)]
 

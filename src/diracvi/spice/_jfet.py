@@ -4,7 +4,8 @@ Parameter names, aliases and defaults are ngspice's (``jfet.c``, ``jfetset.c``):
 (VT0), BETA, LAMBDA, B, IS, RD, RS, CGS, CGD, PB, FC are used
 (:func:`diracvi.components.JFET`). The temperature coefficients (TCV, VTOTC, BEX,
 BETATCE, XTI, EG) only act away from the nominal 27 °C and the noise parameters (KF, AF,
-NLEV, GDSNOI) only in noise analyses: they are accepted with a note. TNOM must be 27 °C,
+NLEV, GDSNOI) only in noise analyses: they are accepted with a note, and so is a name
+ngspice 39's JFET does not have (ngspice ignores it with a warning). TNOM must be 27 °C,
 and other levels (ngspice's level 2, Parker–Skellern) are refused naming the model's line.
 """
 
@@ -25,8 +26,12 @@ CARD = Card(
     | NOISE,
     fixed=TNOM | {"level": (1.0, "LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not "
                                  "supported; diracvi has level 1 (Shichman–Hodges with B) only")},
-    unknown="parameter {key!r} is not a parameter of ngspice's JFET; it reads "
+    unknown="parameter {key!r} is not supported; diracvi's JFET reads "
     + ", ".join(k.upper() for k in _DEFAULTS),
+    # ngspice 39's jfet.c model table (aliases included)
+    ngspice=("JFET", frozenset(
+        "njf pjf vt0 vto beta lambda rd rs cgs cgd pb is fc b tnom tcv vtotc bex betatce "
+        "xti eg kf af nlev gdsnoi".split())),
 )  # fmt: skip
 FORM = "Jname d g s model [area] [AREA=a] [M=m] [OFF]"
 

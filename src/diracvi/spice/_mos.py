@@ -8,11 +8,13 @@ PHI, GAMMA and VTO when the card does not give them, and ``TOX`` gives Meyer's g
 capacitances (:mod:`diracvi.components._mos1`); ``RD``/``RS`` (or ``RSH`` times the
 line's ``NRD``/``NRS``), ``CBD``/``CBS`` (or ``CJ`` times ``AD``/``AS``), ``CJSW`` times
 ``PD``/``PS``, ``JS`` times ``AD``/``AS`` (when both are given, else ``IS``), ``PB``,
-``MJ``, ``MJSW``, ``FC``. Other levels (MOS9, BSIM …) are refused at the element line, by
-name, naming the model's line; a ``VDMOS`` card makes the line ngspice's three-terminal
-VDMOS (:mod:`._vdmos`). Levels 2, 3 and 6 share all of this but the drain current's
-parameters (:mod:`._mos_card` holds what they share; :mod:`._mos2`, :mod:`._mos3`,
-:mod:`._mos6`); level 3 derives PHI with ``mos3temp``'s intrinsic density at TNOM.
+``MJ``, ``MJSW``, ``FC``. A model name with bins (``nch.1``, ``nch.2``…) is resolved
+by the line's ``L`` and ``W`` first (:mod:`._binning`). Other levels (MOS9, BSIM …) are
+refused at the element line, by name, naming the model's line; a ``VDMOS`` card makes
+the line ngspice's three-terminal VDMOS (:mod:`._vdmos`). Levels 2, 3 and 6 share all
+of this but the drain current's parameters (:mod:`._mos_card` holds what they share;
+:mod:`._mos2`, :mod:`._mos3`, :mod:`._mos6`); level 3 derives PHI with ``mos3temp``'s
+intrinsic density at TNOM.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from ..components._mos1 import NI, NI_NOM, process_parameters
 from ..components._temperature import kelvin
 from ..components._temperature import mos1 as mos1_at
 from ..errors import ModelError
+from ._binning import binned
 from ._cards import NodeIC, device_temperature, element_card, nominal_only
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
@@ -141,11 +144,14 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
 
 def m_line(ctx, name, pos, kw, line):
     """``Mname d g s b model [L= W= M= AD AS PD PS NRD NRS OFF]`` (levels 1, 2, 3 and 6)."""
-    found = ctx.find_model(pos[4:6])
+    # a VDMOS names its model after three nodes, or after five (its thermal form,
+    # 'Mname d g s tj tc model thermal', which vdmos_line refuses by name)
+    found = ctx.find_model(pos[4:7])
     if found is not None and found[1] == "VDMOS":
         return vdmos_line(ctx, name, pos, kw, line)
     if len(pos) < 6:
         raise line.fail("expected 'Mname d g s b model [L=… W=…]'")
+    pos = [*pos[:5], binned(ctx, pos[0], pos[5], kw, line), *pos[6:]]  # nch → nch.2
     if pos[5].lower() not in ctx.models:
         _more_nodes(ctx, pos, line)
     kind, params, _, fail = element_card(ctx, pos[5], line, ("NMOS", "PMOS"))

@@ -6,8 +6,8 @@ oxide), U0 (UO, default 600 cm²/V·s), NSS, TPG, DELTA, UCRIT (10⁴ V/cm), UEX
 NEFF (1), NFS, and the junction, overlap and resistance parameters every level reads
 (:mod:`._mos_card`), MJSW defaulting to 0.33 here. KP, PHI, GAMMA and VTO are derived
 from the process as at level 1 (:func:`~diracvi.components._mos1.process_parameters`)
-when not given. UTRA, which SPICE2 documents, is not a parameter of ngspice's mos2 (it
-would ignore it): it is refused like any other unknown name.
+when not given. UTRA, which SPICE2 documents, is not a parameter of ngspice's mos2: it is
+ignored with a note, as ngspice ignores it (with a warning).
 """
 
 from __future__ import annotations

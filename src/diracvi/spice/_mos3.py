@@ -7,12 +7,15 @@ VTO (VT0), KP, GAMMA, PHI, NSUB, TOX (default 0.1 µm: level 3 always has an oxi
 geometry adjustments XL, WD, XW, DELVTO (DELVT0), and the junction, overlap and
 resistance parameters every level reads (:mod:`._mos_card`), MJSW defaulting to 0.33
 here. KP, PHI, GAMMA and VTO are derived from the process as at level 1
-(:func:`~diracvi.components._mos1.process_parameters`) when not given. XD and ALPHA,
-which ngspice computes from NSUB and only reports, and LAMBDA, UCRIT, UEXP, NEFF (level
-2's) are refused like any other name that is not a level-3 parameter.
+(:func:`~diracvi.components._mos1.process_parameters`) when not given. XD, ALPHA and
+INPUT_DELTA, which ngspice computes from NSUB and only reports, are refused (ngspice 39
+refuses a card that sets them); LAMBDA, UCRIT, UEXP, NEFF (level 2's), which ngspice's
+level 3 does not have, are ignored with a note, as ngspice ignores them.
 """
 
 from __future__ import annotations
+
+import math
 
 from ._mos_card import level_card
 
@@ -22,6 +25,10 @@ CARD = level_card(
      "nfs": 0.0, "u0": 600.0, "tox": 1e-7, "mjsw": 0.33, "xl": 0.0, "wd": 0.0, "xw": 0.0,
      "delvto": 0.0},
     ("kp", "nsub", "nss", "tpg"),
+    # in ngspice 39's table, but its mos3mpar has no case for them: ngspice refuses the
+    # card ("could not find a valid modelname")
+    fixed={k: (math.nan, "{key}={x:g}: ngspice 39 computes it (from NSUB) and refuses a "
+               "card that sets it; drop it") for k in ("xd", "alpha", "input_delta")},
 )  # fmt: skip
 
 

@@ -6,7 +6,8 @@ not given), LAMBDA1, and the junction, overlap, resistance and process parameter
 level reads (:mod:`._mos_card`). Without KC, a card with ``TOX`` derives ``KC = ½ U0 C'_ox`` (``U0``
 defaulting to 600 cm²/V·s) as ``mos6temp`` does; PHI, GAMMA and VTO come from ``NSUB``
 as at level 1. NVTH and PS are read by ngspice 39 but never used by its load: accepted
-with a note.
+with a note; so is a name ngspice 39's level 6 does not have (KP, XJ, …), which it
+ignores with a warning.
 """
 
 from __future__ import annotations

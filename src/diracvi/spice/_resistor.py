@@ -24,6 +24,7 @@ from __future__ import annotations
 import math
 
 from .. import components as cp
+from ..components._part import traced
 
 FORM = "Rname n+ n- [value] [model] [l=…] [w=…] [m=…] [scale=…] [ac=…]"
 #: instance keywords ngspice's resistor takes
@@ -67,16 +68,23 @@ def effective(value, model: dict, kw: dict, temperature=TEMP, tnom=TEMP) -> floa
     return value * factor * kw.get("scale", 1.0) / kw.get("m", 1.0)
 
 
+def _given(ctx, pos, line, value):
+    """A given resistance as ngspice 39 sets it (``RESparam``): 0 (to 3 ulps) is 1 mOhm,
+    with a note; any other number, negative ones too, as it is."""
+    if not traced(value) and abs(value) <= 3 * math.ulp(0.0):
+        ctx.note(line, f"{pos[0]}: a resistance of 0 is 1 mOhm, as ngspice 39 sets it")
+        return 1e-3
+    return value
+
+
 def r_line(ctx, name, pos, kw, line):
     """An R line (see the module docstring): ``(Resistor, pins)``, or ``(None, {})`` for
     an infinite resistance."""
     if len(pos) == 4 and not kw and pos[3].lower() not in ctx.models:
         # the plain line 'Rname n+ n- value' (most of a netlist), as the general reading
         # below takes it: no model named, no instance parameter
-        return cp.Resistor(ctx.value(pos[3], line, f"{pos[0]} value"), name=name), {
-            "p": pos[1],
-            "n": pos[2],
-        }
+        value = _given(ctx, pos, line, ctx.value(pos[3], line, f"{pos[0]} value"))
+        return cp.Resistor(value, name=name, negative=True), {"p": pos[1], "n": pos[2]}
     kw = dict(kw)
     if "tc" in kw and "tc1" not in kw:  # ngspice 39 reads 'tc=a' as TC1 (not 'tc=a,b')
         kw["tc1"] = kw.pop("tc")
@@ -105,6 +113,7 @@ def r_line(ctx, name, pos, kw, line):
     if len(values) > 1 or (not values and found is None):
         raise line.fail(f"expected '{FORM}' (a value, a resistor .model, or both)")
     value = ctx.value(values[0], line, f"{pos[0]} value") if values else None
+    value = None if value is None else _given(ctx, pos, line, value)
     numbers = {
         k: ctx.value(v, line, f"{pos[0]} {k}")
         for k, v in kw.items()
@@ -113,7 +122,7 @@ def r_line(ctx, name, pos, kw, line):
     if "ac" in kw:  # ngspice: a resistance for the AC analysis only
         ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
     if found is None and not numbers:  # the plain R line: its value as given (maybe traced)
-        return cp.Resistor(value, name=name), {"p": pos[1], "n": pos[2]}
+        return cp.Resistor(value, name=name, negative=True), {"p": pos[1], "n": pos[2]}
     for key in ("m", "scale"):
         if key in numbers and numbers[key] <= 0.0:
             raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
@@ -129,9 +138,10 @@ def r_line(ctx, name, pos, kw, line):
         return None, {}
     if value is None and not model.get("rsh") and model.get("r", model.get("res")) is None:
         ctx.note(line, f"{pos[0]}: no value, RSH or R: 1 mOhm, as ngspice sets it")
-    if not r > 0.0:
+    if r == 0.0:
         raise line.fail(
-            f"{pos[0]}: its resistance works out to {r:g} Ohm (value, RSH·(L−2·SHORT)/"
-            "(W−2·NARROW), temperature factor, SCALE/M); diracvi's resistor needs R > 0"
+            f"{pos[0]}: its resistance works out to 0 Ohm (value, RSH·(L−2·SHORT)/"
+            "(W−2·NARROW), temperature factor, SCALE/M); diracvi's resistor needs R ≠ 0 "
+            "(a short: join the two nodes, or use a 0 V source)"
         )
-    return cp.Resistor(r, name=name), {"p": pos[1], "n": pos[2]}
+    return cp.Resistor(r, name=name, negative=True), {"p": pos[1], "n": pos[2]}

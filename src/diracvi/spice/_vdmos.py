@@ -6,9 +6,11 @@ them: the gate resistance ``RG`` from ``g`` to an internal gate ``g′`` (none w
 channel (with ``CGS`` from ``g′`` to the source and ``RD``/``RS``) from ``d`` to ``s``; the
 gate–drain capacitance from ``g′`` to the channel's drain; the body diode (``IS``, ``N``,
 ``CJO``, ``VJ``, ``M``, ``FC``, ``TT``, series resistance ``RB``) from ``s`` to ``d``
-(``NCHAN``; reversed for ``PCHAN``). Card parameters diracvi does not implement
-(quasi-saturation ``RQ``/``VQ``, self-heating, temperature coefficients, ``LAMBDA``,
-``THETA``, breakdown ``BV``, ``RDS`` …) are refused by name at the element line.
+(``NCHAN``; reversed for ``PCHAN``); ``RDS``, when given > 0, a shunt resistor from
+``d`` to ``s`` (``vdmosset``'s ``dsConductance``). ``LAMBDA`` and ``THETA`` enter the
+channel's ``β′``, ``MTRIODE`` its triode region (:mod:`diracvi.components.vdmos`). Card
+parameters diracvi does not implement (quasi-saturation ``RQ``/``VQ``, self-heating, temperature
+coefficients, breakdown ``BV`` …) are refused by name at the element line.
 """
 
 from __future__ import annotations
@@ -23,20 +25,44 @@ DEFAULTS = {
     "vto": 0.0, "kp": 1.0, "ksubthres": 0.1, "subshift": 0.0,
     "rd": 0.0, "rs": 0.0, "rg": 0.0, "cgdmin": 0.0, "cgdmax": 0.0, "a": 1.0, "cgs": 0.0,
     "is": 1e-14, "n": 1.0, "rb": 0.0, "cjo": 0.0, "vj": 0.8, "m": 0.5, "fc": 0.5, "tt": 0.0,
+    "lambda": 0.0, "theta": 0.0, "mtriode": 1.0,
 }  # fmt: skip
 #: parameters that only inform (ngspice ignores them too) or only act in noise
 _IGNORED = ("kf", "af", "vds", "ron", "qg")
+#: ngspice's temperature coefficients: each factor is 1 at T = TNOM
+_TEMPERATURE = ("tcvth", "vtotc", "mu", "bex", "texp0", "texp1", "trd1", "trd2", "trg1",
+                "trg2", "trs1", "trs2", "trb1", "trb2", "tksubthres1", "tksubthres2", "eg",
+                "xti")  # fmt: skip
+#: the safe-operating-area limits (ngspice's soa check: warnings, no effect on a run)
+_SOA = ("vgs_max", "vgd_max", "vds_max", "vgsr_max", "vgdr_max", "pd_max", "id_max",
+        "idr_max", "te_max", "derating")  # fmt: skip
+#: the thermal network's parameters, read only by the five-terminal thermal instance
+_THERMAL = ("rthjc", "rthca", "cthj", "rth_ext")
 CARD = Card(
     defaults=DEFAULTS,
-    alias={"vth0": "vto", "vt0": "vto"},
+    alias={"vth0": "vto"},  # not VT0: ngspice 39's VDMOS ignores it (no such name)
     skip=("pchan", "nchan"),
-    ignored={k: "ignored (informational or noise only)" for k in _IGNORED},
+    ignored={k: "ignored (informational or noise only)" for k in _IGNORED}
+    | {k: "ignored (temperature only: diracvi's VDMOS runs at ngspice's nominal 27 °C, "
+       "where it has no effect)" for k in _TEMPERATURE}
+    | {k: "ignored (a safe-operating-area limit: ngspice only warns past it)" for k in _SOA}
+    | {k: "ignored (used only with the thermal nodes tj tc, which diracvi does not have)"
+       for k in _THERMAL},
     # parameters whose default is "off": given at their default they change nothing
-    fixed={"lambda": (0.0, None), "theta": (0.0, None), "tnom": (27.0, None)},
+    fixed={"tnom": (27.0, None)},
+    optional=("rds",),  # read only where given: ngspice's shunt exists only then
     unknown="parameter {key}={x:g} is not supported; diracvi's VDMOS reads "
     + ", ".join(k.upper() for k in DEFAULTS)
-    + " and PCHAN (remove it to run without)",
-)
+    + ", RDS and PCHAN (remove it to run without)",
+    # ngspice 39's vdmos.c model table (aliases included); VDS, RON, QG (datasheet
+    # words) are outside it and noted above
+    ngspice=("VDMOS", frozenset(
+        "vto vth0 kp phi lambda theta rd rs rg tnom kf af vdmosn vdmosp vdmos rq vq mtriode "
+        "tcvth vtotc mu bex texp0 texp1 trd1 trd2 trg1 trg2 trs1 trs2 trb1 trb2 subshift "
+        "ksubthres tksubthres1 tksubthres2 bv ibv nbv rds rb n tt eg xti is vj cjo m fc "
+        "cgdmin cgdmax a cgs rthjc rthca cthj vgs_max vgd_max vds_max vgsr_max vgdr_max "
+        "pd_max id_max idr_max te_max rth_ext derating".split())),
+)  # fmt: skip
 
 
 def vdmos_line(ctx, name, pos, kw, line):
@@ -62,13 +88,16 @@ def vdmos_line(ctx, name, pos, kw, line):
     try:
         channel = VDMOS(
             kind, v["vto"], v["kp"], ksubthres=v["ksubthres"], subshift=v["subshift"],
-            cgs=v["cgs"], v0=(vg - vs, vg - vd), name=name,
+            lambda_=v["lambda"], theta=v["theta"], mtriode=v["mtriode"], cgs=v["cgs"],
+            v0=(vg - vs, vg - vd), name=name,
         )  # fmt: skip
         extra = [
             (cp.Resistor(v[r], name=f"{name}:{r}"), {"p": node, "n": inner[k]})
             for k, r, node in (("g", "rg", g), ("d", "rd", d), ("s", "rs", s))
             if v[r] != 0.0
         ]
+        if v.get("rds", 0.0) > 0.0:  # vdmosset: a conductance 1/RDS from d to s
+            extra.append((cp.Resistor(v["rds"], name=f"{name}:rds"), {"p": d, "n": s}))
         if v["cgdmax"] > 0.0:
             cgd = GateDrainCapacitance(
                 kind, v["cgdmin"], v["cgdmax"], v["a"], name=f"{name}:cgd", v0=vg - vd
