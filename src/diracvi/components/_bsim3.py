@@ -325,10 +325,14 @@ def _theta(t0):
     return t1 * (1.0 + 2.0 * t1)
 
 
-def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0):
+def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charges_only=False):
     r"""``(I_ds, I_sub, (Q_g, Q_b, Q_d))`` of the NMOS-oriented mode (``V_DS ≥ 0``):
     the module docstring's current, the substrate current (ALPHA0, ALPHA1, BETA0, drain to
-    bulk) and, for ``capmod`` 2 or 3, the intrinsic charges (``None``: zeros)."""
+    bulk) and, for ``capmod`` 2 or 3, the intrinsic charges (``None``: none, as with
+    XPART < 0). ``charges_only``: stop at the charges (the currents ``None``), which read
+    the threshold and ``A_bulk0`` but none of the mobility and saturation terms."""
+    if charges_only and (capmod is None or xpart < 0.0):
+        return None, None, None
     vtm = p["vtm"]
     cox, tox = p["cox"], p["tox"]
     leff = p["leff"]
@@ -424,6 +428,9 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0):
         t2k >= -0.9, 1.0 / (1.0 + t2k), (17.0 + 20.0 * t2k) / (0.8 + jnp.minimum(t2k, -0.9))
     )
     abulk, abulk0 = abulk * kf, abulk0 * kf
+    if charges_only:
+        return None, None, _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst,
+                                    abulk0, vds)  # fmt: skip
     # mobility
     if mobmod == 1:
         t3m = (vgsteff + 2.0 * vth) / tox

@@ -227,7 +227,9 @@ def BSIM3(
     def charge(q, v):
         vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
         gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
-        _, _, intrinsic = b3.evaluate(p, gm, dm, bm, mobmod=mobmod, capmod=capmod, xpart=xpart)
+        _, _, intrinsic = b3.evaluate(
+            p, gm, dm, bm, mobmod=mobmod, capmod=capmod, xpart=xpart, charges_only=True
+        )
         vgd, vgb = vgs - vds, vgs - vbs
         qgso = _overlap(sign * vgs, p["cgso_eff"], p["weffcv"], p["cgsl"], p["ckappa"], capmod)
         qgdo = _overlap(sign * vgd, p["cgdo_eff"], p["weffcv"], p["cgdl"], p["ckappa"], capmod)
