@@ -60,7 +60,7 @@ CARDS = [
     ("PMOS", 8, CMOSP, f"L=0.5u W=2.5u {NO_RSH}", -0.5),
     ("NMOS", 49, FULL, "L=0.35u W=3u", -0.5),
     pytest.param("NMOS", 49, "", "", -1.0, marks=SLOW),  # ngspice's defaults
-    pytest.param("PMOS", 49, "", "L=1u W=10u", 0.3, marks=SLOW),
+    pytest.param("PMOS", 49, "", "L=1u W=10u M=2", 0.3, marks=SLOW),  # M: every stamp ×2
     pytest.param("NMOS", 8, GAMMAS, "L=0.25u W=2u", 0.3, marks=SLOW),
     pytest.param("PMOS", 49, BINUNIT2, "L=0.4u W=4u", -0.3, marks=SLOW),
 ]  # fmt: skip

@@ -118,7 +118,8 @@ def BSIM3(
     3.2.4), and the line's ``ad``, ``as_``, ``pd``, ``ps`` (m², m), ``nrd``, ``nrs``
     (squares, default 1), ``m``, ``delvto``, ``mulu0``. The card's values may be traced
     JAX values. Simulated at the card's TNOM (27 °C unless given); capMod 2 and 3 (3 the
-    default), NQSMOD = 0, ACM = 0: others are refused, as is M ≠ 1 (not yet built)."""
+    default), NQSMOD = 0, ACM = 0: others are refused. ``m`` devices in parallel scale
+    every current and charge by ``m`` and divide RD, RS by it, as ngspice's stamps do."""
     where = f"BSIM3 {name!r}"
     sign = polarity(where, kind)
     unknown = sorted(set(instance) - set(_INSTANCE))
@@ -138,8 +139,7 @@ def BSIM3(
                 f"{where}: {key.upper()}={m[key]:g} is not supported; diracvi's BSIM3 has "
                 f"{key.upper()} = {', '.join(f'{a:g}' for a in allowed)}."
             )
-    if positive(where, "m", inst["m"]) != 1.0:
-        raise ModelError(f"{where}: m={inst['m']:g} is not supported yet (BSIM3 with M = 1 only).")
+    mult = positive(where, "m", inst["m"])  # M devices in parallel: ngspice scales every stamp
     w, l = positive(where, "w", w), positive(where, "l", l)  # noqa: E741
     p = b3.size_dependent(card, sign, l, w, inst["delvto"], inst["mulu0"], revision)
     m = p["model"]  # the card's model parameters with their derived defaults
@@ -206,15 +206,15 @@ def BSIM3(
         i_ch = sign * jnp.where(fwd, ids, -ids)
         i_sub = sign * isub  # from the mode's drain into the bulk
         f = jnp.zeros(len(coords), dtype=v.dtype)
-        f = f.at[idx["w"]].set(-i_ch)
+        f = f.at[idx["w"]].set(-mult * i_ch)
         i_bs = sign * _junction_current(sign * vbs, i_sat["s"], nvtm, m["ijth"], g, revision)
         i_bd = sign * _junction_current(sign * vbd, i_sat["d"], nvtm, m["ijth"], g, revision)
         # I_sub leaves the mode's drain and enters the bulk: a b→(drain) branch current of −I_sub
-        f = f.at[idx["wbs"]].set(-(i_bs - jnp.where(fwd, 0.0, i_sub)))
-        f = f.at[idx["wbd"]].set(-(i_bd - jnp.where(fwd, i_sub, 0.0)))
+        f = f.at[idx["wbs"]].set(-mult * (i_bs - jnp.where(fwd, 0.0, i_sub)))
+        f = f.at[idx["wbd"]].set(-mult * (i_bd - jnp.where(fwd, i_sub, 0.0)))
         for k in "ds":
             if res[k] > 0.0:
-                f = f.at[idx[f"qr{k}"]].set(-res[k] * v[idx[f"qr{k}"]])
+                f = f.at[idx[f"qr{k}"]].set(-res[k] / mult * v[idx[f"qr{k}"]])
         return f
 
     def junction_charge(vn, k):
@@ -246,7 +246,7 @@ def BSIM3(
         out = out.at[idx["w"]].set(sign * (qd - qgdo))
         out = out.at[idx["wbs"]].set(sign * (qb - qgbo + qbs))
         # Q_bd on b→d′: on the bulk, off the drain (Q_D = Q_d − Q_gdo − Q_bd)
-        return out.at[idx["wbd"]].set(sign * qbd)
+        return mult * out.at[idx["wbd"]].set(sign * qbd)
 
     vg0 = np.asarray(v0, dtype=np.float64).reshape(-1)
     if vg0.shape != (3,) or not np.all(np.isfinite(vg0)):
