@@ -93,11 +93,11 @@ def test_every_term_of_the_180nm_card_moves_the_currents():
     misses ngspice's currents of the full card by far more than the 1e-9 tolerance: the
     comparison sees each term. (PSCBE1/PSCBE2 are not among them: at this card's
     PSCBE1 = 8e10 V/m the substrate-current-induced body effect stays off, V_ASCBE above
-    10³⁰ V.)"""
+    10³⁰ V; the card's CDSC and DELTA are ngspice's defaults.)"""
     out, _ = _sweep("NMOS", 8, CMOSN, f"L=0.5u W=1u {NO_RSH}", -0.5)
     for name in ("PCLM", "PDIBLC2", "PVAG", "ETA0", "DVT0", "K3", "NLX", "UA", "UB",
-                 "UC", "RDSW", "PRWG", "NFACTOR", "VOFF", "CDSC", "A0", "AGS", "KETA", "VSAT",
-                 "DELTA", "PVTH0", "PU0", "LKETA", "WINT"):  # fmt: skip
+                 "UC", "RDSW", "PRWG", "NFACTOR", "VOFF", "A0", "AGS", "KETA", "VSAT",
+                 "PVTH0", "PU0", "LKETA", "WINT"):  # fmt: skip
         card = re.sub(rf"\b{name}=\S+", "", CMOSN)
         assert card != CMOSN, name
         net = level6.sweep_deck(8).format(kind="NMOS", card=card, instance=f"L=0.5u W=1u {NO_RSH}",
@@ -105,7 +105,7 @@ def test_every_term_of_the_180nm_card_moves_the_currents():
         part = ng.netlist_part(net, "m1")
         mine = terminal_currents(part, out["v(g)"], out["v(d)"], out["v(b)"])
         worst = np.max(np.abs(mine[0] + out["i(vd)"]) / (np.abs(out["i(vd)"]) + 1e-9))
-        assert worst > 1e-4, (name, worst)
+        assert worst > 1e-6, (name, worst)  # a thousand times the tolerance
 
 
 def _charges_deck(model, instance, biases, card):
@@ -252,8 +252,8 @@ def test_gradients_reach_the_card_parameters():
     for arg in ("vth0", "u0", "rdsw", "pclm", "eta0"):
         x = base[arg]
         for vgs, vds in ((1.5, 1.8), (1.2, 0.1)):
-            grad = jax.grad(drain)(x, arg, vgs, vds)
+            grad = float(jax.grad(drain)(x, arg, vgs, vds))
             h = 1e-5 * abs(x)
-            diff = (drain(x + h, arg, vgs, vds) - drain(x - h, arg, vgs, vds)) / (2 * h)
+            diff = float(drain(x + h, arg, vgs, vds) - drain(x - h, arg, vgs, vds)) / (2 * h)
             assert grad == pytest.approx(diff, rel=1e-5), (arg, vgs, vds)
             assert grad != 0.0
