@@ -134,7 +134,8 @@ def test_temper_is_the_circuit_temperature_in_b_expressions():
 def test_unsupported_models_are_refused_for_what_they_are_not_for_their_words():
     # ngspice's examples/cider/diode/diotran.cir: a CIDER diode whose card holds words
     # (concmod=ct) was refused as "unknown parameter 'ct'"; examples/Monte_Carlo/MC_ring.sp:
-    # a BSIM3 card with version=3.3.0 as "cannot parse expression '3.3.0'"
+    # a BSIM3 card with version=3.3.0 as "cannot parse expression '3.3.0'" (BSIM3 is read
+    # since 2026-11-30: its VERSION word is read as the model's revision; BSIM4's is refused)
     cider = "t\nv1 1 0 1\nd1 1 0 m_pn area=100\n.model m_pn numd level=1\n+ options defa=1p\n"
     cider += "+ doping unif n.type conc=1e16\n+ models concmod=ct\n.tran 1n 10n\n.end\n"
     with pytest.raises(spice.NetlistError) as err:
@@ -142,8 +143,10 @@ def test_unsupported_models_are_refused_for_what_they_are_not_for_their_words():
     assert "model 'm_pn' (line 4) is a NUMD (CIDER's numerical device simulation" in str(err.value)
     bsim = "t\nv1 1 0 1\nm1 1 1 0 0 n1 w=1u l=1u\n.model n1 nmos level=8 version=3.3.0\n"
     bsim += ".tran 1n 10n\n.end\n"
-    with pytest.raises(spice.NetlistError, match=r"NMOS level 8 \(BSIM3v3\.3\.0\) is not supp"):
-        spice.read(bsim)
+    assert type(spice.read(bsim).circuit.parts[-1]).__name__ == "ChargePortPart"
+    bsim4 = bsim.replace("level=8 version=3.3.0", "level=14 version=4.8.2")
+    with pytest.raises(spice.NetlistError, match=r"NMOS level 14 \(BSIM4v4\.8\.2\) is not supp"):
+        spice.read(bsim4)
 
 
 def test_a_bjt_of_another_level_is_refused_by_its_level_not_its_parameters():

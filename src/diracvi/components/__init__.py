@@ -60,6 +60,7 @@ _PUBLIC = {
     "MOSFET2": "mosfet2",
     "MOSFET3": "mosfet3",
     "MOSFET6": "mosfet6",
+    "BSIM3": "bsim3",
     "Multibody": "multibody",
     "MultibodyModel": "multibody",
     "Assembly": "network",
@@ -86,6 +87,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from ._part import Part
     from .behavioural import BehaviouralSource
     from .bjt import BJT
+    from .bsim3 import BSIM3
     from .controlled import CCCS, CCVS, VCCS, VCVS
     from .diode import SPICE_PARAMETERS, Diode, spice_diode
     from .electrical import (
@@ -131,6 +133,7 @@ __getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
 
 __all__ = [
     "BJT",
+    "BSIM3",
     "CCCS",
     "CCVS",
     "DC",
