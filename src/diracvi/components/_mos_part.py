@@ -139,6 +139,23 @@ class Device(NamedTuple):
     shared: dict
 
 
+def pins_and_kcl(branches: dict, idx: dict, internal: list) -> tuple[list, list]:
+    """A transistor's branches ``{key: ((charge, …), plus, minus)}`` joined: the pins
+    ``(node, charge, ±1)`` of the ends at terminals, and for each internal node (behind
+    RD or RS) its KCL row ``Σ ±q̇_branch = 0`` over the coordinates ``idx``."""
+    pins, rows = [], []
+    for names, plus, minus in branches.values():
+        for node, s in ((plus, 1), (minus, -1)):
+            if node not in internal:
+                pins.append((node, names[0], s))
+    for node in internal:
+        row = np.zeros(len(idx))
+        for names, plus, minus in branches.values():
+            row[idx[names[0]]] += (plus == node) - (minus == node)
+        rows.append(row)
+    return pins, rows
+
+
 def device(label: str, kind, w, l, name: str, keywords: dict, defaults=SHARED) -> Device:  # noqa: E741
     """The :class:`Device` of a level's function ``label`` called with ``keywords`` (its
     ``**shared``) over the level's ``defaults``: a name not among them is refused as Python
@@ -248,16 +265,7 @@ def _assemble(
         coords.append(f"y{k}")
     idx = {c: j for j, c in enumerate(coords)}
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
-    pins, rows = [], []
-    for names, plus, minus in branches.values():
-        for node, s in ((plus, 1), (minus, -1)):
-            if node not in internal:
-                pins.append((node, names[0], s))
-    for node in internal:
-        row = np.zeros(len(coords))
-        for names, plus, minus in branches.values():
-            row[idx[names[0]]] += (plus == node) - (minus == node)
-        rows.append(row)
+    pins, rows = pins_and_kcl(branches, idx, internal)
     roles = [("sg", "current")] + [(f"s{k}", "capacitor") for k in gate]
     flux = {k: branches[k][0][1] for k in branches if len(branches[k][0]) == 2}
     flux_caps = [(flux[k], caps[k]) for k in ("gs", *gate) if caps[k] > 0.0]

@@ -39,7 +39,7 @@ from ..errors import ModelError
 from . import _bsim3 as b3
 from ._charge_port import ChargePortPart
 from ._junction import depletion_charge
-from ._mos_part import bulk_limits, polarity
+from ._mos_part import bulk_limits, pins_and_kcl, polarity
 from ._part import finite, positive
 
 __all__ = ["BSIM3", "bsim3_current"]
@@ -184,16 +184,7 @@ def BSIM3(
     coords = [c for names, _, _ in branches.values() for c in names]
     idx = {c: j for j, c in enumerate(coords)}
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
-    pins, rows = [], []
-    for names, plus, minus in branches.values():
-        for node, s in ((plus, 1), (minus, -1)):
-            if node not in internal:
-                pins.append((node, names[0], s))
-    for node in internal:
-        row = np.zeros(len(coords))
-        for names, plus, minus in branches.values():
-            row[idx[names[0]]] += (plus == node) - (minus == node)
-        rows.append(row)
+    pins, rows = pins_and_kcl(branches, idx, internal)
 
     def lagrangian(q, v):
         return sum(q[idx[names[1]]] * v[idx[names[0]]]
