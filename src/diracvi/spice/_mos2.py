@@ -12,7 +12,7 @@ ignored with a note, as ngspice ignores it (with a warning).
 
 from __future__ import annotations
 
-from ._mos_card import level_card
+from ._mos_card import level_card, read_level
 
 CARD = level_card(
     2, "Grove–Frohman",
@@ -25,11 +25,9 @@ CARD = level_card(
 def read_mos2_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of a level-2 card (aliases already applied), checked: ``{name: value}``
     with the defaults of :data:`CARD` and the others only where given; ``"level"`` 2."""
-    values = CARD.read(kind, kw, fail, notes) | {"level": 2.0}
-    for key in ("phi", "tox", "u0", "ucrit", "neff"):
-        if values.get(key, 1.0) <= 0.0:
-            raise fail(f"{kind} {key.upper()}={values[key]:g} must be > 0")
-    return values
+    return read_level(
+        CARD, 2.0, kind, kw, fail, notes, positive=("phi", "tox", "u0", "ucrit", "neff")
+    )
 
 
 def law(v: dict, process: dict) -> dict:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 
-from ._mos_card import level_card
+from ._mos_card import level_card, read_level
 
 CARD = level_card(
     3, "semi-empirical",
@@ -36,11 +36,7 @@ def read_mos3_model(kind: str, kw: dict, fail, notes: list) -> dict:
     """The values of a level-3 card (aliases already applied), checked: ``{name: value}``
     with the defaults of :data:`CARD` and the others only where given; ``"level"`` 3."""
     kw = {"delvto" if k == "delvt0" else k: x for k, x in kw.items()}
-    values = CARD.read(kind, kw, fail, notes) | {"level": 3.0}
-    for key in ("phi", "tox", "u0"):
-        if values.get(key, 1.0) <= 0.0:
-            raise fail(f"{kind} {key.upper()}={values[key]:g} must be > 0")
-    return values
+    return read_level(CARD, 3.0, kind, kw, fail, notes, positive=("phi", "tox", "u0"))
 
 
 def law(v: dict, process: dict) -> dict:

@@ -61,3 +61,14 @@ def level_card(
         "supported by diracvi",
         ngspice=(f"level-{level} MOSFET", NGSPICE39[level]),
     )
+
+
+def read_level(card: Card, level: float, kind: str, kw: dict, fail, notes: list, positive) -> dict:
+    """The values of a level card (aliases already applied), checked: ``{name: value}``
+    with ``card``'s defaults and the others only where given, ``"level"`` set, and each
+    of ``positive`` > 0 where given or defaulted."""
+    values = card.read(kind, kw, fail, notes) | {"level": level}
+    for key in positive:
+        if values.get(key, 1.0) <= 0.0:
+            raise fail(f"{kind} {key.upper()}={values[key]:g} must be > 0")
+    return values

@@ -26,6 +26,7 @@ enter a transient.
 from __future__ import annotations
 
 from .. import components as cp
+from ._resistor import read_line
 
 #: ngspice's ε₀ and ε_SiO₂ (F/m, ``const.h``: CONSTepsZero, CONSTepsSiO2 = 3.9 ε₀)
 EPS0 = 8.854214871e-12
@@ -70,38 +71,6 @@ def capacitance(value, model: dict, kw: dict) -> float:
     return cj * width * length + model.get("cjsw", 0.0) * 2.0 * (length + width)
 
 
-def _read(ctx, pos, kw, line, letter, form, instance, keywords):
-    """The line's nodes, its value (or ``None``), its model's parameters (``{}``) and its
-    numeric instance keywords, for a C or L line."""
-    kw = dict(kw)
-    for key in keywords:  # ngspice's keyword form of the value
-        if key in kw and len(pos) == 3:
-            pos = [*pos, kw.pop(key)]
-    if len(pos) < 3 or len(pos) > 5:
-        raise line.fail(f"expected '{form}', got {len(pos)} fields")
-    unknown = sorted(set(kw) - set(instance))
-    if unknown:
-        raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
-    found = ctx.find_model(pos[3:])
-    model = {}
-    if found is not None:
-        token, kind, where = found
-        if kind != letter:
-            raise line.fail(f"model {token!r} ({where}) is a {kind} model, not a {letter} model")
-        _, model, _ = ctx.model(token, line)
-    values = [t for t in pos[3:] if found is None or t != found[0]]
-    if len(values) > 1 or (not values and found is None):
-        raise line.fail(f"expected '{form}' (a value, a {letter} .model, or both)")
-    value = ctx.value(values[0], line, f"{pos[0]} value") if values else None
-    numbers = {
-        k: ctx.value(v, line, f"{pos[0]} {k.upper()}") for k, v in kw.items() if k != "bv_max"
-    }
-    for key in ("m", "scale"):
-        if key in numbers and numbers[key] <= 0.0:
-            raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
-    return pos, value, model, numbers, found
-
-
 def _temperature(ctx, pos, numbers, line) -> float:
     """The element's temperature (°C), as :func:`~._cards.device_temperature` sets it."""
     if "temp" in numbers:
@@ -118,7 +87,7 @@ def c_line(ctx, name, pos, kw, line):
         c = ctx.value(pos[3], line, f"{pos[0]} value")  # the plain line (maybe traced)
         v0 = ctx.ic(pos[1]) - ctx.ic(pos[2])
         return cp.Capacitor(c, name=name, v0=v0, negative=True), {"p": pos[1], "n": pos[2]}
-    pos, value, model, numbers, found = _read(
+    pos, value, model, numbers, found = read_line(
         ctx, pos, kw, line, "C", form, C_INSTANCE, ("c", "cap", "capacitance")
     )
     model = {C_MODEL.get(k, k): x for k, x in model.items()}
@@ -146,7 +115,7 @@ def l_line(ctx, name, pos, kw, line):
     if len(pos) == 4 and not kw and pos[3].lower() not in ctx.models:
         ell = ctx.value(pos[3], line, f"{pos[0]} value")  # the plain line (maybe traced)
         return cp.Inductor(ell, name=name, negative=True), {"p": pos[1], "n": pos[2]}
-    pos, value, model, numbers, found = _read(
+    pos, value, model, numbers, found = read_line(
         ctx, pos, kw, line, "L", form, L_INSTANCE, ("inductance", "l")
     )
     geometric = sorted(k for k in model if k in L_GEOMETRY)

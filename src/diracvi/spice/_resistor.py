@@ -77,6 +77,47 @@ def _given(ctx, pos, line, value):
     return value
 
 
+#: what each letter's line is called in messages: (its model's kind, its card)
+_NOUNS = {"R": ("a resistor (R)", "a resistor .model")}
+
+
+def read_line(ctx, pos, kw, line, letter, form, instance, keywords):
+    """An R, C or L line's nodes, its value (or ``None``), its model's parameters
+    (``{}``), its numeric instance keywords and its model as found (``(token, kind,
+    where)`` or ``None``); ``keywords`` are ngspice's keyword forms of the value
+    (``r=``, ``cap=``), ``instance`` the instance keywords the letter has."""
+    kind_noun, card_noun = _NOUNS.get(letter, (f"a {letter} model", f"a {letter} .model"))
+    kw = dict(kw)
+    for key in keywords:  # ngspice's keyword form of the value
+        if key in kw and len(pos) == 3:
+            pos = [*pos, kw.pop(key)]
+    if len(pos) < 3 or len(pos) > 5:
+        raise line.fail(f"expected '{form}', got {len(pos)} fields")
+    unknown = sorted(set(kw) - set(instance))
+    if unknown:
+        raise line.fail(f"unsupported parameters {unknown} (form: '{form}')")
+    found = ctx.find_model(pos[3:])
+    model = {}
+    if found is not None:
+        token, kind, where = found
+        if kind != letter:
+            raise line.fail(f"model {token!r} ({where}) is a {kind} model, not {kind_noun}")
+        _, model, _ = ctx.model(token, line)
+    values = [t for t in pos[3:] if found is None or t != found[0]]
+    if len(values) > 1 or (not values and found is None):
+        raise line.fail(f"expected '{form}' (a value, {card_noun}, or both)")
+    value = ctx.value(values[0], line, f"{pos[0]} value") if values else None
+    numbers = {
+        k: ctx.value(v, line, f"{pos[0]} {k.upper()}")
+        for k, v in kw.items()
+        if k not in ("ac", "noisy", "bv_max")  # (ngspice's AC, noise and SOA keywords)
+    }
+    for key in ("m", "scale"):
+        if key in numbers and numbers[key] <= 0.0:
+            raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
+    return pos, value, model, numbers, found
+
+
 def r_line(ctx, name, pos, kw, line):
     """An R line (see the module docstring): ``(Resistor, pins)``, or ``(None, {})`` for
     an infinite resistance."""
@@ -88,44 +129,20 @@ def r_line(ctx, name, pos, kw, line):
     kw = dict(kw)
     if "tc" in kw and "tc1" not in kw:  # ngspice 39 reads 'tc=a' as TC1 (not 'tc=a,b')
         kw["tc1"] = kw.pop("tc")
-    for key in ("r", "resistance"):  # ngspice's keyword form of the value
-        if key in kw and len(pos) == 3:
-            pos = [*pos, kw.pop(key)]
-    if len(pos) < 3 or len(pos) > 5:
-        raise line.fail(f"expected '{FORM}', got {len(pos)} fields")
-    unknown = sorted(set(kw) - set(INSTANCE))
-    if unknown:
-        raise line.fail(f"unsupported parameters {unknown} (form: '{FORM}')")
-    found = ctx.find_model(pos[3:])
-    model, where = {}, None
-    if found is not None:
-        token, kind, where = found
-        if kind != "R":
-            raise line.fail(f"model {token!r} ({where}) is a {kind} model, not a resistor (R)")
-        _, model, _ = ctx.model(token, line)
-        bad = sorted(k for k in model if k not in MODEL)
-        if bad:
-            raise line.fail(
-                f"resistor model {token!r} ({where}) sets {bad}; ngspice's resistor model "
-                f"has {', '.join(k.upper() for k in MODEL)}"
-            )
-    values = [t for t in pos[3:] if found is None or t != found[0]]
-    if len(values) > 1 or (not values and found is None):
-        raise line.fail(f"expected '{FORM}' (a value, a resistor .model, or both)")
-    value = ctx.value(values[0], line, f"{pos[0]} value") if values else None
+    pos, value, model, numbers, found = read_line(
+        ctx, pos, kw, line, "R", FORM, INSTANCE, ("r", "resistance")
+    )
+    bad = sorted(k for k in model if k not in MODEL)
+    if bad:
+        raise line.fail(
+            f"resistor model {found[0]!r} ({found[2]}) sets {bad}; ngspice's resistor model "
+            f"has {', '.join(k.upper() for k in MODEL)}"
+        )
     value = None if value is None else _given(ctx, pos, line, value)
-    numbers = {
-        k: ctx.value(v, line, f"{pos[0]} {k}")
-        for k, v in kw.items()
-        if k not in ("ac", "noisy", "bv_max")
-    }
     if "ac" in kw:  # ngspice: a resistance for the AC analysis only
         ctx.note(line, f"{pos[0]} ac={kw['ac']} ignored (an AC-analysis resistance)")
     if found is None and not numbers:  # the plain R line: its value as given (maybe traced)
         return cp.Resistor(value, name=name, negative=True), {"p": pos[1], "n": pos[2]}
-    for key in ("m", "scale"):
-        if key in numbers and numbers[key] <= 0.0:
-            raise line.fail(f"{pos[0]} {key}={numbers[key]:g}: it must be positive")
     if "temp" in numbers and "dtemp" in numbers:
         ctx.note(line, f"{pos[0]}: TEMP given, so DTEMP is ignored (as ngspice does)")
     r = effective(value, model, numbers, ctx.temperature, ctx.tnom)
