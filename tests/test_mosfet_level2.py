@@ -127,7 +127,6 @@ def test_level2_cards_note_what_ngspice_ignores_and_refuse_what_it_lacks():
     for bad, match in (("PHI=-0.5", card + r"PHI=-0.5 must be > 0"),
                        ("TOX=0", card + r"TOX=0 must be > 0"),
                        ("NEFF=0", card + r"NEFF=0 must be > 0"),
-                       ("TNOM=50", card + r"TNOM=50 is not supported"),
                        ("NSUB=1e9", r"line 4: model of 'm1': NSUB=1e\+09 cm⁻³ is not above the "
                                     r"intrinsic density")):  # fmt: skip
         with pytest.raises(spice.NetlistError, match=match):

@@ -206,8 +206,7 @@ def test_level3_cards_note_what_ngspice_ignores_and_refuse_what_it_lacks():
     for bad, match in (("XD=1u", card + r"XD=1e-06: ngspice 39 computes it"),
                        ("ALPHA=2", card + r"ALPHA=2: ngspice 39 computes it"),
                        ("PHI=-0.5", card + r"PHI=-0.5 must be > 0"),
-                       ("TOX=0", card + r"TOX=0 must be > 0"),
-                       ("TNOM=50", card + r"TNOM=50 is not supported")):  # fmt: skip
+                       ("TOX=0", card + r"TOX=0 must be > 0")):  # fmt: skip
         with pytest.raises(spice.NetlistError, match=match):
             spice.read(base.format("", bad))
     with pytest.raises(spice.NetlistError, match=r"effective width W − 2·WD \+ XW = -1e-06"):

@@ -185,7 +185,7 @@ def test_the_diode_temperature_update_is_differentiable():
     ("element", "model", "what"),
     [
         ("J1 d g 0 jm", ".model jm NJF", "JFET"),
-        ("M1 d g 0 0 mm", ".model mm NMOS LEVEL=2", "MOSFET"),
+        ("M1 d g 0 0 mm", ".model mm NMOS LEVEL=6", "MOSFET"),
         ("M1 d g 0 vd", ".model vd VDMOS", "VDMOS"),
     ],
 )
@@ -307,6 +307,61 @@ def test_level1_mosfets_match_ngspice_away_from_27C(setting):
     instance's TEMP and DTEMP, a model TNOM and ``.options tnom``: every source's current
     at the operating point."""
     deck = MOSFETS.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VDD", "VB3", "VD4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+
+
+# ------------------------------------------------------------------ MOSFET levels 2 and 3
+LEVELS23 = """mos{level} temperatures
+VDD vdd 0 3
+VG1 g1 0 1.6
+RD1 vdd d1 2k
+M1 d1 g1 0 0 nm L=2u W=20u
+VG2 g2 0 1.2
+RD2 d2 0 3k
+M2 d2 g2 vdd vdd pm L=2u W=40u dtemp=15
+VG3 g3 0 2
+VB3 b3 0 0.45
+M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
+RS3 s3 0 1k
+VG4 g4 0 0.55
+M4 d4 g4 0 0 nw L=3u W=30u
+VD4 d4 0 0.8
+.model nm NMOS(LEVEL={level} VTO=0.7 KP=50u GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15 TNOM=40
++ VMAX=1e5 TOX=20n)
+.model pm PMOS(LEVEL={level} TOX=20n NSUB=2e16 U0=250 VMAX=5e4)
+.model np NMOS(LEVEL={level} TOX=15n NSUB=5e16 NSS=1e10 TPG=1 U0=500 JS=1e-4 CJ=1e-4
++ CJSW=1e-10 PB=0.9 XJ=0.2u)
+.model nw NMOS(LEVEL={level} VTO=0.6 TOX=20n NSUB=1e16 NFS=1e11 U0=400)
+{setting}
+.tran 1n 10n
+.end
+"""
+
+
+# one case of each level in the default suite (~25 s each: a compiled operating point),
+# the rest behind the slow marker
+LEVEL23_CASES = [
+    pytest.param(level, setting, marks=() if (level, setting) in DEFAULT23 else pytest.mark.slow)
+    for DEFAULT23 in [{(2, ".options temp=60 tnom=35"), (3, ".options temp=-40 tnom=0")}]
+    for level in (2, 3)
+    for setting in BJT_SETTINGS
+]
+
+
+@needs_ngspice
+@pytest.mark.parametrize(("level", "setting"), LEVEL23_CASES)
+def test_level2_and_level3_mosfets_match_ngspice_away_from_27C(level, setting):
+    """mos2temp's and mos3temp's update (level 1's, :func:`mos1`) with what the laws read
+    at the device's temperature: KP and VTO through PHI (given, from NSUB at TNOM, n_i at
+    TNOM for level 3), the reverse-biased bulk junction with JS (level 3's cubic reverse
+    branch), level 3's U0 in velocity saturation (VMAX), weak inversion's V_T (NFS), a
+    PMOS with DTEMP, a model TNOM and ``.options tnom``: each source's current at the
+    operating point."""
+    deck = LEVELS23.format(level=level, setting=setting)
     ref = ng.operating_point(deck)
     op = spice.operating_point(spice.read(deck))
     for source in ("VDD", "VB3", "VD4"):

@@ -46,7 +46,6 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 
-from ._junction import THERMAL_VOLTAGE
 from ._quartic import baum_root
 
 
@@ -70,6 +69,7 @@ class Level2(NamedTuple):
     vmax: float
     neff: float
     pb: float
+    vt: float  # kT/q at the device's temperature (V)
     has_nfs: bool
     has_vmax: bool
     has_nsub: bool
@@ -150,7 +150,7 @@ def _length_factor(p: Level2, shortening):
 def level2(p: Level2):
     """Level 2's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, V_DSAT)`` (module
     docstring); ``V_DSAT`` is 0 where ngspice leaves it so (cut off without NFS)."""
-    vt = THERMAL_VOLTAGE
+    vt = p.vt
     eta = 1.0 + p.factor
 
     def forward(vgs, vds, vbs):

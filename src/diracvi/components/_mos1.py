@@ -48,14 +48,19 @@ EPS_SI = 11.70 * EPS0
 CHARGE = 1.6021766208e-19
 NI = 1.45e16  # intrinsic carrier density of silicon, m⁻³
 T_NOM = 300.15
-E_GAP = 1.16 - 7.02e-4 * T_NOM * T_NOM / (T_NOM + 1108.0)
-#: the intrinsic density at ``T_NOM`` as ``mos3temp`` takes it (levels 1 and 2 take
-#: :data:`NI`, the 300 K value): ``n_i(T) = NI (T/300)^1.5 exp(E_g(T)(1/300 − 1/T)/(2k/q))``
-NI_NOM = (
-    NI
-    * (T_NOM / 300.0) ** 1.5
-    * math.exp(0.5 * E_GAP * (1.0 / 300.0 - 1.0 / T_NOM) / (THERMAL_VOLTAGE / T_NOM))
-)
+
+
+def intrinsic_density(tnom: float) -> float:
+    """The intrinsic density at the model's ``tnom`` (kelvin) as ``mos3temp`` takes it
+    (levels 1 and 2 take :data:`NI`, the 300 K value):
+    ``n_i(T) = NI (T/300)^1.5 exp(E_g(T)(1/300 − 1/T)/(2k/q))``."""
+    gap = 1.16 - 7.02e-4 * tnom * tnom / (tnom + 1108.0)
+    k_over_q = THERMAL_VOLTAGE / T_NOM
+    return NI * (tnom / 300.0) ** 1.5 * math.exp(0.5 * gap * (1.0 / 300.0 - 1.0 / tnom) / k_over_q)
+
+
+#: :func:`intrinsic_density` at ngspice's nominal 27 °C
+NI_NOM = intrinsic_density(T_NOM)
 MAGIC_VDS = 0.025
 
 

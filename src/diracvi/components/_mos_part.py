@@ -7,8 +7,9 @@ NMOS-oriented device in its forward mode (``V_DS ≥ 0``, voltages already multi
 capacitances read. This module applies it as ngspice's ``mos1load``/``mos6load`` do: the
 polarity, the source/drain swap for ``V_DS < 0`` (``V_GD``, ``V_BD``, ``−V_DS`` in the law,
 the current reversed), the bulk junctions (diodes with ngspice's constant ``−I_S`` below
-``−3 V_T``, plus ``G_min``), their depletion charges, the overlap capacitances, RD/RS, and
-Meyer's capacitances (:mod:`~diracvi.components._mos1`) with the mode's ``von``, ``vdsat``.
+``−3 V_T`` — ``mos3load``'s cubic ``−I_S (1 + (3V_T/(eV))³)`` at level 3 — plus
+``G_min``), their depletion charges, the overlap capacitances, RD/RS, and Meyer's
+capacitances (:mod:`~diracvi.components._mos1`) with the mode's ``von``, ``vdsat``.
 
 The Lagrange–Dirac form (branches, sense branches, Meyer's voltage coordinates) is
 described in :mod:`~diracvi.components.mosfet`.
@@ -176,7 +177,8 @@ def device(label: str, kind, w, l, name: str, keywords: dict, defaults=SHARED) -
 def build(device: Device, forward, phi, params: dict, **override) -> ControlledPart:
     """The part of ``device`` whose channel obeys ``forward`` (its parameters already
     scaled by ``W/L_eff`` and ``M``); ``override``: shared keywords the level sets itself
-    (level 2's ``cox`` from ``TOX``), ``params`` the part's recorded parameters."""
+    (level 2's ``cox`` from ``TOX``; level 3's ``reverse="cubic"`` junction branch),
+    ``params`` the part's recorded parameters."""
     return _assemble(
         device.where, device.kind, forward, phi, width=device.width, leff=device.leff,
         mult=device.mult, params=params, name=device.name, **(device.shared | override),
@@ -212,6 +214,7 @@ def _assemble(
     params,
     name,
     emission=1.0,
+    reverse="constant",
 ) -> ControlledPart:
     """The part of a MOSFET with pins ``d g s b`` (:func:`build`'s)."""
     sign = KINDS[kind]
@@ -302,10 +305,10 @@ def _assemble(
             i_ch = channel_current(vgs, vds, vbs, sign, forward)
         f = f.at[idx["w"]].set(-i_ch)
         f = f.at[idx["wbs"]].set(
-            -(sign * pn_current(sign * vbs, i_ss, emission, reverse="constant") + g * vbs)
+            -(sign * pn_current(sign * vbs, i_ss, emission, reverse=reverse) + g * vbs)
         )
         f = f.at[idx["wbd"]].set(
-            -(sign * pn_current(sign * vbd, i_sd, emission, reverse="constant") + g * vbd)
+            -(sign * pn_current(sign * vbd, i_sd, emission, reverse=reverse) + g * vbd)
         )
         for k in "ds":
             if res[k] > 0.0:

@@ -46,7 +46,6 @@ from typing import NamedTuple
 import jax.numpy as jnp
 
 from ._grove_frohman import _side
-from ._junction import THERMAL_VOLTAGE
 
 #: the fit of the depletion-layer corner in ngspice's short-channel factor
 _C0, _C1, _C2 = 0.0631353, 0.8013292, -0.01110777
@@ -71,6 +70,7 @@ class Level3(NamedTuple):
     kappa: float
     u0: float
     vmax: float
+    vt: float  # kT/q at the device's temperature (V)
     has_nfs: bool
     has_vmax: bool
 
@@ -118,7 +118,7 @@ def _shortening(p: Level3, vds, vdsat, current, vdsx, vdsc):
 def level3(p: Level3):
     """Level 3's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, V_DSAT)`` (module
     docstring); ``V_DSAT`` is 0 where ngspice leaves it so (cut off without NFS)."""
-    vt = THERMAL_VOLTAGE
+    vt = p.vt
 
     def forward(vgs, vds, vbs):
         s, _ = _side(p.phi, vbs)

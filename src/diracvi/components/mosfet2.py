@@ -15,6 +15,7 @@ import math
 
 from ..errors import ModelError
 from ._grove_frohman import Level2, level2
+from ._junction import THERMAL_VOLTAGE
 from ._mos1 import CHARGE, EPS_OX, EPS_SI
 from ._mos_part import KINDS, SHARED, build, device
 from ._part import finite, positive
@@ -103,6 +104,8 @@ def MOSFET2(
         vmax=traced["vmax"],
         neff=neff,
         pb=positive(where, "pb", dev.shared["pb"]),
+        # the bulk junctions' V_T(T)/V_T(27 °C) is the law's too (mos2load: vt at T)
+        vt=THERMAL_VOLTAGE * dev.shared["emission"],
         has_nfs=_nonzero(traced["nfs"]),
         has_vmax=not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
         has_nsub=nsub > 0.0,

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 
 from ..errors import ModelError
+from ._junction import THERMAL_VOLTAGE
 from ._mos1 import CHARGE, EPS_OX, EPS_SI
 from ._mos_part import KINDS, build, device
 from ._part import finite, positive
@@ -117,6 +118,8 @@ def MOSFET3(
         kappa=traced["kappa"],
         u0=u0 * 1e-4,
         vmax=traced["vmax"],
+        # the bulk junctions' V_T(T)/V_T(27 °C) is the law's too (mos3load: vt at T)
+        vt=THERMAL_VOLTAGE * dev.shared["emission"],
         has_nfs=_nonzero(traced["nfs"]),
         has_vmax=not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
     )
@@ -125,5 +128,9 @@ def MOSFET3(
               "eta": traced["eta"], "theta": traced["theta"], "kappa": traced["kappa"],
               "vmax": traced["vmax"], "nfs": traced["nfs"], "xl": xl, "wd": wd, "xw": xw,
               "delvto": traced["delvto"]}  # fmt: skip
-    # mos3load's junctions add GMIN unscaled by M (mos1load scales it)
-    return build(dev, level3(law), phi, params, cox=cox, gmin=dev.shared["gmin"] / dev.mult)
+    # mos3load's junctions add GMIN unscaled by M (mos1load scales it), and below −3 V_T
+    # follow the cubic reverse branch (mos1load and mos2load hold −I_S there)
+    return build(
+        dev, level3(law), phi, params, cox=cox, gmin=dev.shared["gmin"] / dev.mult,
+        reverse="cubic",
+    )  # fmt: skip

@@ -20,7 +20,7 @@ intrinsic density at TNOM.
 from __future__ import annotations
 
 from .. import components as cp
-from ..components._mos1 import NI, NI_NOM, process_parameters
+from ..components._mos1 import NI, intrinsic_density, process_parameters
 from ..components._temperature import kelvin
 from ..components._temperature import mos1 as mos1_at
 from ..errors import ModelError
@@ -87,7 +87,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
     """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)
     for the card values ``v`` (:func:`read_mos_model`); a level-1 device at
     ``temperature`` (°C) from its card's TNOM, else ``tnom`` (°C), by ngspice 39's update
-    (:func:`~diracvi.components._temperature.mos1`)."""
+    (:func:`~diracvi.components._temperature.mos1`, which ``mos2temp`` and ``mos3temp``
+    share for levels 2 and 3; level 3 also scales U0, and both laws read ``V_T`` at the
+    device's temperature)."""
     extra = [t for t in pos[6:] if t.lower() != "off"]
     if len(pos) < 6 or extra:
         raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
@@ -102,13 +104,20 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
     try:
         nominal = kelvin(tnom if v.get("tnom") is None else v["tnom"])
         # mos3temp takes n_i at TNOM, levels 1 and 2 at 300 K
-        ni = NI_NOM if v.get("level") == 3.0 else NI
+        ni = intrinsic_density(nominal) if v.get("level") == 3.0 else NI
         process = process_parameters(sign, v, f"model of {name!r}", nominal, ni)
     except ModelError as exc:
         raise fail(str(exc)) from None
     emission = 1.0
-    if v.get("level", 1.0) == 1.0:
-        v, process, emission = mos1_at(v, process, sign, kelvin(temperature), nominal)
+    level = v.get("level", 1.0)
+    if level in (1.0, 2.0, 3.0):  # mos2temp and mos3temp update as mos1temp does
+        t = kelvin(temperature)
+        v, process, emission = mos1_at(v, process, sign, t, nominal)
+        if level == 3.0 and t != nominal:
+            # mos3load's velocity saturation reads U0(T) = U0 (T/T_nom)^{-3/2} (tSurfMob);
+            # mos2load reads the card's U0 unscaled, so level 2's stays as given
+            ratio = t / nominal
+            v = v | {"u0": v["u0"] / (ratio * ratio**0.5)}
 
     def resistance(r, squares):  # RD over RSH·NRD, as mos1temp
         return v[r] if r in v else v["rsh"] * geo[squares]
@@ -128,7 +137,7 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
         cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"], mjsw=v["mjsw"], fc=v["fc"],
         v0=v0, name=name,
     )  # fmt: skip
-    if emission != 1.0:  # V_T(T)/V_T(27 °C) of the bulk junctions (level 1 only)
+    if emission != 1.0:  # V_T(T)/V_T(27 °C): the bulk junctions' and levels 2 and 3's laws'
         common["emission"] = emission
     if v.get("level") == 6.0:
         part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
@@ -173,7 +182,7 @@ def m_line(ctx, name, pos, kw, line):
         for note in notes:
             ctx.note(line, note)
         return part, nodes
-    if level != 1.0:  # levels 2, 3 and 6 have no temperature update yet
+    if level == 6.0:  # level 6 has no temperature update yet
         nominal_only(ctx, pos[0], kw, line, f"the MOSFET (level {level:g})")
     temp = device_temperature(ctx, pos[0], kw, line)
     kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}

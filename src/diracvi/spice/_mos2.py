@@ -18,7 +18,7 @@ CARD = level_card(
     2, "Grove–Frohman",
     {"lambda": 0.0, "delta": 0.0, "ucrit": 1e4, "uexp": 0.0, "vmax": 0.0, "xj": 0.0,
      "neff": 1.0, "nfs": 0.0, "u0": 600.0, "tox": 1e-7, "mjsw": 0.33},
-    ("kp", "nsub", "nss", "tpg"),
+    ("kp", "nsub", "nss", "tpg", "tnom"),
 )  # fmt: skip
 
 

@@ -24,7 +24,7 @@ CARD = level_card(
     {"delta": 0.0, "eta": 0.0, "theta": 0.0, "kappa": 0.2, "vmax": 0.0, "xj": 0.0,
      "nfs": 0.0, "u0": 600.0, "tox": 1e-7, "mjsw": 0.33, "xl": 0.0, "wd": 0.0, "xw": 0.0,
      "delvto": 0.0},
-    ("kp", "nsub", "nss", "tpg"),
+    ("kp", "nsub", "nss", "tpg", "tnom"),
     # in ngspice 39's table, but its mos3mpar has no case for them: ngspice refuses the
     # card ("could not find a valid modelname")
     fixed={k: (math.nan, "{key}={x:g}: ngspice 39 computes it (from NSUB) and refuses a "

@@ -6,7 +6,8 @@ The shared parameters: the bulk junctions (``IS`` or ``JS`` times the line's ``A
 ``MJSW``, ``FC``), the overlaps ``CGSO``, ``CGDO``, ``CGBO`` and ``LD``, the resistances
 ``RD``/``RS`` or ``RSH`` times ``NRD``/``NRS``, the process (``TOX``, ``U0``, ``NSUB``,
 ``NSS``, ``TPG``: :func:`~diracvi.components._mos1.process_parameters`), the noise
-coefficients (a note), ``TNOM`` at 27 °C (level 1 reads any TNOM: its temperature update).
+coefficients (a note), ``TNOM`` (levels 1, 2 and 3 read any TNOM: their temperature
+update; level 6 only 27 °C).
 A name ngspice 39's level does not have is ignored with a note, as ngspice ignores it (with
 a warning); a name it has and diracvi does not read is refused naming the level.
 """
