@@ -181,11 +181,17 @@ def test_j_line_errors_name_the_line_and_the_reason(lines, match):
         spice.read(net)
 
 
-def test_temperature_and_noise_parameters_are_noted():
-    net = "t\nvd d 0 5\nvg g 0 -1\nj1 d g 0 jm\n.model jm PJF (KF=1e-15 XTI=3 TNOM=27)\n"
+def test_noise_parameters_are_noted_and_temperature_ones_act_only_away_from_tnom():
+    net = "t\nvd d 0 5\nvg g 0 -1\nj1 d g 0 jm\n.model jm PJF (KF=1e-15{})\n{}"
     net += ".tran 1n 10n\n.end\n"
-    notes = " ".join(spice.read(net).notes)
-    assert "KF ignored (noise only)" in notes and "XTI ignored (temperature only)" in notes
+    read = spice.read(net.format(" XTI=3 TCV=1m BEX=-1.5 TNOM=27", ""))
+    notes = " ".join(read.notes)
+    assert "KF ignored (noise only)" in notes and "XTI" not in notes
+    # at T = TNOM = 27 °C the update is skipped: the part is the card's without them
+    plain = spice.read(net.format("", ""))
+    assert read.circuit.parts[-1].parameters == plain.circuit.parts[-1].parameters
+    hot = spice.read(net.format(" XTI=3 TCV=1m BEX=-1.5", ".temp 80\n"))
+    assert dict(hot.circuit.parts[-1].parameters)["vto"] == pytest.approx(-2.0 - 1e-3 * 53.0)
 
 
 # ------------------------------------------------------------------ transient, power

@@ -184,7 +184,6 @@ def test_the_diode_temperature_update_is_differentiable():
 @pytest.mark.parametrize(
     ("element", "model", "what"),
     [
-        ("J1 d g 0 jm", ".model jm NJF", "JFET"),
         ("M1 d g 0 0 mm", ".model mm NMOS LEVEL=6", "MOSFET"),
         ("M1 d g 0 vd", ".model vd VDMOS", "VDMOS"),
     ],
@@ -198,8 +197,6 @@ def test_a_device_without_a_temperature_update_is_refused_away_from_27C(
     refusal = rf"{what}.*no temperature dependence"
     if what == "VDMOS" and not setting:  # its line takes no instance parameter at all
         refusal = "instance parameters are not supported"
-    if what == "JFET" and not setting:  # the J line's own refusal of its TEMP
-        refusal = "TEMP=60 is not supported"
     with pytest.raises(spice.NetlistError, match=refusal):
         spice.read(deck)
     if setting:  # the same device with its TEMP at the circuit's 27 °C reads
@@ -365,6 +362,56 @@ def test_level2_and_level3_mosfets_match_ngspice_away_from_27C(level, setting):
     ref = ng.operating_point(deck)
     op = spice.operating_point(spice.read(deck))
     for source in ("VDD", "VB3", "VD4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+
+
+# ------------------------------------------------------------------------------ JFET
+JFETS = """jfet temperatures
+VDD vdd 0 10
+RD1 vdd d1 1k
+J1 d1 0 s1 jn
+RS1 s1 0 200
+VG2 g2 0 0.55
+RG2 g2 gg2 10k
+VD2 d2 0 5
+J2 d2 gg2 0 jn2 dtemp=20
+VS3 s3 0 8
+RD3 d3 0 1k
+VG3 g3 0 8.8
+J3 d3 g3 s3 jp temp=-10
+RD4 vdd d4 500
+VG4 g4 0 -0.4
+J4 d4 g4 0 jb 2
+.model jn NJF(VTO=-2 BETA=1.3m LAMBDA=0.02 IS=1e-14 B=0.8 PB=0.9 CGS=2p CGD=1p TCV=2.5m BEX=-1.5
++ TNOM=35)
+.model jn2 NJF(VTO=-1.5 BETA=1m IS=1e-15 XTI=3.5 EG=1.2 VTOTC=-3m BETATCE=-0.5)
+.model jp PJF(VTO=-1.8 BETA=0.8m LAMBDA=0.01 IS=2e-14 B=1.2 XTI=2)
+.model jb NJF(VTO=-1.2 BETA=2m B=0.6 PB=0.7 TCV=1m)
+{setting}
+.tran 1n 10n
+.end
+"""
+JFET_CASES = [
+    pytest.param(setting, marks=() if setting in DEFAULT_JFET else pytest.mark.slow)
+    for DEFAULT_JFET in [{".temp 125", ".options temp=-40 tnom=0"}]
+    for setting in BJT_SETTINGS
+]
+
+
+@needs_ngspice
+@pytest.mark.parametrize("setting", JFET_CASES)
+def test_jfets_match_ngspice_away_from_27C(setting):
+    """jfettemp's update: IS with EG (XTI only where given), VTO by TCV or VTOTC, BETA by
+    BEX or BETATCE, PB and the doping tail's factor at the card's values (B ≠ 1), the
+    gate junctions at V_T(T) (J2's forward-biased gate), an NJF and a PJF, the instance's
+    TEMP, DTEMP and AREA, a model TNOM and ``.options tnom``: each source's current at
+    the operating point (taking the tail's factor at the updated PB and VTO puts VDD's
+    4.8e-3 off at 125 °C)."""
+    deck = JFETS.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VDD", "VG2", "VD2", "VS3", "VG3", "VG4"):
         want = ref[f"i({source.lower()})"]
         assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
 

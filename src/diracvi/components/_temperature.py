@@ -269,3 +269,43 @@ def mos1(v: dict, process: dict, sign, t, tnom) -> tuple[dict, dict, object]:
         v["pb"], v[k] = junction(pb, c, v["mj"], t, tnom)
     v["pb"], v["cjsw"] = junction(pb, v["cjsw"], v["mjsw"], t, tnom)
     return v, process, thermal_voltage(t) / thermal_voltage(REFERENCE)
+
+
+# ------------------------------------------------------------------------- JFET
+def jfet(v: dict, t, tnom) -> tuple[dict, float, object]:
+    r"""ngspice 39's JFET temperature update (``jfettemp.c``) of the card values ``v`` (IS,
+    VTO, BETA, B, PB, CGS, CGD and the coefficients EG, XTI, TCV, VTOTC, BEX, BETATCE; XTI,
+    VTOTC and BETATCE present only where the card gives them) at ``t`` (kelvin), with
+    ``ΔT = T − T_nom``, ``r = T/T_nom``:
+
+        IS(T)   = IS exp((r − 1) EG / V_T(T)) · r^XTI        (the r^XTI only if XTI is given),
+        VTO(T)  = VTO + VTOTC ΔT   (VTOTC given),   else VTO − TCV ΔT,
+        BETA(T) = BETA 1.01^(BETATCE ΔT)   (BETATCE given),   else BETA r^BEX,
+        PB, CGS, CGD by the junction update of the module docstring (grading ½),
+
+    returning ``(v, bfac, emission)``: the doping tail's ``(1 − B)/(PB − VTO)`` at the
+    card's values (``jfettemp`` computes it per model, before the update; ``None`` at
+    ``T = T_nom = 27 °C``, where nothing is updated) and the gate junctions'
+    ``V_T(T)/V_T(27 °C)``."""
+    if _nominal(t, tnom) and t == REFERENCE:
+        return v, None, 1.0
+    if not traced(v["pb"]) and not traced(v["vto"]) and v["pb"] == v["vto"]:
+        raise ModelError(
+            f"PB = VTO = {v['pb']:g} V makes the doping tail's (1 − B)/(PB − VTO) 0/0 "
+            "(ngspice's too); move PB or VTO."
+        )
+    bfac = (1.0 - v["b"]) / (v["pb"] - v["vto"])
+    xp = array_module(t, tnom, v["is"], v["vto"], v["beta"], v["pb"])
+    v = dict(v)
+    ratio, dt, vt = t / tnom, t - tnom, thermal_voltage(t)
+    scale = xp.exp((ratio - 1.0) * v["eg"] / vt)
+    v["is"] = v["is"] * scale * (ratio ** v["xti"] if "xti" in v else 1.0)
+    v["vto"] = v["vto"] + v["vtotc"] * dt if "vtotc" in v else v["vto"] - v["tcv"] * dt
+    if "betatce" in v:
+        v["beta"] = v["beta"] * 1.01 ** (v["betatce"] * dt)
+    else:
+        v["beta"] = v["beta"] * ratio ** v["bex"]
+    pb = v["pb"]
+    v["pb"], v["cgs"] = junction(pb, v["cgs"], 0.5, t, tnom)
+    v["pb"], v["cgd"] = junction(pb, v["cgd"], 0.5, t, tnom)
+    return v, bfac, thermal_voltage(t) / thermal_voltage(REFERENCE)

@@ -59,10 +59,12 @@ def _forward(vgs, vds, vto, beta, lambda_, b, bfac):
     return jnp.where(vgst <= 0.0, 0.0 * vgst, on)
 
 
-def channel_current(vgs, vgd, *, vto, beta, lambda_, b, pb):
+def channel_current(vgs, vgd, *, vto, beta, lambda_, b, pb, bfac=None):
     r"""The type-normalised channel current ``I_D(V_GS, V_GD)`` into ``d′`` and out of
-    ``s′`` (module docstring), the source/drain swap for ``V_DS < 0`` included."""
-    bfac = (1.0 - b) / (pb - vto)
+    ``s′`` (module docstring), the source/drain swap for ``V_DS < 0`` included; ``bfac``
+    the doping tail's ``(1 − B)/(PB − VTO)`` where it is not this ``pb``'s and ``vto``'s
+    (away from TNOM ngspice keeps the card's)."""
+    bfac = (1.0 - b) / (pb - vto) if bfac is None else bfac
     vds = vgs - vgd
     forward = vds >= 0.0
     i_f = _forward(vgs, jnp.maximum(vds, 0.0), vto, beta, lambda_, b, bfac)
@@ -70,9 +72,10 @@ def channel_current(vgs, vgd, *, vto, beta, lambda_, b, pb):
     return jnp.where(forward, i_f, -i_r)
 
 
-def gate_current(v, saturation_current, gmin):
-    """A gate junction's ``I_S (e^{V/V_T} − 1) + G_min V`` (ngspice's reverse branch)."""
-    return pn_current(v, saturation_current, 1.0, reverse="cubic") + gmin * v
+def gate_current(v, saturation_current, gmin, emission=1.0):
+    """A gate junction's ``I_S (e^{V/V_T} − 1) + G_min V`` (ngspice's reverse branch);
+    ``emission`` scales ``V_T`` (its ``V_T(T)/V_T(27 °C)`` away from 27 °C)."""
+    return pn_current(v, saturation_current, emission, reverse="cubic") + gmin * v
 
 
 def JFET(
@@ -93,6 +96,8 @@ def JFET(
     m=1.0,
     gmin=1e-12,
     v0=(0.0, 0.0),
+    bfac=None,
+    emission=1.0,
     name: str,
 ) -> ControlledPart:
     r"""A JFET with pins ``d g s`` (SPICE ``J``; defaults as ngspice 39: ``VTO = −2`` V,
@@ -102,7 +107,11 @@ def JFET(
     ``kind`` is ``"njf"`` or ``"pjf"``; ``area`` the instance's area factor, ``m`` its
     parallel multiplier. ``vto``, ``beta``, ``lambda_`` and ``b`` may be traced JAX values
     (``jax.grad`` reaches them). ``v0 = (V_GS, V_GD)``: the initial gate voltages (the
-    junction charges' initial values). See the module docstring for the equations.
+    junction charges' initial values). Away from TNOM (the netlist reader's
+    :func:`~diracvi.components._temperature.jfet`): ``bfac``, the doping tail's ``(1 −
+    B)/(PB − VTO)`` at the card's values (``None``: from ``pb`` and ``vto``), and
+    ``emission``, the gate junctions' ``V_T(T)/V_T(27 °C)``. See the module docstring for
+    the equations.
     """
     where = f"JFET {name!r}"
     if kind not in KINDS:
@@ -116,6 +125,9 @@ def JFET(
         "b": coefficient(where, "b", b),
         "pb": positive(where, "pb", pb),
     }
+    if bfac is not None:
+        law["bfac"] = bfac
+    n_vt = positive(where, "emission", emission) * THERMAL_VOLTAGE
     i_s = finite(where, "is_", is_) * a
     g = positive(where, "gmin", gmin) * positive(where, "m", m)  # M scales GMIN, AREA not
     res = {"d": finite(where, "rd", rd) / a, "s": finite(where, "rs", rs) / a}
@@ -123,7 +135,7 @@ def JFET(
     fc = min(finite(where, "fc", fc), 0.95)  # ngspice limits FC to .95 (with a warning)
     if min(*res.values(), *caps.values(), i_s) < 0.0 or fc < 0.0:
         raise ModelError(f"{where}: is_, rd, rs, cgs, cgd and fc must be ≥ 0.")
-    if isinstance(law["vto"], float) and law["vto"] == law["pb"]:
+    if bfac is None and isinstance(law["vto"], float) and law["vto"] == law["pb"]:
         raise ModelError(
             f"{where}: PB = VTO = {pb:g} V makes the doping tail's (1 − B)/(PB − VTO) 0/0 "
             "(ngspice's too); move PB or VTO."
@@ -167,8 +179,8 @@ def JFET(
         vgs, vgd = v[idx["wgs"]], v[idx["wgd"]]
         f = jnp.zeros(len(coords), dtype=v.dtype)
         f = f.at[idx["wch"]].set(-channel_current(vgs, vgd, **law))
-        f = f.at[idx["wgs"]].set(-gate_current(vgs, i_s, g))
-        f = f.at[idx["wgd"]].set(-gate_current(vgd, i_s, g))
+        f = f.at[idx["wgs"]].set(-gate_current(vgs, i_s, g, emission))
+        f = f.at[idx["wgd"]].set(-gate_current(vgd, i_s, g, emission))
         for k in "ds":
             if res[k] > 0.0:
                 f = f.at[idx[f"qr{k}"]].set(-res[k] * v[idx[f"qr{k}"]])
@@ -178,9 +190,9 @@ def JFET(
     initial_v[idx["wgs"]], initial_v[idx["wgd"]] = sign * v0[0], sign * v0[1]
     initial_v[idx["wch"]] = sign * (v0[0] - v0[1])
     # SPICE's pnjlim on both junctions with ngspice's JFET values: V_T and
-    # V_crit = V_T ln(V_T/(√2 I_S)) (jfettemp)
-    vcrit = THERMAL_VOLTAGE * math.log(THERMAL_VOLTAGE / (math.sqrt(2.0) * i_s)) if i_s > 0 else 0.0
-    row = np.asarray([THERMAL_VOLTAGE, vcrit, np.inf])  # (NumPy: see _part.array_module)
+    # V_crit = V_T ln(V_T/(√2 I_S)) (jfettemp), at the device's temperature
+    vcrit = n_vt * math.log(n_vt / (math.sqrt(2.0) * i_s)) if i_s > 0 else 0.0
+    row = np.asarray([n_vt, vcrit, np.inf])  # (NumPy: see _part.array_module)
     params = {"vto": law["vto"], "beta": law["beta"], "lambda": law["lambda_"], "b": law["b"]}
     return ControlledPart(
         tuple(coords),

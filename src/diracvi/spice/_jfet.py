@@ -2,29 +2,35 @@
 
 Parameter names, aliases and defaults are ngspice's (``jfet.c``, ``jfetset.c``): VTO
 (VT0), BETA, LAMBDA, B, IS, RD, RS, CGS, CGD, PB, FC are used
-(:func:`diracvi.components.JFET`). The temperature coefficients (TCV, VTOTC, BEX,
-BETATCE, XTI, EG) only act away from the nominal 27 °C and the noise parameters (KF, AF,
-NLEV, GDSNOI) only in noise analyses: they are accepted with a note, and so is a name
-ngspice 39's JFET does not have (ngspice ignores it with a warning). TNOM must be 27 °C,
-and other levels (ngspice's level 2, Parker–Skellern) are refused naming the model's line.
+(:func:`diracvi.components.JFET`); TNOM and the temperature coefficients EG (1.11), XTI,
+TCV (0), VTOTC, BEX (0) and BETATCE act away from TNOM, with the instance's TEMP and DTEMP
+(:func:`diracvi.components._temperature.jfet`). The noise parameters (KF, AF, NLEV,
+GDSNOI) only act in noise analyses: they are accepted with a note, and so is a name
+ngspice 39's JFET does not have (ngspice ignores it with a warning). Other levels
+(ngspice's level 2, Parker–Skellern) are refused naming the model's line.
 """
 
 from __future__ import annotations
 
 from .. import components as cp
-from ._cards import NOISE, TNOM, Card, element_card, nominal_only
+from ..components._temperature import jfet as jfet_at
+from ..components._temperature import kelvin
+from ..errors import ModelError
+from ._cards import NOISE, Card, device_temperature, element_card
 
 _DEFAULTS = {
     "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
     "rs": 0.0, "cgs": 0.0, "cgd": 0.0, "pb": 1.0, "fc": 0.5,
 }  # fmt: skip
-_TEMPERATURE = ("tcv", "vtotc", "bex", "betatce", "xti", "eg")
+#: the temperature coefficients with a default (jfetset.c); XTI, VTOTC and BETATCE act
+#: only where the card gives them (jfettemp.c tests their "given" flags)
+_TEMPERATURE = {"eg": 1.11, "tcv": 0.0, "bex": 0.0}
 CARD = Card(
-    defaults=_DEFAULTS,
+    defaults=_DEFAULTS | _TEMPERATURE,
+    optional=("xti", "vtotc", "betatce", "tnom"),
     alias={"vt0": "vto"},
-    ignored={k: "ignored (temperature only)" for k in _TEMPERATURE}
-    | NOISE,
-    fixed=TNOM | {"level": (1.0, "LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not "
+    ignored=NOISE,
+    fixed={"level": (1.0, "LEVEL={x:g} (ngspice's Parker–Skellern JFET2) is not "
                                  "supported; diracvi has level 1 (Shichman–Hodges with B) only")},
     unknown="parameter {key!r} is not supported; diracvi's JFET reads "
     + ", ".join(k.upper() for k in _DEFAULTS),
@@ -53,18 +59,17 @@ def j_line(ctx, name, pos, kw, line):
         elif key == "m":
             mult = ctx.value(token, line, f"{pos[0]} M")
         elif key in ("temp", "dtemp"):
-            x = ctx.value(token, line, f"{pos[0]} {key.upper()}")
-            if x != (27.0 if key == "temp" else 0.0):
-                raise line.fail(
-                    f"element {pos[0]!r}: {key.upper()}={token} is not supported (diracvi "
-                    "simulates at ngspice's nominal 27 °C; drop it)"
-                )
+            pass  # device_temperature's
         else:
             raise line.fail(
                 f"element {pos[0]!r}: parameter {key.upper()} is not supported on J lines "
                 f"(form '{FORM}')"
             )
-    nominal_only(ctx, pos[0], kw, line, f"the JFET ({kind})")
+    temp = kelvin(device_temperature(ctx, pos[0], kw, line))
+    try:
+        v, bfac, emission = jfet_at(v, temp, kelvin(v.get("tnom", ctx.tnom)))
+    except ModelError as exc:
+        raise fail(str(exc)) from None
     if flags:
         notes.append(f"{pos[0]} OFF ignored (it only seeds ngspice's DC solve)")
     for note in notes:
@@ -75,5 +80,6 @@ def j_line(ctx, name, pos, kw, line):
         kind.lower(), v["vto"], v["beta"], v["lambda"], b=v["b"], is_=v["is"], rd=v["rd"],
         rs=v["rs"], cgs=v["cgs"], cgd=v["cgd"], pb=v["pb"], fc=v["fc"], area=area, m=mult,
         v0=(vg - ctx.ic(s), vg - ctx.ic(d)), name=name,
+        bfac=bfac, emission=emission,
     )  # fmt: skip
     return part, {"d": d, "g": g, "s": s}
