@@ -170,7 +170,6 @@ def terminal_currents_traced(part, vgs, vds):
     ("lines", "match"),
     [
         ("j1 d g 0 jm\n.model jm NJF (LEVEL=2)", r"line 4: .*LEVEL=2 .*Parker–Skellern"),
-        ("j1 d g 0 jm TEMP=50\n.model jm NJF", r"line 4: .*TEMP=50 is not supported"),
         ("j1 d g 0 jm\n.model jm NPN", r"line 4: .*NPN model; a J line needs NJF/PJF"),
         ("j1 d g jm\n.model jm NJF", r"line 4: .*model 'g' is not defined|expected 'Jname"),
     ],

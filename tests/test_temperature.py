@@ -184,7 +184,6 @@ def test_the_diode_temperature_update_is_differentiable():
 @pytest.mark.parametrize(
     ("element", "model", "what"),
     [
-        ("M1 d g 0 0 mm", ".model mm NMOS LEVEL=6", "MOSFET"),
         ("M1 d g 0 vd", ".model vd VDMOS", "VDMOS"),
     ],
 )
@@ -362,6 +361,46 @@ def test_level2_and_level3_mosfets_match_ngspice_away_from_27C(level, setting):
     ref = ng.operating_point(deck)
     op = spice.operating_point(spice.read(deck))
     for source in ("VDD", "VB3", "VD4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+
+
+LEVEL6 = """mos6 temperatures
+VDD vdd 0 3
+VG1 g1 0 1.6
+RD1 vdd d1 2k
+M1 d1 g1 0 0 nm L=2u W=20u
+VG2 g2 0 1.2
+RD2 d2 0 3k
+M2 d2 g2 vdd vdd pm L=2u W=40u dtemp=15
+VG3 g3 0 2
+VB3 b3 0 0.45
+M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
+RS3 s3 0 1k
+.model nm NMOS(LEVEL=6 VTO=0.7 KC=50u NC=1.2 KV=1.5 NV=0.8 GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15
++ TNOM=40)
+.model pm PMOS(LEVEL=6 TOX=20n NSUB=2e16 U0=250 KV=2 NV=0.6 NC=1.1 LAMBDA0=0.03)
+.model np NMOS(LEVEL=6 TOX=15n NSUB=5e16 NSS=1e10 TPG=1 U0=500 JS=1e-4 CJ=1e-4
++ CJSW=1e-10 PB=0.9 GAMMA1=0.1 SIGMA=0.02)
+{setting}
+.tran 1n 10n
+.end
+"""
+
+
+@needs_ngspice
+@pytest.mark.parametrize(
+    "setting",
+    [pytest.param(s, marks=() if s == ".temp 125" else pytest.mark.slow) for s in SETTINGS],
+)
+def test_level6_mosfets_match_ngspice_away_from_27C(setting):
+    """mos6temp: level 1's update with KC (T/T_nom)^{−3/2} (KV unscaled), KC given and
+    from U0·C'ox, VTO from NSUB at TNOM, the reverse-biased bulk junction's JS: each
+    source's current at the operating point."""
+    deck = LEVEL6.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VDD", "VB3"):
         want = ref[f"i({source.lower()})"]
         assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
 

@@ -27,7 +27,7 @@ from ..errors import ModelError
 from ._binning import binned
 from ._bsim3 import LEVELS as BSIM3_LEVELS
 from ._bsim3 import bsim3_line, read_bsim3_model
-from ._cards import NodeIC, device_temperature, element_card, nominal_only
+from ._cards import NodeIC, device_temperature, element_card
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
 from ._mos3 import law as law3
@@ -110,14 +110,14 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
         raise fail(str(exc)) from None
     emission = 1.0
     level = v.get("level", 1.0)
-    if level in (1.0, 2.0, 3.0):  # mos2temp and mos3temp update as mos1temp does
-        t = kelvin(temperature)
-        v, process, emission = mos1_at(v, process, sign, t, nominal)
-        if level == 3.0 and t != nominal:
-            # mos3load's velocity saturation reads U0(T) = U0 (T/T_nom)^{-3/2} (tSurfMob);
-            # mos2load reads the card's U0 unscaled, so level 2's stays as given
-            ratio = t / nominal
-            v = v | {"u0": v["u0"] / (ratio * ratio**0.5)}
+    # mos2temp, mos3temp and mos6temp update as mos1temp does
+    t = kelvin(temperature)
+    v, process, emission = mos1_at(v, process, sign, t, nominal)
+    mobility = 1.0 if t == nominal else (t / nominal) ** -1.5  # KP's, U0's, KC's factor
+    if level == 3.0 and t != nominal:
+        # mos3load's velocity saturation reads U0(T) = U0 (T/T_nom)^{-3/2} (tSurfMob);
+        # mos2load reads the card's U0 unscaled, so level 2's stays as given
+        v = v | {"u0": v["u0"] * mobility}
 
     def resistance(r, squares):  # RD over RSH·NRD, as mos1temp
         return v[r] if r in v else v["rsh"] * geo[squares]
@@ -140,7 +140,9 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
     if emission != 1.0:  # V_T(T)/V_T(27 °C): the bulk junctions' and levels 2 and 3's laws'
         common["emission"] = emission
     if v.get("level") == 6.0:
-        part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **law(v, process), **common)
+        args = law(v, process)
+        args["kc"] = args["kc"] * mobility  # mos6temp: KC (T/T_nom)^{-3/2}, KV unscaled
+        part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **args, **common)
     elif v.get("level") == 2.0:
         del common["cox"]  # level 2 always has an oxide: C'ox from TOX (or 0.1 µm)
         part = cp.MOSFET2(kind, w=geo["w"], l=geo["l"], **law2(v, process), **common)
@@ -182,8 +184,6 @@ def m_line(ctx, name, pos, kw, line):
         for note in notes:
             ctx.note(line, note)
         return part, nodes
-    if level == 6.0:  # level 6 has no temperature update yet
-        nominal_only(ctx, pos[0], kw, line, f"the MOSFET (level {level:g})")
     temp = device_temperature(ctx, pos[0], kw, line)
     kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731

@@ -18,7 +18,7 @@ CARD = level_card(
     6,
     "Sakurai–Newton",
     {"kv": 2.0, "nv": 0.5, "nc": 1.0, "gamma1": 0.0, "sigma": 0.0, "lambda1": 0.0},
-    ("kc", "lambda", "lambda0", *PROCESS),
+    ("kc", "lambda", "lambda0", *PROCESS, "tnom"),
     # read by ngspice 39's mos6, never used in its load
     ignored={k: "ignored (ngspice 39's level 6 does not use it)" for k in ("nvth", "ps")},
 )
