@@ -167,6 +167,58 @@ def test_names_ngspice_does_not_know_are_ignored_as_it_ignores_them():
     assert mine == pytest.approx(ref["i(vd)"], rel=1e-8)
 
 
+PARALLEL = """vdmos m
+VDD vdd 0 12
+RL vdd d1 20
+VG1 g1 0 4.2
+M1 d1 g1 s1 nv M=3
+RS1 s1 0 0.5
+VD2 d2 0 -0.6
+M2 d2 0 0 nv m=2.5
+VG3 g3 0 -3
+RL3 d3 0 50
+M3 d3 g3 vdd pv M=2
+.model nv VDMOS(VTO=2.5 KP=2 LAMBDA=0.01 RD=0.05 RS=0.02 RG=3 RDS=1e6 RB=0.01 IS=1e-12
++ N=1.1 CJO=1n CGS=1n CGDMIN=0.1n CGDMAX=1n A=0.5 THETA=0.05)
+.model pv VDMOS(PCHAN VTO=-2 KP=1.5 RD=0.1 RS=0.05 IS=2e-12 RDS=1e5)
+.tran 1u 10u
+.end
+"""
+
+
+@needs_ngspice
+def test_the_parallel_multiplier_m_is_ngspices_at_the_operating_point():
+    """``M=m`` on the line scales KP, IS (the body diode, forward-biased in M2) and divides
+    RD, RS, RG, RDS and RB, as ngspice's vdmosset/vdmostemp: every source's current at
+    the operating point (an M ignored puts VDD's off by a factor near 3)."""
+    ref = ng.operating_point(PARALLEL)
+    op = spice.operating_point(spice.read(PARALLEL))
+    for source in ("VDD", "VD2"):
+        assert op.currents[source] == pytest.approx(ref[f"i({source.lower()})"], rel=1e-9)
+
+
+def test_m_devices_in_parallel_are_one_instance_with_m():
+    """With its gate capacitances (scaled by M as ngspice ≥ 40 does; ngspice 39 leaves
+    them per device), an instance with ``M=2`` is two instances side by side: the same
+    switching transient to round-off."""
+    deck = """vdmos parallel
+VDD vdd 0 10
+RL vdd d 5
+VG in 0 PULSE(0 8 10n 20n 20n 200n 500n)
+RG in g 10
+{devices}
+.model nv VDMOS(VTO=2.5 KP=2 RD=0.05 RS=0.02 RG=3 IS=1e-12 CJO=1n CGS=1n CGDMIN=0.1n
++ CGDMAX=1n A=0.5)
+.tran 1n 400n
+.end
+"""
+    one = spice.run(deck.format(devices="M1 d g 0 nv M=2"), dt=1e-9)
+    two = spice.run(deck.format(devices="M1 d g 0 nv\nM2 d g 0 nv"), dt=1e-9)
+    for name in ("v(d)", "v(g)", "i(vdd)", "i(vg)"):
+        scale = np.max(np.abs(two[name]))
+        assert np.max(np.abs(one[name] - two[name])) <= 1e-9 * scale, name
+
+
 def test_the_thermal_instance_is_refused_by_name():
     net = (
         "thermal\nvd d 0 1\nvg g 0 1\nm1 d g 0 tj tc q1 thermal\n.model q1 VDMOS (RTHJC=1)\n"

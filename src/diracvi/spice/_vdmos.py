@@ -66,18 +66,36 @@ CARD = Card(
 
 
 def vdmos_line(ctx, name, pos, kw, line):
-    """``Mname d g s model`` with a VDMOS card: the channel part and its pins; the gate
-    resistance, gate–drain capacitance and body diode are added to ``ctx.circuit``."""
-    if len(pos) != 5 or kw:
+    """``Mname d g s model [M=m]`` with a VDMOS card: the channel part and its pins; the
+    gate resistance, gate–drain capacitance and body diode are added to ``ctx.circuit``.
+
+    ``M`` puts ``m`` devices in parallel, as ngspice's ``vdmosset``/``vdmostemp`` scale
+    one: KP and the body diode's IS and CJO times ``m``, RG, RD, RS, RDS and RB over
+    ``m``, and — as ngspice since version 40 (``vdmosload``), not ngspice 39, which leaves
+    them per device — the gate capacitances CGS, CGDMIN, CGDMAX times ``m``, so an
+    instance with ``M=m`` is ``m`` instances side by side."""
+    extra_kw = {k: t for k, t in kw.items() if k != "m"}
+    if len(pos) != 5 or extra_kw:
         raise line.fail(
-            "expected 'Mname d g s model' for a VDMOS (thermal nodes and instance "
-            f"parameters are not supported; got {' '.join(pos[1:])} {kw or ''})"
+            "expected 'Mname d g s model [M=m]' for a VDMOS (thermal nodes and instance "
+            f"parameters other than M are not supported; got {' '.join(pos[1:])} "
+            f"{extra_kw or ''})"
         )
     _, params, _, fail = element_card(ctx, pos[4], line, ("VDMOS",))
     nominal_only(ctx, pos[0], kw, line, "the VDMOS")
     notes: list[str] = []
     kind = "pmos" if "pchan" in params else "nmos"
     v = CARD.read("VDMOS", params, fail, notes)
+    m = ctx.value(kw["m"], line, f"{pos[0]} M") if "m" in kw else 1.0
+    if not m > 0.0:
+        raise line.fail(f"element {pos[0]!r}: M={m:g} must be > 0 (the parallel devices)")
+    if m != 1.0:
+        v = dict(v)
+        for k in ("kp", "is", "cjo", "cgs", "cgdmin", "cgdmax"):
+            v[k] = v[k] * m
+        for k in ("rg", "rd", "rs", "rds", "rb"):
+            if k in v:
+                v[k] = v[k] / m
     d, g, s = pos[1:4]
     # ngspice's internal nodes (vdmosset): g′ behind RG, d′ behind RD, s′ behind RS
     inner = {k: (f"{pos[0]}#{word}" if v[r] != 0.0 else node)
