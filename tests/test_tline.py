@@ -178,3 +178,22 @@ def test_td_from_f_and_nl():
     net = spice.read(DECK.format(**LINE).replace("td=3e-09", ""))
     part = next(s for s in net.system.subsystems if s.name == "t1")
     assert dict(part.parameters)["delay"] == pytest.approx(0.25e-9)
+
+
+def test_every_other_run_refuses_a_system_with_lines():
+    """dv.simulate and the two variable-step loops would hold the waves at 0: each refuses,
+    naming the fix."""
+    import diracvi as dv
+    from diracvi.driver.adaptive import adaptive
+    from diracvi.driver.adaptive_sparse import adaptive_sparse
+    from diracvi.spice._run import controls
+    from diracvi.spice._tran import tran_settings
+
+    net = spice.read(DECK.format(**LINE))
+    ctl = controls(net, tran_settings(net))
+    q0, p0 = net.initial_state()
+    with pytest.raises(ModelError, match="simulate_lines"):
+        dv.simulate(net.system, q0, p0, dt=1e-10, steps=4)
+    for run in (adaptive, adaptive_sparse):
+        with pytest.raises(ModelError, match="fixed step no longer than"):
+            run(net.system, q0, p0, t0=0.0, t_stop=1e-9, controls=ctl)

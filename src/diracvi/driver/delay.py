@@ -34,6 +34,8 @@ are set in :mod:`diracvi.driver.events`).
 from __future__ import annotations
 
 import math
+import weakref
+from collections import OrderedDict
 
 import equinox as eqx
 import jax
@@ -66,17 +68,37 @@ def _own(tree) -> list[Incident]:
     return [x for x in jax.tree.leaves(tree, is_leaf=_is_incident) if _is_incident(x)]
 
 
+#: id(system) → (its weak reference, its incident leaves): ``simulate`` asks on every call,
+#: and a walk of a large netlist's PyTree takes a tenth of a second (as
+#: :mod:`diracvi.driver.events` remembers its relays)
+_FOUND: OrderedDict = OrderedDict()
+
+
 def incidents(system) -> list[Incident]:
-    """The lines' :class:`Incident` leaves of ``system``, in PyTree order."""
+    """The lines' :class:`Incident` leaves of ``system``, in PyTree order (remembered per
+    model object: a model is immutable)."""
+    hit = _FOUND.get(id(system))
+    if hit is not None and hit[0]() is system:
+        return hit[1]
     subsystems = getattr(system, "subsystems", None)
     if subsystems is None:
-        return _own(system)
-    return [x for sub in subsystems for x in _own(sub)]
+        found = _own(system)
+    else:
+        found = [x for sub in subsystems for x in _own(sub)]
+    try:
+        _FOUND[id(system)] = (weakref.ref(system), found)
+    except TypeError:  # (not weakly referenceable: not remembered)
+        return found
+    while len(_FOUND) > 64:
+        _FOUND.popitem(last=False)
+    return found
 
 
 def lines(system) -> tuple[tuple[str, int, int, float, float], ...]:
     """``(name, index of q1, index of q2, Z₀, T_D)`` per line, in the order of
     :func:`incidents`."""
+    if not incidents(system):
+        return ()
     subsystems = getattr(system, "subsystems", None)
     found = []
     for sub in subsystems if subsystems is not None else (system,):
@@ -85,6 +107,17 @@ def lines(system) -> tuple[tuple[str, int, int, float, float], ...]:
             i1, i2 = (system.coords.index(prefix + c) for c in inc.coordinates)
             found.append((sub.name, i1, i2, inc.z0, inc.delay))
     return tuple(found)
+
+
+def refuse_variable_steps(system, where: str) -> None:
+    """Raise a :class:`~diracvi.errors.ModelError` naming the fix if ``system`` has lines:
+    the variable-step loops do not carry their waves (they would hold them at 0)."""
+    if incidents(system):
+        raise ModelError(
+            f"{where}: the system has lossless transmission lines, whose waves the "
+            "variable-step loops do not carry yet. Fix: a fixed step no longer than the "
+            "shortest delay (diracvi.spice.run(deck, dt=…), diracvi.driver.delay.simulate_lines)."
+        )
 
 
 def with_incident(system, e):
@@ -246,4 +279,11 @@ def simulate_lines(system, q0, p0, *, dt, steps, waves0, discretization="midpoin
     return traj
 
 
-__all__ = ["MAX_BUFFER", "incidents", "lines", "simulate_lines", "with_incident"]
+__all__ = [
+    "MAX_BUFFER",
+    "incidents",
+    "lines",
+    "refuse_variable_steps",
+    "simulate_lines",
+    "with_incident",
+]
