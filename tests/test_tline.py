@@ -86,6 +86,7 @@ def _sine(t):
     return np.where(t > 0, np.sin(2 * np.pi * 2e8 * t), 0.0)
 
 
+@pytest.mark.slow  # four runs, one of 1000 steps: 23 s at load 8 on 2 cores
 def test_delay_between_steps_is_interpolated_to_second_order():
     """T_D not a whole number of steps (60.6 and 121.2 of them): the waves are read
     between two recorded step centres. With a sine drive, away from its start and the
