@@ -17,8 +17,10 @@ second order too and cannot overshoot at a corner of the wave (a PULSE's edge), 
 parabola through three does. With ``h ≤ T_D`` both centres precede the step (the later
 one is at most ``k − 1``), so ``e`` is known before the step is solved and the step is
 an ordinary discrete Dirac step of a circuit with resistors ``Z₀`` and sources ``e``;
-a step longer than ``T_D`` would need its own unknowns' waves and is refused (ngspice
-too never steps over ``T_D``). Before ``t0`` each port's wave is its initial one
+a step longer than ``T_D`` would need its own unknowns' waves and is refused. (ngspice
+does not refuse it: past its last stored point its parabola through the last three
+extrapolates, ``traload.c``; ``tratrunc.c`` shortens a step only to land one delay
+after a point where a port wave's slope changed.) Before ``t0`` each port's wave is its initial one
 (``w = v + Z₀ i`` from the DC operating point, or from ``IC=`` under ``UIC``).
 
 **The buffer.** The fixed step reads back at most ``T_D/h + 1`` centres, so a ring of
@@ -157,7 +159,7 @@ def simulate_lines(system, q0, p0, *, dt, steps, waves0, discretization="midpoin
             raise ModelError(
                 f"transmission line {name!r}: its delay TD = {td:g} s is shorter than the "
                 f"step dt = {h:g} s, and a step longer than TD would need its own waves. "
-                f"Fix: dt ≤ {td:g} (ngspice never steps over TD either)."
+                f"Fix: dt ≤ {td:g}."
             )
         if r > MAX_BUFFER:
             raise ModelError(
