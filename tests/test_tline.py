@@ -166,6 +166,8 @@ def test_refusals_name_the_fix():
         spice.run(deck, dt=4e-9)
     with pytest.raises(ModelError, match="need a fixed step"):
         spice.run(deck)
+    with pytest.raises(ModelError, match="discretization='midpoint'"):
+        spice.run(deck, dt=1e-10, discretization="retraction")
     with pytest.raises(Exception, match="Z0= is required"):
         spice.read(deck.replace("z0=50.0 ", ""))
 

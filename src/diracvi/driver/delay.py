@@ -148,6 +148,12 @@ def simulate_lines(system, q0, p0, *, dt, steps, waves0, discretization="midpoin
     h = float(dt)
     if not (math.isfinite(h) and h > 0):
         raise ModelError(f"dt={dt!r}: a finite number of seconds > 0.")
+    if discretization != "midpoint":
+        raise ModelError(
+            f"discretization={discretization!r}: a run with transmission lines records and "
+            "reads their waves at the step centres, where the midpoint rule evaluates the "
+            "ports' force. Fix: discretization='midpoint' (the default)."
+        )
     n_steps = int(steps)
     names = [f[0] for f in found]
     idx = np.array([[f[1], f[2]] for f in found], dtype=np.int64)
