@@ -71,6 +71,8 @@ _PUBLIC = {
     "VoltageSwitch": "switch",
     "parse_urdf": "urdf",
     "read_urdf": "urdf",
+    "Incident": "tline",
+    "TransmissionLine": "tline",
     "VDMOS": "vdmos",
     "GateDrainCapacitance": "vdmos",
     "DC": "waveforms",
@@ -124,6 +126,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .network import Assembly, Circuit
     from .rigid_body import RigidBody
     from .switch import CurrentSwitch, Relay, VoltageSwitch
+    from .tline import Incident, TransmissionLine
     from .urdf import parse_urdf, read_urdf
     from .vdmos import VDMOS, GateDrainCapacitance
     from .waveforms import DC, PWL, SFFM, Exp, Pulse, Sine, Waveform
@@ -166,6 +169,7 @@ __all__ = [
     "GateDrainCapacitance",
     "Ground",
     "IdealTransformer",
+    "Incident",
     "Inductor",
     "Inertia",
     "Mass",
@@ -186,6 +190,7 @@ __all__ = [
     "Spring",
     "TorqueSource",
     "TorsionSpring",
+    "TransmissionLine",
     "VoiceCoil",
     "VoltageSource",
     "VoltageSwitch",

@@ -174,6 +174,7 @@ from ..solvers.bordered import newton_for
 from ..solvers.newton import NewtonSolver
 from . import events
 from .algebraic import algebraic_mask
+from .delay import refuse_variable_steps
 from .junction_end import end_error, pairs
 from .rebase import rebase_map
 from .step_error import (
@@ -673,6 +674,7 @@ def adaptive(
     ensure_float64()
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
+    refuse_variable_steps(system, "adaptive")
     rule = get_rule("midpoint")
     if solver is None:
         # a large sparse step is formed and factorized as a band plus a border

@@ -83,6 +83,7 @@ from .adaptive import (
     Controls,
     _inertia,
 )
+from .delay import refuse_variable_steps
 from .sparse_offsets import _Offsets
 from .sparse_truncation import march as truncation_march
 from .step_error import DEFAULT_ERROR, ERRORS, SAFETY, estimate, growth_of
@@ -445,6 +446,7 @@ def adaptive_sparse(
         raise ModelError(f"error={error!r}: the error control is one of {ERRORS}.")
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
+    refuse_variable_steps(system, "adaptive_sparse")
     try:
         switches = bool(events.relays(system))
     except ModelError:  # a packed system with switches (it cannot carry their states)

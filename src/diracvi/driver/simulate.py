@@ -34,7 +34,7 @@ from ..solvers import StepSolver
 from ..solvers.affine import AffineSolver
 from ..status import SolveStatus
 from . import checkpoint as _checkpoint
-from . import events
+from . import delay, events
 from .plan import Layout, get_plan, layout
 from .record import March, narrowed, run_fields, select_columns, whole_run
 from .sparse_run import run_sparse
@@ -452,6 +452,14 @@ def check_run(system, scheme, discretization, dt, steps, save_every, solver) -> 
             "its initial state; run it with variable steps, which carry the states and "
             "locate the switching instants (diracvi.spice.run without dt, or "
             "diracvi.driver.adaptive.adaptive)."
+        )
+    found = delay.lines(system)
+    if found:
+        raise ModelError(
+            f"the system has lossless transmission lines ({', '.join(f[0] for f in found)}): "
+            "a plain fixed-step run would hold their incident waves at 0. Fix: "
+            "diracvi.driver.delay.simulate_lines(system, q0, p0, dt=…, steps=…, waves0=…), "
+            "or diracvi.spice.run(deck, dt=…) for a netlist."
         )
     h = check_positive_float("dt", dt)
     steps = check_positive_int("steps", steps)

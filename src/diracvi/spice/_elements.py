@@ -36,6 +36,7 @@ from ._reactive import c_line, l_line
 from ._resistor import r_line
 from ._sources import source
 from ._switches import s_line, w_line
+from ._tline import t_line
 from ._xspice import a_line
 
 
@@ -156,6 +157,7 @@ ELEMENTS = {
     "M": m_line,
     "Q": q_line,
     "S": s_line,
+    "T": t_line,
     "W": w_line,
     "X": _x,
     "A": a_line,
@@ -170,7 +172,6 @@ LATE = ("K", "F", "H", "W", "B", "A")
 #: whether it names a model (refused at the element line, which names the model's line)
 UNSUPPORTED = {
     "Z": ("a MESFET", True),
-    "T": ("a lossless transmission line", False),
     "O": ("a lossy transmission line", True),
     "U": ("a uniform distributed RC line", True),
     "Y": ("a single lossy transmission line (TXL)", True),
@@ -179,7 +180,7 @@ UNSUPPORTED = {
 }
 
 SUPPORTED = (
-    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, Q, J, M (levels 1, 2, 3 and 6), A (XSPICE's "
+    "R, C, L, K, V, I, D, B, E, F, G, H, S, W, T, Q, J, M (levels 1, 2, 3 and 6), A (XSPICE's "
     "analog gain, summer, mult, divide, limit, climit, pwl, d_dt, aswitch, zener and "
     "magnetic lcouple, core) and X (subcircuits)"
 )

@@ -43,7 +43,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..driver import events
+from ..driver import delay, events
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
 from ..solvers.limiting import junctions, limit_rows, start_voltages
@@ -72,6 +72,11 @@ class OperatingPoint:
     #: the switches' states at the point (1.0 closed), in the order of
     #: :func:`diracvi.driver.events.relays`; empty without switches
     modes: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
+    #: the transmission lines' outgoing waves ``(w₁, w₂) = v + Z₀ i`` of their ports at
+    #: the point, in the order of :func:`diracvi.driver.delay.lines` (empty without lines)
+    waves: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros((0, 2)))
+    #: every coordinate's velocity at the point (branch currents, sensed voltages)
+    velocities: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0), repr=False)
 
     def __getitem__(self, key: str) -> float:
         want = key.replace(" ", "").lower()
@@ -301,6 +306,13 @@ def operating_point(
     assembly = getattr(assembly, "assembly", assembly)
     if any(isinstance(leaf, jax.core.Tracer) for leaf in jax.tree.leaves(assembly.system)):
         raise ModelError("operating point: not available under jax transformations; use UIC.")
+    if delay.lines(assembly.system):
+        return _with_lines(assembly, mmf, t0=t0, hold=hold, off=off, methods=methods)
+    return _point(assembly, mmf, t0=t0, hold=hold, off=off, methods=methods)
+
+
+def _point(assembly, mmf, *, t0, hold, off, methods) -> OperatingPoint:
+    """:func:`operating_point` of a built assembly, its lines' sources (if any) as set."""
     found = events.relays(assembly.system)
     modes = events.initial_modes(assembly.system)
     eqs = _Equations(assembly, t0, dict(hold or {}))
@@ -318,6 +330,53 @@ def operating_point(
         "operating point: the switches do not settle (each state found makes another "
         "switch flip); give the initial state with UIC (.tran … uic) and ON/OFF flags."
     )
+
+
+def _with_lines(assembly, mmf, **options) -> OperatingPoint:
+    r"""The operating point of a circuit with lossless lines. At DC a line's ports obey
+    ``v₁ − Z₀ i₁ = v₂ + Z₀ i₂`` and ``v₂ − Z₀ i₂ = v₁ + Z₀ i₁`` (ngspice's ``traload.c``
+    in DC mode): each port is ``Z₀`` in series with ``e₁ = w₂ = v₂ + Z₀ i₂``, the other
+    port's wave *now*. With ``e`` given, the circuit is an ordinary one (the lines' ports
+    are ``Z₀`` and a source); ``e`` is then the root of ``R(e) = e − (w₂(e), w₁(e))``,
+    ``w = 2 Z₀ i + e``, found by Newton with a difference Jacobian (``R`` is affine in
+    ``e`` for a linear circuit: one Newton step). The point at ``e = 0`` is tried first:
+    a circuit whose lines carry no DC current is done in one solve."""
+    system = assembly.system
+    found = delay.lines(system)
+    idx = np.array([[f[1], f[2]] for f in found], dtype=np.int64)
+    z0 = np.array([f[3] for f in found], dtype=np.float64)[:, None]
+
+    def at(e):
+        fixed = dataclasses.replace(assembly, system=delay.with_incident(system, jnp.asarray(e)))
+        fixed.__dict__.pop("p0", None)  # (a cached property of the copied assembly)
+        op = _point(fixed, mmf, **options)
+        i = op.velocities[idx]
+        w = 2.0 * z0 * i + e
+        return op, w, (e - w[:, ::-1]).ravel()
+
+    e = np.zeros((len(found), 2))
+    op, w, r = at(e)
+    scale = lambda w: 1e-9 * (1.0 + np.max(np.abs(w)))  # noqa: E731
+    iterations = op.iterations
+    for _ in range(8):
+        if np.max(np.abs(r)) <= scale(w):
+            break
+        jac = np.empty((r.size, r.size))
+        step = 1e-3 * (1.0 + np.max(np.abs(e)))
+        for j in range(r.size):
+            bumped = e.ravel().copy()
+            bumped[j] += step
+            jac[:, j] = (at(bumped.reshape(e.shape))[2] - r) / step
+        e = e - np.linalg.solve(jac, r).reshape(e.shape)
+        op, w, r = at(e)
+        iterations += op.iterations
+    else:
+        raise ModelError(
+            "operating point: the transmission lines' DC waves do not settle "
+            f"(residual {np.max(np.abs(r)):.3g} V); give the initial state with UIC "
+            "(.tran … uic) and the lines' IC=v1,i1,v2,i2."
+        )
+    return dataclasses.replace(op, iterations=iterations, waves=w)
 
 
 def _singular(jac) -> bool:
@@ -416,4 +475,5 @@ def _solve(eqs, linearized, off, methods):
     voltages = {node: float(mu[j]) for node, j in zip(assembly.nodes, eqs.kcl, strict=True)}
     index = {c: j for j, c in enumerate(assembly.system.coords)}
     currents = {label: float(v[index[c]]) for label, c in assembly.currents.items()}
-    return OperatingPoint(q0, p0, voltages, currents, method, total), np.asarray(v)
+    op = OperatingPoint(q0, p0, voltages, currents, method, total, velocities=np.asarray(v))
+    return op, np.asarray(v)

@@ -29,6 +29,7 @@ from ..driver import events
 from ..driver.adaptive import Controls, adaptive
 from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.algebraic import inertia
+from ..driver.delay import lines, simulate_lines
 from ..driver.events import relays
 from ..errors import ModelError, StepFailure
 from ..model.interconnect import InterconnectedSystem
@@ -390,6 +391,8 @@ def run(
         )
     from ..driver.simulate import simulate  # (here: a variable-step run plans no fixed step)
 
+    if lines(netlist.system):
+        return _with_lines(netlist, q0, p0, h, n, discretization, simulate_kwargs)
     traj = simulate(
         netlist.system,
         q0,
@@ -399,6 +402,33 @@ def run(
         discretization=discretization,
         **simulate_kwargs,
     )
+    return Result(netlist, traj, waveforms(netlist, traj))
+
+
+def _with_lines(netlist, q0, p0, h, n, discretization, kwargs) -> Result:
+    """A fixed-step run of a netlist with transmission lines (:mod:`diracvi.driver.delay`):
+    the lines' waves before ``t0`` from the operating point, or from their ``IC=`` under
+    ``UIC`` (``w = v + Z₀ i`` per port, as ngspice's ``traload.c`` starts them)."""
+    if kwargs:
+        raise ModelError(
+            f"spice.run({', '.join(sorted(kwargs))}=…): a run with transmission lines takes "
+            "no options of diracvi.simulate. Fix: leave them out."
+        )
+    found = lines(netlist.system)
+    if netlist.uic:
+        waves = []
+        for name, *_ in found:
+            part = next(s for s in netlist.system.subsystems if s.name == name)
+            v = dict(part.parameters)
+            waves.append([v["v1"] + v["z0"] * v["i1"], v["v2"] + v["z0"] * v["i2"]])
+        waves = np.asarray(waves, dtype=np.float64)
+    else:
+        waves = netlist.operating_point().waves
+    traj = simulate_lines(
+        netlist.system, q0, p0, dt=h, steps=n, waves0=waves, discretization=discretization
+    )
+    if traj.status != 0:
+        raise StepFailure(f"netlist {netlist.title!r}: {traj.message}", traj)
     return Result(netlist, traj, waveforms(netlist, traj))
 
 
@@ -536,6 +566,14 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
         raise ModelError(
             f"{sorted(kwargs)}: options of a fixed-step run (diracvi.simulate); pass dt= "
             "with them, or leave them out for SPICE's variable steps."
+        )
+    found = lines(netlist.system)
+    if found:
+        least = min(f[4] for f in found)
+        raise ModelError(
+            f"netlist {netlist.title!r}: transmission lines ({', '.join(f[0] for f in found)}) "
+            "need a fixed step for now (the variable-step loops do not carry their waves). "
+            f"Fix: pass dt= (--dt) no longer than the shortest delay, {least:g} s."
         )
     overrides = dict(overrides)
     step_error = overrides.pop("step_error", DEFAULT_ERROR)

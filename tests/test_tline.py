@@ -1,0 +1,223 @@
+"""SPICE's lossless transmission line T (components/tline.py, driver/delay.py): the
+method of characteristics against the exact delay recursion of resistive ends, ngspice,
+the line's energy balance, its DC point and its refusals."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import _ngspice as ng
+from diracvi import spice
+from diracvi.errors import ModelError
+
+DECK = """unmatched line, a ramped pulse
+v1 1 0 pulse(0 1 1n 0.5n 0.5n 2n 40n)
+rs 1 2 {rs}
+t1 2 0 3 0 z0={z0} td={td}
+rl 3 0 {rl}
+.tran 0.01n 25n
+.end
+"""
+LINE = dict(rs=25.0, z0=50.0, td=3e-9, rl=150.0)
+CORNERS = np.array([1.0, 1.5, 3.5, 4.0]) * 1e-9  # the PULSE's
+
+
+def _ramp(t):
+    return np.clip((t - 1e-9) / 0.5e-9, 0, 1) - np.clip((t - 3.5e-9) / 0.5e-9, 0, 1)
+
+
+def exact(t, rs, z0, td, rl, drive=_ramp):
+    """``(v(2), v(3))``: port 1 is ``Z₀`` and ``e₁`` against the source and ``rs``, port
+    2 ``Z₀`` and ``e₂`` against ``rl``; ``e₁(t) = w₂(t − T_D) = Γ_L e₂(t − T_D)``,
+    ``e₂(t) = w₁(t − T_D)``, ``w = v + Z₀ i``: the recursion ends at ``t < 0``."""
+    gamma = (rl - z0) / (rl + z0)
+
+    def delayed(f, t):
+        out = np.zeros_like(t)
+        m = t - td > 0
+        if m.any():
+            out[m] = f(t[m] - td)
+        return out
+
+    def e1(t):
+        return gamma * delayed(w1, t - td)
+
+    def w1(t):
+        u, e = drive(t), e1(t)
+        return (z0 * u + rs * e) / (rs + z0) + z0 * (u - e) / (rs + z0)
+
+    u, e = drive(t), e1(t)
+    return (z0 * u + rs * e) / (rs + z0), rl * delayed(w1, t) / (rl + z0)
+
+
+def _off_corners(t, td, h):
+    """Nodes not at a corner of the exact waves (the PULSE's and its echoes k·T_D later):
+    there the midpoint rule's node value is the mean of its two steps' values."""
+    echoes = (CORNERS[:, None] + td * np.arange(10)[None, :]).ravel()
+    return np.min(np.abs(t[:, None] - echoes[None, :]), axis=1) > 0.5 * h
+
+
+def _worst(result, params, keep, drive=_ramp):
+    v2, v3 = exact(result.time, **params, drive=drive)
+    return max(np.max(np.abs(result["v(2)"] - v2)[keep]), np.max(np.abs(result["v(3)"] - v3)[keep]))
+
+
+def test_unmatched_line_is_the_delay_recursion_off_its_corners():
+    """A step that divides T_D and the PULSE's corners: between corners the waves are
+    linear and the midpoint steps reproduce them to round-off (the reflections of both
+    unmatched ends, four round trips); at a corner node the value is the mean of the two
+    steps about it, off by ``h·Δslope/4`` (first order, as for any source's corner on a
+    fixed step). A 5 % wrong Z0 or TD is 1e-2 … 0.3 V off."""
+    h = 0.1e-9
+    result = spice.run(DECK.format(**LINE), dt=h)
+    keep = _off_corners(result.time, LINE["td"], h)
+    assert keep.sum() > 0.8 * len(keep)
+    assert _worst(result, LINE, keep) < 1e-9
+    assert _worst(result, dict(LINE, z0=52.5), keep) > 1e-2
+    assert _worst(result, dict(LINE, td=3.15e-9), keep) > 0.1
+    # at the corners: the mean of the steps about it, h·Δslope/4 off the corner value
+    at = ~keep
+    v2, _ = exact(result.time, **LINE)
+    assert np.max(np.abs(result["v(2)"] - v2)[at]) == pytest.approx(h * (2 / 3) / 0.5e-9 / 4)
+
+
+def _sine(t):
+    return np.where(t > 0, np.sin(2 * np.pi * 2e8 * t), 0.0)
+
+
+@pytest.mark.slow  # four runs, one of 1000 steps: 23 s at load 8 on 2 cores
+def test_delay_between_steps_is_interpolated_to_second_order():
+    """T_D not a whole number of steps (60.6 and 121.2 of them): the waves are read
+    between two recorded step centres. With a sine drive, away from its start and the
+    start's echoes, the error falls as h² (fitted over three steps). A piecewise-linear
+    wave is read exactly (linear interpolation), so the ramped pulse is round-off off
+    its corners."""
+    params = dict(LINE, td=3.03e-9)
+    deck = DECK.format(**params).replace("pulse(0 1 1n 0.5n 0.5n 2n 40n)", "sin(0 1 200meg)")
+    errs = []
+    steps = (0.1e-9, 0.05e-9, 0.025e-9)
+    for h in steps:
+        result = spice.run(deck, dt=h)
+        t = result.time
+        starts = params["td"] * np.arange(10)
+        keep = np.min(np.abs(t[:, None] - starts[None, :]), axis=1) > 0.3e-9
+        errs.append(_worst(result, params, keep, drive=_sine))
+    order = np.polyfit(np.log(steps), np.log(errs), 1)[0]
+    assert 1.9 < order < 2.1, (errs, order)
+    result = spice.run(DECK.format(**params), dt=0.05e-9)
+    t = result.time
+    echoes = (CORNERS[:, None] + params["td"] * np.arange(10)[None, :]).ravel()
+    keep = np.min(np.abs(t[:, None] - echoes[None, :]), axis=1) > 0.3e-9
+    assert _worst(result, params, keep) < 1e-12
+
+
+@pytest.mark.skipif(not ng.available(), reason="ngspice is not installed")
+def test_unmatched_line_agrees_with_ngspice():
+    """ngspice 39 (max step TSTOP/40000) at its own points, away from the corners of the
+    waves (its breakpoints): ≤ 1e-4 V of a 1 V pulse; the exact recursion is 1e-6 from it."""
+    deck = DECK.format(**LINE)
+    t, ref = ng.ngspice(deck, ("v(2)", "v(3)"), tmax=25e-9 / 40000)
+    h = 0.05e-9
+    result = spice.run(deck, dt=h)
+    keep = _off_corners(t, LINE["td"], 4 * h) & (t > 0)
+    for probe in ("v(2)", "v(3)"):
+        mine = np.interp(t, result.time, result[probe])
+        assert np.max(np.abs(mine - ref[probe])[keep]) < 1e-4, probe
+        assert np.max(np.abs(ref[probe])) > 0.5
+
+
+def test_line_power_balance_closes_per_step():
+    """With T_D = m·h each step's work on the ports, ``h Σ (Z₀ i + e)·i``, is the change of
+    the energy of the waves in flight, ``E = Σ_{last m steps} h (a₁² + a₂²)/Z₀``,
+    ``a = Z₀ i + e/2``, to round-off."""
+    h = 0.1e-9
+    result = spice.run(DECK.format(**LINE), dt=h)
+    rec = result.trajectory.line_record
+    z0, m = rec["z0"][0], round(LINE["td"] / h)
+    e, i = rec["e"][:, 0, :], rec["i"][:, 0, :]
+    work = h * np.sum((z0 * i + e) * i, axis=1)
+    a2 = h * np.sum((z0 * i + 0.5 * e) ** 2, axis=1) / z0
+    energy = np.array([a2[max(0, k - m + 1) : k + 1].sum() for k in range(len(a2))])
+    previous = np.concatenate([[0.0], energy[:-1]])
+    assert np.max(np.abs(work)) > 1e-13
+    assert np.max(np.abs(work - (energy - previous))) < 1e-12 * np.max(np.abs(work)) + 1e-28
+
+
+def test_dc_through_the_line_is_a_wire():
+    """At DC a lossless line joins its ports (v₁ = v₂, i₁ = −i₂): 2 V through 50 Ω, the
+    line and 150 Ω is 1.5 V at both ports, and the transient stays there."""
+    deck = """dc through a line
+v1 1 0 dc 2
+rs 1 2 50
+t1 2 0 3 0 z0=75 td=1n
+rl 3 0 150
+.tran 0.1n 5n
+.end
+"""
+    result = spice.run(deck, dt=0.1e-9)
+    assert np.max(np.abs(result["v(2)"] - 1.5)) < 1e-9
+    assert np.max(np.abs(result["v(3)"] - 1.5)) < 1e-9
+
+
+def test_refusals_name_the_fix():
+    deck = DECK.format(**LINE)
+    with pytest.raises(ModelError, match="shorter than the step"):
+        spice.run(deck, dt=4e-9)
+    with pytest.raises(ModelError, match="need a fixed step"):
+        spice.run(deck)
+    with pytest.raises(ModelError, match="discretization='midpoint'"):
+        spice.run(deck, dt=1e-10, discretization="retraction")
+    with pytest.raises(Exception, match="Z0= is required"):
+        spice.read(deck.replace("z0=50.0 ", ""))
+
+
+def test_td_from_f_and_nl():
+    """Without TD the delay is NL/F (ngspice's defaults NL = 0.25, F = 1 GHz)."""
+    deck = DECK.format(**LINE).replace("td=3e-09", "f=250meg nl=0.75")
+    net = spice.read(deck)
+    part = next(s for s in net.system.subsystems if s.name == "t1")
+    assert dict(part.parameters)["delay"] == pytest.approx(3e-9)
+    net = spice.read(DECK.format(**LINE).replace("td=3e-09", ""))
+    part = next(s for s in net.system.subsystems if s.name == "t1")
+    assert dict(part.parameters)["delay"] == pytest.approx(0.25e-9)
+
+
+def test_every_other_run_refuses_a_system_with_lines():
+    """dv.simulate and the two variable-step loops would hold the waves at 0: each refuses,
+    naming the fix."""
+    import diracvi as dv
+    from diracvi.driver.adaptive import adaptive
+    from diracvi.driver.adaptive_sparse import adaptive_sparse
+    from diracvi.spice._run import controls
+    from diracvi.spice._tran import tran_settings
+
+    net = spice.read(DECK.format(**LINE))
+    ctl = controls(net, tran_settings(net))
+    q0, p0 = net.initial_state()
+    with pytest.raises(ModelError, match="simulate_lines"):
+        dv.simulate(net.system, q0, p0, dt=1e-10, steps=4)
+    for run in (adaptive, adaptive_sparse):
+        with pytest.raises(ModelError, match="fixed step no longer than"):
+            run(net.system, q0, p0, t0=0.0, t_stop=1e-9, controls=ctl)
+
+
+def test_uic_starts_the_waves_from_ic():
+    """Under UIC a line's ``IC=v1,i1,v2,i2`` are its ports before t0 (ngspice's
+    ``traload.c``: ``e₁ = v₂ + Z₀ i₂``): with ``IC=1,0,1,0`` between two matched 50 Ω
+    ends each port sees ``e = 1`` for one delay, so ``v = 0.5``, and then the wave that
+    left the other end, ``w = v + Z₀ i = 0.5 − 0.5 = 0``. (ngspice 39: the same, 0.5 then
+    0.)"""
+    deck = """line released from its initial condition
+r1 2 0 50
+t1 2 0 3 0 z0=50 td=2n ic=1,0,1,0
+r2 3 0 50
+.tran 0.1n 6n uic
+.end
+"""
+    result = spice.run(deck, dt=0.1e-9)
+    t = result.time
+    inside, after = (t > 0.05e-9) & (t < 1.95e-9), t > 2.05e-9
+    for probe in ("v(2)", "v(3)"):
+        assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
+        assert np.max(np.abs(result[probe][after])) < 1e-12
