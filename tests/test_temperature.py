@@ -181,25 +181,16 @@ def test_the_diode_temperature_update_is_differentiable():
     assert float(jax.grad(i_s)(t)) == pytest.approx(float(closed), rel=1e-12)
 
 
-@pytest.mark.parametrize(
-    ("element", "model", "what"),
-    [
-        ("M1 d g 0 vd", ".model vd VDMOS", "VDMOS"),
-    ],
-)
-@pytest.mark.parametrize("setting", [".temp 50", ".options tnom=40", ""])
-def test_a_device_without_a_temperature_update_is_refused_away_from_27C(
-    element, model, what, setting
-):
-    line = element + (" temp=60" if not setting else "")
-    deck = f"t\nVD d 0 1\nVG g 0 1\n{line}\n{model}\n{setting}\n.tran 1n 10n\n.end\n"
-    refusal = rf"{what}.*no temperature dependence"
-    if what == "VDMOS" and not setting:  # its line takes no instance parameter at all
-        refusal = "instance parameters other than M are not supported"
-    with pytest.raises(spice.NetlistError, match=refusal):
+@pytest.mark.parametrize("setting", [".temp 50", ".options tnom=40", " temp=60"])
+def test_a_device_without_a_temperature_update_is_refused_away_from_tnom(setting):
+    """BSIM3, the one device left without its temperature update, names it and the fix."""
+    line = "M1 d g 0 0 nb L=1u W=10u" + (setting if setting.startswith(" ") else "")
+    model = ".model nb NMOS LEVEL=8 VERSION=3.3.0"
+    extra = "" if setting.startswith(" ") else setting
+    deck = f"t\nVD d 0 1\nVG g 0 1\n{line}\n{model}\n{extra}\n.tran 1n 10n\n.end\n"
+    with pytest.raises(spice.NetlistError, match=r"BSIM3 has no temperature update"):
         spice.read(deck)
-    if setting:  # the same device with its TEMP at the circuit's 27 °C reads
-        spice.read(deck.replace(setting, ""))
+    spice.read(deck.replace(setting, ""))  # at its TNOM it reads
 
 
 # ---------------------------------------------------------------------------- BJT
@@ -403,6 +394,50 @@ def test_level6_mosfets_match_ngspice_away_from_27C(setting):
     for source in ("VDD", "VB3"):
         want = ref[f"i({source.lower()})"]
         assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+
+
+# ----------------------------------------------------------------------------- VDMOS
+VDMOSES = """vdmos temperatures
+VDD vdd 0 12
+RL vdd d1 20
+VG1 g1 0 4.2
+M1 d1 g1 s1 nv M=2
+RS1 s1 0 0.5
+VD2 d2 0 -0.6
+M2 d2 0 0 nv dtemp=20
+VG3 g3 0 -3
+RL3 d3 0 50
+M3 d3 g3 vdd pv
+VG4 g4 0 2.6
+VD4 d4 0 1
+M4 d4 g4 0 nw temp=60
+.model nv VDMOS(VTO=2.5 KP=2 LAMBDA=0.01 RD=0.05 RS=0.02 RG=3 RB=0.01 IS=1e-12 N=1.1 CJO=1n
++ TCVTH=3m MU=-1.2 TRD1=4e-3 TRD2=1e-5 TRS1=2e-3 TRB1=5e-3 XTI=2.5 EG=1.2 TNOM=40)
+.model pv VDMOS(PCHAN VTO=-2 KP=1.5 RD=0.1 RS=0.05 IS=2e-12 VTOTC=2m BEX=-1.8 TEXP0=1.2)
+.model nw VDMOS(VTO=2.8 KP=1 KSUBTHRES=0.15 TKSUBTHRES1=2e-3 TKSUBTHRES2=1e-6)
+{setting}
+.tran 1u 10u
+.end
+"""
+
+
+@needs_ngspice
+@pytest.mark.parametrize(
+    "setting",
+    [pytest.param(s, marks=() if s == ".temp 125" else pytest.mark.slow) for s in BJT_SETTINGS],
+)
+def test_vdmos_match_ngspice_away_from_27C(setting):
+    """vdmostemp: KP r^MU (BEX its other name), VTO by TCVTH (VTOTC), KSUBTHRES's
+    polynomial, RD by TRD1/TRD2 or TEXP0, RS, RB, the body diode's IS with EG and XTI at
+    N·V_T(T) (M2's, forward-biased) and its junction; NCHAN and PCHAN, M, TEMP, DTEMP, a
+    model TNOM and ``.options tnom``: each source's current at the operating point, to
+    1e-9 + 1e-11 A (the channel part's G_min leak, as at 27 °C)."""
+    deck = VDMOSES.format(setting=setting)
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in ("VDD", "VD2", "VD4"):
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=1e-11), source
 
 
 # ------------------------------------------------------------------------------ JFET

@@ -309,3 +309,40 @@ def jfet(v: dict, t, tnom) -> tuple[dict, float, object]:
     v["pb"], v["cgs"] = junction(pb, v["cgs"], 0.5, t, tnom)
     v["pb"], v["cgd"] = junction(pb, v["cgd"], 0.5, t, tnom)
     return v, bfac, thermal_voltage(t) / thermal_voltage(REFERENCE)
+
+
+# ------------------------------------------------------------------------ VDMOS
+def vdmos(v: dict, sign, t, tnom) -> dict:
+    r"""ngspice 39's VDMOS temperature update (``vdmostemp.c``) of the card values ``v``
+    (``sign`` = +1 NCHAN, −1 PCHAN; TEXP0 present only where the card gives it) at ``t``
+    (kelvin), ``ΔT = T − T_nom``, ``r = T/T_nom``, ``P(c₁, c₂) = 1 + c₁ΔT + c₂ΔT²``:
+
+        KP(T) = KP r^MU,   VTO(T) = VTO − type·TCVTH ΔT,
+        KSUBTHRES(T) = KSUBTHRES P(TKSUBTHRES1, TKSUBTHRES2),
+        RD(T) = RD r^TEXP0 (TEXP0 given), else RD P(TRD1, TRD2),
+        RG(T) = RG P(TRG1, TRG2),   RS(T) = RS P(TRS1, TRS2),   RB(T) = RB P(TRB1, TRB2),
+        the body diode's IS(T) = IS exp((r − 1) EG/(N V_T(T)) + (XTI/N) ln r),
+        VJ, CJO by the junction update of the module docstring (grading M),
+
+    and its ``V_T(T)`` (returned as ``"vt"``); EG below 0.1 eV is taken as 0.1, as
+    ``vdmosset`` limits it."""
+    out = dict(v)
+    out["vt"] = thermal_voltage(t)
+    if _nominal(t, tnom):
+        return out
+    xp = array_module(t, tnom, v["kp"], v["vto"], v["is"], v["n"])
+    ratio, dt = t / tnom, t - tnom
+    out["kp"] = v["kp"] * ratio ** v["mu"]
+    out["vto"] = v["vto"] - sign * v["tcvth"] * dt
+    out["ksubthres"] = _poly(v["ksubthres"], v["tksubthres1"], v["tksubthres2"], dt)
+    if "texp0" in v:
+        out["rd"] = v["rd"] * ratio ** v["texp0"]
+    else:
+        out["rd"] = _poly(v["rd"], v["trd1"], v["trd2"], dt)
+    for r in ("rg", "rs", "rb"):
+        out[r] = _poly(v[r], v[f"tr{r[1]}1"], v[f"tr{r[1]}2"], dt)
+    eg = xp.maximum(v["eg"], 0.1) if traced(v["eg"]) else max(v["eg"], 0.1)
+    vt_n = v["n"] * thermal_voltage(t)
+    out["is"] = v["is"] * xp.exp((ratio - 1.0) * eg / vt_n + v["xti"] / v["n"] * xp.log(ratio))
+    out["vj"], out["cjo"] = junction(v["vj"], v["cjo"], v["m"], t, tnom)
+    return out

@@ -8,17 +8,20 @@ gate–drain capacitance from ``g′`` to the channel's drain; the body diode (`
 ``CJO``, ``VJ``, ``M``, ``FC``, ``TT``, series resistance ``RB``) from ``s`` to ``d``
 (``NCHAN``; reversed for ``PCHAN``); ``RDS``, when given > 0, a shunt resistor from
 ``d`` to ``s`` (``vdmosset``'s ``dsConductance``). ``LAMBDA`` and ``THETA`` enter the
-channel's ``β′``, ``MTRIODE`` its triode region (:mod:`diracvi.components.vdmos`). Card
-parameters diracvi does not implement (quasi-saturation ``RQ``/``VQ``, self-heating, temperature
-coefficients, breakdown ``BV`` …) are refused by name at the element line.
+channel's ``β′``, ``MTRIODE`` its triode region (:mod:`diracvi.components.vdmos`). The
+temperature coefficients act away from TNOM (:func:`~diracvi.components._temperature.vdmos`).
+Card parameters diracvi does not implement (quasi-saturation ``RQ``/``VQ``, self-heating,
+breakdown ``BV`` …) are refused by name at the element line.
 """
 
 from __future__ import annotations
 
 from .. import components as cp
+from ..components._temperature import kelvin
+from ..components._temperature import vdmos as vdmos_at
 from ..components.vdmos import VDMOS, GateDrainCapacitance
 from ..errors import ModelError
-from ._cards import Card, element_card, nominal_only
+from ._cards import Card, device_temperature, element_card
 
 #: the card's parameters diracvi reads, with ngspice's defaults
 DEFAULTS = {
@@ -29,28 +32,33 @@ DEFAULTS = {
 }  # fmt: skip
 #: parameters that only inform (ngspice ignores them too) or only act in noise
 _IGNORED = ("kf", "af", "vds", "ron", "qg")
-#: ngspice's temperature coefficients: each factor is 1 at T = TNOM
-_TEMPERATURE = ("tcvth", "vtotc", "mu", "bex", "texp0", "texp1", "trd1", "trd2", "trg1",
-                "trg2", "trs1", "trs2", "trb1", "trb2", "tksubthres1", "tksubthres2", "eg",
-                "xti")  # fmt: skip
+#: ngspice's temperature coefficients with their defaults (vdmosset.c); TEXP0 acts only
+#: where the card gives it (vdmostemp.c tests its "given" flag)
+_TEMPERATURE = {
+    "mu": -1.5, "tcvth": 0.0, "trd1": 0.0, "trd2": 0.0, "trg1": 0.0, "trg2": 0.0,
+    "trs1": 0.0, "trs2": 0.0, "trb1": 0.0, "trb2": 0.0, "tksubthres1": 0.0,
+    "tksubthres2": 0.0, "eg": 1.11, "xti": 3.0,
+}  # fmt: skip
 #: the safe-operating-area limits (ngspice's soa check: warnings, no effect on a run)
 _SOA = ("vgs_max", "vgd_max", "vds_max", "vgsr_max", "vgdr_max", "pd_max", "id_max",
         "idr_max", "te_max", "derating")  # fmt: skip
 #: the thermal network's parameters, read only by the five-terminal thermal instance
 _THERMAL = ("rthjc", "rthca", "cthj", "rth_ext")
 CARD = Card(
-    defaults=DEFAULTS,
-    alias={"vth0": "vto"},  # not VT0: ngspice 39's VDMOS ignores it (no such name)
+    defaults=DEFAULTS | _TEMPERATURE,
+    # not VT0: ngspice 39's VDMOS ignores it (no such name); VTOTC and BEX are TCVTH's
+    # and MU's other names (vdmos.c)
+    alias={"vth0": "vto", "vtotc": "tcvth", "bex": "mu"},
     skip=("pchan", "nchan"),
     ignored={k: "ignored (informational or noise only)" for k in _IGNORED}
-    | {k: "ignored (temperature only: diracvi's VDMOS runs at ngspice's nominal 27 °C, "
-       "where it has no effect)" for k in _TEMPERATURE}
+    | {"texp1": "ignored (the quasi-saturation resistance RQ's temperature exponent; RQ is "
+       "refused)"}
     | {k: "ignored (a safe-operating-area limit: ngspice only warns past it)" for k in _SOA}
     | {k: "ignored (used only with the thermal nodes tj tc, which diracvi does not have)"
        for k in _THERMAL},
-    # parameters whose default is "off": given at their default they change nothing
-    fixed={"tnom": (27.0, None)},
-    optional=("rds",),  # read only where given: ngspice's shunt exists only then
+    fixed={},
+    # read only where given: ngspice's shunt exists only then, TEXP0 and TNOM likewise
+    optional=("rds", "texp0", "tnom"),
     unknown="parameter {key}={x:g} is not supported; diracvi's VDMOS reads "
     + ", ".join(k.upper() for k in DEFAULTS)
     + ", RDS and PCHAN (remove it to run without)",
@@ -74,18 +82,19 @@ def vdmos_line(ctx, name, pos, kw, line):
     ``m``, and — as ngspice since version 40 (``vdmosload``), not ngspice 39, which leaves
     them per device — the gate capacitances CGS, CGDMIN, CGDMAX times ``m``, so an
     instance with ``M=m`` is ``m`` instances side by side."""
-    extra_kw = {k: t for k, t in kw.items() if k != "m"}
+    extra_kw = {k: t for k, t in kw.items() if k not in ("m", "temp", "dtemp")}
     if len(pos) != 5 or extra_kw:
         raise line.fail(
-            "expected 'Mname d g s model [M=m]' for a VDMOS (thermal nodes and instance "
-            f"parameters other than M are not supported; got {' '.join(pos[1:])} "
-            f"{extra_kw or ''})"
+            "expected 'Mname d g s model [M=m] [TEMP=t] [DTEMP=d]' for a VDMOS (thermal "
+            "nodes and other instance parameters are not supported; got "
+            f"{' '.join(pos[1:])} {extra_kw or ''})"
         )
     _, params, _, fail = element_card(ctx, pos[4], line, ("VDMOS",))
-    nominal_only(ctx, pos[0], kw, line, "the VDMOS")
     notes: list[str] = []
     kind = "pmos" if "pchan" in params else "nmos"
     v = CARD.read("VDMOS", params, fail, notes)
+    temp = kelvin(device_temperature(ctx, pos[0], kw, line))
+    v = vdmos_at(v, 1.0 if kind == "nmos" else -1.0, temp, kelvin(v.get("tnom", ctx.tnom)))
     m = ctx.value(kw["m"], line, f"{pos[0]} M") if "m" in kw else 1.0
     if not m > 0.0:
         raise line.fail(f"element {pos[0]!r}: M={m:g} must be > 0 (the parallel devices)")
@@ -125,7 +134,7 @@ def vdmos_line(ctx, name, pos, kw, line):
         body = cp.Diode(
             v["is"], v["n"], name=f"{name}:body", series_resistance=v["rb"],
             junction_capacitance=v["cjo"], junction_potential=v["vj"], grading=v["m"],
-            depletion_coefficient=v["fc"], transit_time=v["tt"],
+            depletion_coefficient=v["fc"], transit_time=v["tt"], thermal_voltage=v["vt"],
         )  # fmt: skip
         extra.append((body, {"p": s, "n": d} if kind == "nmos" else {"p": d, "n": s}))
     except ModelError as exc:
