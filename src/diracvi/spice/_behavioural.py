@@ -75,6 +75,12 @@ def value_line(ctx, name, pos, kw, line, kind):
     )  # fmt: skip
 
 
+def expression_part(ctx, name, line, kind, text, a, b, written):
+    """The behavioural source ``kind`` (``"V"`` or ``"I"``) of the expression ``text``
+    between ``a`` and ``b`` (a behavioural resistor's current, :mod:`._resistor`)."""
+    return _build(ctx, name, line, kind, text, a, b, written)
+
+
 def _build(ctx, name, line, kind, text, a, b, written, table=None):
     if not text:
         raise line.fail(f"element {written!r}: empty expression; write {kind}=expr")

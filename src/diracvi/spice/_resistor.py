@@ -22,6 +22,7 @@ circuit, and the element is left out (with a note). Noise (KF, AF, LF, WF, EF, N
 from __future__ import annotations
 
 import math
+import re
 
 from .. import components as cp
 from ..components._part import traced
@@ -118,9 +119,44 @@ def read_line(ctx, pos, kw, line, letter, form, instance, keywords):
     return pos, value, model, numbers, found
 
 
+#: ``Rname n+ n- [R=]expr`` whose value reads the time, a node voltage or a current: a
+#: behavioural resistor (ngspice's)
+_BEHAVIOURAL = re.compile(
+    r"^\s*\S+\s+(\S+)\s+(\S+)\s+(?:(?:r|resistance)\s*=\s*)?(.+?)\s*$", re.I | re.S
+)
+_READS = re.compile(r"\btime\b|\b[vi]\s*\(", re.I)
+
+
+def behavioural(ctx, name, pos, line):
+    """``Rname n+ n- R=expr`` with ``time``, ``v(…)`` or ``i(…)`` in ``expr``, as ngspice
+    reads a behavioural resistor: the current ``i = V(n+, n−)/expr`` from ``n+`` to
+    ``n−``, a :func:`~diracvi.components.BehaviouralSource` (a resistive port: with
+    ``expr > 0`` it dissipates ``V²/expr``); ``None`` for any other R line."""
+    m = _BEHAVIOURAL.match(line.text)
+    if m is None or not _READS.search(m.group(3)):
+        return None
+    a, b, text = m.groups()
+    from ._behavioural import expression_part  # (it imports the value readers too)
+
+    law = f"v({a},{b})/({expression_text(text)})"
+    return expression_part(ctx, name, line, "I", law, a, b, pos[0])
+
+
+def expression_text(text: str) -> str:
+    """A value as written, quotes or braces around it dropped and the braces inside it
+    (ngspice's parameter substitution, ``{Rload/2}``) read as parentheses."""
+    text = text.strip()
+    while len(text) >= 2 and text[0] + text[-1] in ("{}", "''"):
+        text = text[1:-1].strip()
+    return text.replace("{", "(").replace("}", ")")
+
+
 def r_line(ctx, name, pos, kw, line):
     """An R line (see the module docstring): ``(Resistor, pins)``, or ``(None, {})`` for
-    an infinite resistance."""
+    an infinite resistance; a behavioural resistor's :func:`behavioural` part."""
+    found = behavioural(ctx, name, pos, line)
+    if found is not None:
+        return found
     if len(pos) == 4 and not kw and pos[3].lower() not in ctx.models:
         # the plain line 'Rname n+ n- value' (most of a netlist), as the general reading
         # below takes it: no model named, no instance parameter
