@@ -461,10 +461,10 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             "m1 3 2 0 0 nch\n.model nch NMOS (TOX=1e-8 NSUB=1e9)",
             r"line 5: .*NSUB=1e\+09.*intrinsic",
         ),
-        # (level 1 reads TNOM: tests/test_temperature.py; level 2 does not)
+        # (levels 1, 2, 3, 6 read TNOM: tests/test_temperature.py; BSIM3 runs at its own)
         (
-            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=2 TNOM=50)",
-            r"line 5: model 'nch' .*TNOM=50.*27",
+            "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=8 TNOM=50)",
+            r"line 5: element 'm1': BSIM3 has no temperature update .*TNOM 50",
         ),
         ("m1 3 2 0 0 nch\n.model nch NMOS (MJ=2.2 CBD=1p)", r"line 5: .*mj=2\.2.*\[0, 2\)"),
         (
