@@ -335,8 +335,12 @@ def BSIM3(
         form, vjm, is_evjm = _junction_form(i_sat[k], nvtm, m["ijth"])
         junction_forms.append((k, form))
         numbers.update({f"isat_{k}": i_sat[k], f"vjm_{k}": vjm, f"isevjm_{k}": is_evjm})
+        # a wall's term is on unless the card's coefficient is a known 0 (CJ, CJSW,
+        # CJSWG: the card's choice); a device whose area or perimeter leaves it 0 carries
+        # it at C = 0, which adds exactly 0, so other sizes stay one kind of part
         for j, (c, pb, mj) in enumerate(caps[k]):
-            if c > 0.0:
+            coefficient = m[("cj", "cjsw", "cjswg")[j]]
+            if not (isinstance(coefficient, float) and coefficient == 0.0):
                 present.append((k, j))
                 numbers.update({f"c{j}_{k}": c, f"pb{j}_{k}": pb, f"mj{j}_{k}": mj})
         if res[k] > 0.0:
@@ -372,7 +376,6 @@ def BSIM3(
     initial_v[idx["wbs"]] = vg0[0] - vg0[2]
     initial_v[idx["wbd"]] = vg0[1] - vg0[2]
     junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
-    recorded = {k: x for k, x in card.items() if isinstance(x, float)}
     return ChargePortPart(
         tuple(coords),
         _Lagrangian(pairs),
@@ -388,5 +391,8 @@ def BSIM3(
         initial_v=initial_v,
         role="transistor",
         branch_roles=(("sg", "current"),),
-        parameters=recorded,
+        # (no parameter table: a part's table is static data, so recording W, L or the
+        # card's numbers there would keep devices of other sizes or of a Monte-Carlo
+        # card's variants apart — they are the laws' numbers; only K reads a table)
+        parameters=(),
     )
