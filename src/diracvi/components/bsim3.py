@@ -97,12 +97,6 @@ def _junction(v, form, i_s, nvtm, ijth, vjm, is_evjm, gmin, revision):
     return jnp.where(v < vjm, below, above) + gmin * v
 
 
-def _junction_current(v, i_s, nvtm, ijth, gmin, revision):
-    """ngspice's BSIM3 bulk diode (module docstring) with ``G_min``."""
-    form, vjm, is_evjm = _junction_form(i_s, nvtm, ijth)
-    return _junction(v, form, i_s, nvtm, ijth, vjm, is_evjm, gmin, revision)
-
-
 def _mode(vgs, vds, vbs, sign):
     """NMOS-oriented ``(V_GS, V_DS, V_BS)`` of the mode and whether it is forward."""
     gs, ds, bs = sign * vgs, sign * vds, sign * vbs
