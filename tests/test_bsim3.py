@@ -214,8 +214,12 @@ def test_bsim3_cards_refuse_what_is_not_built_and_note_what_ngspice_ignores():
     base = "t\nvd d 0 1\nvg g 0 1\nm1 d g 0 0 mm {}\n.model mm NMOS (LEVEL=49 {})\n.end\n"
     read = spice.read(base.format("", "KF=1e-25 NOIA=1e20 TOX=5e-9 VTH0=0.45"))
     assert "KF ignored" in " ".join(read.notes) and "NOIA ignored" in " ".join(read.notes)
-    params = dict(read.circuit.parts[-1].parameters)
-    assert (params["vth0"], params["l"], params["w"]) == (0.45, 5e-6, 5e-6)  # ngspice's L, W
+    # the card's TOX and VTH0 read, ngspice's L = W = 5 µm: the device built directly
+    part = read.circuit.parts[-1]
+    direct = cp.BSIM3("nmos", w=5e-6, l=5e-6, name="m1", model={"tox": 5e-9, "vth0": 0.45})
+    q, v = np.zeros(len(part.coords)), np.linspace(-1.0, 2.0, len(part.coords))
+    assert np.array_equal(part.force(q, v), direct.force(q, v))
+    assert np.array_equal(part.charge(q, v), direct.charge(q, v))
     card = r"line 4: model 'mm' \(line 5\): "
     hot = r"BSIM3 has no temperature update in diracvi yet; the device would run at 27 °C"
     for bad, match in (("CAPMOD=1", card + r"NMOS BSIM3 CAPMOD=1 is not supported"),

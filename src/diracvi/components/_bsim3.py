@@ -325,6 +325,45 @@ def _theta(t0):
     return t1 * (1.0 + 2.0 * t1)
 
 
+def _float(x) -> bool:
+    """Whether ``x`` is a number known when the part is built (not a traced value)."""
+    return isinstance(x, float)
+
+
+def branches(p: dict) -> tuple:
+    """The forms :func:`evaluate` takes, decided once from the size-dependent values ``p``
+    (a value known when the part is built may switch a term off or to a simpler exact
+    form; a traced value takes the general one): ``(name, choice)`` pairs, hashable, so
+    that a part stores them as static data and its numbers as arrays — parts whose
+    choices agree compute one function of different numbers.
+
+    ``poly``: the poly-gate depletion (``1e18 < NGATE < 1e25``); ``a1``: λ's form
+    (``"zero"``, ``"positive"`` or ``"general"``); ``simple``: ``V_dsat`` without R_ds
+    and λ (RDS0 = 0, A1 = 0, A2 = 1); ``no_clm``, ``no_dibl``, ``no_scbe``, ``no_isub``:
+    PCLM ≤ 0, θ_rout ≤ 0, PSCBE2 ≤ 0, ALPHA0 + ALPHA1 L_eff ≤ 0 or BETA0 ≤ 0 (the term
+    off); ``k1ox_zero``, ``k1ox_nonpositive``: the charges' K1ox forms."""
+    ngate, a1, a2, k1ox = p["ngate"], p["a1"], p["a2"], p["k1ox"]
+    rds0 = p["rds0"]
+    tmp = p["alpha0"] + p["alpha1"] * p["leff"]
+    if _float(a1) and a1 == 0.0:
+        lam = "zero"
+    elif _float(a1) and a1 > 0.0:
+        lam = "positive"
+    else:
+        lam = "general"
+    return (
+        ("poly", not _float(ngate) or 1.0e18 < ngate < 1.0e25),
+        ("a1", lam),
+        ("simple", bool(_float(rds0) and rds0 == 0.0 and lam == "zero" and _float(a2) and a2 == 1)),
+        ("no_clm", bool(_float(p["pclm"]) and p["pclm"] <= 0.0)),
+        ("no_dibl", bool(_float(p["thetarout"]) and p["thetarout"] <= 0.0)),
+        ("no_scbe", bool(_float(p["pscbe2"]) and p["pscbe2"] <= 0.0)),
+        ("no_isub", bool(_float(tmp) and (tmp <= 0.0 or p["beta0"] <= 0.0))),
+        ("k1ox_zero", bool(_float(k1ox) and k1ox == 0.0)),
+        ("k1ox_nonpositive", bool(_float(k1ox) and k1ox <= 0.0)),
+    )
+
+
 def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charges_only=False):
     r"""``(I_ds, I_sub, (Q_g, Q_b, Q_d))`` of the NMOS-oriented mode (``V_DS ≥ 0``):
     the module docstring's current, the substrate current (ALPHA0, ALPHA1, BETA0, drain to
@@ -333,6 +372,8 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     the threshold and ``A_bulk0`` but none of the mobility and saturation terms."""
     if charges_only and (capmod is None or xpart < 0.0):
         return None, None, None
+    # the forms: the part's own (its numbers arrays), else decided from p's values
+    form = dict(p["branches"]) if "branches" in p else dict(branches(p))
     vtm = p["vtm"]
     cox, tox = p["cox"], p["tox"]
     leff = p["leff"]
@@ -376,7 +417,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     # poly-gate depletion
     vgs_eff = vgs
     ngate = p["ngate"]
-    if not isinstance(ngate, float) or 1.0e18 < ngate < 1.0e25:
+    if form["poly"]:
         tfb = p["vfb"] + phi
         t1g = 1.0e6 * CHARGE_Q * EPSSI * ngate / (cox * cox)
         t4g = _sqrt(1.0 + 2.0 * (vgs - tfb) / t1g)
@@ -429,8 +470,8 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     )
     abulk, abulk0 = abulk * kf, abulk0 * kf
     if charges_only:
-        return None, None, _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst,
-                                    abulk0, vds)  # fmt: skip
+        return None, None, _charges(p, form, capmod, xpart, vgs_eff, vbseff, phis, vth, n,
+                                    vgst, abulk0, vds)  # fmt: skip
     # mobility
     if mobmod == 1:
         t3m = (vgsteff + 2.0 * vth) / tox
@@ -448,9 +489,9 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     esat = 2.0 * p["vsattemp"] / ueff
     esatl = esat * leff
     a1, a2 = p["a1"], p["a2"]
-    if isinstance(a1, float) and a1 == 0.0:
+    if form["a1"] == "zero":
         lam = a2 + 0.0 * vgsteff
-    elif isinstance(a1, float) and a1 > 0.0:
+    elif form["a1"] == "positive":
         t0l = 1.0 - a2
         t1l = t0l - a1 * vgsteff - 0.0001
         lam = a2 + t0l - 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * t0l))
@@ -458,9 +499,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
         t1l = a2 + a1 * vgsteff - 0.0001
         lam = 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * a2))
     vgst2vtm = vgsteff + 2.0 * vtm
-    simple = (isinstance(p["rds0"], float) and p["rds0"] == 0.0 and isinstance(a1, float)
-              and a1 == 0.0 and isinstance(a2, float) and a2 == 1.0)  # fmt: skip
-    if simple:
+    if form["simple"]:
         vdsat = esatl * vgst2vtm / (abulk * esatl + vgst2vtm)
     else:
         t9v = abulk * wvcoxrds
@@ -486,7 +525,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     vaclm = jnp.where(
         clm_on, (leff * (abulk + vgsteff / esatl)) / (pclm * abulk * p["litl"]) * diffvds, MAX_EXP
     )
-    if isinstance(pclm, float) and pclm <= 0.0:
+    if form["no_clm"]:
         vaclm = MAX_EXP + 0.0 * vds
     # V_ADIBL
     tr = p["thetarout"]
@@ -495,7 +534,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     t7 = p["pdiblcb"] * vbseff
     vadibl = vadibl * jnp.where(t7 >= -0.9, 1.0 / (1.0 + t7),
                                 (17.0 + 20.0 * t7) / (0.8 + jnp.minimum(t7, -0.9)))  # fmt: skip
-    if isinstance(tr, float) and tr <= 0.0:
+    if form["no_dibl"]:
         vadibl = MAX_EXP + 0.0 * vds
     # V_A
     t9p = p["pvag"] / esatl * vgsteff
@@ -503,7 +542,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     va = vasat + t0p * vaclm * vadibl / (vaclm + vadibl)
     # V_ASCBE
     pscbe1, pscbe2 = p["pscbe1"], p["pscbe2"]
-    if isinstance(pscbe2, float) and pscbe2 <= 0.0:
+    if form["no_scbe"]:
         vascbe = MAX_EXP + 0.0 * vds
     else:
         big = diffvds > pscbe1 * p["litl"] / EXP_THRESHOLD
@@ -521,7 +560,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     # substrate current
     tmp = p["alpha0"] + p["alpha1"] * leff
     beta0 = p["beta0"]
-    if isinstance(tmp, float) and (tmp <= 0.0 or beta0 <= 0.0):
+    if form["no_isub"]:
         isub = 0.0 * ids
     else:
         big = diffvds > beta0 / EXP_THRESHOLD
@@ -532,11 +571,11 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
         isub = t1s * idsa
     if capmod is None or xpart < 0.0:  # ngspice: no intrinsic charge with XPART < 0
         return ids, isub, None
-    charges = _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds)
+    charges = _charges(p, form, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds)
     return ids, isub, charges
 
 
-def _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds):
+def _charges(p, form, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds):
     """The intrinsic ``(Q_g, Q_b, Q_d)`` of capMod 2 or 3 (module docstring; ``b3ld.c``)."""
     vtm, cox = p["vtm"], p["cox"]
     vbseffcv = jnp.where(vbseff < 0.0, vbseff, p["phi"] - phis)
@@ -570,7 +609,7 @@ def _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds)
     qac0 = coxwlc * (vfbeff - vfbzb)
     t0 = 0.5 * k1ox
     t3 = vgs_eff - vfbeff - vbseffcv - vgsteff
-    if isinstance(k1ox, float) and k1ox == 0.0:
+    if form["k1ox_zero"]:
         qsub0 = 0.0 * t3
     else:
         t1 = jnp.where(t3 < 0.0, t0 + t3 / k1ox, _sqrt(t0 * t0 + jnp.maximum(t3, 0.0)))
@@ -605,7 +644,7 @@ def _charges(p, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds)
         qdrn = -(qgate + qbulk + qsrc)
         return qgate, qbulk, qdrn
     # capMod 3: Δφ_s, the centroid of the inversion charge
-    if isinstance(k1ox, float) and k1ox <= 0.0:
+    if form["k1ox_nonpositive"]:
         denomi = 0.25 * p["moin"] * vtm
         t0 = 0.5 * p["sqrtphi"]
     else:

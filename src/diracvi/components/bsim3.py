@@ -32,6 +32,10 @@ above 0 V).
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -40,16 +44,19 @@ from . import _bsim3 as b3
 from ._charge_port import ChargePortPart
 from ._junction import depletion_charge
 from ._mos_part import bulk_limits, pins_and_kcl, polarity
-from ._part import finite, positive
+from ._part import array_module, finite, positive, traced
 
 __all__ = ["BSIM3", "bsim3_current"]
 
 
-def _overlap(v, cgo, weffcv, cgl, ckappa, capmod):
+def _overlap(v, cgo, weffcv, cgl, ckappa, capmod, off=None):
     """The overlap charge ``Q_gxo(V)`` (``b3ld.c``): ``cgo·V`` for capMod 0; with CGSL/CGDL
     the lightly doped overlap's ``−W CGL κ/2 (√(1 − 4V/κ) − 1)`` below 0 (capMod 1) or
-    its smoothed form (capMod 2, 3)."""
-    if capmod == 0 or (isinstance(cgl, float) and cgl == 0.0):
+    its smoothed form (capMod 2, 3). ``off``: CGL is a known 0 (decided from ``cgl``'s
+    value when not given)."""
+    if off is None:
+        off = isinstance(cgl, float) and cgl == 0.0
+    if capmod == 0 or off:
         return cgo * v
     t3 = weffcv * cgl
     if capmod == 1:
@@ -62,16 +69,28 @@ def _overlap(v, cgo, weffcv, cgl, ckappa, capmod):
     return (cgo + t3) * v - t3 * (t2 + 0.5 * ckappa * (t4 - 1.0))
 
 
-def _junction_current(v, i_s, nvtm, ijth, gmin, revision):
-    """ngspice's BSIM3 bulk diode (module docstring) with ``G_min``."""
-    if i_s <= 0.0:
+def _junction_form(i_s, nvtm, ijth):
+    """The bulk diode's form and its constants, decided once: ``("off", 0, 0)`` for
+    ``I_S ≤ 0`` (G_min alone), ``("plain", 0, 0)`` for IJTH = 0 (no continuation), else
+    ``("limited", V_jsm, I_S e^{V_jsm/N V_t})``."""
+    if isinstance(i_s, float) and i_s <= 0.0:
+        return "off", 0.0, 0.0
+    if isinstance(ijth, float) and ijth == 0.0:
+        return "plain", 0.0, 0.0
+    xp = array_module(i_s, nvtm, ijth)
+    vjm = nvtm * xp.log(ijth / i_s + 1.0)
+    return "limited", vjm, i_s * xp.exp(vjm / nvtm)
+
+
+def _junction(v, form, i_s, nvtm, ijth, vjm, is_evjm, gmin, revision):
+    """ngspice's BSIM3 bulk diode (module docstring) with ``G_min``, in the ``form`` of
+    :func:`_junction_form`."""
+    if form == "off":
         return gmin * v
-    if ijth == 0.0:
+    if form == "plain":
         return i_s * jnp.expm1(v / nvtm) + gmin * v
-    vjm = nvtm * np.log(ijth / i_s + 1.0)
     below = i_s * jnp.expm1(jnp.minimum(v, vjm) / nvtm)
     if revision >= 322:
-        is_evjm = i_s * np.exp(vjm / nvtm)
         above = is_evjm - i_s + is_evjm / nvtm * (v - vjm)
     else:
         above = ijth + (i_s + ijth) / nvtm * (v - vjm)
@@ -92,6 +111,119 @@ def bsim3_current(params: dict, kind: str, vgs, vds, vbs, mobmod=1):
     g, d, b, fwd = _mode(vgs, vds, vbs, sign)
     i = b3.evaluate(params, g, d, b, mobmod=mobmod)[0]
     return sign * jnp.where(fwd, i, -i)
+
+
+class _Lagrangian(eqx.Module):
+    """``L = Σ w_b q̇_b`` over the flux-form branches ``(charge, flux)`` (coordinate
+    indices): each line's ``ẇ`` is its branch voltage."""
+
+    pairs: tuple = eqx.field(static=True)
+
+    def __call__(self, q, v):
+        return sum(q[j] * v[i] for i, j in self.pairs)
+
+
+class _Named(Mapping):
+    """The numbers of a :class:`_Law` by name (``numbers[k]`` read when asked for), with
+    the static ``branches`` and ``revision`` that :func:`~._bsim3.evaluate` reads."""
+
+    def __init__(self, layout: dict, numbers):
+        self._index = {k: j for j, k in enumerate(layout["names"])}
+        self._numbers = numbers
+        self._static = {"branches": layout["form"], "revision": layout["revision"]}
+
+    def __getitem__(self, key):
+        if key in self._static:
+            return self._static[key]
+        return self._numbers[self._index[key]]
+
+    def __contains__(self, key) -> bool:
+        return key in self._static or key in self._index
+
+    def __iter__(self):
+        return iter((*self._static, *self._index))
+
+    def __len__(self) -> int:
+        return len(self._static) + len(self._index)
+
+
+class _Law(eqx.Module):
+    r"""The part's force ``F(q, v)`` or charge ``Q(q, v)`` (``what``; the module
+    docstring's) as data: ``layout`` is everything decided in Python when the part is
+    built — its coordinates, polarity, capMod, mobMod, XPART, VERSION, the forms of
+    :func:`~._bsim3.branches`, which junction, overlap and resistor terms are on, the
+    names of the numbers — as ``(name, value)`` pairs (hashable: static), ``numbers``
+    one float64 vector (the size-dependent parameters, M, GMIN, the junctions' and
+    resistors' values). Parts of equal layouts are one function of different vectors:
+    its form is read once per layout (:func:`~diracvi.model.system._user_function`), not
+    traced per device, and alike devices stack into one ``vmap``."""
+
+    what: str = eqx.field(static=True)
+    layout: tuple = eqx.field(static=True)
+    numbers: jax.Array
+
+    def __call__(self, q, v):
+        layout = dict(self.layout)
+        p = _Named(layout, self.numbers)
+        idx = {c: j for j, c in enumerate(layout["coords"])}
+        return (_force if self.what == "force" else _charge)(layout, p, idx, q, v)
+
+
+def _force(layout, p, idx, q, v):
+    """``F``: minus the channel, junction (with I_sub) and resistor currents (×M)."""
+    sign, mult, g, rev = layout["sign"], p["mult"], p["gmin"], layout["revision"]
+    vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
+    gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
+    ids, isub, _ = b3.evaluate(p, gm, dm, bm, mobmod=layout["mobmod"])
+    i_ch = sign * jnp.where(fwd, ids, -ids)
+    i_sub = sign * isub  # from the mode's drain into the bulk
+    f = jnp.zeros(len(idx), dtype=v.dtype)
+    f = f.at[idx["w"]].set(-mult * i_ch)
+    bulk = {}
+    for k, form in layout["junctions"]:
+        vb = sign * (vbs if k == "s" else vbd)
+        bulk[k] = sign * _junction(
+            vb, form, p[f"isat_{k}"], p["nvtm"], p["ijth"], p[f"vjm_{k}"], p[f"isevjm_{k}"], g, rev
+        )
+    # I_sub leaves the mode's drain and enters the bulk: a b→(drain) branch current of −I_sub
+    f = f.at[idx["wbs"]].set(-mult * (bulk["s"] - jnp.where(fwd, 0.0, i_sub)))
+    f = f.at[idx["wbd"]].set(-mult * (bulk["d"] - jnp.where(fwd, i_sub, 0.0)))
+    for k in layout["resistors"]:
+        f = f.at[idx[f"qr{k}"]].set(-p[f"r_{k}"] / mult * v[idx[f"qr{k}"]])
+    return f
+
+
+def _charge(layout, p, idx, q, v):
+    """``Q``: the terminal charges on the gate, channel and junction lines (×M)."""
+    sign, capmod = layout["sign"], layout["capmod"]
+    vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
+    gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
+    _, _, intrinsic = b3.evaluate(
+        p, gm, dm, bm, mobmod=layout["mobmod"], capmod=capmod, xpart=layout["xpart"],
+        charges_only=True,
+    )  # fmt: skip
+    vgd, vgb = vgs - vds, vgs - vbs
+    off_s, off_d = layout["overlap_off"]
+    qgso = _overlap(sign * vgs, p["cgso_eff"], p["weffcv"], p["cgsl"], p["ckappa"], capmod, off_s)
+    qgdo = _overlap(sign * vgd, p["cgdo_eff"], p["weffcv"], p["cgdl"], p["ckappa"], capmod, off_d)
+    qgbo = p["cgbo_eff"] * sign * vgb
+    if intrinsic is None:
+        qg = qb = qd = 0.0 * vgs
+    else:
+        qg, qb, qmode = intrinsic
+        qd = jnp.where(fwd, qmode, -(qg + qb + qmode))  # swapped: the mode's Q_d is Q_s
+    junction = {"s": 0.0 * vbs, "d": 0.0 * vbd}
+    for k, j in layout["caps"]:
+        vn = sign * (vbs if k == "s" else vbd)
+        junction[k] = junction[k] + depletion_charge(
+            vn, p[f"c{j}_{k}"], p[f"pb{j}_{k}"], p[f"mj{j}_{k}"], 0.0
+        )
+    out = jnp.zeros(len(idx), dtype=v.dtype)
+    out = out.at[idx["wg"]].set(sign * (qg + qgso + qgdo + qgbo))
+    out = out.at[idx["w"]].set(sign * (qd - qgdo))
+    out = out.at[idx["wbs"]].set(sign * (qb - qgbo + junction["s"]))
+    # Q_bd on b→d′: on the bulk, off the drain (Q_D = Q_d − Q_gdo − Q_bd)
+    return p["mult"] * out.at[idx["wbd"]].set(sign * junction["d"])
 
 
 _INSTANCE = {"ad": 0.0, "as_": 0.0, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0, "m": 1.0,
@@ -186,58 +318,48 @@ def BSIM3(
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
     pins, rows = pins_and_kcl(branches, idx, internal)
 
-    def lagrangian(q, v):
-        return sum(q[idx[names[1]]] * v[idx[names[0]]]
-                   for names, _, _ in branches.values() if len(names) == 2)  # fmt: skip
-
-    def force(q, v):
-        vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
-        gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
-        ids, isub, _ = b3.evaluate(p, gm, dm, bm, mobmod=mobmod)
-        i_ch = sign * jnp.where(fwd, ids, -ids)
-        i_sub = sign * isub  # from the mode's drain into the bulk
-        f = jnp.zeros(len(coords), dtype=v.dtype)
-        f = f.at[idx["w"]].set(-mult * i_ch)
-        i_bs = sign * _junction_current(sign * vbs, i_sat["s"], nvtm, m["ijth"], g, revision)
-        i_bd = sign * _junction_current(sign * vbd, i_sat["d"], nvtm, m["ijth"], g, revision)
-        # I_sub leaves the mode's drain and enters the bulk: a b→(drain) branch current of −I_sub
-        f = f.at[idx["wbs"]].set(-mult * (i_bs - jnp.where(fwd, 0.0, i_sub)))
-        f = f.at[idx["wbd"]].set(-mult * (i_bd - jnp.where(fwd, i_sub, 0.0)))
-        for k in "ds":
-            if res[k] > 0.0:
-                f = f.at[idx[f"qr{k}"]].set(-res[k] / mult * v[idx[f"qr{k}"]])
-        return f
-
-    def junction_charge(vn, k):
-        out = 0.0 * vn
-        for c, pb, mj in caps[k]:
-            if c > 0.0:
-                out = out + depletion_charge(vn, c, pb, mj, 0.0)
-        return out
-
-    def charge(q, v):
-        vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
-        gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
-        _, _, intrinsic = b3.evaluate(
-            p, gm, dm, bm, mobmod=mobmod, capmod=capmod, xpart=xpart, charges_only=True
-        )
-        vgd, vgb = vgs - vds, vgs - vbs
-        qgso = _overlap(sign * vgs, p["cgso_eff"], p["weffcv"], p["cgsl"], p["ckappa"], capmod)
-        qgdo = _overlap(sign * vgd, p["cgdo_eff"], p["weffcv"], p["cgdl"], p["ckappa"], capmod)
-        qgbo = p["cgbo_eff"] * sign * vgb
-        if intrinsic is None:
-            qg = qb = qd = 0.0 * vgs
-        else:
-            qg, qb, qmode = intrinsic
-            qd = jnp.where(fwd, qmode, -(qg + qb + qmode))  # swapped: the mode's Q_d is Q_s
-        qbs = junction_charge(sign * vbs, "s")
-        qbd = junction_charge(sign * vbd, "d")
-        out = jnp.zeros(len(coords), dtype=v.dtype)
-        out = out.at[idx["wg"]].set(sign * (qg + qgso + qgdo + qgbo))
-        out = out.at[idx["w"]].set(sign * (qd - qgdo))
-        out = out.at[idx["wbs"]].set(sign * (qb - qgbo + qbs))
-        # Q_bd on b→d′: on the bulk, off the drain (Q_D = Q_d − Q_gdo − Q_bd)
-        return mult * out.at[idx["wbd"]].set(sign * qbd)
+    # Everything decided in Python is the laws' static layout, every number one vector:
+    # alike devices (one card kind, the same forms, other W, L, AD, …) are then one
+    # function of different numbers — traced once per kind when read, stacked and
+    # stepped with one vmap per kind (model/stacked.py) when run.
+    numbers = {k: x for k, x in p.items() if k not in ("model", "revision")}
+    numbers.update(mult=mult, gmin=g, nvtm=nvtm, ijth=m["ijth"])
+    junction_forms, present = [], []
+    for k in "ds":
+        form, vjm, is_evjm = _junction_form(i_sat[k], nvtm, m["ijth"])
+        junction_forms.append((k, form))
+        numbers.update({f"isat_{k}": i_sat[k], f"vjm_{k}": vjm, f"isevjm_{k}": is_evjm})
+        # a wall's term is on unless the card's coefficient is a known 0 (CJ, CJSW,
+        # CJSWG: the card's choice); a device whose area or perimeter leaves it 0 carries
+        # it at C = 0, which adds exactly 0, so other sizes stay one kind of part
+        for j, (c, pb, mj) in enumerate(caps[k]):
+            coefficient = m[("cj", "cjsw", "cjswg")[j]]
+            if not (isinstance(coefficient, float) and coefficient == 0.0):
+                present.append((k, j))
+                numbers.update({f"c{j}_{k}": c, f"pb{j}_{k}": pb, f"mj{j}_{k}": mj})
+        if res[k] > 0.0:
+            numbers[f"r_{k}"] = res[k]
+    names = tuple(numbers)
+    layout = (
+        ("coords", tuple(coords)),
+        ("sign", sign),
+        ("capmod", capmod),
+        ("mobmod", mobmod),
+        ("xpart", xpart),
+        ("revision", revision),
+        ("form", b3.branches(p)),
+        ("junctions", tuple(junction_forms)),
+        ("caps", tuple(present)),
+        ("resistors", tuple(k for k in "ds" if res[k] > 0.0)),
+        ("overlap_off", tuple(isinstance(p[c], float) and p[c] == 0.0 for c in ("cgsl", "cgdl"))),
+        ("names", names),
+    )
+    values = [numbers[k] for k in names]
+    if any(traced(x) for x in values):  # a parameter being differentiated: kept traced
+        vector = jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
+    else:
+        vector = np.array([float(x) for x in values], dtype=np.float64)
+    pairs = tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2)
 
     vg0 = np.asarray(v0, dtype=np.float64).reshape(-1)
     if vg0.shape != (3,) or not np.all(np.isfinite(vg0)):
@@ -248,12 +370,11 @@ def BSIM3(
     initial_v[idx["wbs"]] = vg0[0] - vg0[2]
     initial_v[idx["wbd"]] = vg0[1] - vg0[2]
     junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
-    recorded = {k: x for k, x in card.items() if isinstance(x, float)}
     return ChargePortPart(
         tuple(coords),
-        lagrangian,
-        force=force,
-        charge=charge,
+        _Lagrangian(pairs),
+        force=_Law("force", layout, vector),
+        charge=_Law("charge", layout, vector),
         junctions=junctions,
         junction_limits=limits,
         constraints=np.array(rows) if rows else None,
@@ -264,5 +385,8 @@ def BSIM3(
         initial_v=initial_v,
         role="transistor",
         branch_roles=(("sg", "current"),),
-        parameters=recorded | {"w": w, "l": l},
+        # (no parameter table: a part's table is static data, so recording W, L or the
+        # card's numbers there would keep devices of other sizes or of a Monte-Carlo
+        # card's variants apart — they are the laws' numbers; only K reads a table)
+        parameters=(),
     )
