@@ -113,6 +113,11 @@ def bsim3_current(params: dict, kind: str, vgs, vds, vbs, mobmod=1):
     return sign * jnp.where(fwd, i, -i)
 
 
+def _known(x, value: float) -> bool:
+    """``x`` is a number (not traced) equal to ``value``."""
+    return not traced(x) and float(np.asarray(x)) == value
+
+
 class _Lagrangian(eqx.Module):
     """``L = Σ w_b q̇_b`` over the flux-form branches ``(charge, flux)`` (coordinate
     indices): each line's ``ẇ`` is its branch voltage."""
@@ -331,10 +336,13 @@ def BSIM3(
         numbers.update({f"isat_{k}": i_sat[k], f"vjm_{k}": vjm, f"isevjm_{k}": is_evjm})
         # a wall's term is on unless the card's coefficient is a known 0 (CJ, CJSW,
         # CJSWG: the card's choice); a device whose area or perimeter leaves it 0 carries
-        # it at C = 0, which adds exactly 0, so other sizes stay one kind of part
+        # it at C = 0, which adds exactly 0, so other sizes stay one kind of part — but
+        # for a grading of 1, whose charge divides by 1 − M (0/0 at C = 0: ngspice skips
+        # a wall of zero size)
         for j, (c, pb, mj) in enumerate(caps[k]):
             coefficient = m[("cj", "cjsw", "cjswg")[j]]
-            if not (isinstance(coefficient, float) and coefficient == 0.0):
+            known_zero = isinstance(coefficient, float) and coefficient == 0.0
+            if not known_zero and not (_known(mj, 1.0) and _known(c, 0.0)):
                 present.append((k, j))
                 numbers.update({f"c{j}_{k}": c, f"pb{j}_{k}": pb, f"mj{j}_{k}": mj})
         if res[k] > 0.0:
