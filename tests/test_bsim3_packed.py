@@ -100,3 +100,20 @@ def test_packed_bsim3_step_equals_part_by_part():
         for a, b in zip(plain[:2], packed[:2], strict=True):
             a, b = np.asarray(a), np.asarray(b)
             assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
+
+
+def test_a_zero_size_wall_of_grading_one_adds_no_charge():
+    """A bottom wall with MJ = 1 (its charge divides by 1 − M) and AD = AS = 0: ngspice
+    skips a wall of zero size, and so does the part — its charges are finite and equal
+    those of the same device with MJ at its default (the wall carries nothing)."""
+    base = "mj\nvd d 0 1\nvg g 0 1.2\nm1 d g 0 0 nb l=1u w=10u\n"
+    card = ".model nb nmos level=8 version=3.3.0 {}\n.tran 1n 5n\n.end\n"
+    parts = [
+        next(p for p in spice.read(base + card.format(mj)).circuit.parts if p.name == "m1")
+        for mj in ("mj=1", "")
+    ]
+    q = np.zeros(len(parts[0].coords))
+    v = np.linspace(0.1, 0.9, len(parts[0].coords))
+    one, default = (np.asarray(p.charge(q, v)) for p in parts)
+    assert np.all(np.isfinite(one))
+    np.testing.assert_array_equal(one, default)
