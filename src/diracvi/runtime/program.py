@@ -179,6 +179,8 @@ class _Unkeyable(Exception):
 
 
 _SCALARS = (str, bytes, int, bool, type(None), type(Ellipsis))
+#: ``Py_TPFLAGS_HEAPTYPE``: a class defined in Python (not a built-in type)
+_HEAPTYPE = 1 << 9
 #: the deepest nesting of captured containers and closures a key follows
 _KEY_DEPTH = 64
 
@@ -228,16 +230,20 @@ def _key(obj, depth: int, seen: dict):
         return _function_key(obj, depth, seen)
     if isinstance(obj, types.ModuleType | type) or _named(obj):
         return ("object", obj)
+    if kind is types.MethodType:
+        return (kind, _key(obj.__func__, depth + 1, seen), _key(obj.__self__, depth + 1, seen))
     if kind is functools.partial:
         return (functools.partial, _key(obj.func, depth + 1, seen),
                 _key(obj.args, depth + 1, seen), _key(obj.keywords, depth + 1, seen))  # fmt: skip
     if (
         type(kind) is type
+        and all(c is object or c.__flags__ & _HEAPTYPE for c in kind.__mro__)
         and kind.__getattribute__ is object.__getattribute__
         and isinstance(getattr(obj, "__dict__", None), dict)
-        and not hasattr(kind, "__slots__")
+        and not any("__slots__" in vars(c) for c in kind.__mro__)
     ):
-        # a plain object (a diode's junction): its class's code on its attributes
+        # a plain object (a diode's junction): its class's code on its attributes; a
+        # subclass of a built-in type (a Counter, a list) holds more than its __dict__
         return (kind, _key(obj.__dict__, depth + 1, seen))
     raise _Unkeyable
 
@@ -280,8 +286,8 @@ def trace_key(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     defaults, its closure's cells and the module globals its code reads, each compared
     by value (floats by ``repr``, arrays by dtype, shape and bytes, containers item by
     item in order, functions, top-level ones too, recursively, a plain object by its
-    class and its ``__dict__``). Modules, classes and the
-    other callables that are their module's attribute of their own name (``jnp``
+    class and its ``__dict__``, a bound method by both). Modules, classes and the other
+    callables that are their module's attribute of their own name (``jnp``
     functions, ``custom_jvp`` ones) are compared by identity: a module's code is taken to
     be fixed once imported (what a trace reads as ``module.attribute``, patched after
     it, is not seen). A JAX tracer, a function that reaches itself, or any other object
