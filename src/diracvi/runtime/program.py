@@ -194,14 +194,33 @@ def _named(obj) -> bool:
     return module is not None and isinstance(name, str) and getattr(module, name, None) is obj
 
 
-def _global_names(code, out: set) -> set:
+def _trusted(fn) -> bool:
+    """Whether ``fn`` is a top-level function of diracvi or of JAX (compared by
+    identity: the module globals such code reads are its constants and helpers, set at
+    import; a user's function is compared by the globals it reads, which may be rebound)."""
+    return _named(fn) and fn.__module__.split(".")[0] in (__name__.split(".")[0], "jax")
+
+
+#: the global names each code object may read (a model of 10⁴ parts asks 10⁴ times)
+_NAMES: dict = {}
+_NAMES_LIMIT = 4096
+
+
+def _global_names(code) -> tuple[str, ...]:
     """The names ``code`` and the code nested in it (local functions, lambdas,
-    comprehensions) may read as globals."""
-    out.update(code.co_names)
-    for const in code.co_consts:
-        if isinstance(const, types.CodeType):
-            _global_names(const, out)
-    return out
+    comprehensions) may read as globals, sorted."""
+    hit = _NAMES.get(code)
+    if hit is None:
+        found: set = set()
+        stack = [code]
+        while stack:
+            c = stack.pop()
+            found.update(c.co_names)
+            stack.extend(x for x in c.co_consts if isinstance(x, types.CodeType))
+        if len(_NAMES) >= _NAMES_LIMIT:
+            _NAMES.clear()
+        hit = _NAMES[code] = tuple(sorted(found))
+    return hit
 
 
 def _key(obj, depth: int, seen: dict):
@@ -226,7 +245,9 @@ def _key(obj, depth: int, seen: dict):
             raise _Unkeyable
         host = np.asarray(obj)
         return (jax.Array, host.dtype.str, host.shape, host.tobytes())
-    if kind is types.FunctionType:  # even a module's own: the globals it reads may change
+    if kind is types.FunctionType:
+        if obj.__closure__ is None and _trusted(obj):
+            return ("object", obj)
         return _function_key(obj, depth, seen)
     if isinstance(obj, types.ModuleType | type) or _named(obj):
         return ("object", obj)
@@ -263,7 +284,7 @@ def _function_key(fn, depth: int, seen: dict):
         except ValueError:  # an empty cell
             cells.append(("empty cell",))
     glob = fn.__globals__
-    names = sorted(n for n in _global_names(fn.__code__, set()) if n in glob)
+    names = [n for n in _global_names(fn.__code__) if n in glob]
     key = (
         types.FunctionType,
         fn.__code__,
@@ -285,13 +306,14 @@ def trace_key(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     A local function is what its code computes on what it captures: the code object, its
     defaults, its closure's cells and the module globals its code reads, each compared
     by value (floats by ``repr``, arrays by dtype, shape and bytes, containers item by
-    item in order, functions, top-level ones too, recursively, a plain object by its
-    class and its ``__dict__``, a bound method by both). Modules, classes and the other
-    callables that are their module's attribute of their own name (``jnp``
-    functions, ``custom_jvp`` ones) are compared by identity: a module's code is taken to
-    be fixed once imported (what a trace reads as ``module.attribute``, patched after
-    it, is not seen). A JAX tracer, a function that reaches itself, or any other object
-    makes the function unkeyable (it is traced as before)."""
+    item in order, a user's functions, top-level ones too, recursively, a plain object by
+    its class and its ``__dict__``, a bound method by both). Modules, classes, the
+    top-level functions of diracvi and JAX, and the other callables that are their
+    module's attribute of their own name (``jnp`` functions, ``custom_jvp`` ones) are
+    compared by identity: a module's code is taken to be fixed once imported (what a
+    trace reads as ``module.attribute``, patched after it, is not seen). A JAX tracer, a
+    function that reaches itself, or any other object makes the function unkeyable (it
+    is traced as before)."""
     try:
         key = _key(fn, 0, {})
         hash(key)
