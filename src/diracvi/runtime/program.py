@@ -315,11 +315,25 @@ def trace_key(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     function that reaches itself, or any other object makes the function unkeyable (it
     is traced as before)."""
     try:
-        key = _key(fn, 0, {})
-        hash(key)
+        return _Key((_key(fn, 0, {}), tuple(tuple(s) for s in shapes)))
     except (_Unkeyable, TypeError, RecursionError):
         return None
-    return key, tuple(tuple(s) for s in shapes)
+
+
+class _Key:
+    """A :func:`trace_key`, hashed once (a tuple hashes its whole nesting at every
+    lookup)."""
+
+    __slots__ = ("_hash", "key")
+
+    def __init__(self, key):
+        self.key, self._hash = key, hash(key)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _Key) and self._hash == other._hash and self.key == other.key
+
+    def __hash__(self) -> int:
+        return self._hash
 
 
 #: ``lift``'s results by :func:`trace_key`: a netlist's alike transistors (one line of a
