@@ -94,3 +94,132 @@ def test_functions_calling_jitted_numpy_functions_group():
 
     a, b = piece(1.0), piece(2.0)
     assert a._lagrangian.rest is b._lagrangian.rest and not a._lagrangian.rest.keep
+
+
+_GAIN = 1.0  # a module global read by the functions _scaled makes (rebound by a test)
+
+
+def _scaled():
+    return lambda q: _GAIN * jnp.sum(q)
+
+
+@pytest.fixture
+def traces(monkeypatch):
+    """How many times ``lift`` traced (its cache missed), with the cache empty."""
+    from diracvi.runtime import program
+
+    count = [0]
+    untraced = program._lift
+
+    def counted(fn, shapes):
+        count[0] += 1
+        return untraced(fn, shapes)
+
+    monkeypatch.setattr(program, "_LIFTED", {})
+    monkeypatch.setattr(program, "_lift", counted)
+    return count
+
+
+def test_functions_equal_by_content_are_traced_once(traces):
+    def make(k, table):
+        def f(q):  # a closure over a float, an array, a dict and a nested closure
+            def inner(x):
+                return table["a"] * x
+
+            return jnp.sum(inner(q)) * k
+
+        return f
+
+    table = {"a": np.array([1.0, 2.0, 3.0])}
+    first = lift(make(2.0, table), [(3,)])
+    again = lift(make(2.0, {"a": np.array([1.0, 2.0, 3.0])}), [(3,)])
+    assert traces[0] == 1 and again is first  # equal content: no second trace
+    other = lift(make(3.0, table), [(3,)])
+    shifted = lift(make(2.0, {"a": np.array([1.0, 2.0, 4.0])}), [(3,)])
+    assert traces[0] == 3  # another float, another array: traced
+    assert other[0] is first[0]  # the same program with its own constants
+    ones = jnp.ones(3)
+    assert [float(p(c, ones)) for p, c, _ in (first, other, shifted)] == [12.0, 18.0, 14.0]
+    # −0.0 and 0.0 compare equal but are different constants (a sign that can show)
+    plus, minus = lift(make(0.0, table), [(3,)]), lift(make(-0.0, table), [(3,)])
+    assert traces[0] == 5
+    assert not np.signbit(plus[0](plus[1], ones)) and np.signbit(minus[0](minus[1], ones))
+    # other argument shapes are another trace
+    lift(make(2.0, table), [(4,)])
+    assert traces[0] == 6
+
+
+def test_a_rebound_global_is_traced_again(traces, monkeypatch):
+    import sys
+
+    # a fresh function of the same code each time (JAX itself does not trace one function
+    # object twice): the global it reads is part of its content
+    ones = jnp.ones(2)
+    program, consts, _ = lift(_scaled(), [(2,)])
+    assert float(program(consts, ones)) == 2.0
+    lift(_scaled(), [(2,)])
+    assert traces[0] == 1
+    monkeypatch.setattr(sys.modules[__name__], "_GAIN", 5.0)
+    program, consts, _ = lift(_scaled(), [(2,)])
+    assert traces[0] == 2 and float(program(consts, ones)) == 10.0
+
+
+def test_what_cannot_be_compared_by_content_is_always_traced(traces):
+    from collections import Counter
+
+    from diracvi.runtime.program import trace_key
+
+    seen = Counter()  # a dict subclass: its items are not its __dict__
+
+    def counting(q):
+        return jnp.sum(q) * len(seen)
+
+    assert trace_key(counting, [(2,)]) is None
+    lift(counting, [(2,)])
+    lift(counting, [(2,)])
+    assert traces[0] == 2
+
+    def recursive(q, n=2):  # reaches itself: no key
+        return jnp.sum(q) if n == 0 else recursive(q, n - 1)
+
+    assert trace_key(recursive, [(2,)]) is None
+
+
+_NAND_PAIR = """two NAND gates of one subcircuit
+.subckt nand a b out vdd
+M1 out a vdd vdd p1 W=7.5u L=0.35u
+M2 out b vdd vdd p1 W=7.5u L=0.35u
+M3 out a mid 0 n1 W=3u L=0.35u
+M4 mid b 0 0 n1 W=3u L=0.35u
+D1 0 out dmod
+.ends nand
+VDD vdd 0 3.3
+VA a 0 PULSE(0 3.3 1n 1n 1n 10n 20n)
+X1 a vdd y vdd nand
+X2 y a z vdd nand
+.model n1 nmos level=1 vto=0.7 kp=1e-4 cbd=1f cgso=1e-10
+.model p1 pmos level=1 vto=-0.7 kp=5e-5 cbd=1f cgso=1e-10
+.model dmod d is=1e-15 cjo=1p
+.tran 1n 40n
+.end
+"""
+
+
+def test_a_subcircuits_alike_devices_are_traced_once_and_build_the_same_system(traces, monkeypatch):
+    import jax
+
+    from diracvi import spice
+    from diracvi.runtime import program
+
+    cached = spice.read(_NAND_PAIR)
+    with_cache = traces[0]
+    monkeypatch.setattr(program, "trace_key", lambda fn, shapes: None)
+    traced = spice.read(_NAND_PAIR)
+    # the second gate's four transistors and diode (two functions each) are not traced
+    assert traces[0] - with_cache >= with_cache + 10
+    a, b = cached.system, traced.system
+    assert jax.tree.structure(a) == jax.tree.structure(b)
+    for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
+        assert np.array_equal(np.asarray(x), np.asarray(y))
+    assert np.array_equal(cached.q0, traced.q0) and np.array_equal(cached.p0, traced.p0)
+    assert cached.notes == traced.notes

@@ -8,6 +8,7 @@ defaulted ``t``, ``*args``) is ambiguous and is refused with the fix named.
 from __future__ import annotations
 
 import inspect
+import types
 from collections.abc import Callable
 
 from ..errors import ModelError
@@ -30,7 +31,7 @@ def takes_time(arg: str, fn: Callable, autonomous: str, driven: str) -> bool | N
     """
     n_auto = autonomous.count(",") + 1
     try:
-        params = list(inspect.signature(fn).parameters.values())
+        params = _parameters(fn)
     except (TypeError, ValueError):
         return None
     positional = [p for p in params if p.kind in _POSITIONAL]
@@ -52,6 +53,30 @@ def takes_time(arg: str, fn: Callable, autonomous: str, driven: str) -> bool | N
         f"argument or *args), so it is ambiguous whether it depends on time. Fix: write "
         f"it as exactly {autonomous} (autonomous) or {driven} with t required (driven)."
     )
+
+
+#: the parameters of plain functions by what decides them (a netlist's 10⁴ parts build
+#: closures of a few codes; ``inspect.signature`` costs ~0.1 ms each)
+_PARAMETERS: dict = {}
+_PARAMETERS_LIMIT = 1024
+
+
+def _parameters(fn: Callable) -> list:
+    """``inspect.signature(fn)``'s parameters; for a plain function (not wrapped, no
+    ``__signature__``) remembered by its code and which of its arguments have defaults."""
+    if (
+        type(fn) is not types.FunctionType
+        or "__wrapped__" in vars(fn)
+        or ("__signature__" in vars(fn))
+    ):
+        return list(inspect.signature(fn).parameters.values())
+    key = (fn.__code__, len(fn.__defaults__ or ()), tuple(fn.__kwdefaults__ or ()))
+    hit = _PARAMETERS.get(key)
+    if hit is None:
+        if len(_PARAMETERS) >= _PARAMETERS_LIMIT:
+            _PARAMETERS.clear()
+        hit = _PARAMETERS[key] = list(inspect.signature(fn).parameters.values())
+    return hit
 
 
 def _name(fn: Callable) -> str:

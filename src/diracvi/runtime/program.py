@@ -21,8 +21,10 @@ or JAX (:func:`rule_name`: the diode's junction charge) is printed by its name i
 
 from __future__ import annotations
 
+import functools
 import re
 import sys
+import types
 import weakref
 from collections.abc import Callable, Sequence
 
@@ -172,9 +174,195 @@ def _on_device(value):
     return jnp.asarray(value)
 
 
+class _Unkeyable(Exception):
+    """A value :func:`trace_key` cannot compare by content."""
+
+
+_SCALARS = (str, bytes, int, bool, type(None), type(Ellipsis))
+#: ``Py_TPFLAGS_HEAPTYPE``: a class defined in Python (not a built-in type)
+_HEAPTYPE = 1 << 9
+#: the deepest nesting of captured containers and closures a key follows
+_KEY_DEPTH = 64
+
+
+def _named(obj) -> bool:
+    """Whether ``obj`` is its module's attribute of its own name (a ``custom_jvp``
+    function, a ``jnp`` function): it is then compared by identity, as the code of a
+    module is taken to be fixed once imported."""
+    module = sys.modules.get(getattr(obj, "__module__", None) or "")
+    name = getattr(obj, "__name__", None)
+    return module is not None and isinstance(name, str) and getattr(module, name, None) is obj
+
+
+def _trusted(fn) -> bool:
+    """Whether ``fn`` is a top-level function of diracvi or of JAX (compared by
+    identity: the module globals such code reads are its constants and helpers, set at
+    import; a user's function is compared by the globals it reads, which may be rebound)."""
+    return _named(fn) and fn.__module__.split(".")[0] in (__name__.split(".")[0], "jax")
+
+
+#: the global names each code object may read (a model of 10⁴ parts asks 10⁴ times)
+_NAMES: dict = {}
+_NAMES_LIMIT = 4096
+
+
+def _global_names(code) -> tuple[str, ...]:
+    """The names ``code`` and the code nested in it (local functions, lambdas,
+    comprehensions) may read as globals, sorted."""
+    hit = _NAMES.get(code)
+    if hit is None:
+        found: set = set()
+        stack = [code]
+        while stack:
+            c = stack.pop()
+            found.update(c.co_names)
+            stack.extend(x for x in c.co_consts if isinstance(x, types.CodeType))
+        if len(_NAMES) >= _NAMES_LIMIT:
+            _NAMES.clear()
+        hit = _NAMES[code] = tuple(sorted(found))
+    return hit
+
+
+def _key(obj, depth: int, seen: dict):
+    """The content key of ``obj`` (see :func:`trace_key`)."""
+    if depth > _KEY_DEPTH:
+        raise _Unkeyable
+    kind = type(obj)
+    if kind is float or kind is complex or isinstance(obj, np.generic):
+        # repr tells −0.0 from 0.0 and is exact; the type tells 1.0 from np.float32(1.0)
+        return (kind, repr(obj))
+    if isinstance(obj, _SCALARS) and kind in _SCALARS:
+        return (kind, obj)
+    if kind in (tuple, list) or (isinstance(obj, tuple) and hasattr(obj, "_fields")):
+        return (kind, tuple(_key(x, depth + 1, seen) for x in obj))
+    if kind is dict:  # in order: a trace iterates the dict in that order
+        return (dict, tuple((_key(k, depth + 1, seen), _key(x, depth + 1, seen))
+                            for k, x in obj.items()))  # fmt: skip
+    if kind is np.ndarray:
+        return (np.ndarray, obj.dtype.str, obj.shape, obj.tobytes())
+    if isinstance(obj, jax.Array):
+        if isinstance(obj, jcore.Tracer):
+            raise _Unkeyable
+        host = np.asarray(obj)
+        return (jax.Array, host.dtype.str, host.shape, host.tobytes())
+    if kind is types.FunctionType:
+        if obj.__closure__ is None and _trusted(obj):
+            return ("object", obj)
+        return _function_key(obj, depth, seen)
+    if isinstance(obj, types.ModuleType | type) or _named(obj):
+        return ("object", obj)
+    if kind is types.MethodType:
+        return (kind, _key(obj.__func__, depth + 1, seen), _key(obj.__self__, depth + 1, seen))
+    if kind is functools.partial:
+        return (functools.partial, _key(obj.func, depth + 1, seen),
+                _key(obj.args, depth + 1, seen), _key(obj.keywords, depth + 1, seen))  # fmt: skip
+    if (
+        type(kind) is type
+        and all(c is object or c.__flags__ & _HEAPTYPE for c in kind.__mro__)
+        and kind.__getattribute__ is object.__getattribute__
+        and isinstance(getattr(obj, "__dict__", None), dict)
+        and not any("__slots__" in vars(c) for c in kind.__mro__)
+    ):
+        # a plain object (a diode's junction): its class's code on its attributes; a
+        # subclass of a built-in type (a Counter, a list) holds more than its __dict__
+        return (kind, _key(obj.__dict__, depth + 1, seen))
+    raise _Unkeyable
+
+
+def _function_key(fn, depth: int, seen: dict):
+    """A local function or lambda: its code, defaults, captured cells and the globals it
+    reads, each by content."""
+    if id(fn) in seen:
+        if seen[id(fn)] is None:  # a function that captures itself: give up, no cycle
+            raise _Unkeyable
+        return seen[id(fn)]
+    seen[id(fn)] = None
+    cells = []
+    for cell in fn.__closure__ or ():
+        try:
+            cells.append(_key(cell.cell_contents, depth + 1, seen))
+        except ValueError:  # an empty cell
+            cells.append(("empty cell",))
+    glob = fn.__globals__
+    names = [n for n in _global_names(fn.__code__) if n in glob]
+    key = (
+        types.FunctionType,
+        fn.__code__,
+        id(glob),
+        _key(fn.__defaults__, depth + 1, seen),
+        _key(fn.__kwdefaults__, depth + 1, seen),
+        tuple(cells),
+        tuple((n, _key(glob[n], depth + 1, seen)) for n in names),
+    )
+    seen[id(fn)] = key
+    return key
+
+
+def trace_key(fn: Callable, shapes: Sequence[tuple[int, ...]]):
+    """A hashable key such that two functions with equal keys trace to the same jaxpr and
+    constants on float64 arrays of ``shapes`` — or ``None`` when ``fn`` holds something
+    that cannot be compared by content.
+
+    A local function is what its code computes on what it captures: the code object, its
+    defaults, its closure's cells and the module globals its code reads, each compared
+    by value (floats by ``repr``, arrays by dtype, shape and bytes, containers item by
+    item in order, a user's functions, top-level ones too, recursively, a plain object by
+    its class and its ``__dict__``, a bound method by both). Modules, classes, the
+    top-level functions of diracvi and JAX, and the other callables that are their
+    module's attribute of their own name (``jnp`` functions, ``custom_jvp`` ones) are
+    compared by identity: a module's code is taken to be fixed once imported (what a
+    trace reads as ``module.attribute``, patched after it, is not seen). A JAX tracer, a
+    function that reaches itself, or any other object makes the function unkeyable (it
+    is traced as before)."""
+    try:
+        return _Key((_key(fn, 0, {}), tuple(tuple(s) for s in shapes)))
+    except (_Unkeyable, TypeError, RecursionError):
+        return None
+
+
+class _Key:
+    """A :func:`trace_key`, hashed once (a tuple hashes its whole nesting at every
+    lookup)."""
+
+    __slots__ = ("_hash", "key")
+
+    def __init__(self, key):
+        self.key, self._hash = key, hash(key)
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _Key) and self._hash == other._hash and self.key == other.key
+
+    def __hash__(self) -> int:
+        return self._hash
+
+
+#: ``lift``'s results by :func:`trace_key`: a netlist's alike transistors (one line of a
+#: subcircuit instantiated many times) build closures equal by content, each of which
+#: would otherwise be traced and printed again (0.05–0.3 CPU s for a MOSFET or a BJT)
+_LIFTED: dict = {}
+_LIFTED_LIMIT = 1024
+
+
 def lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
     """``(program, consts, out_aval)`` for ``fn`` traced on float64 arrays of ``shapes``,
-    or ``None`` when it cannot be traced that way (the caller keeps the function whole)."""
+    or ``None`` when it cannot be traced that way (the caller keeps the function whole).
+
+    A function equal by content (:func:`trace_key`) to one already lifted takes that
+    one's result without a trace."""
+    key = trace_key(fn, shapes)
+    hit = _LIFTED.get(key) if key is not None else None
+    if hit is not None:
+        return hit
+    lifted = _lift(fn, shapes)
+    if key is not None and lifted is not None:
+        if len(_LIFTED) >= _LIFTED_LIMIT:
+            _LIFTED.clear()
+        _LIFTED[key] = lifted
+    return lifted
+
+
+def _lift(fn: Callable, shapes: Sequence[tuple[int, ...]]):
+    """:func:`lift` without the cache."""
     specs = [jax.ShapeDtypeStruct(tuple(s), jnp.float64) for s in shapes]
     try:
         closed = jax.make_jaxpr(fn)(*specs)

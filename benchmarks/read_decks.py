@@ -1,0 +1,84 @@
+"""CPU seconds of ``spice.read`` on public decks and on synthetic decks of 10³–10⁴ elements
+(issue 30: reading linear in the element count).
+
+    PYTHONPATH=src python benchmarks/read_decks.py [deck.cir ...] [--ladder N] [--chain N]
+        [--inverters N]
+
+Each deck is read in a fresh process (``DIRACVI_CACHE_DIR=""``) after a small ladder
+(imports and first-use costs out of the way), from the deck's own directory (its
+``.include`` files). ``--ladder N``: :func:`diracvi.bench.ladders.ladder` of N stages
+(3N + 1 elements, no subcircuit); ``--chain N``: the same RLC stage as a ``.subckt``
+instantiated N times in a chain (3N elements behind N ``X`` lines); ``--inverters N``: N
+CMOS inverters (level 1, Meyer's capacitances, a load capacitor) of one ``.subckt`` in a
+chain (3N elements).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+
+_CHILD = r"""
+import json, os, sys, time
+from pathlib import Path
+from diracvi import spice
+from diracvi.bench.ladders import ladder
+kind, arg = sys.argv[1], sys.argv[2]
+spice.read(ladder(3, steps=20))
+if kind == "deck":
+    os.chdir(Path(arg).parent)
+    source = Path(arg)
+elif kind == "ladder":
+    source = ladder(int(arg), steps=2000)
+elif kind == "inverters":
+    n = int(arg)
+    lines = ["CMOS inverter chain", ".subckt inv in out vdd", "M1 out in vdd vdd p1 W=2u L=1u",
+             "M2 out in 0 0 n1 W=1u L=1u", "C1 out 0 10f", ".ends inv",
+             ".model n1 nmos level=1 vto=0.7 kp=1e-4 cbd=1f cgso=1e-10 cox=1e-3",
+             ".model p1 pmos level=1 vto=-0.7 kp=5e-5 cbd=1f cgso=1e-10 cox=1e-3",
+             "VDD vdd 0 3.3", "VIN n0 0 PULSE(0 3.3 1n 1n 1n 10n 20n)"]
+    lines += [f"X{k} n{k - 1} n{k} vdd inv" for k in range(1, n + 1)]
+    source = "\n".join([*lines, ".tran 0.1n 40n", ".end", ""])
+else:
+    n = int(arg)
+    lines = ["RLC chain of subcircuits", ".subckt stage a b", "R1 a m 10", "L1 m b 1m",
+             "C1 b 0 1u", ".ends stage", "V1 n0 0 SIN(0 1 1k)"]
+    lines += [f"X{k} n{k - 1} n{k} stage" for k in range(1, n + 1)]
+    source = "\n".join([*lines, ".tran 1u 2m uic", ".end", ""])
+start = time.process_time()
+spice.read(source)
+print(json.dumps({"read": time.process_time() - start}))
+"""
+
+
+def measure(kind: str, arg: str) -> float:
+    env = os.environ | {"DIRACVI_CACHE_DIR": "", "OPENBLAS_NUM_THREADS": "1"}
+    out = subprocess.run(
+        [sys.executable, "-c", _CHILD, kind, arg], env=env, capture_output=True, text=True
+    )
+    if out.returncode:
+        return float("nan")
+    return json.loads(out.stdout.strip().splitlines()[-1])["read"]
+
+
+def main() -> None:
+    args = sys.argv[1:]
+    jobs, i = [], 0
+    while i < len(args):
+        if args[i] in ("--ladder", "--chain", "--inverters"):
+            jobs.append((args[i][2:], args[i + 1]))
+            i += 2
+        else:
+            jobs.append(("deck", os.path.abspath(args[i])))
+            i += 1
+    with open("/proc/loadavg") as f:
+        print(f"load average at start: {f.read().split()[0]}")
+    for kind, arg in jobs:
+        label = arg if kind == "deck" else f"{kind} {arg}"
+        print(f"{measure(kind, arg):9.3f} CPU s  {label}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
