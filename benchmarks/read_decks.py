@@ -15,6 +15,7 @@ chain (3N elements).
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import subprocess
@@ -64,15 +65,17 @@ def measure(kind: str, arg: str) -> float:
 
 
 def main() -> None:
-    args = sys.argv[1:]
-    jobs, i = [], 0
-    while i < len(args):
-        if args[i] in ("--ladder", "--chain", "--inverters"):
-            jobs.append((args[i][2:], args[i + 1]))
-            i += 2
-        else:
-            jobs.append(("deck", os.path.abspath(args[i])))
-            i += 1
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("decks", nargs="*", help="netlists to read (each in a fresh process)")
+    for kind, what in (("ladder", "an RLC ladder of N stages"),
+                       ("chain", "N RLC .subckt stages in a chain"),
+                       ("inverters", "N level-1 CMOS inverter .subckt instances")):  # fmt: skip
+        parser.add_argument(f"--{kind}", type=int, action="append", default=[], metavar="N",
+                            help=what)  # fmt: skip
+    args = parser.parse_args()
+    jobs = [("deck", os.path.abspath(d)) for d in args.decks]
+    for kind in ("ladder", "chain", "inverters"):
+        jobs += [(kind, str(n)) for n in getattr(args, kind)]
     with open("/proc/loadavg") as f:
         print(f"load average at start: {f.read().split()[0]}")
     for kind, arg in jobs:
