@@ -36,8 +36,6 @@ are set in :mod:`diracvi.driver.events`).
 from __future__ import annotations
 
 import math
-import weakref
-from collections import OrderedDict
 
 import equinox as eqx
 import jax
@@ -46,13 +44,14 @@ import numpy as np
 
 from ..components.tline import Incident
 from ..discretization.diagnostics import step_diagnostics
-from ..discretization.equations import StepEquations, first_guess, nodal_momentum, split
+from ..discretization.equations import StepEquations, nodal_momentum
 from ..discretization.rules import get_rule
 from ..errors import ModelError
-from ..model.stacked import ALIKE
 from ..runtime.config import ensure_float64
 from ..solvers.newton import NewtonSolver
 from ..status import SolveStatus
+from .leaves import LeavesOf
+from .stepping import _newton_step
 from .trajectory import Trajectory
 
 #: the most centres a line's ring may hold (``T_D/h`` beyond this is refused)
@@ -63,37 +62,9 @@ def _is_incident(x) -> bool:
     return isinstance(x, Incident)
 
 
-def _own(tree) -> list[Incident]:
-    own = getattr(tree, "__dict__", None)
-    if own is not None and ALIKE in own:  # a linear R, L or C copied from its template
-        return []
-    return [x for x in jax.tree.leaves(tree, is_leaf=_is_incident) if _is_incident(x)]
-
-
-#: id(system) → (its weak reference, its incident leaves): ``simulate`` asks on every call,
-#: and a walk of a large netlist's PyTree takes a tenth of a second (as
-#: :mod:`diracvi.driver.events` remembers its relays)
-_FOUND: OrderedDict = OrderedDict()
-
-
-def incidents(system) -> list[Incident]:
-    """The lines' :class:`Incident` leaves of ``system``, in PyTree order (remembered per
-    model object: a model is immutable)."""
-    hit = _FOUND.get(id(system))
-    if hit is not None and hit[0]() is system:
-        return hit[1]
-    subsystems = getattr(system, "subsystems", None)
-    if subsystems is None:
-        found = _own(system)
-    else:
-        found = [x for sub in subsystems for x in _own(sub)]
-    try:
-        _FOUND[id(system)] = (weakref.ref(system), found)
-    except TypeError:  # (not weakly referenceable: not remembered)
-        return found
-    while len(_FOUND) > 64:
-        _FOUND.popitem(last=False)
-    return found
+#: the lines' :class:`Incident` leaves of a model, in PyTree order (remembered per model
+#: object: a model is immutable)
+incidents = LeavesOf(_is_incident, interactions=False)
 
 
 def lines(system) -> tuple[tuple[str, int, int, float, float], ...]:
@@ -105,7 +76,7 @@ def lines(system) -> tuple[tuple[str, int, int, float, float], ...]:
     found = []
     for sub in subsystems if subsystems is not None else (system,):
         prefix = f"{sub.name}." if subsystems is not None else ""
-        for inc in _own(sub):
+        for inc in incidents.own(sub):
             i1, i2 = (system.coords.index(prefix + c) for c in inc.coordinates)
             found.append((sub.name, i1, i2, inc.z0, inc.delay))
     return tuple(found)
@@ -200,29 +171,16 @@ def simulate_lines(system, q0, p0, *, dt, steps, waves0, discretization="midpoin
 
             w = (1.0 - f)[:, None] * at(j) + f[:, None] * at(j + 1)
             e = w[:, ::-1]  # e₁ = w₂(t − T_D), e₂ = w₁(t − T_D)
-            sys_k = with_incident(system, e)
-            tk = t0 + k * h
-            eqs = StepEquations(sys_k, rule, "plus", h, q, p, tk)
-            guess = first_guess(sys_k, rule, q, 2.0 * q - q_prev, mu_prev)
-            res = solver.solve(eqs, guess, state)
-            q1, mu = split(sys_k, res.x)
-            p1 = eqs.carried_momentum(solver.momentum(eqs, res.x, res.state), res.x)
-            finite = jnp.all(jnp.isfinite(q1)) & jnp.all(jnp.isfinite(p1))
-            status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
-            status = jnp.where(failed, -1, status)
-            i = (q1[idx_j] - q[idx_j]) / h
+            # an ordinary Newton step of the circuit with the lines' sources set to e
+            (q1, p1, q0_, mu1, state1, failed1), out = _newton_step(
+                with_incident(system, e), rule, "plus", solver, h,
+                (q, p, q_prev, mu_prev, state, failed), t0 + k * h,
+            )  # fmt: skip
+            s1, s2, mu, its, _, status = out
+            i = (s1[idx_j] - q[idx_j]) / h
             buf = buf.at[jnp.mod(k, ring)].set(2.0 * z0_j[:, None] * i + e)
-            ok = (status == 0) & ~failed
-            new = (
-                jnp.where(ok, q1, q),
-                jnp.where(ok, p1, p),
-                jnp.where(ok, q, q_prev),
-                jnp.where(ok, mu[: system.m], mu_prev),
-                buf,
-                res.state,
-                failed | ~ok,
-            )
-            return new, (q1, p1, mu[: system.m], e, i, res.iterations, status)
+            new = (q1, p1, q0_, mu1, buf, state1, failed1)
+            return new, (s1, s2, mu[: system.m], e, i, its, status)
 
         buf0 = jnp.zeros((ring, len(found), 2))
         init = (q0, p0, q0, mu0, buf0, solver.init(eqs0), jnp.asarray(False))

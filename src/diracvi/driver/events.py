@@ -60,63 +60,22 @@ within the window) does not enter.
 
 from __future__ import annotations
 
-import weakref
-from collections import OrderedDict
-
 import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..components.switch import Relay
 from ..discretization.diagnostics import GROUPED_MIN_SUBSYSTEMS
 from ..errors import ModelError
-from ..model.stacked import ALIKE
+from .leaves import LeavesOf
 
 
 def _is_relay(x) -> bool:
     return isinstance(x, Relay)
 
 
-#: id(system) → (its weak reference, its relays): a warm call on one model does not walk
-#: its PyTree again (0.1 s for a 3001-part netlist, asked on every ``simulate``)
-_FOUND: OrderedDict = OrderedDict()
-
-
-def _nodes(system) -> list[Relay]:
-    """The relays of ``system``, in PyTree order (remembered per model object: a model
-    is immutable)."""
-    hit = _FOUND.get(id(system))
-    if hit is not None and hit[0]() is system:
-        return hit[1]
-    subsystems = getattr(system, "subsystems", None)
-    if subsystems is not None and getattr(system, "_packing", None) is None:
-        # member by member: a linear R, L or C copied from its template says so and holds
-        # no relay, so a netlist of 3001 parts is not walked leaf by leaf (≈ 0.5 s, and
-        # a run asks for two system objects); then the interconnection's own rows
-        found = [x for sub in subsystems for x in _own_relays(sub)]
-        found += _leaves_that_are_relays(getattr(system, "interactions", ()))
-    else:
-        found = _leaves_that_are_relays(system)
-    try:
-        _FOUND[id(system)] = (weakref.ref(system), found)
-    except TypeError:  # (not weakly referenceable: not remembered)
-        return found
-    while len(_FOUND) > 64:
-        _FOUND.popitem(last=False)
-    return found
-
-
-def _leaves_that_are_relays(tree) -> list[Relay]:
-    return [x for x in jax.tree.leaves(tree, is_leaf=_is_relay) if _is_relay(x)]
-
-
-def _own_relays(sub) -> list[Relay]:
-    """A member's relays (none in a template copy: :data:`~diracvi.model.stacked.ALIKE`)."""
-    own = getattr(sub, "__dict__", None)
-    if own is not None and ALIKE in own:
-        return []
-    return _leaves_that_are_relays(sub)
+#: the relays of a model, in PyTree order (remembered per model object)
+_nodes = LeavesOf(_is_relay, interactions=True)
 
 
 def relays(system) -> tuple[tuple[int, Relay], ...]:
