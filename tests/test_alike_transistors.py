@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from _jaxpr import count_equations
+from _packed import assert_packed_step_equals_plain
 from diracvi import spice
 from diracvi.discretization.rules import get_rule
 from diracvi.driver import adaptive, events
@@ -120,22 +121,7 @@ def test_packed_step_equals_part_by_part():
     # vmapped groups sum in another order). A whole variable-step run is not compared
     # bitwise: round-off moves an accept/reject decision, and the runs then differ at
     # the level of the step control's tolerance.
-    netlist = spice.read(inverters(2))
-    op = netlist.operating_point()
-    rule, solver = get_rule("midpoint"), NewtonSolver(reuse_jacobian=True)
-    mu = np.zeros(netlist.system.m)
-    out = []
-    for system in (netlist.system, events.packed_unless_switched(netlist.system)):
-
-        def step(h, t, q, p, system=system):
-            return one_step(system, rule, solver, h, t, q, p, q, mu)
-
-        out.append([jax.jit(step)(h, 0.2e-6, op.q0, op.p0) for h in (1e-9, 4e-9)])
-    for plain, packed in zip(*out, strict=True):
-        assert bool(plain[3]) and bool(packed[3])  # both converged
-        for a, b in zip(plain[:2], packed[:2], strict=True):
-            a, b = np.asarray(a), np.asarray(b)
-            assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
+    assert_packed_step_equals_plain(spice.read(inverters(2)), 0.2e-6, (1e-9, 4e-9))
 
 
 @pytest.mark.slow

@@ -9,16 +9,13 @@ White-box: reads ``diracvi.driver.events``, ``diracvi.model.stacked``."""
 
 from __future__ import annotations
 
-import jax
 import numpy as np
 import pytest
 
+from _packed import assert_packed_step_equals_plain
 from diracvi import spice
-from diracvi.discretization.rules import get_rule
 from diracvi.driver import events
-from diracvi.driver.tries import one_step
 from diracvi.model import stacked
-from diracvi.solvers.newton import NewtonSolver
 
 # ngspice's examples/Monte_Carlo/MC_ring.sp cards, abridged (capMod 3, mobMod 1)
 CARDS = """.model n1 nmos level=8 version=3.3.0 tnom=27.0 nch=2.498e+17 tox=9e-09 xj=1e-07
@@ -84,22 +81,7 @@ def test_alike_bsim3_devices_are_one_group_whatever_their_number_and_sizes():
 def test_packed_bsim3_step_equals_part_by_part():
     # one variable step from the operating point across the input's edge, packed and
     # part by part: equal to round-off (the vmapped groups sum in another order)
-    netlist = spice.read(chain(4))
-    op = netlist.operating_point()
-    rule, solver = get_rule("midpoint"), NewtonSolver(reuse_jacobian=True)
-    mu = np.zeros(netlist.system.m)
-    out = []
-    for system in (netlist.system, events.packed_unless_switched(netlist.system)):
-
-        def step(h, t, q, p, system=system):
-            return one_step(system, rule, solver, h, t, q, p, q, mu)
-
-        out.append([jax.jit(step)(h, 0.15e-9, op.q0, op.p0) for h in (2e-12, 1e-11)])
-    for plain, packed in zip(*out, strict=True):
-        assert bool(plain[3]) and bool(packed[3])  # both converged
-        for a, b in zip(plain[:2], packed[:2], strict=True):
-            a, b = np.asarray(a), np.asarray(b)
-            assert np.max(np.abs(a - b)) <= 1e-12 * np.max(np.abs(a))
+    assert_packed_step_equals_plain(spice.read(chain(4)), 0.15e-9, (2e-12, 1e-11))
 
 
 def test_a_zero_size_wall_of_grading_one_adds_no_charge():
