@@ -39,6 +39,12 @@ def _strip(text: str) -> str:
     return text
 
 
+def expression_text(text: str) -> str:
+    """A value as written (:func:`_strip`) with the braces inside it (ngspice's parameter
+    substitution, ``{Rload/2}``) read as parentheses: a behavioural resistor's value."""
+    return _strip(text).replace("{", "(").replace("}", ")")
+
+
 def b_line(ctx, name, pos, kw, line):
     m = _OUTPUT.match(line.text)
     if m is None:

@@ -26,6 +26,7 @@ import re
 
 from .. import components as cp
 from ..components._part import traced
+from ._behavioural import expression_part, expression_text
 
 FORM = "Rname n+ n- [value] [model] [l=…] [w=…] [m=…] [scale=…] [ac=…]"
 #: instance keywords ngspice's resistor takes
@@ -136,19 +137,8 @@ def behavioural(ctx, name, pos, line):
     if m is None or not _READS.search(m.group(3)):
         return None
     a, b, text = m.groups()
-    from ._behavioural import expression_part  # (it imports the value readers too)
-
     law = f"v({a},{b})/({expression_text(text)})"
     return expression_part(ctx, name, line, "I", law, a, b, pos[0])
-
-
-def expression_text(text: str) -> str:
-    """A value as written, quotes or braces around it dropped and the braces inside it
-    (ngspice's parameter substitution, ``{Rload/2}``) read as parentheses."""
-    text = text.strip()
-    while len(text) >= 2 and text[0] + text[-1] in ("{}", "''"):
-        text = text[1:-1].strip()
-    return text.replace("{", "(").replace("}", ")")
 
 
 def r_line(ctx, name, pos, kw, line):
