@@ -8,8 +8,9 @@ ngspice wall times, ngspice's own error at the deck's settings, diracvi's tighte
 error) and a summary.
 
     --references        first regenerate every reference with ngspice 39 (reltol 1e-7,
-                        TMAX = TSTEP/50 or the deck's reference_tmax_divisor; a few
-                        minutes, one deck takes ~80 s)
+                        TMAX = TSTEP/50 or the deck's reference_tmax_divisor; the
+                        median of runs at the deck's reference_reltols if it has them;
+                        a few minutes, one deck takes ~80 s)
     --only NAME         these decks only (repeatable)
     --markdown          the table as Markdown (docs/circuits.md)
     --write-expected    rewrite EXPECTED.toml's statuses from this run (keeps file/blob)

@@ -11,6 +11,8 @@ deck's waveform is resolved even when its TSTEP grid is not (the eSim 50 Hz deck
 10 ms, which meets their sines only at the zero crossings), and they include ngspice's
 breakpoints; times are written to 17 digits (references written before that change hold
 10), values to 10. ``python benchmarks/corpus.py --references`` rewrites them.
+A deck's ``reference_reltols`` in ``EXPECTED.toml`` makes its reference the median of
+fine runs at those ``reltol`` (:func:`reference_from_run`).
 ``EXPECTED.toml`` says what diracvi does with each deck today; a deck's
 ``reference_tmax_divisor`` there replaces the 50 (ngspice's first step is a tenth of
 TMAX, taken by backward Euler: across ``xy_minductors``'s 1 µs L/R start at 0.2 µs it
@@ -312,15 +314,32 @@ def _fill_ascii(f, data: np.ndarray, nvars: int, cols: list[int], path: Path) ->
         )
 
 
-def reference_divisor(deck: Path) -> float:
-    """``TSTEP/TMAX`` of ``deck``'s fine reference: its ``reference_tmax_divisor`` in
-    ``EXPECTED.toml``, else :data:`TMAX_DIVISOR`."""
+def _entry(deck: Path) -> dict:
+    """``deck``'s ``EXPECTED.toml`` entry (``{}`` if it has none)."""
     # matched by path: a deck in a folder of its own (es_integrator/…) has a file entry
     # that is not its bare name
     for entry in load_expected().values():
-        if "reference_tmax_divisor" in entry and (DATA / entry["file"]).resolve() == deck.resolve():
-            return float(entry["reference_tmax_divisor"])
-    return TMAX_DIVISOR
+        if (DATA / entry["file"]).resolve() == deck.resolve():
+            return entry
+    return {}
+
+
+def reference_divisor(deck: Path) -> float:
+    """``TSTEP/TMAX`` of ``deck``'s fine reference: its ``reference_tmax_divisor`` in
+    ``EXPECTED.toml``, else :data:`TMAX_DIVISOR`."""
+    return float(_entry(deck).get("reference_tmax_divisor", TMAX_DIVISOR))
+
+
+def reference_reltols(deck: Path) -> tuple[float, ...]:
+    """The ``reltol`` of each fine run ``deck``'s reference is made of: its
+    ``reference_reltols`` in ``EXPECTED.toml`` (three or more, see
+    :func:`reference_from_run`), else ``(RELTOL,)``."""
+    reltols = tuple(float(r) for r in _entry(deck).get("reference_reltols", (RELTOL,)))
+    if len(reltols) != 1 and (len(reltols) < 3 or len(reltols) % 2 == 0):
+        raise ValueError(
+            f"{deck.name}: reference_reltols {reltols} must be one value or an odd number ≥ 3"
+        )
+    return reltols
 
 
 def run_ngspice(
@@ -376,8 +395,30 @@ def kept(name: str) -> bool:
 
 def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
     """The fine ngspice run of ``deck`` at its own (thinned) time points:
-    ``(t, {vector: values}, s)``."""
-    names, data, seconds = run_ngspice(deck, keep=kept)  # the time, then the kept vectors
+    ``(t, {vector: values}, s)``.
+
+    A deck with several :func:`reference_reltols` (an odd number ``≥ 3``) has for
+    reference, at the first run's own points, the median ``med_r s_r(t_k)`` of its runs
+    ``s_r`` (each other run linearly interpolated there; ``s`` the total seconds): where
+    ngspice's fine runs do not reproduce one another — ``ng_transformers1``'s XSPICE
+    windings, where each run has bursts of up to 1.9e5 V at instants of its own and none
+    at the others' — no single run is the circuit's answer, and a value that one run
+    alone has is dropped, while whatever a majority of the runs agree on stays."""
+    reltols = reference_reltols(deck)
+    names, data, seconds = run_ngspice(deck, keep=kept, reltol=reltols[0])
+    if len(reltols) > 1:
+        t = data[:, 0]
+        stack = [data]
+        for reltol in reltols[1:]:
+            other_names, other, s = run_ngspice(deck, keep=kept, reltol=reltol)
+            seconds += s
+            column = {n: j for j, n in enumerate(other_names)}
+            resampled = np.empty_like(data)
+            resampled[:, 0] = t
+            for j, n in enumerate(names[1:], 1):
+                resampled[:, j] = np.interp(t, other[:, 0], other[:, column[n]])
+            stack.append(resampled)
+        data = np.median(np.stack(stack), axis=0)
     tran = find_tran(deck.read_text(errors="replace"))
     keep = thin(data[:, 0], tran.start, [data[:, j] for j in range(1, len(names))])
     return data[keep, 0], {n: data[keep, j] for j, n in enumerate(names) if j}, seconds

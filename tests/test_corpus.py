@@ -394,52 +394,35 @@ def test_the_switch_osc_reference_has_the_exact_period():
     assert abs((got[-1] - got[1]) / (len(got) - 2) - period) <= 1e-3 * period
 
 
-@pytest.mark.slow
-def test_ng_transformers1_is_off_only_where_the_reference_leaves_its_neighbours():
-    """Why ng_transformers1 'disagrees', also when tightened: at a few isolated points
-    of transformer 2 (XSPICE lcouple windings, which ngspice differentiates by a
-    backward difference) the fine reference departs from the straight line through its
-    two neighbours (≤ 5.6 µs apart on a 1 kHz sine, where a smooth wave departs by
-    ≤ 6e-4 of peak) by as much as diracvi differs from it: v(12) is 0.838 V at 8.07 ms
-    between 0.825 and 0.917 V (0.021 of peak before the references kept each signal's
-    min and max). Since they do, it keeps ngspice's own burst at t = 9.3467 ms, where
-    its fine run steps by ~1e-17 s with v(12) alternating up to 1.9e5 V: the deck's
-    error is diracvi's distance from that burst, which the burst's peak cannot hide.
-    ngspice at the deck's own settings is off at the same points by the same amounts.
-    Judged against each signal's peak over the points where the reference is locally
-    straight (the point and its two neighbours each on the chord through their own
-    neighbours to 1e-3 of that peak: the burst's points are not), diracvi is within 1e-3
-    of it wherever it is straight (measured: ≤ 9.1e-4, v(xtr2.pint2); v(12) 7.7e-4); the
-    excursions are few (at most 30 of the 2011 points, in v(xtr2.pint2), 76 nV at that
-    peak)."""
-    from diracvi import spice
+def test_ng_transformers1_reference_is_the_open_secondarys_closed_form():
+    """ng_transformers1's reference is the median of three fine runs (reltol 1e-7, 1e-8,
+    1e-9: its reference_reltols), since each run alone has bursts of its own in
+    transformer 2 (XSPICE lcouple windings of 120 and 240 turns, secondary open): the
+    reltol-1e-7 run has v(12) at 1.9e5 V at 9.3467 ms, the 1e-8 run 3.0 V at 0.785 ms, the
+    1e-9 run 6.2 V at 1.35 ms. The open secondary's voltage is the turns ratio times the
+    primary winding's, v(12) = 2·v(1) up to the 1 mΩ and 1 µH drops of a 11 µA magnetizing
+    current (< 1e-7 V): the median reference holds it to 1e-3 of its 2 V peak at every
+    point (measured 8.1e-5 V), which a run with a burst misses by five orders."""
+    _, ref = corpus.load_reference("ng_transformers1")
+    assert corpus.reference_reltols(corpus.DATA / "ng_transformers1.cir") == (1e-7, 1e-8, 1e-9)
+    assert np.max(np.abs(ref["v(12)"] - 2 * ref["v(1)"])) <= corpus.TOL * 2.0
+    assert abs(np.max(np.abs(ref["v(12)"])) - 2.0) <= corpus.TOL * 2.0
 
-    t, ref = corpus.load_reference("ng_transformers1")
-    result = spice.run(corpus.DATA / "ng_transformers1.cir")
-    have = {k.lower(): v for k, v in result.at(t).items()}
-    for vector, values in ref.items():
-        key = next(k for k in corpus.diracvi_keys(vector) if k in have)
-        floor = corpus.ABSTOL if vector.startswith("i(") else corpus.VNTOL
-        # the reference's departure from the straight line through its two neighbours
-        # (its points are unevenly spaced: the chord is taken at the point's own time)
-        w = (t[1:-1] - t[:-2]) / (t[2:] - t[:-2])
-        departs = np.zeros(len(t))
-        departs[1:-1] = np.abs(values[1:-1] - ((1 - w) * values[:-2] + w * values[2:]))
-        # straight: the point and its two neighbours each within TOL of that peak of the
-        # chord through their own neighbours (inside the burst a point ngspice reports at
-        # 0 V between two others at 0 V is on its chord, but its neighbours are not); the
-        # peak is taken over the straight points: each pass lowers the peak and so the
-        # threshold, down to the fixed point
-        peak = max(float(np.max(np.abs(values))), floor)
-        while True:
-            off = departs > corpus.TOL * peak
-            straight = ~(off | np.roll(off, 1) | np.roll(off, -1))
-            lower = max(float(np.max(np.abs(values[straight]))), floor)
-            if lower == peak:
-                break
-            peak = lower
-        assert np.count_nonzero(off) <= 0.02 * len(t), vector  # measured: ≤ 30 of 2011
-        assert np.max(np.abs(have[key] - values)[straight]) <= corpus.TOL * peak, vector
+
+@pytest.mark.slow
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_ng_transformers1_single_fine_runs_do_not_reproduce_one_another():
+    """Why its reference is a median: each fine run alone breaks the closed form above
+    somewhere (a burst of its own), and not at the same instants as the others."""
+    deck = corpus.DATA / "ng_transformers1.cir"
+    worst = []
+    for reltol in corpus.reference_reltols(deck):
+        names, data, _ = corpus.run_ngspice(deck, keep=corpus.kept, reltol=reltol)
+        col = {n.lower(): j for j, n in enumerate(names)}
+        off = np.abs(data[:, col["v(12)"]] - 2 * data[:, col["v(1)"]])
+        assert np.max(off) > corpus.TOL * 2.0, reltol  # measured: 0.98 V … 1.9e5 V
+        worst.append(data[np.argmax(off), 0])
+    assert len({round(w, 7) for w in worst}) == len(worst)  # three instants
 
 
 @pytest.mark.slow
