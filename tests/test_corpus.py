@@ -453,6 +453,23 @@ def _ngspice_off_the_reference(name, **settings):
 
 @pytest.mark.slow
 @pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_xy_sandler25_reference_is_nearer_converged():
+    """xy_sandler25's reference is ngspice at reltol 1e-9, TMAX = TSTEP/200 (its
+    reference_reltols and reference_tmax_divisor): at reltol 1e-7, TSTEP/50 it was 0.43
+    of peak off ngspice at reltol 1e-9 (the comparators' switching instants, i(v.x5.v1)).
+    ngspice at reltol 1e-9, TSTEP/50 is within 1e-2 of it (measured 5.3e-3), and at
+    reltol 1e-8 (its next coarser run) 0.06 off: converged to a few 1e-3, not to TOL
+    (reltol 1e-10 stops with "timestep too small" at 2.25 ms)."""
+    deck = corpus.DATA / "xy_sandler25.cir"
+    assert corpus.reference_reltols(deck) == (1e-9,) and corpus.reference_divisor(deck) == 200
+    t, ref = corpus.load_reference("xy_sandler25")
+    names, data, _ = corpus.run_ngspice(deck, reltol=1e-9, divisor=50, keep=corpus.kept)
+    worst, errors, missing = corpus.compare_ngspice(names, data, t, ref)
+    assert not missing and worst <= 1e-2, errors
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
 def test_xy_mosrect_reference_is_converged():
     """xy_mosrect's reference is ngspice at TMAX = TSTEP/1000 = 1 ps (its
     reference_tmax_divisor). Its secondary current i(l2) rings at 1.25 GHz (period 0.80 ns)
