@@ -1,6 +1,7 @@
-"""SPICE's lossless transmission line T (components/tline.py, driver/delay.py): the
-method of characteristics against the exact delay recursion of resistive ends, ngspice,
-the line's energy balance, its DC point and its refusals."""
+"""SPICE's lossless transmission line T (components/tline.py, driver/delay.py on fixed
+steps, driver/sparse_lines.py on variable ones): the method of characteristics against
+the exact delay recursion of resistive ends, ngspice, the line's energy balance, its DC
+point and its refusals."""
 
 from __future__ import annotations
 
@@ -164,8 +165,13 @@ def test_refusals_name_the_fix():
     deck = DECK.format(**LINE)
     with pytest.raises(ModelError, match="shorter than the step"):
         spice.run(deck, dt=4e-9)
-    with pytest.raises(ModelError, match="need a fixed step"):
-        spice.run(deck)
+    # variable steps: step doubling's loop records the waves; the truncation control and
+    # the compiled loop (junctions, switches) do not carry them
+    with pytest.raises(ModelError, match="step_error='doubling' only"):
+        spice.run(deck, step_error="truncation")
+    diode = deck.replace("rl 3 0 150", "rl 3 0 150\nd1 3 0 dmod\n.model dmod d")
+    with pytest.raises(ModelError, match=r"junctions or switches.*Fix: a fixed step"):
+        spice.run(diode)
     with pytest.raises(ModelError, match="discretization='midpoint'"):
         spice.run(deck, dt=1e-10, discretization="retraction")
     with pytest.raises(Exception, match="Z0= is required"):
@@ -184,8 +190,9 @@ def test_td_from_f_and_nl():
 
 
 def test_every_other_run_refuses_a_system_with_lines():
-    """dv.simulate and the two variable-step loops would hold the waves at 0: each refuses,
-    naming the fix."""
+    """dv.simulate and the compiled variable-step loop would hold the waves at 0: each
+    refuses, naming the fix; the sparse loop refuses a TMAX over half the delay (its
+    waves would have to be extrapolated) and the truncation control."""
     import diracvi as dv
     from diracvi.driver.adaptive import adaptive
     from diracvi.driver.adaptive_sparse import adaptive_sparse
@@ -197,9 +204,15 @@ def test_every_other_run_refuses_a_system_with_lines():
     q0, p0 = net.initial_state()
     with pytest.raises(ModelError, match="simulate_lines"):
         dv.simulate(net.system, q0, p0, dt=1e-10, steps=4)
-    for run in (adaptive, adaptive_sparse):
-        with pytest.raises(ModelError, match="fixed step no longer than"):
-            run(net.system, q0, p0, t0=0.0, t_stop=1e-9, controls=ctl)
+    with pytest.raises(ModelError, match="fixed step no longer than"):
+        adaptive(net.system, q0, p0, t0=0.0, t_stop=1e-9, controls=ctl)
+    long = ctl._replace(hmax=2e-9)  # TD = 3 ns
+    with pytest.raises(ModelError, match=r"hmax ≤ 1\.5e-09"):
+        adaptive_sparse(net.system._packed(), q0, p0, t0=0.0, t_stop=1e-9, controls=long)
+    with pytest.raises(ModelError, match="step doubling only"):
+        adaptive_sparse(
+            net.system._packed(), q0, p0, t0=0.0, t_stop=1e-9, controls=ctl, error="truncation"
+        )
 
 
 def test_uic_starts_the_waves_from_ic():
@@ -221,3 +234,74 @@ r2 3 0 50
     for probe in ("v(2)", "v(3)"):
         assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
         assert np.max(np.abs(result[probe][after])) < 1e-12
+
+
+# ---------------------------------------------------------------- variable steps
+def _variable_deck(params, drive=None, tran=".tran 0.1n 25n"):
+    deck = DECK.format(**params).replace(".tran 0.01n 25n", tran)
+    return deck if drive is None else deck.replace("pulse(0 1 1n 0.5n 0.5n 2n 40n)", drive)
+
+
+def test_variable_steps_are_the_delay_recursion():
+    """``spice.run(deck)`` without ``dt``: the sparse loop's steps, the waves read one
+    delay back by linear interpolation between recorded centres, and the corners (the
+    PULSE's, and each one ``k·T_D`` later, landed, the wave's value recorded there). A
+    piecewise-linear wave is then stepped exactly at every node — corners included, where
+    a fixed step is first order — and on the TSTEP grid; a 5 % wrong Z0 or TD is 1e-2 …
+    0.3 V off."""
+    result = spice.run(_variable_deck(LINE), internal=True)
+    assert len(result.time) > 100
+    steps = np.diff(result.time)
+    assert np.max(steps) <= 0.1e-9 * (1 + 1e-9) and np.ptp(steps) > 0  # variable, ≤ TMAX
+    assert _worst(result, LINE, slice(None)) < 1e-12
+    assert _worst(result, dict(LINE, z0=52.5), slice(None)) > 1e-2
+    assert _worst(result, dict(LINE, td=3.15e-9), slice(None)) > 0.1
+    on_grid = spice.run(_variable_deck(LINE))
+    assert len(on_grid.time) == 251
+    assert _worst(on_grid, LINE, slice(None)) < 1e-12
+
+
+@pytest.mark.slow  # three runs: 3.5 CPU s
+def test_variable_step_error_falls_with_the_tolerance():
+    """A sine drive (smooth waves: the interpolation's ``Δ²/8·|w''|`` and the midpoint
+    rule's error), TD = 3.03 ns: against the exact recursion, away from the drive's start
+    and its echoes, the error falls as ``reltol^(2/3)`` — the midpoint's local error is
+    ``O(h³)``, so the control's steps go as ``reltol^(1/3)`` and the global error as
+    ``h²``. Measured: 1.0e-4, 2.2e-5, 4.9e-6 V at reltol 1e-3, 1e-4, 1e-5 (exponent 0.65)."""
+    params = dict(LINE, td=3.03e-9)
+    deck = _variable_deck(params, drive="sin(0 1 200meg)")
+    tolerances, errs = (1e-3, 1e-4, 1e-5), []
+    for reltol in tolerances:
+        result = spice.run(deck, internal=True, reltol=reltol)
+        starts = params["td"] * np.arange(10)
+        keep = np.min(np.abs(result.time[:, None] - starts[None, :]), axis=1) > 0.3e-9
+        errs.append(_worst(result, params, keep, drive=_sine))
+    slope = np.polyfit(np.log(tolerances), np.log(errs), 1)[0]
+    assert 0.55 < slope < 0.8, (errs, slope)
+    assert errs[0] < 3e-4
+
+
+def test_rejected_tries_do_not_enter_the_waves():
+    """The recorded waves are exactly the accepted steps' centres (and ``t₀``, and the
+    landed corners ``k·T_D``, TSTOP): a rejected try's halves, solved and thrown away,
+    leave nothing in the history."""
+    from diracvi.driver.adaptive_sparse import adaptive_sparse
+    from diracvi.spice._run import controls
+    from diracvi.spice._tran import breakpoints, tran_settings
+
+    params = dict(LINE, td=3.03e-9)
+    net = spice.read(_variable_deck(params, drive="sin(0 1 200meg)", tran=".tran 0.1n 10n"))
+    settings = tran_settings(net)
+    q0, p0 = net.initial_state()
+    run, info = adaptive_sparse(
+        net.system._packed(), q0, p0, t0=0.0, t_stop=settings.stop,
+        controls=controls(net, settings), breakpoints=breakpoints(net.system, 0.0, 10e-9),
+        waves0=net.operating_point().waves,
+    )  # fmt: skip
+    assert run.status == 0 and run.rejected > 0
+    t_w, _ = info.lines[1].arrays()
+    centres = run.t[:-1] + 0.5 * run.h
+    corners = np.array([0.0, 3.03e-9, 6.06e-9, 9.09e-9, 10e-9])
+    want = np.sort(np.concatenate([centres, corners]))
+    assert len(t_w) == len(want) == 2 * (run.tries - run.rejected) + len(corners)
+    np.testing.assert_allclose(t_w, want, rtol=0, atol=1e-22)
