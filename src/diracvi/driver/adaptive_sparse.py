@@ -142,8 +142,13 @@ class _Map:
         """Verify the samples kept so far (then drop them): the largest relative Newton
         correction of this map's verified steps (see :func:`_verify`)."""
         if self.samples:
-            z, y, t, shift = (np.stack(c) for c in zip(*self.samples, strict=True))
-            self.worst = max(self.worst, self.found._check_steps(z, y, t, shift))
+            z, y, t, shift = zip(*self.samples, strict=True)
+            z, y, t = np.stack(z), np.stack(y), np.stack(t)
+            if shift[0] is None:  # (no lines: the model's own residual is the step's)
+                self.worst = max(self.worst, self.found._check_steps(z, y, t))
+            else:
+                worst = self.found._check_steps(z, y, t, shift=np.stack(shift))
+                self.worst = max(self.worst, worst)
             self.samples = []
         return self.worst
 
@@ -481,7 +486,7 @@ class _Tries:
         """Keep an accepted step of ``found`` for the verification (module doc)."""
         seen = found.accepted
         if seen % VERIFY_EVERY == 0 and found.sampled < VERIFY_MAX:
-            shift = np.zeros(found.size) if self.pending is None else self.pending[2]
+            shift = None if self.pending is None else self.pending[2]
             found.samples.append((z.copy(), y.copy(), t, shift))
             found.sampled += 1
             if len(found.samples) == VERIFY_BATCH:  # (a large circuit's samples are MBs)

@@ -725,7 +725,15 @@ def _march(
                 error=step_error, waves0=_line_waves(netlist) if with_lines else None,
             )  # fmt: skip
             return march
-        except NotSparseAffine:
+        except NotSparseAffine as exc:
+            if with_lines:  # (the compiled loop does not carry the lines' waves)
+                least = min(f[4] for f in lines(system))
+                raise ModelError(
+                    f"netlist {netlist.title!r}: its transmission lines are carried on "
+                    f"variable steps by the linear circuits' sparse loop only, which refused "
+                    f"this circuit ({exc}). Fix: a fixed step (dt=, --dt) no longer than "
+                    f"the shortest delay, {least:g} s."
+                ) from None
             if record is not None:
                 record.grid_values = None  # (its rows, if any, were not a finished run)
             # not linear (or not verified): the compiled loop steps it
