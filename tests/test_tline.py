@@ -236,6 +236,39 @@ r2 3 0 50
         assert np.max(np.abs(result[probe][after])) < 1e-12
 
 
+def test_uic_on_variable_steps():
+    """The same release on variable steps: 0.5 V for one delay, then 0, at every node
+    (the echo of ``t₀`` is a breakpoint). The waves jump at ``t₀`` (``w₀ = 1`` before,
+    ``0`` after): the history holds ``w₀`` before ``t₀`` and the right limit at it."""
+    from diracvi.driver.adaptive_sparse import adaptive_sparse
+    from diracvi.spice._run import _line_waves, controls
+    from diracvi.spice._tran import tran_settings
+
+    deck = """line released from its initial condition
+r1 2 0 50
+t1 2 0 3 0 z0=50 td=2.05n ic=1,0,1,0
+r2 3 0 50
+.tran 0.1n 6n uic
+.end
+"""
+    result = spice.run(deck, internal=True)
+    t = result.time
+    inside, after = (t > 0) & (t < 2.05e-9), t > 2.05e-9
+    for probe in ("v(2)", "v(3)"):
+        assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
+        assert np.max(np.abs(result[probe][after])) < 1e-12
+    net = spice.read(deck)
+    settings = tran_settings(net)
+    q0, p0 = net.initial_state()
+    _, info = adaptive_sparse(
+        net.system._packed(), q0, p0, t0=0.0, t_stop=settings.stop,
+        controls=controls(net, settings), waves0=_line_waves(net),
+    )  # fmt: skip
+    waves = info.lines[1]
+    np.testing.assert_allclose(waves.at(np.array([-1e-12])), [[1.0, 1.0]], atol=1e-15)
+    np.testing.assert_allclose(waves.at(np.array([0.0])), [[0.0, 0.0]], atol=1e-12)
+
+
 # ---------------------------------------------------------------- variable steps
 def _variable_deck(params, drive=None, tran=".tran 0.1n 25n"):
     deck = DECK.format(**params).replace(".tran 0.01n 25n", tran)

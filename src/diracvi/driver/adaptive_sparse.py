@@ -471,8 +471,11 @@ class _Tries:
             return
         waves = self.lines[1]
         (t1, w1), (t2, w2), _ = self.pending
+        first = waves.k == 1
         waves.add(t1, w1)
         waves.add(t2, w2)
+        if first:  # the right limit at t₀, on the first try's piece (Waves.start)
+            waves.start(w1 - (w2 - w1) * ((t1 - waves.t[0]) / (t2 - t1)))
         if corner is not None:
             waves.add(corner, w2 + (w2 - w1) * ((corner - t2) / (t2 - t1)))
 

@@ -84,8 +84,14 @@ MAX_BREAKPOINTS = 200_000
 
 class Waves:
     """The recorded outgoing waves of every line's ports: centre times ``t`` (growing,
-    strictly increasing) and values ``w`` of shape ``(lines, 2)`` per centre; before
-    the first centre, the initial waves."""
+    strictly increasing) and values ``w`` of shape ``(lines, 2)`` per centre, the first
+    at ``t₀``; before ``t₀``, the initial waves ``w₀``.
+
+    At ``t₀`` itself the recorded value is the waves' right limit once the first try is
+    accepted (:meth:`start`): under ``UIC`` the state at ``t₀`` need not be the one the
+    ``IC=`` waves describe (a line released from its initial condition: ``w`` jumps
+    from ``w₀`` at ``t₀``), and a read just after ``t₀ + T_D`` belongs to the waves
+    after the jump."""
 
     def __init__(self, t0: float, w0, tol: float, capacity: int = 1024):
         w0 = np.asarray(w0, dtype=np.float64)
@@ -94,6 +100,7 @@ class Waves:
         self.t = np.empty(capacity)
         self.w = np.empty((capacity, self.lines, 2))
         self.t[0], self.w[0] = t0, w0
+        self.before = w0.copy()
         self.k = 1
 
     def add(self, t: float, w) -> None:
@@ -107,6 +114,10 @@ class Waves:
             self.w = np.concatenate([self.w, np.empty_like(self.w)])
         self.t[self.k], self.w[self.k] = t, w
         self.k += 1
+
+    def start(self, w) -> None:
+        """Set the value at ``t₀`` (the right limit there; see the class doc)."""
+        self.w[0] = w
 
     @property
     def last(self) -> float:
@@ -131,7 +142,10 @@ class Waves:
         right = np.clip(np.searchsorted(t, s, side="right"), 1, k - 1) if k > 1 else None
         out = np.empty((self.lines, 2))
         for j in range(self.lines):
-            if k == 1 or s[j] <= t[0]:
+            if s[j] < t[0]:
+                out[j] = self.before[j]
+                continue
+            if k == 1:
                 out[j] = self.w[0, j]
                 continue
             r = int(right[j])
