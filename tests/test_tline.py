@@ -429,3 +429,40 @@ def test_the_sparse_verification_sees_the_lines_offsets(monkeypatch):
     monkeypatch.setattr(sparse._Tries, "_line_offsets", dropped)
     with pytest.raises(ModelError, match=r"a step was off by .* Fix: a fixed step"):
         spice.run(deck)
+
+
+@pytest.mark.slow  # a variable-step and a fixed-step run: 6 CPU s at load 12 on 2 cores
+def test_two_lines_of_unequal_delays_take_every_sum_of_delays_as_a_corner():
+    """Two lines in cascade (1 ns into 0.7 ns, Z₀ 50 and 80 Ω, between 20 and 200 Ω): the
+    waves' corners are the PULSE's plus every sum ``k₁·1 + k₂·0.7`` ns after them (109
+    before 12 ns). Landed, the variable steps are exact: against a fixed step of 50 ps,
+    which divides every delay and corner and is exact at its nodes off the corners, to
+    round-off at every such node (TSTOP, itself a corner, 0.8 + 1 + 6·0.7 … ns, is the
+    fixed step's first-order point and is left out)."""
+    from diracvi.driver.sparse_lines import line_breakpoints
+    from diracvi.spice._tran import breakpoints
+
+    deck = """two lines of unequal delays in cascade
+v1 1 0 pulse(0 1 0.5n 0.3n 0.3n 1n 40n)
+rs 1 2 20
+t1 2 0 3 0 z0=50 td=1n
+t2 3 0 4 0 z0=80 td=0.7n
+rl 4 0 200
+.tran 0.1n 12n
+.end
+"""
+    net = spice.read(deck)
+    corners = line_breakpoints(breakpoints(net.system, 0.0, 12e-9), [1e-9, 0.7e-9], 0.0, 12e-9)
+    assert len(corners) == 109
+    # the PULSE's start through both lines (0.5 + 1 + 0.7 ns), there and back on t1 (0.5 + 2)
+    for corner in (2.2e-9, 2.5e-9):
+        assert np.min(np.abs(corners - corner)) < 1e-18
+    result = spice.run(deck, internal=True)
+    fixed = spice.run(deck, dt=0.05e-9)
+    t = fixed.time
+    at = np.concatenate([[0.0], corners, [12e-9]])
+    keep = np.min(np.abs(t[:, None] - at[None, :]), axis=1) > 0.025e-9
+    assert keep.sum() > 100
+    mine = result.at(t)
+    for probe in ("v(2)", "v(3)", "v(4)"):
+        assert np.max(np.abs(mine[probe] - fixed[probe])[keep]) < 1e-12, probe
