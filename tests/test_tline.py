@@ -147,7 +147,8 @@ def test_line_power_balance_closes_per_step():
 
 def test_dc_through_the_line_is_a_wire():
     """At DC a lossless line joins its ports (v₁ = v₂, i₁ = −i₂): 2 V through 50 Ω, the
-    line and 150 Ω is 1.5 V at both ports, and the transient stays there."""
+    line and 150 Ω is 1.5 V at both ports, and the transient — fixed or variable steps —
+    stays there."""
     deck = """dc through a line
 v1 1 0 dc 2
 rs 1 2 50
@@ -156,9 +157,10 @@ rl 3 0 150
 .tran 0.1n 5n
 .end
 """
-    result = spice.run(deck, dt=0.1e-9)
-    assert np.max(np.abs(result["v(2)"] - 1.5)) < 1e-9
-    assert np.max(np.abs(result["v(3)"] - 1.5)) < 1e-9
+    for run in (dict(dt=0.1e-9), {}):  # a fixed step, and the variable steps
+        result = spice.run(deck, **run)
+        assert np.max(np.abs(result["v(2)"] - 1.5)) < 1e-9
+        assert np.max(np.abs(result["v(3)"] - 1.5)) < 1e-9
 
 
 def test_refusals_name_the_fix():
