@@ -413,6 +413,7 @@ def test_variable_step_power_balance_closes_to_the_midpoint_quadrature():
     assert 1e-4 < terms[0] < 1e-3 and terms[1] < terms[0] / 8  # h²: TMAX / 4
 
 
+@pytest.mark.slow  # two runs: 11 s at load 11 on 2 cores
 def test_the_sparse_verification_sees_the_lines_offsets(monkeypatch):
     """The sparse map's sampled verification re-evaluates steps with the model's own
     residual, whose lines' ``e`` is 0: it adds the lines' rows the step was taken with.
