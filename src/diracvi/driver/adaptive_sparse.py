@@ -83,7 +83,8 @@ from .adaptive import (
     Controls,
     _inertia,
 )
-from .delay import refuse_variable_steps
+from .delay import incidents
+from .sparse_lines import LineOffsets, Waves, line_breakpoints, line_hmax, need_doubling
 from .sparse_offsets import _Offsets
 from .sparse_truncation import march as truncation_march
 from .step_error import DEFAULT_ERROR, ERRORS, SAFETY, estimate, growth_of
@@ -118,6 +119,10 @@ class SparseRun(NamedTuple):
     fit: bool
     #: tries whose size was off the grid (a step landing on a breakpoint or the end)
     landings: int = 0
+    #: a run with transmission lines: ``(LineOffsets, Waves)`` — the lines (names,
+    #: ``Z₀``, delays, port charges) and their recorded ``(t_centre, w)``
+    #: (:mod:`.sparse_lines`); None without
+    lines: tuple | None = None
 
 
 class _Map:
@@ -128,7 +133,7 @@ class _Map:
     def __init__(self, found, grid):
         self.found, self.h, self.grid = found, found.h, grid
         self.n, self.size = found.n, found.size
-        self.samples = []  # (z, y, t) of accepted steps not yet verified
+        self.samples = []  # (z, y, t, shift) of accepted steps not yet verified
         self.accepted = 0  # steps of this map accepted so far
         self.sampled = 0  # of them, kept for the verification (verified or not)
         self.worst = 0.0  # the largest relative correction of the verified ones
@@ -137,8 +142,13 @@ class _Map:
         """Verify the samples kept so far (then drop them): the largest relative Newton
         correction of this map's verified steps (see :func:`_verify`)."""
         if self.samples:
-            z, y, t = (np.stack(c) for c in zip(*self.samples, strict=True))
-            self.worst = max(self.worst, self.found._check_steps(z, y, t))
+            z, y, t, shift = zip(*self.samples, strict=True)
+            z, y, t = np.stack(z), np.stack(y), np.stack(t)
+            if shift[0] is None:  # (no lines: the model's own residual is the step's)
+                self.worst = max(self.worst, self.found._check_steps(z, y, t))
+            else:
+                worst = self.found._check_steps(z, y, t, shift=np.stack(shift))
+                self.worst = max(self.worst, worst)
             self.samples = []
         return self.worst
 
@@ -179,8 +189,9 @@ class _Maps:
     and one SuperLU factorization. If the check fails (a model whose step is not of that
     form), every size is built."""
 
-    def __init__(self, system, rule, q0, p0, t0, detect_rtol, verify_rtol, top):
+    def __init__(self, system, rule, q0, p0, t0, detect_rtol, verify_rtol, top, lines=None):
         self.system, self.rule = system, rule
+        self.lines = lines  # the transmission lines' rows (sparse_lines.LineOffsets)
         self.q0, self.p0, self.t0 = q0, p0, t0
         self.detect_rtol, self.verify_rtol = detect_rtol, verify_rtol
         self.pattern = structural_pattern(system, rule)
@@ -236,6 +247,9 @@ class _Maps:
     def _store(self, key, found, grid):
         if found.driven and (found.drivers is None) != (self.drivers is None):
             self._no_drivers(found)  # every map takes its offsets the same way
+        if self.lines is not None:  # their offsets are set step by step (sparse_lines)
+            found.line_rows, found.line_coords = self.lines.rows, self.lines.coords
+            found._step = found._one = None
         entry = _Map(found, grid)
         self.cache[key] = entry
         while len(self.cache) > CACHE_SIZE:
@@ -282,6 +296,11 @@ class _Maps:
     def all(self):
         return list(self.cache.values())
 
+
+#: a landing this close to a grid size (relative) takes the grid's map (:meth:`_Tries.plan`):
+#: ``target − t`` is off by the round-off of ``t`` (≈ 1e-16 of it), and the step's
+#: solution moves by ``SNAP`` of a step's change at most — far below any tolerance
+SNAP = 1e-10
 
 #: the grid levels built to fit ``A/h + B + C·h`` (see :class:`_Maps`), and the one that
 #: checks the fit; the fit must reproduce its matrices to ``FIT_RTOL`` of their largest entry
@@ -341,8 +360,12 @@ class _Tries:
     tries themselves: a doubled one (:meth:`doubled`) and a single step (:meth:`single`,
     :mod:`.sparse_truncation`), sized by :meth:`plan`."""
 
-    def __init__(self, maps, offsets, n, tolerances, hmax, top, momenta=None):
+    def __init__(self, maps, offsets, n, tolerances, hmax, top, momenta=None, lines=None):
         self.maps, self.offsets, self.n = maps, offsets, n
+        # the transmission lines: (LineOffsets, Waves), and the last try's pending waves
+        self.lines = lines
+        self.pending = None
+        self.snap = lines is not None
         self.tolerances, self.hmax, self.top = tolerances, hmax, top
         self.landings = 0
         # (A(q)ᵀ as a sparse matrix, the inertia per coordinate): the nodal momenta's
@@ -353,8 +376,16 @@ class _Tries:
         """``(size, level, lands)`` of a try proposed at ``h`` with ``rem`` left to the
         next breakpoint: rounded down to the grid ``top·2^{−k}``; the whole remainder
         if it is within the rounded size, half of it if within twice (no sliver left);
-        ``level`` None off the grid (a landing, counted). Also the rounded size."""
+        ``level`` None off the grid (a landing, counted). Also the rounded size.
+
+        With :attr:`snap` (a run with lines), a remainder within :data:`SNAP` of the
+        grid size lands with the grid's map: the lines' breakpoints fall every delay,
+        often whole multiples of the grid, and each landing's size, off the grid by the
+        round-off of ``target − t``, was a map of its own (bug1370's 500 breakpoints
+        0.1 ns apart: 1013 maps factored, 44 s of its 45 under the profiler)."""
         h0, k = _level(min(h, top), top)
+        if self.snap and abs(rem - h0) <= SNAP * h0:
+            return h0, k, True, h0
         if rem <= h0 * (1.0 + 1e-9):
             self.landings += 1
             return rem, None, True, h0
@@ -370,9 +401,12 @@ class _Tries:
         coarse = self.maps.get(h_try, level)
         fine = self.maps.get(half, None if level is None else level + 1)
         u = _NO_OFFSETS if self.offsets is None else self.offsets(h_try, half, t)
-        zc, yc = coarse.step(z, u[0])
-        z1, y1 = fine.step(z, u[1])
-        z2, y2 = fine.step(z1, u[2])
+        if self.lines is None:
+            zc, yc = coarse.step(z, u[0])
+            z1, y1 = fine.step(z, u[1])
+            z2, y2 = fine.step(z1, u[2])
+        else:
+            zc, yc, z1, y1, z2, y2 = self._with_lines(coarse, fine, z, t, h_try, u)
         ok = bool(np.isfinite(z2).all() and np.isfinite(zc).all())
         momenta = None
         if self.momenta is not None:
@@ -386,6 +420,65 @@ class _Tries:
         ok = ok and math.isfinite(float(est.err))
         return ok, est, fine, z1, y1, z2, y2
 
+    def _with_lines(self, coarse, fine, z, t, h_try, u):
+        """The try's three steps with the lines' incident waves read from the recorded
+        ones one delay before each step's centre (:mod:`.sparse_lines`), set as the
+        lines' offsets; the two halves' outgoing waves kept in :attr:`pending` until the
+        try is accepted (a rejected try's never enter the history)."""
+        lines, waves = self.lines
+        half = 0.5 * h_try
+        centres = (t + half, t + 0.5 * half, t + half + 0.5 * half)
+        incident = [waves.at(c - lines.delay)[:, ::-1] for c in centres]  # e₁ = w₂, e₂ = w₁
+        out, shifts = [], []
+        for j, (found, h) in enumerate(((coarse, h_try), (fine, half), (fine, half))):
+            z_from = z if j < 2 else out[1][0]  # the second half from the first's end
+            uj, shift = self._line_offsets(found, u[j], h, incident[j])
+            out.append(found.step(z_from, uj))
+            shifts.append(shift)
+        (zc, yc), (z1, y1), (z2, y2) = out
+        self.pending = (
+            (centres[1], lines.waves(z, z1, half, incident[1])),
+            (centres[2], lines.waves(z1, z2, half, incident[2])),
+            shifts[1],
+        )
+        return zc, yc, z1, y1, z2, y2
+
+    def _line_offsets(self, found, u, h, e):
+        """``u`` with the lines' rows for incident ``e`` (the layout of
+        ``SparseAffineMap._moving``), and the residual's shift from the model's (whose
+        lines' ``e`` is 0) for the verification."""
+        lines = self.lines[0]
+        r, p, d_r, d_p = lines.rows_at(h, e)
+        shift = np.zeros(found.size)
+        shift[lines.rows] = d_r
+        driven = found.found.driven
+        if driven and found.found.drivers is None:  # every row moves: add the change
+            u = u.copy()
+            u[lines.rows] += d_r
+            u[found.size + lines.coords] += d_p
+            return u, shift
+        k = found.found.driver_rows.size if driven else 0
+        return np.concatenate([u[:k], r, u[k:], p]), shift
+
+    def accept_lines(self, corner=None) -> None:
+        """Record the accepted try's two halves' outgoing waves (see :meth:`_with_lines`);
+        ``corner``: the try's end when it landed on a breakpoint, where the waves may
+        have a corner: their value there is recorded too, extrapolated along the line
+        through the two halves' centres (the same smooth piece: every piece between two
+        breakpoints holds at least one try), so that no later read interpolates across
+        the corner (:mod:`.sparse_lines`)."""
+        if self.lines is None:
+            return
+        waves = self.lines[1]
+        (t1, w1), (t2, w2), _ = self.pending
+        first = waves.k == 1
+        waves.add(t1, w1)
+        waves.add(t2, w2)
+        if first:  # the right limit at t₀, on the first try's piece (Waves.start)
+            waves.start(w1 - (w2 - w1) * ((t1 - waves.t[0]) / (t2 - t1)))
+        if corner is not None:
+            waves.add(corner, w2 + (w2 - w1) * ((corner - t2) / (t2 - t1)))
+
     def single(self, z, t, h, level):
         """One step of ``h`` from ``z`` at ``t``: ``(map, z_next, y)``."""
         found = self.maps.get(h, level)
@@ -396,7 +489,8 @@ class _Tries:
         """Keep an accepted step of ``found`` for the verification (module doc)."""
         seen = found.accepted
         if seen % VERIFY_EVERY == 0 and found.sampled < VERIFY_MAX:
-            found.samples.append((z.copy(), y.copy(), t))
+            shift = None if self.pending is None else self.pending[2]
+            found.samples.append((z.copy(), y.copy(), t, shift))
             found.sampled += 1
             if len(found.samples) == VERIFY_BATCH:  # (a large circuit's samples are MBs)
                 found.check()
@@ -420,6 +514,7 @@ def adaptive_sparse(
     verify_rtol: float = 1e-11,
     record=None,
     error: str = DEFAULT_ERROR,
+    waves0=None,
 ) -> tuple[AdaptiveRun, SparseRun]:
     """March a linear interconnection ``system`` (packed, see
     :meth:`~diracvi.model.interconnect.InterconnectedSystem._packed`) from ``(q0, p0)``
@@ -440,13 +535,20 @@ def adaptive_sparse(
     ``error``: ``"doubling"`` (three solves a try, module doc) or ``"truncation"`` (one
     solve a step, its local truncation error from the recorded past:
     :mod:`.sparse_truncation`).
+
+    ``waves0``: a circuit with lossless transmission lines, per line the outgoing waves
+    ``(w₁, w₂)`` of its ports before ``t0`` (shape ``(lines, 2)``; zero if not given).
+    Their waves are recorded at the accepted steps' centres and read one delay later
+    (:mod:`.sparse_lines`), which needs ``controls.hmax`` no longer than half the
+    shortest delay and step doubling; the lines' corners (each breakpoint and ``t0``
+    plus every sum of delays) are added to ``breakpoints``. The run's waves are
+    ``SparseRun.lines``.
     """
     ensure_float64()
     if error not in ERRORS:
         raise ModelError(f"error={error!r}: the error control is one of {ERRORS}.")
     if not t_stop > t0:
         raise ModelError(f"t_stop={t_stop!r} must be after t0={t0!r}.")
-    refuse_variable_steps(system, "adaptive_sparse")
     try:
         switches = bool(events.relays(system))
     except ModelError:  # a packed system with switches (it cannot carry their states)
@@ -459,7 +561,13 @@ def adaptive_sparse(
     p = np.asarray(p0, dtype=np.float64).reshape(n).copy()
     hmax, rtol = float(controls.hmax), float(controls.rtol)
     top = 2.0 * hmax  # a try of H records two steps of H/2 ≤ hmax
-    maps = _Maps(system, rule, q, p, float(t0), detect_rtol, verify_rtol, top)
+    lines = _lines_of(system, rule, error, hmax, waves0, float(t0))
+    if lines is not None:
+        breakpoints = line_breakpoints(breakpoints, lines[0].delay, float(t0), float(t_stop))
+    maps = _Maps(
+        system, rule, q, p, float(t0), detect_rtol, verify_rtol, top,
+        None if lines is None else lines[0],
+    )  # fmt: skip
     first = maps.get(*_level(min(controls.h_first, top), top))
     m = first.size - n
     atol_q = np.broadcast_to(np.asarray(controls.atol_q, np.float64), (n,))
@@ -474,7 +582,7 @@ def adaptive_sparse(
     # rows
     mass = _inertia(controls, n)
     momenta = None if mass is None else (first.found.imp[:, n:].tocsr(), mass)
-    tries = _Tries(maps, offsets, n, tolerances, hmax, top, momenta)
+    tries = _Tries(maps, offsets, n, tolerances, hmax, top, momenta, lines)
     # the recorded steps, written in place (a guess of the count, grown if exceeded;
     # np.empty's pages are committed only when written, so the guess costs nothing)
     capacity = 2 * math.ceil((t_stop - t0) / hmax) + 4 * len(breaks) + 16
@@ -491,8 +599,28 @@ def adaptive_sparse(
     run = AdaptiveRun(*rec.arrays(), count, rejected, status, None, DESCRIBE)
     return run, SparseRun(
         maps.builds, maps.factorizations, tuple(sorted(maps.levels)), bool(maps.fit),
-        tries.landings,
+        tries.landings, lines,
     )  # fmt: skip
+
+
+def _lines_of(system, rule, error, hmax, waves0, t0):
+    """``(LineOffsets, Waves)`` of a system with lossless lines, else None; refuses what
+    the lines' history cannot carry (:mod:`.sparse_lines`)."""
+    if not incidents(system):
+        return None
+    found = LineOffsets(system, rule)
+    need_doubling(error)
+    limit = line_hmax(found.delay)
+    if hmax > limit * (1.0 + 1e-12):
+        raise ModelError(
+            f"controls.hmax={hmax:g} s: transmission lines {', '.join(found.names)} read "
+            f"their waves one delay back, known only for steps up to half the shortest "
+            f"delay. Fix: hmax ≤ {limit:g} s (a TMAX no longer than that)."
+        )
+    w0 = np.zeros((len(found), 2)) if waves0 is None else np.asarray(waves0, np.float64)
+    if w0.shape != (len(found), 2):
+        raise ModelError(f"waves0 of shape {w0.shape}: one (w1, w2) per line, ({len(found)}, 2).")
+    return found, Waves(t0, w0, tol=1e-9 * float(np.min(found.delay)))
 
 
 def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
@@ -525,6 +653,7 @@ def _doubling(tries: _Tries, rec, z, t, t_stop, breaks, controls, max_tries, m):
             h_next = max(h_next, h0)
         if accept:
             t_new = target if land else t + half + half
+            tries.accept_lines(target if land else None)
             rec.add(t + half, half, z1, y1[n:])
             rec.add(t_new, half, z2, y2[n:])
             tries.sample(fine, z, y1, t, 2)

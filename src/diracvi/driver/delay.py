@@ -84,12 +84,16 @@ def lines(system) -> tuple[tuple[str, int, int, float, float], ...]:
 
 def refuse_variable_steps(system, where: str) -> None:
     """Raise a :class:`~diracvi.errors.ModelError` naming the fix if ``system`` has lines:
-    the variable-step loops do not carry their waves (they would hold them at 0)."""
+    the compiled variable-step loop does not carry their waves (it would hold them at 0;
+    the sparse loop does, :mod:`.sparse_lines`)."""
     if incidents(system):
         raise ModelError(
-            f"{where}: the system has lossless transmission lines, whose waves the "
-            "variable-step loops do not carry yet. Fix: a fixed step no longer than the "
-            "shortest delay (diracvi.spice.run(deck, dt=…), diracvi.driver.delay.simulate_lines)."
+            f"{where}: the system has lossless transmission lines, whose waves this "
+            "variable-step loop (the compiled one, for circuits with junctions or "
+            "switches) does not carry yet; the linear circuits' loop does "
+            "(diracvi.driver.adaptive_sparse with waves0=). Fix: a fixed step no longer "
+            "than the shortest delay (diracvi.spice.run(deck, dt=…), "
+            "diracvi.driver.delay.simulate_lines)."
         )
 
 

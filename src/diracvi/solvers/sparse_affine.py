@@ -373,15 +373,24 @@ class SparseAffineMap:
 
         return one
 
+    #: the rows and coordinates of parts whose offsets the caller sets step by step
+    #: besides the drivers' (the variable-step path's transmission lines, whose incident
+    #: waves are history: :mod:`diracvi.driver.sparse_lines`); none by default
+    line_rows = line_coords = np.zeros(0, np.int64)
+
     def _moving(self):
         """The entries of ``r₀`` and ``P₀`` that move with ``t`` (the driven parts' rows,
-        every row when they are many, none for an autonomous model)."""
+        every row when they are many, none for an autonomous model), then
+        :attr:`line_rows`, :attr:`line_coords` (unless every row moves already)."""
         n, size = self.n, self.size
+        if self.driven and self.drivers is None:
+            return np.arange(size), np.arange(n)
         if not self.driven:
-            return np.zeros(0, np.int64), np.zeros(0, np.int64)
-        if self.drivers is not None:
-            return self.driver_rows, self.driver_coords
-        return np.arange(size), np.arange(n)
+            return self.line_rows, self.line_coords
+        return (
+            np.concatenate([self.driver_rows, self.line_rows]),
+            np.concatenate([self.driver_coords, self.line_coords]),
+        )
 
     def _augmented(self):
         """The step and its diagnostics as products with the augmented state
@@ -442,10 +451,12 @@ class SparseAffineMap:
         r0, pm0 = np.asarray(r0)[:count], np.asarray(pm0)[:count]
         return r0, pm0, np.asarray(energy)[: len(times)]
 
-    def _check_steps(self, z, y, times):
+    def _check_steps(self, z, y, times, shift=None):
         """The largest Newton correction ``J_x⁻¹ r`` (relative) of the steps ``z → y``,
         with ``r`` the model's own residual: the probe program of :func:`build`, three
-        steps per call (its shapes: nothing new is compiled)."""
+        steps per call (its shapes: nothing new is compiled). ``shift``: per step, what
+        the residual has beyond the model's (a line's incident waves, set by the caller
+        as offsets: :mod:`diracvi.driver.sparse_lines`)."""
         worst = 0.0
         for a in range(0, len(times), 3):
             w = np.concatenate([z[a : a + 3], y[a : a + 3]], axis=1)
@@ -457,6 +468,8 @@ class SparseAffineMap:
                 self.system, self.rule, self.scheme, np.float64(self.h), w, tk, self.seeds
             )
             r = np.asarray(r)[:count]
+            if shift is not None:
+                r = r + shift[a : a + count]
             dx = self.lu.solve(np.ascontiguousarray(r.T)).T
             yy, zz = y[a : a + count], z[a : a + count, : self.n]
             size = np.maximum(np.max(np.abs(yy), axis=1), np.max(np.abs(zz), axis=1))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -31,6 +31,7 @@ from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.algebraic import inertia
 from ..driver.delay import lines, simulate_lines
 from ..driver.events import relays
+from ..driver.sparse_lines import line_breakpoints, line_hmax
 from ..errors import ModelError, StepFailure
 from ..model.interconnect import InterconnectedSystem
 from ..solvers.limiting import junctions
@@ -414,16 +415,7 @@ def _with_lines(netlist, q0, p0, h, n, discretization, kwargs) -> Result:
             f"spice.run({', '.join(sorted(kwargs))}=…): a run with transmission lines takes "
             "no options of diracvi.simulate. Fix: leave them out."
         )
-    found = lines(netlist.system)
-    if netlist.uic:
-        waves = []
-        for name, *_ in found:
-            part = next(s for s in netlist.system.subsystems if s.name == name)
-            v = dict(part.parameters)
-            waves.append([v["v1"] + v["z0"] * v["i1"], v["v2"] + v["z0"] * v["i2"]])
-        waves = np.asarray(waves, dtype=np.float64)
-    else:
-        waves = netlist.operating_point().waves
+    waves = _line_waves(netlist)
     traj = simulate_lines(
         netlist.system, q0, p0, dt=h, steps=n, waves0=waves, discretization=discretization
     )
@@ -567,18 +559,14 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
             f"{sorted(kwargs)}: options of a fixed-step run (diracvi.simulate); pass dt= "
             "with them, or leave them out for SPICE's variable steps."
         )
-    found = lines(netlist.system)
-    if found:
-        least = min(f[4] for f in found)
-        raise ModelError(
-            f"netlist {netlist.title!r}: transmission lines ({', '.join(f[0] for f in found)}) "
-            "need a fixed step for now (the variable-step loops do not carry their waves). "
-            f"Fix: pass dt= (--dt) no longer than the shortest delay, {least:g} s."
-        )
     overrides = dict(overrides)
     step_error = overrides.pop("step_error", DEFAULT_ERROR)
     settings = override(tran_settings(netlist), overrides)
     breaks = breakpoints(netlist.system, 0.0, settings.stop)
+    found = lines(netlist.system)
+    if found:  # (driver/sparse_lines.py: steps ≤ TD/2, corners one delay later)
+        settings = _line_settings(netlist, settings, found, step_error)
+        breaks = line_breakpoints(breaks, [f[4] for f in found], 0.0, settings.stop)
     bounds = np.concatenate([[0.0], breaks[(breaks > 0.0) & (breaks < settings.stop)]])
     grid = settings.output_times()
     # the sparse path's recorder: the grid formed while the run steps (._stream)
@@ -623,6 +611,46 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
         return Result(netlist, march, dict(nodes), march.t, inner, settings, centred)
     waves = signals.sample(sampler, grid)
     return Result(netlist, march, _pin_start(waves, grid, start), grid, inner, settings, centred)
+
+
+def _line_settings(netlist: Netlist, settings: TranSettings, found, step_error):
+    """The settings of a variable-step run with transmission lines: TMAX at most half
+    the shortest delay (a doubled try's waves are then known before it is solved,
+    :mod:`diracvi.driver.sparse_lines`); refused where the lines cannot be carried — the
+    compiled loop (junctions, switches) and the truncation error control."""
+    names = ", ".join(f[0] for f in found)
+    least = min(f[4] for f in found)
+    fix = f"Fix: a fixed step (dt=, --dt) no longer than the shortest delay, {least:g} s."
+    if relays(netlist.system) or junctions(netlist.system) is not None:
+        raise ModelError(
+            f"netlist {netlist.title!r}: transmission lines ({names}) on variable steps are "
+            "carried by the linear circuits' loop only; this circuit has junctions or "
+            f"switches, whose loop does not carry their waves yet. {fix}"
+        )
+    if step_error != "doubling":
+        raise ModelError(
+            f"netlist {netlist.title!r}: transmission lines ({names}) are stepped with "
+            f"step_error='doubling' only (their waves are recorded from each accepted "
+            f"try's two halves), not {step_error!r}. Fix: leave step_error out."
+        )
+    limit = line_hmax([f[4] for f in found])
+    if settings.max_step > limit:
+        settings = replace(settings, tmax=limit)
+    return settings
+
+
+def _line_waves(netlist: Netlist) -> np.ndarray:
+    """The lines' outgoing waves before ``t0`` (``(lines, 2)``): from the operating
+    point, or from their ``IC=`` under ``UIC`` (``w = v + Z₀ i`` per port, as ngspice's
+    ``traload.c`` starts them)."""
+    if not netlist.uic:
+        return netlist.operating_point().waves
+    waves = []
+    for name, *_ in lines(netlist.system):
+        part = next(s for s in netlist.system.subsystems if s.name == name)
+        v = dict(part.parameters)
+        waves.append([v["v1"] + v["z0"] * v["i1"], v["v2"] + v["z0"] * v["i2"]])
+    return np.asarray(waves, dtype=np.float64)
 
 
 def _start_values(netlist: Netlist) -> dict[str, float]:
@@ -680,10 +708,12 @@ def _march(
     ctl = controls(netlist, settings)
     budget = tries_budget(settings)
     has_junctions = junctions(system) is not None
+    # transmission lines: their waves are carried by the sparse loop alone (at any size)
+    with_lines = bool(lines(system))
     # junctions (diodes, transistors) are nonlinear: not worth the sparse path's probes
     linear_candidate = (
         isinstance(system, InterconnectedSystem)
-        and system.n >= SPARSE_MIN_COORDINATES
+        and (system.n >= SPARSE_MIN_COORDINATES or with_lines)
         and not relays(system)
         and not has_junctions
     )
@@ -692,10 +722,18 @@ def _march(
             march, _ = adaptive_sparse(
                 system._packed(), netlist.q0, netlist.p0, t0=0.0, t_stop=settings.stop,
                 controls=ctl, breakpoints=breaks, max_tries=budget, record=record,
-                error=step_error,
+                error=step_error, waves0=_line_waves(netlist) if with_lines else None,
             )  # fmt: skip
             return march
-        except NotSparseAffine:
+        except NotSparseAffine as exc:
+            if with_lines:  # (the compiled loop does not carry the lines' waves)
+                least = min(f[4] for f in lines(system))
+                raise ModelError(
+                    f"netlist {netlist.title!r}: its transmission lines are carried on "
+                    f"variable steps by the linear circuits' sparse loop only, which refused "
+                    f"this circuit ({exc}). Fix: a fixed step (dt=, --dt) no longer than "
+                    f"the shortest delay, {least:g} s."
+                ) from None
             if record is not None:
                 record.grid_values = None  # (its rows, if any, were not a finished run)
             # not linear (or not verified): the compiled loop steps it

@@ -6,7 +6,9 @@ r"""The netlist line of SPICE's lossless transmission line (ngspice's ``tra`` de
 defaults ``NL = 0.25`` and ``F = 1 GHz`` (``trasetup.c``, ``tratemp.c``); ``TD`` given
 wins over ``F``/``NL``. ``IC=`` (or ``V1= I1= V2= I2=``) sets the ports' values before
 the run under ``UIC``. ``REL=``/``ABS=`` steer ngspice's breakpoints after a corner of
-the line's waves: they are read and noted (a fixed-step run has no breakpoints). The
+the line's waves (its slope test, ``traacct.c``): they are read and noted, not used — a
+fixed-step run has no breakpoints, and the variable steps put one a delay after every
+corner the circuit can have (:mod:`diracvi.driver.sparse_lines`), with no threshold. The
 part is :func:`diracvi.components.TransmissionLine`.
 """
 
