@@ -11,7 +11,7 @@ that differ only in a zero's sign or a number's type are not merged.
 
 White-box: counts calls of ``diracvi.components._mos_part._assemble``,
 ``diracvi.components._bsim3.size_dependent`` and switches the reader's memory off
-(``spice._parse._Reader``'s ``parts``).
+(``spice._parse.REMEMBER_PARTS``).
 """
 
 import jax
@@ -60,13 +60,7 @@ def deck(n: int, cell: str = CELL) -> str:
 def read_each_built(source: str, monkeypatch):
     """The netlist with every device built by its constructor (no memory)."""
     with monkeypatch.context() as m:
-        init = _parse._Reader.__init__
-
-        def without_memory(self, *args, **kwargs):
-            init(self, *args, **kwargs)
-            self.parts = None
-
-        m.setattr(_parse._Reader, "__init__", without_memory)
+        m.setattr(_parse, "REMEMBER_PARTS", False)
         return spice.read(source)
 
 

@@ -32,6 +32,11 @@ from ._values import NOMINAL_TEMPERATURE
 __all__ = ["Netlist", "NetlistError", "read"]
 
 
+#: whether a read builds each alike semiconductor line's part once (:func:`._cards.built`)
+#: — off, every device is built by its constructor (the tests compare the two)
+REMEMBER_PARTS = True
+
+
 @dataclass
 class Netlist:
     """A parsed netlist: the circuit, the analysis and where every element came from.
@@ -187,7 +192,8 @@ class _Reader:
         self.name_checks: list = []  # B sources' nodes and sources, checked at the end
         self.magnetics: list = []  # XSPICE lcouple and core lines (spice/_magnetic.py)
         self.potentials: dict = {}  # MMF node -> its current coefficients
-        self.parts: dict = {}  # alike devices' parts by their arguments (_cards.built)
+        # alike devices' parts by their arguments (_cards.built); None: each one built
+        self.parts: dict | None = {} if REMEMBER_PARTS else None
         self.top = Scope(self, params=dict(self.overrides))
         # the circuit temperature and ngspice's TNOM option (°C), set before the body is
         # read (directives.circuit_temperatures); every device's TEMP defaults to the first
