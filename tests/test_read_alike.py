@@ -169,3 +169,13 @@ def test_renamed_equals_the_constructor_and_refuses_what_it_cannot():
     assert not renamable(two)
     with pytest.raises(ModelError, match=r"reports currents under its own name"):
         renamed(two, "u")
+
+
+def test_a_note_is_kept_once_also_when_appended_past_note_once():
+    reader = _parse._Reader("t")
+    reader.note_once("a")
+    reader.notes.append("b")  # (as the reader's own note() and the loaders append)
+    reader.notes += ["c"]
+    for note in ("a", "b", "c", "d", "d"):
+        reader.note_once(note)
+    assert reader.notes == ["a", "b", "c", "d"]
