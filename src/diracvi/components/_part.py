@@ -20,6 +20,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ..model.system import LagrangeDiracSystem
+from ..model.validate import check_name
 
 # A part built inside jax.grad may keep a traced number in a static field (a capacitor's
 # initial charge C·v0, a waveform's amplitude): it is read while the model is built or
@@ -138,6 +139,33 @@ def fields(part) -> dict:
     each part's name, pins and role a few times over while it is built, which for a
     netlist of 10⁵ elements was most of the time. Read only, never written."""
     return object.__getattribute__(part, "__dict__")
+
+
+def renamable(part: Part) -> bool:
+    """Whether :func:`renamed` gives ``part`` under another name: no field but ``name``
+    depends on the name (:class:`Part`'s default currents for several branches,
+    ``i(name.1)``, ``i(name.2)``…, do)."""
+    old = fields(part)["name"]
+    return not any(label.startswith(f"{old}.") for label, _ in fields(part)["currents"])
+
+
+def renamed(part: Part, name: str) -> Part:
+    """``part`` under the name ``name``: the same object field for field but ``name``.
+
+    Equal to the part its constructor builds from the same arguments with ``name``
+    exactly when no other field depends on the name (:func:`renamable`; a part that is
+    not is refused). A netlist's alike transistors (one line of a subcircuit
+    instantiated 10⁴ times) are each built once this way instead of being constructed
+    again (≈ 1 ms a transistor, most of it Equinox's module construction and the
+    closures' checks)."""
+    if not renamable(part):
+        raise ModelError(
+            f"renamed: part {fields(part)['name']!r} reports currents under its own name "
+            f"{fields(part)['currents']}; build the part {name!r} with its constructor."
+        )
+    out = object.__new__(type(part))
+    object.__getattribute__(out, "__dict__").update(fields(part), name=check_name("name", name))
+    return out
 
 
 def _initial(arg: str, values, n: int, name: str) -> tuple[float, ...]:

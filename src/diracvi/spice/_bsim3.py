@@ -16,6 +16,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components import _bsim3 as b3
 from ..errors import ModelError
+from ._cards import built
 
 LEVELS = (8.0, 49.0)
 #: the M line's instance parameters of a BSIM3 device, with ngspice's defaults
@@ -62,9 +63,10 @@ def read_bsim3_model(kind: str, kw: dict, fail, notes: list) -> dict:
     return out
 
 
-def bsim3_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature, tnom):
+def bsim3_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature, tnom, parts=None):
     """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= DELVTO= MULU0= OFF]`` of a
-    BSIM3 card → (part, nodes)."""
+    BSIM3 card → (part, nodes); ``parts``: the read's parts by their arguments
+    (:func:`~._cards.built`), for alike lines built once."""
     card_tnom = values.get("tnom", tnom)
     if temperature != card_tnom:
         raise fail(
@@ -89,11 +91,11 @@ def bsim3_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature,
     vg = ic.get(g, 0.0)
     v0 = (vg - ic.get(s, 0.0), vg - ic.get(d, 0.0), vg - ic.get(b, 0.0))
     try:
-        part = cp.BSIM3(
-            kind, w=geo["w"], l=geo["l"], name=name, version=values["version"], v0=v0,
-            model=card, ad=geo["ad"], as_=geo["as"], pd=geo["pd"], ps=geo["ps"],
-            nrd=geo["nrd"], nrs=geo["nrs"], m=geo["m"], delvto=geo["delvto"],
-            mulu0=geo["mulu0"],
+        part = built(
+            parts, cp.BSIM3, kind, w=geo["w"], l=geo["l"], name=name,
+            version=values["version"], v0=v0, model=card, ad=geo["ad"], as_=geo["as"],
+            pd=geo["pd"], ps=geo["ps"], nrd=geo["nrd"], nrs=geo["nrs"], m=geo["m"],
+            delvto=geo["delvto"], mulu0=geo["mulu0"],
         )  # fmt: skip
     except ModelError as exc:
         raise fail(str(exc)) from None

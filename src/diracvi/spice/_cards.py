@@ -16,9 +16,12 @@ table is given ignores it too, with a note, rather than refusing a deck ngspice 
 
 from __future__ import annotations
 
+import pickle
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import NamedTuple
+
+from ..components._part import renamable, renamed
 
 #: ngspice's nominal temperature, the only one diracvi simulates
 TNOM = {"tnom": (27.0, "TNOM={x:g} is not supported; only 27 °C (drop it)")}
@@ -145,3 +148,31 @@ def nominal_only(ctx, element, kw, line, what: str) -> None:
             "this device only at ngspice's nominal 27 °C (drop .temp, .options temp=/tnom= "
             "and the line's TEMP=/DTEMP=, or set them to 27 °C)"
         )
+
+
+def built(parts: dict | None, build: Callable, *args, name: str, **kwargs):
+    """``build(*args, name=name, **kwargs)``, a part constructor called with a netlist's
+    numbers, or the part ``parts`` (one read's memory, ``None``: none) holds from an
+    equal call, under the name ``name`` (:func:`~diracvi.components._part.renamed`).
+
+    A subcircuit instantiated 10⁴ times repeats each of its transistor lines with the
+    same card, size and initial voltages: the parts differ in their names only, and
+    building each again cost ≈ 1 ms of Python (the level's checks and closures, their
+    content keys, Equinox's construction of the part and of its wrapped functions).
+    Calls are equal when their arguments' pickles are: the same types (NumPy's float64
+    is not a float), numbers by their exact bits (0.0 is not −0.0), containers item by
+    item in order; an argument that does not pickle (a local function) is not
+    compared: the part is built."""
+    key = None
+    if parts is not None:
+        try:
+            key = (build, pickle.dumps((args, kwargs), pickle.HIGHEST_PROTOCOL))
+        except (pickle.PicklingError, TypeError, AttributeError, ValueError):  # a local function
+            key = None
+    hit = parts.get(key) if key is not None else None
+    if hit is not None:
+        return renamed(hit, name)
+    part = build(*args, name=name, **kwargs)
+    if key is not None and renamable(part):
+        parts[key] = part
+    return part

@@ -19,7 +19,7 @@ from ..components._temperature import BJT as BJT_TEMPERATURE
 from ..components._temperature import BJT_ALIASES as BJT_TEMPERATURE_ALIASES
 from ..components._temperature import bjt as bjt_at
 from ..components._temperature import kelvin
-from ._cards import NodeIC, device_temperature, element_card
+from ._cards import NodeIC, built, device_temperature, element_card
 
 KINDS = {"NPN": "npn", "PNP": "pnp", "NMOS": "nmos", "PMOS": "pmos"}
 
@@ -114,8 +114,9 @@ def _level(name, model: DeviceModel, fail):
         )
 
 
-def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, models):
-    """``Qname c b e [s] model [area] [OFF]`` → (part, nodes)."""
+def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, models, parts=None):
+    """``Qname c b e [s] model [area] [OFF]`` → (part, nodes); ``parts``: the read's parts
+    by their arguments (:func:`~._cards.built`), for alike lines built once."""
     _level(name, model, fail)
     if model.kind not in ("npn", "pnp"):
         raise fail(f"element {name!r}: model is {model.kind.upper()}, a Q line needs NPN/PNP")
@@ -132,8 +133,8 @@ def bjt(name, pos, kw, model: DeviceModel, value, fail, ic, notes, number, model
             raise fail(f"element {name!r}: parameter {key.upper()} is not supported on Q lines")
     v = model.values
     vb, vc, ve, vs = (ic.get(nodes[k], 0.0) for k in "bces")
-    part = cp.BJT(
-        model.kind, is_=v["is"], bf=v["bf"], br=v["br"], nf=v["nf"], nr=v["nr"],
+    part = built(
+        parts, cp.BJT, model.kind, is_=v["is"], bf=v["bf"], br=v["br"], nf=v["nf"], nr=v["nr"],
         vaf=v["vaf"], var=v["var"], ikf=v["ikf"], ikr=v["ikr"], ise=v["ise"], ne=v["ne"],
         isc=v["isc"], nc=v["nc"], rb=v["rb"], rc=v["rc"], re=v["re"], cje=v["cje"],
         vje=v["vje"], mje=v["mje"], cjc=v["cjc"], vjc=v["vjc"], mjc=v["mjc"], tf=v["tf"],
@@ -175,8 +176,9 @@ def q_line(ctx, name, pos, kw, line):
     notes: list[str] = []
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = bjt(
-        name, pos, kw, model, value, line.fail, NodeIC(ctx), notes, line.where, {token.lower()}
-    )
+        name, pos, kw, model, value, line.fail, NodeIC(ctx), notes, line.where, {token.lower()},
+        ctx.reader.parts,
+    )  # fmt: skip
     for note in notes:
         ctx.note(line, note.split(": ", 1)[1])
     return part, nodes

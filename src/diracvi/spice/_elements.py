@@ -27,7 +27,7 @@ from __future__ import annotations
 from .. import components as cp
 from ..components.diode import NGSPICE39_NAMES, SPICE_ALIASES, SPICE_INERT
 from ._behavioural import b_line
-from ._cards import device_temperature
+from ._cards import built, device_temperature
 from ._controlled import cccs, ccvs, vccs, vcvs
 from ._devices import q_line
 from ._jfet import j_line
@@ -119,9 +119,10 @@ def _d(ctx, name, pos, kw, line):
         ctx.note(line, f"{pos[0]} OFF: its junction starts the operating point at 0 V")
         ctx.reader.off.add(name)
     temp = device_temperature(ctx, pos[0], kw, line)
-    part = cp.spice_diode(
-        params, name=name, area=area, ic=ic, pj=pj, m=mult, temperature=temp, tnom=ctx.tnom
-    )
+    part = built(
+        ctx.reader.parts, cp.spice_diode, params, name=name, area=area, ic=ic, pj=pj, m=mult,
+        temperature=temp, tnom=ctx.tnom,
+    )  # fmt: skip
     return part, {"p": pos[1], "n": pos[2]}
 
 

@@ -16,7 +16,7 @@ from .. import components as cp
 from ..components._temperature import jfet as jfet_at
 from ..components._temperature import kelvin
 from ..errors import ModelError
-from ._cards import NOISE, Card, device_temperature, element_card
+from ._cards import NOISE, Card, built, device_temperature, element_card
 
 _DEFAULTS = {
     "vto": -2.0, "beta": 1e-4, "lambda": 0.0, "b": 1.0, "is": 1e-14, "rd": 0.0,
@@ -76,9 +76,10 @@ def j_line(ctx, name, pos, kw, line):
         ctx.note(line, note)
     d, g, s = pos[1:4]
     vg = ctx.ic(g)
-    part = cp.JFET(
-        kind.lower(), v["vto"], v["beta"], v["lambda"], b=v["b"], is_=v["is"], rd=v["rd"],
-        rs=v["rs"], cgs=v["cgs"], cgd=v["cgd"], pb=v["pb"], fc=v["fc"], area=area, m=mult,
+    part = built(
+        ctx.reader.parts, cp.JFET, kind.lower(), v["vto"], v["beta"], v["lambda"], b=v["b"],
+        is_=v["is"], rd=v["rd"], rs=v["rs"], cgs=v["cgs"], cgd=v["cgd"], pb=v["pb"],
+        fc=v["fc"], area=area, m=mult,
         v0=(vg - ctx.ic(s), vg - ctx.ic(d)), name=name,
         bfac=bfac, emission=emission,
     )  # fmt: skip

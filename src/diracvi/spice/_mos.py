@@ -27,7 +27,7 @@ from ..errors import ModelError
 from ._binning import binned
 from ._bsim3 import LEVELS as BSIM3_LEVELS
 from ._bsim3 import bsim3_line, read_bsim3_model
-from ._cards import NodeIC, device_temperature, element_card
+from ._cards import NodeIC, built, device_temperature, element_card
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
 from ._mos3 import law as law3
@@ -83,13 +83,14 @@ _INSTANCE = {"l": 100e-6, "w": 100e-6, "m": 1.0, "ad": 0.0, "as": 0.0, "pd": 0.0
              "nrd": 1.0, "nrs": 1.0}  # fmt: skip
 
 
-def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tnom=27.0):
+def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tnom=27.0, parts=None):
     """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= OFF]`` → (part, nodes)
     for the card values ``v`` (:func:`read_mos_model`); a level-1 device at
     ``temperature`` (°C) from its card's TNOM, else ``tnom`` (°C), by ngspice 39's update
     (:func:`~diracvi.components._temperature.mos1`, which ``mos2temp`` and ``mos3temp``
     share for levels 2 and 3; level 3 also scales U0, and both laws read ``V_T`` at the
-    device's temperature)."""
+    device's temperature). ``parts``: the read's parts by their arguments
+    (:func:`~._cards.built`), for alike lines built once."""
     extra = [t for t in pos[6:] if t.lower() != "off"]
     if len(pos) < 6 or extra:
         raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
@@ -135,24 +136,27 @@ def mosfet(name, pos, kw, kind, v, value, fail, ic, notes, temperature=27.0, tno
         cox=process["cox"], rd=resistance("rd", "nrd"), rs=resistance("rs", "nrs"),
         cbd=bottom("cbd", "ad"), cbs=bottom("cbs", "as"), cbdsw=v["cjsw"] * geo["pd"],
         cbssw=v["cjsw"] * geo["ps"], pb=v["pb"], mj=v["mj"], mjsw=v["mjsw"], fc=v["fc"],
-        v0=v0, name=name,
+        v0=v0,
     )  # fmt: skip
     if emission != 1.0:  # V_T(T)/V_T(27 °C): the bulk junctions' and levels 2 and 3's laws'
         common["emission"] = emission
     if v.get("level") == 6.0:
         args = law(v, process)
         args["kc"] = args["kc"] * mobility  # mos6temp: KC (T/T_nom)^{-3/2}, KV unscaled
-        part = cp.MOSFET6(kind, process["vto"], w=geo["w"], l=geo["l"], **args, **common)
+        part = built(parts, cp.MOSFET6, kind, process["vto"], w=geo["w"], l=geo["l"], name=name,
+                     **args, **common)  # fmt: skip
     elif v.get("level") == 2.0:
         del common["cox"]  # level 2 always has an oxide: C'ox from TOX (or 0.1 µm)
-        part = cp.MOSFET2(kind, w=geo["w"], l=geo["l"], **law2(v, process), **common)
+        part = built(parts, cp.MOSFET2, kind, w=geo["w"], l=geo["l"], name=name,
+                     **law2(v, process), **common)  # fmt: skip
     elif v.get("level") == 3.0:
         del common["cox"]  # level 3 always has an oxide: C'ox from TOX (or 0.1 µm)
-        part = cp.MOSFET3(kind, w=geo["w"], l=geo["l"], **law3(v, process), **common)
+        part = built(parts, cp.MOSFET3, kind, w=geo["w"], l=geo["l"], name=name,
+                     **law3(v, process), **common)  # fmt: skip
     else:
-        part = cp.MOSFET(
-            kind, process["vto"], process["kp"], v["lambda"], geo["w"], geo["l"],
-            process["gamma"], process["phi"], **common,
+        part = built(
+            parts, cp.MOSFET, kind, process["vto"], process["kp"], v["lambda"], geo["w"],
+            geo["l"], process["gamma"], process["phi"], name=name, **common,
         )  # fmt: skip
     return part, {"d": d, "g": g, "s": s, "b": b}
 
@@ -179,7 +183,7 @@ def m_line(ctx, name, pos, kw, line):
         value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
         part, nodes = bsim3_line(
             name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes, temp,
-            ctx.tnom,
+            ctx.tnom, ctx.reader.parts,
         )  # fmt: skip
         for note in notes:
             ctx.note(line, note)
@@ -188,8 +192,9 @@ def m_line(ctx, name, pos, kw, line):
     kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
     value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
     part, nodes = mosfet(
-        name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes, temp, ctx.tnom
-    )
+        name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes, temp, ctx.tnom,
+        ctx.reader.parts,
+    )  # fmt: skip
     for note in notes:
         ctx.note(line, note)
     return part, nodes

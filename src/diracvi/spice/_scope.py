@@ -152,9 +152,7 @@ class Scope:
 
     def note(self, line: Line, text: str) -> None:
         chain = f" in {'.'.join(self.path)}" if self.path else ""
-        note = f"{line.where}{chain}: {text}"
-        if note not in self.reader.notes:
-            self.reader.notes.append(note)
+        self.reader.note_once(f"{line.where}{chain}: {text}")
 
     # --------------------------------------------------------------- names
     def display(self, element: str) -> str:
