@@ -451,6 +451,20 @@ def _ngspice_off_the_reference(name, **settings):
     return worst, errors
 
 
+def test_xy_tra_errormessagetest2_reference_is_converged_at_a_corner():
+    """xy_tra_errormessagetest2's reference is ngspice at TMAX = TSTEP/500 (its
+    reference_tmax_divisor): at 25.1 ns, where the PULSE's corner meets the two lines'
+    echo, the exact delay recursion of its resistive ends gives v(2) = 65/27 V; the
+    TSTEP/50 reference held 2.400463 V there (2.9e-3 of peak off, ngspice's error at a
+    corner falling with its TMAX), the TSTEP/500 one 2.406713 V (2.9e-4)."""
+    t, ref = corpus.load_reference("xy_tra_errormessagetest2")
+    assert corpus.reference_divisor(corpus.DATA / "xy_tra_errormessagetest2.cir") == 500
+    k = int(np.argmin(np.abs(t - 25.1e-9)))
+    assert abs(t[k] - 25.1e-9) < 1e-15
+    peak = float(np.max(np.abs(ref["v(2)"])))
+    assert abs(ref["v(2)"][k] - 65 / 27) <= corpus.TOL * peak
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
 def test_xy_sandler25_reference_is_nearer_converged():
