@@ -555,7 +555,7 @@ def test_es_halfwave_scr_fires_at_the_same_phase_every_period():
     is ~30 ns wide. At the deck's own settings the second firing came 12.5 ns after the
     first's phase, and 0.41 of the anode current's peak off the reference there: the
     step control judged the gate's 0–0.6 V build-up against the running peaks of the
-    first firing (the control node at 50 V), ~100 times looser than the first build-up
+    first firing (the control node at ~100 V), ~170 times looser than the first build-up
     was. With the peaks restarted at each source corner (``driver/adaptive.py``) the two
     firings are 0.02 ns apart and each within 0.1 ns of converged ngspice."""
     from diracvi import spice
