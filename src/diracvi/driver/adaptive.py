@@ -147,11 +147,12 @@ a gate current into ``C ∥ R``, builds up 0 → 0.6 V before it fires and then 
 100–190 V) had its later build-ups judged against the first firing's peaks, 170–300
 times looser than the first build-up, and fired 6–13 ns late on an edge ~30 ns wide,
 the first 0.4–0.6 ns from the fine ngspice reference; restarted, every firing is as
-close as the first, for 2–3.7 times the steps. Restarting ``Q`` and the multipliers'
-alone cost less (3764 → 4170 steps) but left the step after a corner at ~1.5 ps, where a
-stiff junction mode's current, ringing as ``1/h``, drew a 0.66 A spike into the
-fullwave deck's ``i(v1)`` at 12 ms (0.34 of its peak). The inductors' nodal-momentum
-peaks ``P`` are not restarted, nor are the sparse host loops' (linear circuits).
+close as the first, for 2–3.7 times the steps (and the fullwave deck at reltol 1e-5
+now ends on its tries budget at 18 ms). Restarting ``Q`` and the multipliers' alone cost
+less (3764 → 4170 steps) but took ~1.5 ps steps after the 12 ms corner, where the
+fullwave deck's ``i(v1)`` read 0.66 A against the reference's ~0 (0.34 of its peak; not
+traced further). The inductors' nodal-momentum peaks ``P`` are not restarted, nor are
+the sparse host loops' (linear circuits).
 
 **Events.** A circuit with switches carries their discrete states ``σ`` from step to
 step; a try over which a switch would flip is accepted only once its end lies within
