@@ -503,7 +503,7 @@ def test_es_cmos_nand_reference_resolves_the_gate_currents():
     at the edge's end, where the converged current is −5.5e-10), 0.033 of its peak off
     ngspice at TMAX = 10 ns. With the deck's reference_options (abstol=1e-15,
     chgtol=1e-18) the same TMAX is within 2e-3 of it (measured 1.1e-3, at the edge's
-    Miller spike, 65.56 µs)."""
+    Miller spike, 65.61 µs)."""
     deck = corpus.DATA / EXPECTED["es_cmos_nand"]["file"]
     options = corpus.reference_options(deck)
     assert options == "abstol=1e-15 chgtol=1e-18"
