@@ -16,7 +16,8 @@ fine runs at those ``reltol`` (:func:`reference_from_run`).
 ``EXPECTED.toml`` says what diracvi does with each deck today; a deck's
 ``reference_tmax_divisor`` there replaces the 50 (ngspice's first step is a tenth of
 TMAX, taken by backward Euler: across ``xy_minductors``'s 1 µs L/R start at 0.2 µs it
-left the reference 0.018 of peak off its closed form, 3.3e-4 at TSTEP/500).
+left the reference 0.018 of peak off its closed form, 3.3e-4 at TSTEP/500), and its
+``reference_options`` adds ngspice ``.options`` to the fine run (:func:`reference_options`).
 
 Names: ngspice's raw file calls a node voltage ``v(n)`` and a branch current ``i(name)``,
 as diracvi does; they are matched case-insensitively. Kept are the node voltages and the
@@ -185,9 +186,11 @@ def wrapper(
     fine: bool = True,
     divisor: float = TMAX_DIVISOR,
     reltol: float = RELTOL,
+    options: str = "",
 ) -> str:
     """A deck that runs ``text``'s circuit at its own ``.tran``, refined when ``fine``
-    (``reltol``, by default RELTOL, and ``TMAX = min(TSTEP/divisor, deck's TMAX)``), and
+    (``reltol``, by default RELTOL, the ``name=value`` ngspice ``options``, and
+    ``TMAX = min(TSTEP/divisor, deck's TMAX)``), and
     writes every vector to a binary raw file (the doubles ngspice computed, a third of the
     ASCII file's size, whose 16 digits round the last bit; :func:`read_raw` reads both).
     The deck's own ``.control`` blocks are left out."""
@@ -195,7 +198,7 @@ def wrapper(
         tmax = tran.step / divisor
         if tran.tmax:
             tmax = min(tmax, tran.tmax)
-        options = f"option reltol={reltol!r}"
+        options = f"option reltol={reltol!r} {options}".rstrip()
     else:
         tmax = tran.tmax
         options = ""
@@ -342,6 +345,17 @@ def reference_reltols(deck: Path) -> tuple[float, ...]:
     return reltols
 
 
+def reference_options(deck: Path) -> str:
+    """The ngspice ``.options`` (``"name=value …"``) that ``deck``'s fine reference adds to
+    ``reltol``: its ``reference_options`` in ``EXPECTED.toml``, else none. A deck whose
+    compared signals are the rates of charges below the defaults' resolution needs them:
+    ``es_cmos_nand``'s gate currents (peaks of 4–6 nA, a 9e-14 C swing of gate charge) at
+    ``chgtol`` = 1e-14 C and ``abstol`` = 1 pA rang point to point by ±1.1e-10 A in
+    ngspice's trapezoidal steps at the first input edge's end (``abstol=1e-15
+    chgtol=1e-18``: smooth, within 2e-3 of ngspice at TMAX = 1 ns)."""
+    return str(_entry(deck).get("reference_options", ""))
+
+
 def run_ngspice(
     deck: Path,
     *,
@@ -350,18 +364,24 @@ def run_ngspice(
     reltol: float = RELTOL,
     divisor: float | None = None,
     keep=None,
+    options: str | None = None,
 ):
     """Run ngspice 39 on ``deck`` (see :func:`wrapper`): ``(names, data, seconds)``;
-    ``reltol`` and ``divisor`` (default: the reference's) refine a ``fine`` run further;
+    ``reltol``, ``divisor`` and ``options`` (defaults: the reference's) refine a ``fine``
+    run further;
     ``keep`` (e.g. :func:`kept`) selects the vectors read (:func:`read_raw`)."""
     text = deck.read_text(errors="replace")
     tran = find_tran(text)
     if divisor is None:
         divisor = reference_divisor(deck) if fine else TMAX_DIVISOR
+    if options is None:
+        options = reference_options(deck) if fine else ""
     with tempfile.TemporaryDirectory() as tmp:
         raw = Path(tmp) / "out.raw"
         cir = Path(tmp) / "wrapper.cir"
-        cir.write_text(wrapper(text, tran, raw, fine=fine, divisor=divisor, reltol=reltol))
+        cir.write_text(
+            wrapper(text, tran, raw, fine=fine, divisor=divisor, reltol=reltol, options=options)
+        )
         t0 = time.perf_counter()
         # run beside the deck, so that its relative .include files are found
         proc = subprocess.run(

@@ -19,6 +19,9 @@ EXPECTED from a run.
 from __future__ import annotations
 
 import hashlib
+import subprocess
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -102,6 +105,22 @@ def test_deck_against_fine_ngspice(name):
         assert np.isfinite(worst) or missing, detail
         return
     assert agrees, f"{name} no longer agrees with ngspice: {detail}"
+
+
+def test_reference_options_reach_the_fine_run_only():
+    # a deck's reference_options are added to the fine run's option line (after reltol);
+    # a run at the deck's own settings is left as the deck has it
+    with_options = {n: e for n, e in EXPECTED.items() if "reference_options" in e}
+    assert "es_cmos_nand" in with_options
+    for name, entry in with_options.items():
+        options = corpus.reference_options(corpus.DATA / entry["file"])
+        assert options == entry["reference_options"], name
+    assert corpus.reference_options(corpus.DATA / EXPECTED["ng_rc"]["file"]) == ""
+    tran = corpus.Tran(step=1e-4, stop=0.1)
+    fine = corpus.wrapper("* t\n.end", tran, Path("o.raw"), options="chgtol=1e-18")
+    assert "option reltol=1e-07 chgtol=1e-18" in fine.splitlines()
+    own = corpus.wrapper("* t\n.end", tran, Path("o.raw"), fine=False, options="chgtol=1e-18")
+    assert "chgtol" not in own
 
 
 _QUICK_FRESH = {"ng_rc", "xy_rlc", "es_halfwave"}
@@ -438,6 +457,59 @@ def test_ng_schmitt_reference_is_converged():
     assert corpus.reference_divisor(deck) == 500
     worst, errors = _ngspice_off_the_reference("ng_schmitt", reltol=1e-9, divisor=5000)
     assert worst <= corpus.TOL, errors
+
+
+def _first_edge(divisor, options):
+    """ngspice on es_cmos_nand's circuit over its first input edge only (both inputs
+    ramp 0 → 5 V in 0–100 µs, ngspice's TR = TSTEP for the deck's TR = 0), at reltol
+    1e-7, TMAX = TSTEP/divisor and the ngspice ``options``: ``(names, data)``."""
+    deck = corpus.DATA / EXPECTED["es_cmos_nand"]["file"]
+    tran = corpus.Tran(step=1e-4, stop=1.2e-4)
+    text = deck.read_text(errors="replace")
+    with tempfile.TemporaryDirectory() as tmp:
+        raw = Path(tmp) / "out.raw"
+        cir = Path(tmp) / "wrapper.cir"
+        cir.write_text(corpus.wrapper(text, tran, raw, divisor=divisor, options=options))
+        subprocess.run(
+            ["ngspice", "-b", str(cir)], cwd=deck.parent, capture_output=True, timeout=900
+        )
+        return corpus.read_raw(raw, corpus.kept)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
+def test_es_cmos_nand_reference_resolves_the_gate_currents():
+    """es_cmos_nand's compared gate currents (4–6 nA peaks) are the rates of gate charges
+    that swing by ~9e-14 C, below what ngspice's default CHGTOL (1e-14 C) and ABSTOL (1 pA)
+    resolve: at the reference's TMAX = TSTEP/500 and reltol 1e-7 with those defaults,
+    ngspice's trapezoidal steps leave i(v1) ringing point to point (−4.4e-10 / −6.5e-10 A
+    at the edge's end, where the converged current is −5.5e-10), 0.033 of its peak off
+    ngspice at TMAX = 10 ns. With the deck's reference_options (abstol=1e-15,
+    chgtol=1e-18) the same TMAX is within 2e-3 of it (measured 1.1e-3, at the edge's
+    Miller spike, 65.61 µs)."""
+    deck = corpus.DATA / EXPECTED["es_cmos_nand"]["file"]
+    options = corpus.reference_options(deck)
+    assert options == "abstol=1e-15 chgtol=1e-18"
+    divisor = corpus.reference_divisor(deck)
+    assert divisor == 500
+    fine_names, fine = _first_edge(1e4, options)
+
+    def off(names, data):
+        t = data[:, 0]
+        inside = t <= 1e-4  # the ramps' end: 0 A after it, a corner both runs hold
+        worst = {}
+        for vector in ("i(v1)", "i(v2)"):
+            converged = fine[:, fine_names.index(vector)]
+            mine = data[inside, names.index(vector)]
+            peak = np.max(np.abs(converged))
+            worst[vector] = np.max(np.abs(mine - np.interp(t[inside], fine[:, 0], converged)))
+            worst[vector] /= peak
+        return worst
+
+    resolved = off(*_first_edge(divisor, options))
+    assert max(resolved.values()) <= 2e-3, resolved
+    ringing = off(*_first_edge(divisor, ""))
+    assert min(ringing.values()) > 2e-2, ringing
 
 
 def _ngspice_off_the_reference(name, **settings):
