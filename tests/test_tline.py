@@ -217,25 +217,32 @@ def test_every_other_run_refuses_a_system_with_lines():
         )
 
 
+#: two matched 50 Ω ends, the line between them released from ``IC=1,0,1,0``
+_RELEASED = """line released from its initial condition
+r1 2 0 50
+t1 2 0 3 0 z0=50 td={td} ic=1,0,1,0
+r2 3 0 50
+.tran 0.1n 6n uic
+.end
+"""
+
+
+def _assert_released(result, inside, after):
+    """Both ends at 0.5 V for one delay (``inside``), then 0 (``after``)."""
+    for probe in ("v(2)", "v(3)"):
+        assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
+        assert np.max(np.abs(result[probe][after])) < 1e-12
+
+
 def test_uic_starts_the_waves_from_ic():
     """Under UIC a line's ``IC=v1,i1,v2,i2`` are its ports before t0 (ngspice's
     ``traload.c``: ``e₁ = v₂ + Z₀ i₂``): with ``IC=1,0,1,0`` between two matched 50 Ω
     ends each port sees ``e = 1`` for one delay, so ``v = 0.5``, and then the wave that
     left the other end, ``w = v + Z₀ i = 0.5 − 0.5 = 0``. (ngspice 39: the same, 0.5 then
     0.)"""
-    deck = """line released from its initial condition
-r1 2 0 50
-t1 2 0 3 0 z0=50 td=2n ic=1,0,1,0
-r2 3 0 50
-.tran 0.1n 6n uic
-.end
-"""
-    result = spice.run(deck, dt=0.1e-9)
+    result = spice.run(_RELEASED.format(td="2n"), dt=0.1e-9)
     t = result.time
-    inside, after = (t > 0.05e-9) & (t < 1.95e-9), t > 2.05e-9
-    for probe in ("v(2)", "v(3)"):
-        assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
-        assert np.max(np.abs(result[probe][after])) < 1e-12
+    _assert_released(result, (t > 0.05e-9) & (t < 1.95e-9), t > 2.05e-9)
 
 
 def test_uic_on_variable_steps():
@@ -246,19 +253,10 @@ def test_uic_on_variable_steps():
     from diracvi.spice._run import _line_waves, controls
     from diracvi.spice._tran import tran_settings
 
-    deck = """line released from its initial condition
-r1 2 0 50
-t1 2 0 3 0 z0=50 td=2.05n ic=1,0,1,0
-r2 3 0 50
-.tran 0.1n 6n uic
-.end
-"""
+    deck = _RELEASED.format(td="2.05n")
     result = spice.run(deck, internal=True)
     t = result.time
-    inside, after = (t > 0) & (t < 2.05e-9), t > 2.05e-9
-    for probe in ("v(2)", "v(3)"):
-        assert np.max(np.abs(result[probe][inside] - 0.5)) < 1e-12
-        assert np.max(np.abs(result[probe][after])) < 1e-12
+    _assert_released(result, (t > 0) & (t < 2.05e-9), t > 2.05e-9)
     net = spice.read(deck)
     settings = tran_settings(net)
     q0, p0 = net.initial_state()
