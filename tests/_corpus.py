@@ -413,7 +413,9 @@ def kept(name: str) -> bool:
     return not re.fullmatch(r"pa_\d+", what)
 
 
-def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
+def reference_from_run(
+    deck: Path, timeout: float = 900
+) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
     """The fine ngspice run of ``deck`` at its own (thinned) time points:
     ``(t, {vector: values}, s)``.
 
@@ -423,14 +425,15 @@ def reference_from_run(deck: Path) -> tuple[np.ndarray, dict[str, np.ndarray], f
     ngspice's fine runs do not reproduce one another — ``ng_transformers1``'s XSPICE
     windings, where each run has bursts of up to 1.9e5 V at instants of its own and none
     at the others' — no single run is the circuit's answer, and a value that one run
-    alone has is dropped, while whatever a majority of the runs agree on stays."""
+    alone has is dropped, while whatever a majority of the runs agree on stays.
+    ``timeout``: each ngspice run's wall-clock limit in seconds."""
     reltols = reference_reltols(deck)
-    names, data, seconds = run_ngspice(deck, keep=kept, reltol=reltols[0])
+    names, data, seconds = run_ngspice(deck, keep=kept, reltol=reltols[0], timeout=timeout)
     if len(reltols) > 1:
         t = data[:, 0]
         stack = [data]
         for reltol in reltols[1:]:
-            other_names, other, s = run_ngspice(deck, keep=kept, reltol=reltol)
+            other_names, other, s = run_ngspice(deck, keep=kept, reltol=reltol, timeout=timeout)
             seconds += s
             column = {n: j for j, n in enumerate(other_names)}
             resampled = np.empty_like(data)
