@@ -127,9 +127,9 @@ def test_maps_dropped_from_the_cache_are_verified_before_they_go(monkeypatch):
     calls = []  # the maps made so far at each check
     original = SparseAffineMap._check_steps
 
-    def first_is_bad(self, z, y, t):
+    def first_is_bad(self, z, y, t, shift=None):
         calls.append(len(made))
-        worst = original(self, z, y, t)
+        worst = original(self, z, y, t, shift=shift)
         return 1.0 if len(calls) == 1 else worst
 
     monkeypatch.setattr(SparseAffineMap, "_check_steps", first_is_bad)

@@ -17,6 +17,16 @@ needs_ngspice = pytest.mark.skipif(not ng.available(), reason="ngspice is not in
 TEMPERATURES = (-40.0, 0.0, 91.0, 125.0)
 
 
+def _assert_currents_are_ngspices(deck: str, sources, *, rel: float, abs: float = 0.0):
+    """Each of ``sources``' currents at diracvi's operating point of ``deck`` is
+    ngspice's (``ng.operating_point``) to ``rel`` (and ``abs`` amperes)."""
+    ref = ng.operating_point(deck)
+    op = spice.operating_point(spice.read(deck))
+    for source in sources:
+        want = ref[f"i({source.lower()})"]
+        assert op.currents[source] == pytest.approx(want, rel=rel, abs=abs), source
+
+
 # ------------------------------------------------------------ the circuit temperature
 def _resistor(extra: str) -> str:
     return f"temperature rules\nV1 1 0 1\nR1 1 0 1k tc1=0.01\n{extra}\n.tran 1u 2u\n.end\n"
@@ -230,11 +240,7 @@ def test_bjts_match_ngspice_away_from_27C(setting):
     NPN and a PNP, the instance's TEMP and DTEMP, a model TNOM and ``.options tnom``:
     every source's current at the operating point."""
     deck = BJTS.format(setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-8, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"), rel=1e-8)
 
 
 def test_bjt_temperature_levels_and_unscaled_parameters_are_refused_by_name():
@@ -254,16 +260,13 @@ def test_a_base_resistance_that_parts_from_rbm_with_temperature_matches_ngspice(
     # TRM1 = 0 against TRB1 = 2e-3: at 50 °C RB(T) ≠ RBM(T), ngspice's bias-dependent
     # base resistance RBM + (RB − RBM)/q_b (components/bjt.py)
     deck = BJTS.format(setting=".temp 50").replace("TRM1=2e-3", "TRM1=0")
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-8, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VCC", "VB1", "VB2", "VB3", "VC3", "VB4"), rel=1e-8)
 
 
 # ---------------------------------------------------------------------- MOSFET level 1
-MOSFETS = """mos1 temperatures
-VDD vdd 0 3
+#: the MOSFET decks' first three stages: an NMOS with its drain load, a PMOS (DTEMP), and
+#: an NMOS with a reverse-biased bulk (its junction's JS), each level's cards named nm, pm, np
+MOS_STAGES = """VDD vdd 0 3
 VG1 g1 0 1.6
 RD1 vdd d1 2k
 M1 d1 g1 0 0 nm L=2u W=20u
@@ -274,7 +277,13 @@ VG3 g3 0 2
 VB3 b3 0 0.45
 M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
 RS3 s3 0 1k
-VG4 g4 0 1.5
+"""
+
+
+MOSFETS = (
+    "mos1 temperatures\n"
+    + MOS_STAGES
+    + """VG4 g4 0 1.5
 M4 d4 g4 0 0 nm L=2u W=20u temp=-20
 VD4 d4 0 0.2
 .model nm NMOS(LEVEL=1 VTO=0.7 KP=50u GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15 TNOM=40)
@@ -284,6 +293,7 @@ VD4 d4 0 0.2
 .tran 1n 10n
 .end
 """
+)
 
 
 @needs_ngspice
@@ -294,27 +304,14 @@ def test_level1_mosfets_match_ngspice_away_from_27C(setting):
     instance's TEMP and DTEMP, a model TNOM and ``.options tnom``: every source's current
     at the operating point."""
     deck = MOSFETS.format(setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VDD", "VB3", "VD4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VDD", "VB3", "VD4"), rel=1e-9)
 
 
 # ------------------------------------------------------------------ MOSFET levels 2 and 3
-LEVELS23 = """mos{level} temperatures
-VDD vdd 0 3
-VG1 g1 0 1.6
-RD1 vdd d1 2k
-M1 d1 g1 0 0 nm L=2u W=20u
-VG2 g2 0 1.2
-RD2 d2 0 3k
-M2 d2 g2 vdd vdd pm L=2u W=40u dtemp=15
-VG3 g3 0 2
-VB3 b3 0 0.45
-M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
-RS3 s3 0 1k
-VG4 g4 0 0.55
+LEVELS23 = (
+    "mos{level} temperatures\n"
+    + MOS_STAGES
+    + """VG4 g4 0 0.55
 M4 d4 g4 0 0 nw L=3u W=30u
 VD4 d4 0 0.8
 .model nm NMOS(LEVEL={level} VTO=0.7 KP=50u GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15 TNOM=40
@@ -327,6 +324,7 @@ VD4 d4 0 0.8
 .tran 1n 10n
 .end
 """
+)
 
 
 # one case of each level in the default suite (~25 s each: a compiled operating point),
@@ -349,27 +347,14 @@ def test_level2_and_level3_mosfets_match_ngspice_away_from_27C(level, setting):
     PMOS with DTEMP, a model TNOM and ``.options tnom``: each source's current at the
     operating point."""
     deck = LEVELS23.format(level=level, setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VDD", "VB3", "VD4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VDD", "VB3", "VD4"), rel=1e-9)
 
 
-LEVEL6 = """mos6 temperatures
-VDD vdd 0 3
-VG1 g1 0 1.6
-RD1 vdd d1 2k
-M1 d1 g1 0 0 nm L=2u W=20u
-VG2 g2 0 1.2
-RD2 d2 0 3k
-M2 d2 g2 vdd vdd pm L=2u W=40u dtemp=15
-VG3 g3 0 2
-VB3 b3 0 0.45
-M3 vdd g3 s3 b3 np L=1u W=10u AD=20p AS=20p
-RS3 s3 0 1k
-.model nm NMOS(LEVEL=6 VTO=0.7 KC=50u NC=1.2 KV=1.5 NV=0.8 GAMMA=0.5 PHI=0.65 LAMBDA=0.02 IS=1e-15
-+ TNOM=40)
+LEVEL6 = (
+    "mos6 temperatures\n"
+    + MOS_STAGES
+    + """.model nm NMOS(LEVEL=6 VTO=0.7 KC=50u NC=1.2 KV=1.5 NV=0.8 GAMMA=0.5
++ PHI=0.65 LAMBDA=0.02 IS=1e-15 TNOM=40)
 .model pm PMOS(LEVEL=6 TOX=20n NSUB=2e16 U0=250 KV=2 NV=0.6 NC=1.1 LAMBDA0=0.03)
 .model np NMOS(LEVEL=6 TOX=15n NSUB=5e16 NSS=1e10 TPG=1 U0=500 JS=1e-4 CJ=1e-4
 + CJSW=1e-10 PB=0.9 GAMMA1=0.1 SIGMA=0.02)
@@ -377,6 +362,7 @@ RS3 s3 0 1k
 .tran 1n 10n
 .end
 """
+)
 
 
 @needs_ngspice
@@ -389,11 +375,7 @@ def test_level6_mosfets_match_ngspice_away_from_27C(setting):
     from U0·C'ox, VTO from NSUB at TNOM, the reverse-biased bulk junction's JS: each
     source's current at the operating point."""
     deck = LEVEL6.format(setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VDD", "VB3"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VDD", "VB3"), rel=1e-9)
 
 
 # ----------------------------------------------------------------------------- VDMOS
@@ -433,11 +415,7 @@ def test_vdmos_match_ngspice_away_from_27C(setting):
     model TNOM and ``.options tnom``: each source's current at the operating point, to
     1e-9 + 1e-11 A (the channel part's G_min leak, as at 27 °C)."""
     deck = VDMOSES.format(setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VDD", "VD2", "VD4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=1e-11), source
+    _assert_currents_are_ngspices(deck, ("VDD", "VD2", "VD4"), rel=1e-9, abs=1e-11)
 
 
 # ------------------------------------------------------------------------------ JFET
@@ -483,11 +461,7 @@ def test_jfets_match_ngspice_away_from_27C(setting):
     the operating point (taking the tail's factor at the updated PB and VTO puts VDD's
     4.8e-3 off at 125 °C)."""
     deck = JFETS.format(setting=setting)
-    ref = ng.operating_point(deck)
-    op = spice.operating_point(spice.read(deck))
-    for source in ("VDD", "VG2", "VD2", "VS3", "VG3", "VG4"):
-        want = ref[f"i({source.lower()})"]
-        assert op.currents[source] == pytest.approx(want, rel=1e-9, abs=0), source
+    _assert_currents_are_ngspices(deck, ("VDD", "VG2", "VD2", "VS3", "VG3", "VG4"), rel=1e-9)
 
 
 def test_diode_terms_without_a_temperature_update_are_refused_away_from_tnom():

@@ -144,11 +144,9 @@ class _Map:
         if self.samples:
             z, y, t, shift = zip(*self.samples, strict=True)
             z, y, t = np.stack(z), np.stack(y), np.stack(t)
-            if shift[0] is None:  # (no lines: the model's own residual is the step's)
-                self.worst = max(self.worst, self.found._check_steps(z, y, t))
-            else:
-                worst = self.found._check_steps(z, y, t, shift=np.stack(shift))
-                self.worst = max(self.worst, worst)
+            # without lines the model's own residual is the step's (no shift)
+            shift = None if shift[0] is None else np.stack(shift)
+            self.worst = max(self.worst, self.found._check_steps(z, y, t, shift=shift))
             self.samples = []
         return self.worst
 
