@@ -191,8 +191,9 @@ def wrapper(
     """A deck that runs ``text``'s circuit at its own ``.tran``, refined when ``fine``
     (``reltol``, by default RELTOL, the ``name=value`` ngspice ``options``, and
     ``TMAX = min(TSTEP/divisor, deck's TMAX)``), and
-    writes every vector to a binary raw file (the doubles ngspice computed, a third of the
-    ASCII file's size, whose 16 digits round the last bit; :func:`read_raw` reads both).
+    writes every vector but those of length zero to a binary raw file (the doubles ngspice
+    computed, a third of the ASCII file's size, whose 16 digits round the last bit;
+    :func:`read_raw` reads both).
     The deck's own ``.control`` blocks are left out."""
     if fine:
         tmax = tran.step / divisor
@@ -217,6 +218,12 @@ def wrapper(
             options,
             "save all",
             f"tran {args}",
+            # vectors ngspice declares but never fills (``.option savecurrents`` saves a
+            # MOSFET's @m…[ib] as one) make ``write`` fail ("vector … is not available or
+            # has zero length"), and no raw file is written: ngspice's
+            # examples/mos/ro-meas.cir. Only zero-length vectors are removed, so every other
+            # deck's file is what it was.
+            "remzerovec",
             f"write {raw_out}",
             ".endc",
             ".end",
