@@ -266,8 +266,8 @@ def write_expected(rows: list[dict], expected: dict) -> None:
 
 def _kept(entry: dict, row: dict | None = None) -> list[str]:
     """What a rewrite keeps of a deck's entry besides its status: the reference's
-    ``reference_tmax_divisor``, ``reference_reltols``, ``reference_options`` and
-    ``tightened = { … }`` (its error re-measured when ``row`` ran it)."""
+    ``reference_tmax_divisor``, ``reference_reltols``, ``reference_options``,
+    ``reference_random`` and ``tightened = { … }`` (its error re-measured when ``row`` ran it)."""
     out = []
     if "reference_tmax_divisor" in entry:
         out.append(f"reference_tmax_divisor = {entry['reference_tmax_divisor']!r}")
@@ -275,6 +275,8 @@ def _kept(entry: dict, row: dict | None = None) -> list[str]:
         out.append(f"reference_reltols = {[float(r) for r in entry['reference_reltols']]!r}")
     if "reference_options" in entry:
         out.append(f'reference_options = "{entry["reference_options"]}"')
+    if entry.get("reference_random"):
+        out.append("reference_random = true")
     if "tightened" in entry:
         tight = dict(entry["tightened"])
         if row is not None and "tightened_error" in row:

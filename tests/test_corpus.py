@@ -126,6 +126,13 @@ def test_reference_options_reach_the_fine_run_only():
 _QUICK_FRESH = {"ng_rc", "xy_rlc", "es_halfwave"}
 
 
+def _skip_if_random(name):
+    # a deck with a random source (ng_mtimeavg_test's TRNOISE, which ngspice 39 seeds from
+    # the clock) has no reproducible ngspice run: a rerun is a different waveform
+    if EXPECTED[name].get("reference_random"):
+        pytest.skip(f"{name}: a random source; no two ngspice runs agree (EXPECTED.toml)")
+
+
 @pytest.mark.skipif(not corpus.shutil.which("ngspice"), reason="ngspice is not installed")
 @pytest.mark.parametrize(
     "name",
@@ -133,6 +140,7 @@ _QUICK_FRESH = {"ng_rc", "xy_rlc", "es_halfwave"}
 )
 def test_a_fresh_ngspice_run_reproduces_the_committed_reference(name):
     # the references cannot go stale or be edited by hand unnoticed
+    _skip_if_random(name)
     t, committed = corpus.load_reference(name)
     # an hour a run: es_cmos_nand's fine run took 762 s wall at a load of ~11
     grid, fresh, _ = corpus.reference_from_run(corpus.DATA / EXPECTED[name]["file"], timeout=3600)
@@ -164,6 +172,7 @@ def test_ngspice_at_the_decks_own_settings_is_off_by_the_recorded_error(name):
     # what a SPICE user gets from the deck as written (its own .tran and .options), by the
     # corpus's measure against the same fine reference: where it is above TOL, "agree to
     # 1e-3 at the deck's own settings" asks of diracvi what ngspice itself does not do
+    _skip_if_random(name)
     entry = EXPECTED[name]
     t, ref = corpus.load_reference(name)
     names, data, _ = corpus.run_ngspice(corpus.DATA / entry["file"], fine=False)
