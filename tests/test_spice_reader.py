@@ -340,6 +340,39 @@ def test_nested_subcircuits_agree_with_ngspice():
         assert np.max(np.abs(got - ref[probe])) <= 1e-3 * np.max(np.abs(ref[probe])), probe
 
 
+# ngspice's examples/probe/F5models.lib: a potentiometer whose parameters are .param lines
+# of its body ("default parameters, which are required by some simulators"), set per instance
+RPOT = """Instance values over a subcircuit body's own .param lines
+.subckt RPOT 1 2 3
+R1 1 2 {value*ratio + 1m}
+R2 2 3 {value*(1-ratio)+ 1m}
+.param value=1k
+.param ratio=1
+.ends
+V1 a 0 1
+XP a b 0 RPOT value=5k ratio=0.15
+XQ a c 0 RPOT
+C1 b 0 1n
+.tran 1u 10u
+.end
+"""
+
+
+def test_an_instance_sets_a_parameter_its_subcircuits_body_assigns():
+    result = spice.run(RPOT)
+    # XP: R1 = 5k·0.15 + 1m, R2 = 5k·0.85 + 1m (the instance's values); XQ: the body's
+    # defaults, R1 = 1k + 1m, R2 = 1m
+    r1, r2, q1, q2 = 750.001, 4250.001, 1000.001, 1e-3
+    assert result["v(b)"][-1] == pytest.approx(r2 / (r1 + r2), rel=1e-6)
+    assert result["v(c)"][-1] == pytest.approx(q2 / (q1 + q2), rel=1e-6)
+    current = -(1 / (r1 + r2) + 1 / (q1 + q2))
+    assert result["i(v1)"][-1] == pytest.approx(current, rel=1e-6)
+    if ng.available():  # and what ngspice 39 makes of it
+        op = ng.operating_point(RPOT)
+        for key in ("v(b)", "v(c)", "i(v1)"):
+            assert result[key][-1] == pytest.approx(op[key], rel=1e-6), key
+
+
 def test_problems_inside_instances_name_the_instance_chain():
     deck = (
         "t\n.subckt inner a b params: r=1\nR1 a b {r}\nR2 a b {1/(r-2)+10}\n.ends\n"

@@ -18,7 +18,7 @@ from ..errors import ModelError
 from ._cards import CIDER
 from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
 from ._lines import Line, LineError, NetlistError, card, split
-from ._subckt import MAX_DEPTH, collect, instance_parts
+from ._subckt import MAX_DEPTH, body_params, collect, instance_parts
 from ._values import ExpressionError, evaluate, number
 
 GROUNDS = ("0", "gnd")
@@ -51,6 +51,7 @@ class Scope:
     models: dict = field(default_factory=dict)
     subckts: dict = field(default_factory=dict)
     names: dict = field(default_factory=dict)  # element name (lower) -> part name
+    fixed: frozenset = frozenset()  # parameters the instance set over the body's .param
 
     # ---------------------------------------------------------------- for handlers
     @property
@@ -181,7 +182,8 @@ class Scope:
                 f"subcircuit {name!r} ({sub.line.where}) has {len(sub.pins)} pins "
                 f"{list(sub.pins)}, the instance gives {len(nodes)} nodes {nodes}"
             )
-        unknown = sorted(set(overrides) - set(sub.defaults))
+        in_body = body_params(sub.body) - set(sub.defaults)
+        unknown = sorted(set(overrides) - set(sub.defaults) - in_body)
         if unknown:
             raise line.fail(
                 f"subcircuit {name!r} has no parameters {unknown} (it has "
@@ -198,6 +200,9 @@ class Scope:
             else:  # the default, with the parameters before it
                 child = Scope(self.reader, path, params=params)
                 params[key] = child.value(token, sub.line, f"parameter {key}")
+        fixed = frozenset(set(overrides) & in_body)
+        for key in sorted(fixed):  # over the body's own .param of that name
+            params[key] = self.value(overrides[key], line, f"parameter {key}")
         scope = Scope(
             self.reader,
             path,
@@ -205,6 +210,7 @@ class Scope:
             params=params,
             models=dict(self.models),
             subckts=dict(self.subckts),
+            fixed=fixed,
         )
         sub.used.append(line)
         read_body(scope, sub.body)
@@ -250,6 +256,8 @@ def _directive(scope: Scope, line: Line) -> None:
         for key, token in kw.items():
             if not scope.path and key in scope.reader.overrides:
                 continue  # read(..., params=) wins over the netlist's own value
+            if key in scope.fixed:
+                continue  # the instance's value wins over the body's (ngspice)
             scope.params[key] = scope.value(token, line, f".param {key}")
         return
     if word == ".model":

@@ -8,11 +8,14 @@ names scoped by the instance chain, as ngspice reports them: a node ``m`` inside
 and the ``.global`` nodes are the same everywhere. Parameters: the instance's values
 (evaluated where the instance is), else the definition's defaults (evaluated with the
 global parameters and the definition's earlier ones); the body sees these over the
-enclosing scope's. Definitions and ``.model``\ s inside a definition are local to it.
+enclosing scope's. An instance may also set a parameter that a ``.param`` line of the body
+assigns: its value wins over the body's (:func:`body_params`). Definitions and
+``.model``\ s inside a definition are local to it.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 from ._lines import Line, NetlistError, Problems, card, split
@@ -71,6 +74,30 @@ def collect(lines: list[Line], problems: Problems) -> tuple[list[Line], dict[str
             continue
         defs[sub.name] = sub
     return rest, defs
+
+
+def body_params(body: list[Line]) -> set[str]:
+    """The names a ``.param`` line of ``body`` itself assigns (not those of a definition
+    nested in it). ngspice lets an instance's ``name=value`` override such a parameter as
+    it overrides a ``params:`` default: a library's ``.subckt RPOT 1 2 3`` with ``.param
+    value=1k`` and ``.param ratio=1`` in its body ("default parameters, which are required
+    by some simulators", ngspice's ``examples/probe/F5models.lib``) instantiated as ``XP a
+    b 0 RPOT value=5k ratio=0.15`` is 750 Ω and 4250 Ω in ngspice 39, not 1 kΩ and 0."""
+    names: set[str] = set()
+    depth = 0
+    for line in body:
+        word = card(line)
+        depth += (word == ".subckt") - (word == ".ends")
+        if word != ".param" or depth:
+            continue
+        pos, kw = split(line)
+        names.update(k.lower() for k in kw)
+        if pos[1:]:  # ".param name = expr with blanks": the one name before its '='
+            rest = line.text.split(None, 1)[1] if len(line.text.split()) > 1 else ""
+            m = re.match(r"\s*([A-Za-z_][\w.]*)\s*=", rest)
+            if m:
+                names.add(m.group(1).lower())
+    return names
 
 
 def _header(line: Line, body: list[Line]) -> Subckt:
