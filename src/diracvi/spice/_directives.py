@@ -15,6 +15,7 @@ import re
 
 from ._lines import LineError, card, split
 from ._measure import read_measure
+from ._save import probe_tokens
 from ._scope import Scope
 from ._values import KELVIN, NOMINAL_TEMPERATURE, number
 
@@ -152,6 +153,23 @@ def _save(reader, line, pos, kw):
     reader.saves += [(token, line) for token in _vectors(line.text)]
 
 
+def _probe(reader, line, pos, kw):
+    """``.probe`` parameters, resolved once the elements are read (:func:`._save.probes`)."""
+    tokens = probe_tokens(line.text)
+    if not tokens or re.search(r"(?<![\w(])alli(?![\w)])", line.text, re.I):
+        # ngspice reads a bare '.probe' as '.probe alli'
+        reader.note(
+            line,
+            ".probe alli (every device's pin currents, ngspice's 0 V sources at its pins) "
+            "not reported: diracvi gives no pin currents; i(R1) gives an element's current",
+        )
+    reader.probes += [(token, line) for token in tokens]
+
+
+# a .probe line is not read word by word: ngspice goes on past a malformed parameter
+_probe.reads_words = False
+
+
 def _vectors(text: str) -> list[str]:
     """The vector names of a ``.save`` line: ``v(a) i(v1) @r1[i] all a``."""
     body = text.split(None, 1)[1] if len(text.split(None, 1)) > 1 else ""
@@ -234,7 +252,8 @@ DIRECTIVES = {
     ".op": _op,
     ".meas": _measure,
     ".measure": _measure,
-    **dict.fromkeys((".four", ".print", ".plot", ".probe", ".width"), _OUTPUT),
+    ".probe": _probe,
+    **dict.fromkeys((".four", ".print", ".plot", ".width"), _OUTPUT),
     **dict.fromkeys(
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
     ),

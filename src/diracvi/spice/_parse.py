@@ -25,7 +25,7 @@ from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
 from ._magnetic import assemble
 from ._measure import check_measures
-from ._save import select
+from ._save import probes, select
 from ._scope import Scope, read_body
 from ._values import NOMINAL_TEMPERATURE
 
@@ -66,6 +66,8 @@ class Netlist:
         potentials: the MMF nodes of XSPICE's magnetic loops (no KCL row: their "voltage"
             is an MMF, a sum of the windings' ampere-turns), node ->
             ``((current label, turns), …)`` (:mod:`._magnetic`).
+        differences: the ``.probe vd(…)`` vectors, ngspice name ``v(vd_…)`` ->
+            ``(node₊, node₋)`` (``None``: ground), added as ``v(node₊) − v(node₋)``.
         measures: the ``.measure tran`` lines, read (:mod:`._measure`); a run's
             ``result.measurements`` are their values.
     """
@@ -88,6 +90,7 @@ class Netlist:
     op: bool = False
     off: frozenset = frozenset()
     potentials: dict = field(default_factory=dict)
+    differences: dict = field(default_factory=dict)
     measures: tuple = ()
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
@@ -184,6 +187,8 @@ class _Reader:
         self._noted_upto = 0  # how many of them are in it
         self.options: dict = {}
         self.saves: list = []
+        self.probes: list = []  # .probe parameters, (token, line)
+        self.instances: dict[str, list] = {}  # top-level element -> its nodes (for .probe)
         self.measures: list = []  # .measure tran lines (spice/_measure.py)
         self.globals: set[str] = set()
         self.all_models: list = []
@@ -286,7 +291,13 @@ class _Reader:
             off=frozenset(self.off),
             potentials=dict(self.potentials),
         )
-        netlist.vectors = select(netlist, self.saves, self.problems, self.note)
+        saves = self.saves
+        if self.probes:  # ngspice adds '.save all' to a deck with .probe and no .save
+            extra, netlist.differences = probes(netlist, self.probes, self.instances, self.note)
+            saves = [*(saves or [("all", self.probes[0][1])]), *extra]
+        netlist.vectors = select(
+            netlist, saves, self.problems, self.note, derived=netlist.differences
+        )
         if self.measures:  # their names against every vector a run can give
             netlist.measures = check_measures(
                 self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..errors import ModelError
 from ._magnetic import potentials
+from ._save import differences
 
 # quadratic extrapolation to an end node: from nodes 1, 2, 3 steps in, and from the
 # half nodes ½, 3/2, 5/2 (Lagrange weights at 0); third order where the ends are smooth
@@ -50,6 +51,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
     """
     display = getattr(assembly, "display", {})  # a netlist's ngspice names of its parts
     mmf = getattr(assembly, "potentials", {})  # its MMF nodes (spice/_magnetic.py)
+    vd = getattr(assembly, "differences", {})  # its .probe vd(…) vectors (spice/_save.py)
     assembly = getattr(assembly, "assembly", assembly)
     if traj.q is None or traj.save_every != 1:
         raise ValueError(
@@ -95,7 +97,7 @@ def waveforms(assembly, traj) -> dict[str, np.ndarray]:
             for node, terms in mmf.items()
             if all(f"i({display.get(k, k)})" in out for k, _ in terms)
         }
-    return potentials(out, mmf, display)
+    return differences(potentials(out, mmf, display), vd)
 
 
 def to_dataset(assembly, traj):

@@ -43,6 +43,7 @@ from ._operating_point import operating_point as _operating_point
 from ._parse import Netlist, read
 from ._probe import waveforms
 from ._resample import Sampled, Sampler
+from ._save import differences
 from ._stream import KEEP_MAX, StreamRecord, step_signals
 from ._tran import TranSettings, breakpoints, override, tran_settings
 
@@ -666,7 +667,7 @@ def _start_values(netlist: Netlist) -> dict[str, float]:
     out = {f"v({node})": value for node, value in op.voltages.items()}
     for label, value in op.currents.items():
         out[f"i({display.get(label, label)})"] = value
-    return out
+    return differences(out, netlist.differences)
 
 
 def _pin_start(waves: dict, times: np.ndarray, start: dict) -> dict:

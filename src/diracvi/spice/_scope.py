@@ -337,6 +337,8 @@ def _element(scope: Scope, line: Line) -> None:
     name = display.replace(".", ":")  # (scope.part_name)
     where = line.where
     scope.names[key] = (name, where)
+    if not scope.path:  # .probe reads a top-level device's nodes, as ngspice does
+        scope.reader.instances[key] = _terminals(scope, pos)
     part, nodes = handler(scope, name, pos, kw, line)
     circuit = scope.reader.circuit
     circuit.origin[name] = f"{where} ({display})"
@@ -344,3 +346,17 @@ def _element(scope: Scope, line: Line) -> None:
         return
     circuit.add(part, **{pin: scope.node(n) for pin, n in nodes.items()})
     scope.reader.display[name] = display
+
+
+def _terminals(scope: Scope, pos: list[str]) -> list[str]:
+    """A top-level element line's nodes in order (circuit-wide names), as ngspice's
+    ``.probe`` counts them: two for R C L V I B and D; a MOSFET, JFET, MESFET or BJT's up
+    to its model name."""
+    letter = pos[0][0].lower()
+    if letter in "rclvibd":
+        end = 3
+    elif letter in "mjzq":
+        end = next((j for j, t in enumerate(pos[1:], 1) if t.lower() in scope.models), len(pos))
+    else:
+        end = 1  # other elements: no pins for .probe
+    return [scope.node(n) for n in pos[1:end] if "=" not in n]

@@ -33,6 +33,7 @@ import numpy as np
 
 from ._magnetic import potentials
 from ._resample import COLUMNS, Sampler, Signals, interval_of, step_potentials
+from ._save import differences
 
 #: a run's records and signals are kept (besides the streamed grid) up to this many
 #: numbers (128 MB: a 100-stage ladder's 6940 steps fit, a 1000-stage one's do not);
@@ -67,20 +68,22 @@ class Layout:
         names += [f"i({self.display.get(label, label)})" for label, _ in currents]
         self.base = names
         self.table = netlist.potentials
+        self.vd = getattr(netlist, "differences", {})  # .probe vd(…) (spice/_save.py)
         self.extra = []
-        if self.table:
-            flows = {n: np.zeros(1) for n in names if n.startswith("i(")}
-            mmf = potentials(dict(flows), self.table, self.display)  # (it adds to its dict)
-            self.extra = [n for n in mmf if n not in flows]
+        if self.table or self.vd:
+            base = {n: np.zeros(1) for n in names}
+            more = differences(potentials(dict(base), self.table, self.display), self.vd)
+            self.extra = [n for n in more if n not in base]  # (they add to their dict)
         self.names = names + self.extra
 
     def with_extra(self, values: np.ndarray) -> np.ndarray:
-        """``values`` (K, base signals) with the MMF nodes' columns appended."""
+        """``values`` (K, base signals) with the MMF nodes' and the ``.probe`` voltage
+        differences' columns appended."""
         if not self.extra:
             return values
-        flows = {n: values[:, j] for j, n in enumerate(self.base) if n.startswith("i(")}
-        mmf = potentials(dict(flows), self.table, self.display)
-        return np.column_stack([values, *(mmf[n] for n in self.extra)])
+        base = {n: values[:, j] for j, n in enumerate(self.base)}
+        more = differences(potentials(dict(base), self.table, self.display), self.vd)
+        return np.column_stack([values, *(more[n] for n in self.extra)])
 
 
 def step_signals(netlist, march) -> Signals:
