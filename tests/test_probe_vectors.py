@@ -19,6 +19,8 @@ import pytest
 
 import _corpus as corpus
 from diracvi import spice
+from diracvi.bench.ladders import ladder
+from diracvi.spice import _stream
 
 DECK = """probe forms against ngspice
 V1 in 0 PULSE(0 5 0 10n 10n 100n 200n)
@@ -93,3 +95,34 @@ def test_probe_vectors_are_ngspices(tmp_path: Path):
         plus, minus = result[f"v({a})"], result[f"v({b})"] if b else 0.0
         bound = 16 * np.finfo(float).eps * np.max(np.abs(plus) + np.abs(minus))
         assert np.max(np.abs(result[name] - (plus - minus))) <= bound, name
+
+
+#: a 6-stage RLC ladder: 18 coordinates, the sparse maps, whose run streams when over
+#: the budget (tests/test_stream.py)
+LADDER = (
+    ladder(6, steps=200)
+    .replace("SIN(0 1 1000.0)", "PULSE(0 1 20u 5u 5u 40u 100u)")
+    .replace(".tran", ".probe vd(R1) vd(n3, n1) vd(L2) vd(n4, 0)\n.tran")
+)
+
+
+@pytest.mark.slow  # two runs of a 6-stage ladder, ~4 s each
+def test_a_streamed_run_forms_the_same_differences(monkeypatch):
+    # a large circuit's run forms only the saved vectors while it steps (spice/_stream.py):
+    # the .probe differences there are the whole run's, bit for bit
+    whole = spice.run(LADDER)
+    names = {"v(vd_r1)", "v(vd_n3:n1)", "v(vd_l2)", "v(vd_n4:0)"}
+    assert names | {"v(n0)", "v(n6)", "i(v1)", "i(l6)"} <= set(whole)
+    monkeypatch.setattr(_stream, "KEEP_MAX", 0)
+    lean = spice.run(LADDER)
+    assert lean.trajectory.q is None  # (streamed)
+    assert list(lean) == list(whole)
+    for key in whole:
+        np.testing.assert_array_equal(lean[key], whole[key], err_msg=key)
+    np.testing.assert_array_equal(whole["v(vd_n4:0)"], whole["v(n4)"])
+    for name, (a, b) in {"v(vd_r1)": ("n0", "m1"), "v(vd_n3:n1)": ("n3", "n1"),
+                         "v(vd_l2)": ("m2", "n2")}.items():  # fmt: skip
+        plus, minus = whole[f"v({a})"], whole[f"v({b})"]
+        bound = 16 * np.finfo(float).eps * np.max(np.abs(plus) + np.abs(minus))
+        assert np.max(np.abs(whole[name] - (plus - minus))) <= bound, name
+        assert np.max(np.abs(plus - minus)) > 1e-3, name  # not a trivial difference
