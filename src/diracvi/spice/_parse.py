@@ -68,6 +68,8 @@ class Netlist:
             ``((current label, turns), …)`` (:mod:`._magnetic`).
         measures: the ``.measure tran`` lines, read (:mod:`._measure`); a run's
             ``result.measurements`` are their values.
+        funcs: the ``.func`` user functions, name -> ``(argument names, body text)``
+            (a ``.measure … PARAM='…'`` may call them).
     """
 
     title: str
@@ -89,6 +91,7 @@ class Netlist:
     off: frozenset = frozenset()
     potentials: dict = field(default_factory=dict)
     measures: tuple = ()
+    funcs: dict = field(default_factory=dict)
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
     _op: object = field(default=None, repr=False)
@@ -285,6 +288,7 @@ class _Reader:
             op=self.op,
             off=frozenset(self.off),
             potentials=dict(self.potentials),
+            funcs=dict(self.funcs),
         )
         netlist.vectors = select(netlist, self.saves, self.problems, self.note)
         if self.measures:  # their names against every vector a run can give
