@@ -5,8 +5,9 @@ over the visible parameters, the visible models and subcircuits, node names mapp
 the instance (``m`` in ``XA.X1`` → ``xa.x1.m``), and the part names of its elements.
 :func:`read_body` reads a list of lines in a scope: its ``.subckt`` definitions, then
 its directives in order, then its elements (K lines last, after the inductors they
-couple); every problem is collected, each naming its line and, inside an instance, the
-instance chain (``in xa.x1: …``).
+couple), of the branches its ``.if``/``.elseif``/``.else``/``.endif`` take; every
+problem is collected, each naming its line and, inside an instance, the instance chain
+(``in xa.x1: …``).
 """
 
 from __future__ import annotations
@@ -219,7 +220,8 @@ class Scope:
 
 # ------------------------------------------------------------------- reading
 def read_body(scope: Scope, lines: list[Line]) -> None:
-    """Read ``lines`` in ``scope``: definitions, directives in order, then elements."""
+    """Read ``lines`` in ``scope``: the branches its conditionals take
+    (:func:`conditional`), then definitions, directives in order, then elements."""
     reader = scope.reader
     try:
         lines = conditional(scope, lines)
