@@ -413,6 +413,127 @@ def test_subcircuit_mistakes_are_named(body, match):
         spice.read(deck)
 
 
+# ------------------------------------------------------------- conditionals, .func
+# ngspice's .if/.elseif/.else/.endif: a divider per conditional, each branch its own
+# lower resistor, so the branch taken is read off the node voltage (1k over R: R/(1k+R));
+# nested, a non-integer condition (0.5 and -0.2 are true: ngspice tests the value ≠ 0),
+# numparam's operators, and a subcircuit whose body branches on its instance's parameter
+CONDITIONALS = """conditionals
+.param m=2 half=0.5 neg=-0.2
+.subckt load a b params: k=1
+.if (k == 1)
+R1 a b 1k
+.elseif (k >= 2 && k < 3)
+R1 a b 2k
+.else
+R1 a b 4k
+.endif
+.ends
+V1 in 0 1
+R0 in o1 1k
+.if (m == 1)
+R1 o1 0 1k
+.elseif (m == 2)
+.if (half)
+R1 o1 0 3k
+.else
+R1 o1 0 5k
+.endif
+.else
+R1 o1 0 7k
+.endif
+R2 in o2 1k
+.if (neg)
+R3 o2 0 1k
+.endif
+.if(0)
+R3 o2 0 9k
+.endif
+R4 in o3 1k
+X1 o3 0 load k=2
+R5 in o4 1k
+X2 o4 0 load k=5
+R6 in o5 1k
+X3 o5 0 load
+.tran 1u 2u
+.end
+"""
+
+
+def test_conditionals_take_ngspices_branches():
+    result = spice.run(CONDITIONALS)
+    # the branches: m = 2 and half ≠ 0 → 3k; neg ≠ 0 → 1k; k = 2 → 2k, k = 5 → 4k, k = 1 → 1k
+    want = {"v(o1)": 3 / 4, "v(o2)": 1 / 2, "v(o3)": 2 / 3, "v(o4)": 4 / 5, "v(o5)": 1 / 2}
+    for key, value in want.items():
+        assert result[key][-1] == pytest.approx(value, rel=1e-12), key
+    # read(params=) changes the branch, as the .param value it overrides would
+    other = spice.run(CONDITIONALS, params={"m": 3})
+    assert other["v(o1)"][-1] == pytest.approx(7 / 8, rel=1e-12)
+    if ng.available():  # and the branches ngspice 39 takes
+        op = ng.operating_point(CONDITIONALS)
+        for key in want:
+            assert result[key][-1] == pytest.approx(op[key], rel=1e-9), key
+
+
+@pytest.mark.parametrize(
+    ("body", "match"),
+    [
+        (".if (1)\nR1 a 0 1", r"line 2: '.if' without its '.endif'"),
+        (".endif", r"line 2: '.endif' without an '.if' before it"),
+        (".else\nR1 a 0 1", r"line 2: '.else' without an '.if' before it"),
+        (".if\nR1 a 0 1\n.endif", r"line 2: '.if' expects '.if \(expression\)'"),
+        (".if (nosuch)\nR1 a 0 1\n.endif", r"line 2: .if: unknown name 'nosuch'"),
+        (".if (0)\n.else\n.elseif (1)\n.endif", r"line 4: '.elseif' after the '.else' of the"),
+        (".if (0)\n.else\n.else\n.endif", r"line 4: a second '.else' for the '.if' on line 2"),
+    ],
+)
+def test_conditional_mistakes_are_named(body, match):
+    with pytest.raises(spice.NetlistError, match=match):
+        spice.read(f"t\n{body}\nV1 a 0 1\nR0 a 0 1\n.tran 1u 2u\n.end\n")
+
+
+# a .func in a .param and in a .measure PARAM (ngspice's examples/measure/func_cap.sp's
+# forms): f(2, 3) = 2·3 + 1 = 7, g calls f; numparam's max/min with one argument take
+# 1.0 as their other (ngspice 39's xpressn.c: max(0.25) is 1, max(9.8) is 9.8)
+FUNC_PARAM = """a .func in .param and .measure
+.func f(a, b) 'a*b + 1'
+.func g(x) {2*f(x, x)}
+.param r1 = {f(2, 3)*1k}
+.param r2 = 'g(3)*1k'
+.param one = max(0.25)
+V1 in 0 1
+R1 in out {r1}
+R2 out 0 {r2}
+.measure tran m1 param='f(2, 3)'
+.measure tran m2 param='max(0.25) + min(3) + max(g(1))'
+.measure tran m3 find v(out) at=1u
+.tran 1u 2u
+.end
+"""
+
+
+def test_a_func_is_read_in_params_and_measures(tmp_path):
+    result = spice.run(FUNC_PARAM)
+    params = result.netlist.params
+    assert params["r1"] == 7e3 and params["r2"] == 2 * 10 * 1e3 and params["one"] == 1.0
+    measured = {m.name: m.value for m in result.measurements}
+    assert measured["m1"] == 7.0
+    assert measured["m2"] == 1.0 + 1.0 + 4.0
+    assert measured["m3"] == pytest.approx(20 / 27, rel=1e-12)
+    with pytest.raises(spice.NetlistError, match=r"line 3: .param r: .func f takes 2 arguments"):
+        spice.read("t\n.func f(a, b) 'a*b'\n.param r = {f(1)}\nR1 a 0 {r}\nV1 a 0 1\n.end\n")
+    if ng.available():  # what ngspice 39 prints for the measures
+        path = tmp_path / "deck.cir"
+        path.write_text(FUNC_PARAM.replace(".end\n", ".control\nrun\n.endc\n.end\n"))
+        out = subprocess.run(
+            ["ngspice", "-b", str(path)], capture_output=True, text=True, timeout=120, check=True
+        ).stdout
+        found = dict(re.findall(r"^(m\d)\s+=\s+(\S+)", out, re.M))
+        assert sorted(found) == ["m1", "m2", "m3"], out[-2000:]
+        for name, value in found.items():
+            assert measured[name] == pytest.approx(float(value), rel=1e-5), name
+
+
 # ------------------------------------------------------------ saved vectors, raw files
 DECK = """Saved vectors of an RLC fed through a subcircuit
 .subckt stage in out

@@ -146,6 +146,31 @@ L1 a 0 10m
 """,
         ("v(a)",),
     ),
+    # AM as ngspice 39 reads it, AM(VA VO MF FC TD PHASEC PHASES): delayed (a corner at
+    # TD = 0.13 m, off the TSTEP grid), PHASEC read and not used (were it the carrier's
+    # phase the wave would jump at TD; a jump there, as PHASES ≠ 0 makes, stops ngspice
+    # 39's fine run: "timestep too small", so the phases are checked on a resistor below)
+    "am-rc": (
+        """An AM wave into an RC
+V1 in 0 AM(0.5 2 1k 10k 0.13m 30 0)
+R1 in out 100
+C1 out 0 0.1u
+.tran 2u 2m uic
+.end
+""",
+        ("v(in)", "v(out)", "i(V1)"),
+    ),
+    # a current source's AM with MF given as 0 (ngspice 39: 1/TSTOP) and TD, PHASES absent
+    "iam-rl": (
+        """An AM current into an RL
+I1 0 a AM(1m 0.5 0 5k)
+R1 a 0 1k
+L1 a 0 10m
+.tran 2u 1m uic
+.end
+""",
+        ("v(a)",),
+    ),
 }
 
 
@@ -717,7 +742,8 @@ def test_source_option_mistakes_name_the_line_and_the_fix():
 def test_sffm_defaults_and_refused_functions_without_ngspice():
     """SFFM's defaults as ngspice 39 takes them (FC and FS absent or 0: 1/TSTOP; MDI
     absent: 0; the decks above check the formula against ngspice itself), a note where
-    a deck gives the values ngspice 46 reads otherwise, and AM, TRNOISE refused with why."""
+    a deck gives the values ngspice 46 reads otherwise, TRNOISE refused with why, and
+    too many values for SFFM and AM, or AM's MF default without a '.tran', refused."""
     netlist = spice.read(
         "x\nV1 a 0 SFFM(0.5 2)\nV2 b 0 SFFM(0 1 1k 2 0 90 0)\nR1 a b 1\n.tran 1u 4m\n.end\n"
     )
@@ -733,11 +759,54 @@ def test_sffm_defaults_and_refused_functions_without_ngspice():
         "line 3: SFFM's 6th and 7th values read as ngspice 39 reads them, the carrier's and "
         "the signal's phases in degrees (ngspice 46 reads TD and PHASEM there)"
     ]
-    with pytest.raises(spice.NetlistError, match=r"line 2: .*AM's values mean different things"):
-        spice.read("x\nV1 a 0 AM(1 0 1k 10k)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
     with pytest.raises(spice.NetlistError, match=r"line 2: .*transient noise is random"):
         spice.read("x\nV1 a 0 TRNOISE(1m 1n 0 0)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
     with pytest.raises(spice.NetlistError, match=r"line 2: SFFM\(VO VA \[FC .* 2 to 7 values"):
-        spice.read("x\nI1 a 0 SFFM(0 1 1k 2 1k 0 0 5)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+        spice.read("x\nI1 a 0 SFFM(0 1 1k 2 1k 0 0 5 6)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: AM\(VA VO \[MF .* 2 to 7 values"):
+        spice.read("x\nV1 a 0 AM(1 0 1k 10k 0 0 0 0 1)\nR1 a 0 1\n.tran 1u 1m\n.end\n")
+    with pytest.raises(spice.NetlistError, match=r"line 2: AM MF defaults to 1/TSTOP"):
+        spice.read("x\nV1 a 0 AM(1 0)\nR1 a 0 1\n.end\n")
     with pytest.raises(spice.NetlistError, match=r"line 2: SFFM FC and FS default to 1/TSTOP"):
         spice.read("x\nV1 a 0 SFFM(0 1)\nR1 a 0 1\n.end\n")
+
+
+# every AM and SFFM form a deck may write, each source across its own 1 Ω (a V source's
+# node is its value; a current source drives n+ → n-, so node c is +I·1 Ω): the values,
+# defaults and phases as ngspice 39 reads them, the 8th value of each ignored
+SOURCE_FORMS = """AM and SFFM forms
+V1 a 0 AM(0.5 2 1k 100k 1m 30 60)
+V2 b 0 AM(0.5 2 1.8 1k 100k 1m 0 0)
+I3 0 c AM(0.7 -0.4 0 20k 0 0 -45)
+R3 c 0 1
+V4 d 0 AM(1.5 0.3 2k)
+V5 e 0 SFFM(0.1 2 200 45 10k 1m 0 0)
+V6 f 0 SFFM(0.1 2 200 45 10k 30 60 90)
+R1 a b 1
+.tran 1u 3m
+.end
+"""
+
+
+@needs_ngspice
+def test_am_and_sffm_are_ngspices_waveforms_to_round_off():
+    """The read waveforms at ngspice's own time points against ngspice 39's node values
+    (15 digits): the same to round-off (1e-12 of the peak, plus the slope times the
+    printed time's rounding, 1e-15·t: SFFM's phase turns at 2.8 Mrad/s), so a wrong
+    sign, default, phase or delay fails
+    (V2 is the AM line of ngspice's examples/various/v_i_sources_am_ffm.cir: with 39's
+    reading its TD is 100k, so it is 0 throughout; V4's FC is absent, 0, so is V4)."""
+    netlist = spice.read(SOURCE_FORMS)
+    probes = {"V1": "v(a)", "V2": "v(b)", "I3": "v(c)", "V4": "v(d)", "V5": "v(e)", "V6": "v(f)"}
+    t, ref = ngspice(SOURCE_FORMS, tuple(probes.values()), tmax=1e-6)
+    assert t[-1] == pytest.approx(3e-3)
+    for name, probe in probes.items():
+        u = _source(netlist, name)
+        wave = np.asarray(u(jnp.asarray(t)))
+        slope = np.abs(np.asarray(jax.vmap(jax.grad(u))(jnp.asarray(t))))
+        bound = 1e-12 * max(np.max(np.abs(ref[probe])), 1.0) + 1e-15 * t * slope
+        assert np.all(np.abs(wave - ref[probe]) <= bound), name
+    assert np.max(np.abs(ref["v(a)"])) > 1.0 and np.max(np.abs(ref["v(c)"])) > 0.5
+    # the delayed AM's corner is a breakpoint of the run; an undelayed one has none
+    assert _source(netlist, "V1").breakpoints(0.0, 3e-3) == (1e-3,)
+    assert _source(netlist, "I3").breakpoints(0.0, 3e-3) == ()

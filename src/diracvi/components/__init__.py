@@ -75,6 +75,7 @@ _PUBLIC = {
     "TransmissionLine": "tline",
     "VDMOS": "vdmos",
     "GateDrainCapacitance": "vdmos",
+    "AM": "waveforms",
     "DC": "waveforms",
     "PWL": "waveforms",
     "Exp": "waveforms",
@@ -129,12 +130,13 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .tline import Incident, TransmissionLine
     from .urdf import parse_urdf, read_urdf
     from .vdmos import VDMOS, GateDrainCapacitance
-    from .waveforms import DC, PWL, SFFM, Exp, Pulse, Sine, Waveform
+    from .waveforms import AM, DC, PWL, SFFM, Exp, Pulse, Sine, Waveform
 
 
 __getattr__, __dir__ = lazy_names(__name__, _PUBLIC, globals())
 
 __all__ = [
+    "AM",
     "BJT",
     "BSIM3",
     "CCCS",

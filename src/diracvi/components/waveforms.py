@@ -288,6 +288,53 @@ class SFFM(Waveform):
         )
 
 
+class AM(Waveform):
+    r"""ngspice 39's ``AM(VA VO MF FC TD PHASEC PHASES)``: an amplitude-modulated wave,
+
+    ``u = VA (VO + sin(2π MF (t−TD) + φ_s)) sin(2π FC (t−TD) + φ_s)`` for ``t > TD``,
+    ``u = 0`` up to ``TD``, ``φ_s = PHASES·π/180``,
+
+    as ngspice 39's ``vsrcload.c``/``isrcload.c`` compute it: the signal's phase PHASES
+    enters both sines, and the carrier's phase PHASEC is read but not used (checked
+    against ngspice 39). ``TD`` is a corner (the wave starts there from 0 with a jump in
+    its slope, or in its value when ``φ_s ≠ 0``). ngspice ≥ 46 reads the values
+    differently (``AM(VO VMO VMA FM FC TD PHASEM PHASEC)``); the reader notes it.
+    """
+
+    amplitude: object
+    offset: object
+    signal: object
+    carrier: object
+    delay: object
+    carrier_phase: object
+    signal_phase: object
+
+    def __init__(
+        self, amplitude, offset, signal, carrier=0.0, delay=0.0, carrier_phase=0.0,
+        signal_phase=0.0,
+    ):  # fmt: skip
+        self.amplitude = _data(_num("AM", "VA", amplitude))
+        self.offset = _data(_num("AM", "VO", offset))
+        self.signal = _data(_num("AM", "MF", signal, nonneg=True))
+        self.carrier = _data(_num("AM", "FC", carrier, nonneg=True))
+        self.delay = _data(_num("AM", "TD", delay))
+        self.carrier_phase = _data(_num("AM", "PHASEC", carrier_phase))
+        self.signal_phase = _data(_num("AM", "PHASES", signal_phase))
+
+    def __call__(self, t):
+        phi = self.signal_phase * math.pi / 180.0
+        s = t - self.delay
+        value = (
+            self.amplitude
+            * (self.offset + jnp.sin(2.0 * math.pi * self.signal * s + phi))
+            * jnp.sin(2.0 * math.pi * self.carrier * s + phi)
+        )
+        return jnp.where(s <= 0.0, 0.0 * t, value)
+
+    def breakpoints(self, t_start, t_stop):
+        return _within((self.delay,), t_start, t_stop) if self.delay > 0.0 else ()
+
+
 def _within(times, t_start: float, t_stop: float) -> tuple[float, ...]:
     """``times`` inside ``[t_start, t_stop]``, sorted, each once."""
     return tuple(sorted({float(x) for x in times if t_start <= x <= t_stop}))
@@ -304,7 +351,7 @@ def as_waveform(value, where: str) -> Waveform:
     except ModelError:
         raise ModelError(
             f"{where}: source value {value!r} is not a number, a waveform (DC, Sine, "
-            "Pulse, PWL, Exp, SFFM) or a function u(t)."
+            "Pulse, PWL, Exp, SFFM, AM) or a function u(t)."
         ) from None
 
 

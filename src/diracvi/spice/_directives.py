@@ -258,7 +258,6 @@ DIRECTIVES = {
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
     ),
     ".func": _func,
-    ".if": _refused("conditional netlists; keep one branch"),
     ".csparam": _refused("control-language parameters; use .param"),
     ".step": _refused("parameter steps; use `diracvi sweep`"),
 }

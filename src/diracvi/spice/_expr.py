@@ -315,14 +315,20 @@ class Compiled:
     derivatives: list = field(default_factory=list)
     uses_time: bool = False
     discontinuous: list = field(default_factory=list)  # operators/functions with jumps
+    numparam: bool = False  # read as ngspice's numparam reads a .param/.measure PARAM
 
 
-def compile_expression(text: str, params: dict, funcs: dict | None = None) -> Compiled:
+def compile_expression(
+    text: str, params: dict, funcs: dict | None = None, numparam: bool = False
+) -> Compiled:
     """Parse ``text`` and resolve its names: ``params`` (lower-case name → number),
     ``funcs`` (lower-case name → ``(argument names, body text)`` of ``.func``). Every
-    unknown name is listed in one :class:`ExprError`."""
+    unknown name is listed in one :class:`ExprError`. ``numparam``: the expression is
+    one ngspice evaluates with numparam (a ``.measure … PARAM=``), where ``min(x)`` and
+    ``max(x)`` with one argument are ``min(1, x)`` and ``max(1, x)`` (its first argument
+    defaults to 1.0, ``xpressn.c``; a B source's one-argument ``max`` crashes ngspice 39)."""
     tree = parse(text)
-    out = Compiled(text, None)
+    out = Compiled(text, None, numparam=numparam)
     problems: list[str] = []
     funcs = {k.lower(): v for k, v in (funcs or {}).items()}
     params = {k.lower(): v for k, v in params.items()}
@@ -447,6 +453,8 @@ def _call(node, out, params, funcs, local, problems, in_ddt, depth, sub):
         )
         return lambda v, i, t, d: 0.0
     arity, fn = spec
+    if out.numparam and name in ("min", "max") and len(args) == 1:
+        args = [("num", col, 1.0), *args]  # numparam's default first argument
     if len(args) != arity:
         problems.append(f"{name} takes {arity} argument(s), {len(args)} given (column {col + 1})")
         return lambda v, i, t, d: 0.0
@@ -456,10 +464,12 @@ def _call(node, out, params, funcs, local, problems, in_ddt, depth, sub):
     return lambda v, i, t, d: fn(*(f(v, i, t, d) for f in fs))
 
 
-def evaluate_constant(text: str, params: dict, funcs: dict | None = None) -> float:
-    """The value of an expression without nodes, currents, time or ddt (for tests and
-    constant sources)."""
-    c = compile_expression(text, params, funcs)
+def evaluate_constant(
+    text: str, params: dict, funcs: dict | None = None, numparam: bool = False
+) -> float:
+    """The value of an expression without nodes, currents, time or ddt (for tests,
+    constant sources and ``.if`` conditions; ``numparam`` as in :func:`compile_expression`)."""
+    c = compile_expression(text, params, funcs, numparam)
     if c.pairs or c.currents or c.derivatives or c.uses_time:
         raise ExprError(f"{text!r} is not a constant")
     return float(c.fn(jnp.zeros(0), jnp.zeros(0), 0.0, ()))

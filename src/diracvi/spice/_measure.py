@@ -311,7 +311,7 @@ def check_measures(measures, params: dict, funcs: dict, vectors, problems) -> tu
         texts = [m.expr] + [t for c in (m.trig, m.targ) if c is not None for t in (c.lhs, c.rhs)]
         for text in (t for t in texts if t is not None):
             try:
-                c = compile_expression(text, names, funcs)
+                c = compile_expression(text, names, funcs, numparam=m.kind == "param")
             except ExprError as exc:
                 problems.add(m.source.fail(f".measure {m.name}: {exc}"))
                 continue
@@ -352,9 +352,10 @@ class Traces:
             self._sample = lambda times: {k: np.interp(times, self.t, v) for k, v in waves.items()}
         self._dense = {k.lower(): np.asarray(v, float) for k, v in self._sample(self.t).items()}
         self.params = dict(result.netlist.params)
+        self.funcs = dict(getattr(result.netlist, "funcs", {}))
 
     def _evaluate(self, text, waves, n):
-        c = compile_expression(text, self.params)
+        c = compile_expression(text, self.params, self.funcs)
         v = np.stack([_probe(waves, a, b, n) for a, b in c.pairs]) if c.pairs else np.zeros((0, n))
         i = (
             np.stack([waves[f"i({s.lower()})"] for s in c.currents])
@@ -412,7 +413,7 @@ class _Failed(Exception):
 def _one(m: Measure, tr: Traces):
     end = float(tr.t[-1])
     if m.kind == "param":
-        c = compile_expression(m.expr, tr.params)
+        c = compile_expression(m.expr, tr.params, tr.funcs, numparam=True)
         return float(c.fn(np.zeros((0, 1)), np.zeros((0, 1)), 0.0, ())), {}
     if m.kind == "trig":
         trig, targ = _when(m.trig, tr), _when(m.targ, tr)

@@ -70,6 +70,8 @@ class Netlist:
             ``(node₊, node₋)`` (``None``: ground), added as ``v(node₊) − v(node₋)``.
         measures: the ``.measure tran`` lines, read (:mod:`._measure`); a run's
             ``result.measurements`` are their values.
+        funcs: the ``.func`` user functions, name -> ``(argument names, body text)``
+            (a ``.measure … PARAM='…'`` may call them).
     """
 
     title: str
@@ -92,6 +94,7 @@ class Netlist:
     potentials: dict = field(default_factory=dict)
     differences: dict = field(default_factory=dict)
     measures: tuple = ()
+    funcs: dict = field(default_factory=dict)
     _start: tuple | None = field(default=None, repr=False)
     _modes: object = field(default=None, repr=False)
     _op: object = field(default=None, repr=False)
@@ -290,6 +293,7 @@ class _Reader:
             op=self.op,
             off=frozenset(self.off),
             potentials=dict(self.potentials),
+            funcs=dict(self.funcs),
         )
         saves = self.saves
         if self.probes:  # ngspice adds '.save all' to a deck with .probe and no .save

@@ -5,8 +5,9 @@ over the visible parameters, the visible models and subcircuits, node names mapp
 the instance (``m`` in ``XA.X1`` → ``xa.x1.m``), and the part names of its elements.
 :func:`read_body` reads a list of lines in a scope: its ``.subckt`` definitions, then
 its directives in order, then its elements (K lines last, after the inductors they
-couple); every problem is collected, each naming its line and, inside an instance, the
-instance chain (``in xa.x1: …``).
+couple), of the branches its ``.if``/``.elseif``/``.else``/``.endif`` take; every
+problem is collected, each naming its line and, inside an instance, the instance chain
+(``in xa.x1: …``).
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from dataclasses import dataclass, field
 from ..errors import ModelError
 from ._cards import CIDER
 from ._elements import ELEMENTS, LATE, SUPPORTED, UNSUPPORTED, _need, _two, unsupported
+from ._expr import ExprError, evaluate_constant
 from ._lines import Line, LineError, NetlistError, card, split
 from ._subckt import MAX_DEPTH, body_params, collect, instance_parts
 from ._values import ExpressionError, evaluate, number
@@ -84,7 +86,7 @@ class Scope:
             return x
         text = token[1:-1] if token[:1] in "{'" else token
         try:
-            return evaluate(text, self.params)
+            return evaluate(text, self.params, self.funcs)
         except ExpressionError as exc:
             raise line.fail(f"{what}: {exc}") from None
 
@@ -218,8 +220,14 @@ class Scope:
 
 # ------------------------------------------------------------------- reading
 def read_body(scope: Scope, lines: list[Line]) -> None:
-    """Read ``lines`` in ``scope``: definitions, directives in order, then elements."""
+    """Read ``lines`` in ``scope``: the branches its conditionals take
+    (:func:`conditional`), then definitions, directives in order, then elements."""
     reader = scope.reader
+    try:
+        lines = conditional(scope, lines)
+    except LineError as exc:  # which lines the netlist means is unknown: read none
+        reader.problems.add(exc, ".".join(scope.path))
+        return
     rest, defs = collect(lines, reader.problems)
     scope.subckts.update(defs)
     elements, couplings = [], []
@@ -232,6 +240,82 @@ def read_body(scope: Scope, lines: list[Line]) -> None:
             elements.append(line)
     for line in elements + couplings:
         _guard(scope, line, lambda ln=line: _element(scope, ln))
+
+
+_CONDITIONAL = re.compile(r"^\.(elseif|if|else|endif)(?![\w.])", re.IGNORECASE)
+
+
+def conditional(scope: Scope, lines: list[Line]) -> list[Line]:
+    """``lines`` with ngspice's netlist conditionals applied: of each ``.if (expr)`` …
+    [``.elseif (expr)`` …]… [``.else`` …] ``.endif`` (nestable) the lines of the first
+    branch whose expression is not 0 are kept, the rest and the conditional lines
+    dropped. As ngspice (``inp.c``'s ``recifeval``, after numparam has replaced each
+    expression by its value) the expression is what stands between the line's first
+    ``(`` and last ``)``, evaluated over the ``.param`` values above it in this scope;
+    the lines of a ``.subckt`` definition are left to the instances that read them.
+    An unbalanced or malformed conditional is refused on its line."""
+    if not any(_CONDITIONAL.match(line.text) for line in lines):
+        return lines
+    params = Scope(scope.reader, scope.path, params=dict(scope.params), fixed=scope.fixed)
+    kept: list[Line] = []
+    # one entry per open .if: [its line, a branch taken so far, this branch is kept]
+    stack: list[list] = []
+    depth = 0  # inside a .subckt definition (its body is read per instance)
+    for line in lines:
+        word = card(line)
+        live = all(entry[2] for entry in stack)
+        if depth or word in (".subckt", ".ends"):
+            depth += (word == ".subckt") - (word == ".ends")
+            if live:
+                kept.append(line)
+            continue
+        m = _CONDITIONAL.match(line.text)
+        if m is None:
+            if live:
+                kept.append(line)
+                if word == ".param":  # the values a later condition reads
+                    _param(params, line, quiet=True)
+            continue
+        kind = m.group(1).lower()
+        if kind == "if":
+            value = _condition(params, line, ".if") if live else 0.0
+            stack.append([line, value != 0.0, value != 0.0])
+            continue
+        if not stack:
+            raise line.fail(
+                f"'.{kind}' without an '.if' before it (remove it or add the '.if (expr)')"
+            )
+        entry = stack[-1]
+        if kind == "elseif":
+            if entry[1] is None:
+                raise line.fail(f"'.elseif' after the '.else' of the '.if' on {entry[0].where}")
+            outer = all(e[2] for e in stack[:-1])
+            take = not entry[1] and outer and _condition(params, line, ".elseif") != 0.0
+            entry[1], entry[2] = entry[1] or take, take
+        elif kind == "else":
+            if entry[1] is None:
+                raise line.fail(f"a second '.else' for the '.if' on {entry[0].where}")
+            if line.text.split(None, 1)[1:]:
+                raise line.fail("'.else' takes nothing after it; write '.elseif (expr)'")
+            entry[1], entry[2] = None, not entry[1]
+        else:
+            stack.pop()
+    if stack:
+        raise stack[-1][0].fail("'.if' without its '.endif' (close the conditional)")
+    return kept
+
+
+def _condition(scope: Scope, line: Line, what: str) -> float:
+    """The value of a ``.if``/``.elseif`` line's expression (between its first ``(``
+    and last ``)``, as ngspice takes it)."""
+    text = line.text
+    first, last = text.find("("), text.rfind(")")
+    if first < 0 or last < first or not text[first + 1 : last].strip():
+        raise line.fail(f"'{what}' expects '{what} (expression)', e.g. '{what} (mode == 1)'")
+    try:  # numparam's operators (==, <, &&, …): the behavioural expressions' parser
+        return evaluate_constant(text[first + 1 : last], scope.params, scope.funcs, numparam=True)
+    except ExprError as exc:
+        raise line.fail(f"{what}: {exc}") from None
 
 
 def _guard(scope: Scope, line: Line, action) -> None:
@@ -250,15 +334,7 @@ def _guard(scope: Scope, line: Line, action) -> None:
 def _directive(scope: Scope, line: Line) -> None:
     word = card(line)
     if word == ".param":
-        pos, kw = split(line)
-        if pos[1:]:
-            kw = _one_assignment(line, pos[1:])
-        for key, token in kw.items():
-            if not scope.path and key in scope.reader.overrides:
-                continue  # read(..., params=) wins over the netlist's own value
-            if key in scope.fixed:
-                continue  # the instance's value wins over the body's (ngspice)
-            scope.params[key] = scope.value(token, line, f".param {key}")
+        _param(scope, line)
         return
     if word == ".model":
         _model(scope, line)
@@ -278,6 +354,29 @@ def _directive(scope: Scope, line: Line) -> None:
             "may be there); move it outside the '.subckt … .ends'"
         )
     scope.reader.directive(line)
+
+
+def _param(scope: Scope, line: Line, quiet: bool = False) -> None:
+    """A ``.param`` line's values into ``scope.params`` (``quiet``: a value that cannot
+    be read is left out, its error given when the line is read in order)."""
+    pos, kw = split(line)
+    if pos[1:]:
+        try:
+            kw = _one_assignment(line, pos[1:])
+        except LineError:
+            if quiet:
+                return
+            raise
+    for key, token in kw.items():
+        if not scope.path and key in scope.reader.overrides:
+            continue  # read(..., params=) wins over the netlist's own value
+        if key in scope.fixed:
+            continue  # the instance's value wins over the body's (ngspice)
+        try:
+            scope.params[key] = scope.value(token, line, f".param {key}")
+        except LineError:
+            if not quiet:
+                raise
 
 
 _ASSIGNMENT = re.compile(r"(?<![<>!=])=(?!=)")  # an '=', not part of ==, <=, >=, !=

@@ -1,5 +1,5 @@
 r"""Independent source specifications: ``[DC] value``, ``AC mag [phase]`` and a transient
-function ``SIN``/``PULSE``/``PWL``/``EXP``, in any order, as ngspice reads them.
+function ``SIN``/``PULSE``/``PWL``/``EXP``/``SFFM``/``AM``, in any order, as ngspice reads them.
 
 ``V1 1 0 PULSE(0 1) AC 1`` and ``V1 1 0 DC 0 AC 1 SIN(0 1 1k)`` are both fine: the AC
 specification belongs to a small-signal analysis, so it is noted and left out; with a
@@ -17,14 +17,9 @@ from .. import components as cp
 from ..errors import ModelError
 from ._lines import NetlistError
 
-FUNCTIONS = ("sin", "pulse", "pwl", "exp", "sffm")
+FUNCTIONS = ("sin", "pulse", "pwl", "exp", "sffm", "am")
 #: transient functions ngspice knows and diracvi does not build (refused by name), and why
 OTHER_FUNCTIONS = {
-    "am": (
-        "AM's values mean different things in ngspice 39 (AM(VA VO MF FC TD)) and ngspice "
-        "46 (AM(VO VMO VMA FM FC TD PHASEM PHASEC)); write the wave you mean as a B source, "
-        "'Bname n+ n- V=…' with 'time' in the expression"
-    ),
     "trnoise": "transient noise is random: no two runs agree; rewrite it as a PWL",
     "trrandom": "random values: no two runs agree; rewrite it as a PWL",
     "external": "a value set from outside the simulator (shared ngspice); rewrite it as a PWL",
@@ -38,7 +33,7 @@ def source(ctx, pos, kw, line):
     """The waveform of a ``V``/``I`` line (``pos[3:]`` is the specification)."""
     form = (
         f"{pos[0][0]}name n+ n- [[DC] value] [AC mag [phase]] "
-        "[SIN(…) | PULSE(…) | EXP(…) | SFFM(…) | PWL(…) [TD=t] [R=t]]"
+        "[SIN(…) | PULSE(…) | EXP(…) | SFFM(…) | AM(…) | PWL(…) [TD=t] [R=t]]"
     )
     if len(pos) < 3:
         raise line.fail(f"expected '{form}' (a source has two nodes)")
@@ -71,7 +66,7 @@ def source(ctx, pos, kw, line):
             if word in OTHER_FUNCTIONS:
                 raise line.fail(
                     f"source function {rest[k]!r} is not supported (diracvi builds DC, SIN, "
-                    f"PULSE, EXP, SFFM and PWL sources): {OTHER_FUNCTIONS[word]}"
+                    f"PULSE, EXP, SFFM, AM and PWL sources): {OTHER_FUNCTIONS[word]}"
                 )
             fn, k = word, k + 1
             while k < len(rest) and not _keyword(rest[k]):
@@ -144,8 +139,11 @@ def _function(ctx, fn, args, line, options):
         tau2 = given[3] if given[3] is not None else step
         return cp.Exp(args[0], args[1], td1, tau1, td2, tau2)
     if fn == "sffm":
-        if not 2 <= len(args) <= 7:
-            raise line.fail("SFFM(VO VA [FC [MDI [FS [PHASEC [PHASES]]]]]) takes 2 to 7 values")
+        if not 2 <= len(args) <= 8:
+            raise line.fail(
+                "SFFM(VO VA [FC [MDI [FS [PHASEC [PHASES]]]]]) takes 2 to 7 values (an 8th "
+                "is read and ignored, as ngspice 39 does)"
+            )
         # ngspice 39: FC and FS absent or 0 → 1/TSTOP, MDI absent → 0
         args = args + [0.0] * (5 - len(args))
         if (args[2] == 0.0 or args[4] == 0.0) and stop is None:
@@ -156,9 +154,29 @@ def _function(ctx, fn, args, line, options):
             ctx.note(
                 line,
                 "SFFM's 6th and 7th values read as ngspice 39 reads them, the carrier's and "
-                "the signal's phases in degrees (ngspice 46 reads TD and PHASEM there)",
+                "the signal's phases in degrees (ngspice 46 reads TD and PHASEM there)"
+                + (", its 8th ignored as ngspice 39 ignores it" if len(args) > 7 else ""),
             )
-        return cp.SFFM(*args)
+        return cp.SFFM(*args[:7])
+    if fn == "am":
+        if not 2 <= len(args) <= 8:
+            raise line.fail(
+                "AM(VA VO [MF [FC [TD [PHASEC [PHASES]]]]]) takes 2 to 7 values (ngspice 39's "
+                "order; an 8th is read and ignored, as ngspice 39 does)"
+            )
+        # ngspice 39 (vsrcload.c): MF absent or 0 → 1/TSTOP; FC, TD absent → 0
+        args = args + [0.0] * (3 - len(args))
+        if args[2] == 0.0:
+            if stop is None:
+                raise line.fail("AM MF defaults to 1/TSTOP, but there is no '.tran'; give it")
+            args[2] = 1.0 / stop
+        ctx.note(
+            line,
+            "AM read as ngspice 39 reads it, AM(VA VO MF FC TD PHASEC PHASES): u = VA·(VO + "
+            "sin(2π·MF·t′ + PHASES))·sin(2π·FC·t′ + PHASES), t′ = t − TD, 0 up to TD "
+            "(ngspice 46 reads AM(VO VMO VMA FM FC TD PHASEM PHASEC))",
+        )
+        return cp.AM(*args[:7])
     if len(args) < 2 or len(args) % 2:
         raise line.fail("PWL(T1 V1 T2 V2 …) takes pairs of values")
     return cp.PWL(args[0::2], args[1::2], options.get("td", 0.0), options.get("r"))

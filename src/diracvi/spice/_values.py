@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ast
 import functools
+import keyword
 import math
 import operator
 import re
@@ -48,8 +49,9 @@ FUNCTIONS = {
     "tan": math.tan,
     "atan": math.atan,
     "abs": abs,
-    "min": min,
-    "max": max,
+    # numparam's first argument defaults to 1.0 (xpressn.c): max(x) is max(1, x)
+    "min": lambda *a: min((1.0, *a) if len(a) == 1 else a),
+    "max": lambda *a: max((1.0, *a) if len(a) == 1 else a),
     "pow": math.pow,
 }
 _BINARY = {
@@ -102,15 +104,14 @@ NOMINAL_TEMPERATURE = 27.0
 KELVIN = 273.15
 
 
-def evaluate(text: str, params: dict[str, float]) -> float:
-    """Evaluate a SPICE expression over ``params`` (names case-insensitive)."""
-    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
-    source = source.replace("^", "**")
-    try:
-        tree = ast.parse(source, mode="eval")
-    except SyntaxError:
-        raise ExpressionError(f"cannot parse expression {text!r}") from None
-    value = _walk(tree.body, {k.lower(): v for k, v in params.items()}, text)
+def evaluate(text: str, params: dict[str, float], funcs: dict | None = None) -> float:
+    """Evaluate a SPICE expression over ``params`` (names case-insensitive) and the
+    ``.func`` user functions ``funcs`` (lower-case name → ``(argument names, body
+    text)``; a call ``f(x, y)`` is the body evaluated with its arguments bound to the
+    values of ``x`` and ``y``, as ngspice evaluates a ``.func`` in a ``.param``)."""
+    tree = _tree(text)
+    funcs = {k.lower(): v for k, v in (funcs or {}).items()}
+    value = _walk(tree.body, {k.lower(): v for k, v in params.items()}, text, funcs)
     if _traced(value):  # a parameter being differentiated (read(..., params=)): unchecked
         return value
     if not math.isfinite(value):
@@ -118,11 +119,32 @@ def evaluate(text: str, params: dict[str, float]) -> float:
     return float(value)
 
 
-def _walk(node, params, text):
+#: Python's keywords, which are names in SPICE (``.param is = 0``): renamed for ``ast``
+_KEYWORDS = re.compile(
+    r"(?<![\w.])(" + "|".join(sorted(keyword.kwlist, key=len, reverse=True)) + r")(?![\w.])",
+    re.IGNORECASE,
+)
+_KEYWORD_PREFIX = "_spice_name_"
+
+
+def _tree(text: str):
+    source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
+    source = _KEYWORDS.sub(lambda m: _KEYWORD_PREFIX + m.group(1), source.replace("^", "**"))
+    try:
+        return ast.parse(source, mode="eval")
+    except SyntaxError:
+        raise ExpressionError(f"cannot parse expression {text!r}") from None
+
+
+#: how deep ``.func`` calls may nest (deeper is a function calling itself)
+_FUNC_DEPTH = 20
+
+
+def _walk(node, params, text, funcs=None, depth=0):
     if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
         return float(node.value)
     if isinstance(node, ast.Name):
-        key = node.id.lower()
+        key = node.id.lower().removeprefix(_KEYWORD_PREFIX)
         if key in params:
             return params[key]
         if key == "pi":
@@ -133,21 +155,25 @@ def _walk(node, params, text):
             return NOMINAL_TEMPERATURE
         raise ExpressionError(f"unknown parameter {node.id!r} in {text!r} (define it with .param)")
     if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
-        x = _walk(node.operand, params, text)
+        x = _walk(node.operand, params, text, funcs, depth)
         return -x if isinstance(node.op, ast.USub) else x
     if isinstance(node, ast.BinOp) and type(node.op) in _BINARY:
-        a, b = _walk(node.left, params, text), _walk(node.right, params, text)
+        a = _walk(node.left, params, text, funcs, depth)
+        b = _walk(node.right, params, text, funcs, depth)
         try:
             return _BINARY[type(node.op)](a, b)
         except (ZeroDivisionError, OverflowError) as exc:
             raise ExpressionError(f"{text!r}: {exc}") from None
     if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+        if funcs and node.func.id.lower() in funcs:
+            return _user(node, params, text, funcs, depth)
         fn = FUNCTIONS.get(node.func.id.lower())
         if fn is None:
             raise ExpressionError(
-                f"unknown function {node.func.id!r} in {text!r}; known: {sorted(FUNCTIONS)}"
+                f"unknown function {node.func.id!r} in {text!r}; known: {sorted(FUNCTIONS)} "
+                "(or define it with .func)"
             )
-        args = [_walk(a, params, text) for a in node.args]
+        args = [_walk(a, params, text, funcs, depth) for a in node.args]
         if any(_traced(a) for a in args):
             return getattr(jnp, _JNP.get(node.func.id.lower(), node.func.id.lower()))(*args)
         try:
@@ -155,3 +181,18 @@ def _walk(node, params, text):
         except (TypeError, ValueError, OverflowError) as exc:
             raise ExpressionError(f"{text!r}: {node.func.id}: {exc}") from None
     raise ExpressionError(f"unsupported syntax in expression {text!r}")
+
+
+def _user(node, params, text, funcs, depth):
+    """A ``.func`` call: its body over ``params`` with the arguments' values bound."""
+    name = node.func.id.lower()
+    names, body = funcs[name]
+    if len(node.args) != len(names):
+        raise ExpressionError(
+            f".func {name} takes {len(names)} arguments, {len(node.args)} given in {text!r}"
+        )
+    if depth >= _FUNC_DEPTH:
+        raise ExpressionError(f".func {name} calls itself (in {text!r})")
+    args = [_walk(a, params, text, funcs, depth) for a in node.args]
+    bound = {**params, **{a.lower(): x for a, x in zip(names, args, strict=True)}}
+    return _walk(_tree(body).body, bound, body, funcs, depth + 1)
