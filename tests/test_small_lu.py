@@ -1,4 +1,9 @@
-"""The dense LU in plain operations (diracvi.solvers.small_lu)."""
+"""The dense LU in plain operations (diracvi.solvers.small_lu) and the small-loop switch
+(diracvi.runtime.small_loops) that lets a loop holding it run as one kernel."""
+
+import os
+import subprocess
+import sys
 
 import jax
 import jax.numpy as jnp
@@ -6,6 +11,7 @@ import numpy as np
 import pytest
 import scipy.linalg as sl
 
+from diracvi.runtime import small_loops
 from diracvi.solvers import small_lu
 
 EPS = np.finfo(np.float64).eps
@@ -58,3 +64,41 @@ def test_singular_matrix_gives_non_finite_solution():
     a = np.array([[1.0, 2.0, 3.0], [2.0, 4.0, 6.0], [0.0, 1.0, 1.0]])
     x = jax.jit(lambda a: small_lu.lu_solve(small_lu.lu_factor(a), jnp.ones(3)))(a)
     assert not np.all(np.isfinite(np.asarray(x)))
+
+
+_PROBE = """
+import jax, jax.numpy as jnp
+import diracvi
+from diracvi.runtime import small_loops
+from diracvi.solvers import small_lu
+
+def newton(a, b):
+    def body(carry):
+        i, x = carry
+        return i + 1, small_lu.lu_solve(small_lu.lu_factor(a + jnp.diag(x)), b)
+    return jax.lax.while_loop(lambda c: c[0] < 3, body, (0, b))[1]
+
+text = jax.jit(newton).lower(jnp.eye(15), jnp.ones(15)).compile().as_text()
+print(small_loops.in_force(), "xla_cpu_small_call" in text)
+"""
+
+
+@pytest.mark.parametrize("setting", ["", "0"])
+def test_a_newton_loop_is_one_kernel_when_in_force(setting):
+    """In a fresh process, importing diracvi raises the threshold, and a loop of 15×15
+    factorizations (whose body accesses 15×15 matrices, over XLA's default of 1024 bytes)
+    is then compiled as one kernel (XLA's ``xla_cpu_small_call``); with
+    ``DIRACVI_SMALL_LOOPS=0`` it is not."""
+    env = {k: v for k, v in os.environ.items() if k != "XLA_FLAGS"}
+    env[small_loops.ENV] = setting
+    out = subprocess.run(
+        [sys.executable, "-c", _PROBE], env=env, capture_output=True, text=True, check=True
+    )
+    expected = "True True" if setting == "" else "False False"
+    assert out.stdout.split("\n")[-2] == expected, out.stderr[-2000:]
+
+
+def test_bad_switch_value_names_variable_and_fix(monkeypatch):
+    monkeypatch.setenv(small_loops.ENV, "yes")
+    with pytest.raises(ValueError, match=r"DIRACVI_SMALL_LOOPS='yes'.*Fix: set it to 1"):
+        small_loops._wanted()
