@@ -48,6 +48,7 @@ import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
 from ..runtime import small_loops
+from ..runtime.compile import fast_compile
 from . import small_lu
 from .base import SolveStatus, StepResult, StepSolver, check_newton_options
 from .limiting import junction_limiter
@@ -286,8 +287,10 @@ class NewtonSolver(StepSolver):
         # a small model's factors in plain operations, so that a loop around this solve
         # holds no LAPACK custom call and XLA can compile it as one kernel where the
         # process raised the small-loop threshold (runtime/small_loops.py; the bridge
-        # rectifier's variable-step loop 0.23 -> 0.07 CPU s); elsewhere LAPACK, as before
-        small = eqs.size <= small_lu.SMALL and small_loops.in_force()
+        # rectifier's variable-step loop 0.23 -> 0.07 CPU s); elsewhere LAPACK, as before.
+        # Not under DIRACVI_FAST_COMPILE=1: one kernel unoptimized compiles slower (6.1
+        # against 4.2 CPU s) and runs slower (0.61 against 0.43 s) than the thunks
+        small = eqs.size <= small_lu.SMALL and small_loops.in_force() and not fast_compile()
         lu_factor = small_lu.lu_factor if small else jsl.lu_factor
         lu_solve = small_lu.lu_solve if small else jsl.lu_solve
 
