@@ -14,6 +14,7 @@ from .errors import DiracviError, ModelError, StepFailure, UnsolvableStepError
 from .runtime import cache as _cache
 from .runtime import config as _config  # noqa: F401  (float64 on)
 from .runtime import dispatch as _dispatch  # noqa: F401  (CPU dispatch on the caller)
+from .runtime import small_loops as _small_loops  # noqa: F401  (small loops: one kernel)
 
 _cache.enable()  # the on-disk compilation cache (DIRACVI_CACHE_DIR; "" switches it off)
 

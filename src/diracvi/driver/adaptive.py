@@ -699,10 +699,11 @@ def adaptive(
     if solver is None:
         # a large sparse step is formed and factorized as a band plus a border
         # (solvers/bordered.py); not with switches, whose states change the pattern
+        # plain_lu: a small circuit's whole loop compiled as one kernel (NewtonSolver)
         solver = (
-            NewtonSolver(reuse_jacobian=True)
+            NewtonSolver(reuse_jacobian=True, plain_lu=True)
             if events.relays(system)
-            else newton_for(system, rule, reuse_jacobian=True, predict_stop=True)
+            else newton_for(system, rule, reuse_jacobian=True, predict_stop=True, plain_lu=True)
         )
     n, m = system.n, system.m
     q = np.asarray(q0, dtype=np.float64).reshape(n)

@@ -47,6 +47,9 @@ import jax
 import jax.numpy as jnp
 import jax.scipy.linalg as jsl
 
+from ..runtime import small_loops
+from ..runtime.compile import fast_compile
+from . import small_lu
 from .base import SolveStatus, StepResult, StepSolver, check_newton_options
 from .limiting import junction_limiter
 
@@ -253,6 +256,14 @@ class NewtonSolver(StepSolver):
             steady rate while its factors are kept). Saves the confirming iteration of
             a nonlinear solve; the iterate kept is within ``rtol`` of the increment
             instead of well below it (default False; the variable-step loop sets it).
+        plain_lu: factor a model of at most ``small_lu.SMALL`` unknowns in plain XLA
+            operations (:mod:`diracvi.solvers.small_lu`) instead of LAPACK's custom
+            calls, where the process compiles small loops as one kernel
+            (:mod:`diracvi.runtime.small_loops`) and not under ``DIRACVI_FAST_COMPILE=1``
+            (default False; the circuits' variable-step loop sets it: there the loop
+            becomes one kernel, 0.23 → 0.07 CPU s a warm call of the bridge rectifier; a
+            fixed-step march is not one kernel either way, and the unrolled factors only
+            lengthened its first compilation: Andrews' mechanism 7.2 → 12.7 CPU s).
     """
 
     rtol: float = eqx.field(static=True, default=1e-13)
@@ -263,6 +274,7 @@ class NewtonSolver(StepSolver):
     residual_rtol: float = eqx.field(static=True, default=1e-13)
     limit_junctions: bool = eqx.field(static=True, default=True)
     predict_stop: bool = eqx.field(static=True, default=False)
+    plain_lu: bool = eqx.field(static=True, default=False)
 
     def __check_init__(self):
         check_newton_options(self)
@@ -281,10 +293,24 @@ class NewtonSolver(StepSolver):
         ``x``): an absolute bound per unknown its updates may stop within
         (:func:`_within`)."""
         fn = eqs.residual
+        # a small model's factors in plain operations when asked (plain_lu), so that a
+        # loop around this solve holds no LAPACK custom call and XLA can compile it as one
+        # kernel where the process raised the small-loop threshold (runtime/small_loops.py;
+        # the bridge rectifier's variable-step loop 0.23 -> 0.07 CPU s); else LAPACK.
+        # Not under DIRACVI_FAST_COMPILE=1: one kernel unoptimized compiles slower (6.1
+        # against 4.2 CPU s) and runs slower (0.61 against 0.43 s) than the thunks
+        small = (
+            self.plain_lu
+            and eqs.size <= small_lu.SMALL
+            and small_loops.in_force()
+            and not fast_compile()
+        )
+        lu_factor = small_lu.lu_factor if small else jsl.lu_factor
+        lu_solve = small_lu.lu_solve if small else jsl.lu_solve
 
         def factorize(x):
             jac = jax.jacfwd(fn)(x)
-            return (*jsl.lu_factor(jac), jnp.abs(jac))
+            return (*lu_factor(jac), jnp.abs(jac))
 
         # each equation's size: the known momentum and the linearized change over the step
         x_ref = eqs.reference()
@@ -298,7 +324,7 @@ class NewtonSolver(StepSolver):
             self,
             fn,
             factorize,
-            lambda factors, r: jsl.lu_solve(factors[:2], -r),
+            lambda factors, r: lu_solve(factors[:2], -r),
             guess,
             (lu, piv, jnorm),
             valid,
