@@ -198,3 +198,39 @@ def test_a_capacitor_loop_beside_an_edge_runs_to_the_end_and_agrees_with_ngspice
     # alternation was left in the nodes; 6.7e-3 with it taken out, 3.8e-3 since b098296
     peak = np.max(np.abs(ref["i(V1)"]))
     assert np.max(np.abs(got["i(V1)"] - ref["i(V1)"])) < 2e-2 * peak
+
+
+def test_node_potentials_are_judged_per_try_or_over_tmax_as_asked_per_multiplier():
+    # one try of H = 1 ns under TMAX = 1 µs whose positions are exact and whose step-centred
+    # potentials φ = −c/h are off: the coarse step's φ_c against the fine ones' mean
+    # (φ₁ + φ₂)/2 = 1 differs by 3 d_i, so e_m,i = d_i / (s·rtol·max(Φ_i, 1) + atol_m)
+    n, m, h, hmax = 1, 2, 1e-9, 1e-6
+    half = 0.5 * h
+    share, rtol, atol_m = 0.03, 1e-3, 1e-6
+    tol = share * rtol * 1.0 + atol_m  # the running peak Φ = 1 (the fine potentials')
+    d = np.array([100.0, 0.5]) * tol  # one potential 100 tolerances off, one half of one
+    phi1 = phi2 = np.ones(m)
+    phi_c = phi1 + 3.0 * d
+    # the multipliers giving those potentials from c₋₁ = 0 (c_k = 2μ_k − c_{k−1}, φ = −c/h)
+    mu_c = -0.5 * phi_c * h
+    c1, c2 = -phi1 * half, -phi2 * half
+    mu1, mu2 = 0.5 * c1, 0.5 * (c1 + c2)
+    zero = np.zeros(n)
+    args = (np.zeros(m), h, (np.ones(n), np.ones(n), np.ones(m)))
+    tolerances = (share, rtol, np.ones(n), np.ones(n), atol_m * np.ones(m))
+
+    def err(mode):
+        steps, mus = (zero, zero, zero), (mu_c, mu1, mu2)
+        return estimate(np, zero, steps, mus, *args, tolerances, hmax, potentials_over_tmax=mode)
+
+    exact = d / tol  # 100 and 0.5: the estimate takes a third of the difference 3 d
+    scale = h / hmax
+    # held to the mean over TMAX: each error times H/hmax (the 100 becomes 0.1)
+    assert err(True).err == pytest.approx(max(exact * scale), rel=1e-9)
+    # per try, as a state: the error itself
+    assert err(False).err == pytest.approx(max(exact), rel=1e-9)
+    # chosen per multiplier: the first (a ringing one) over TMAX, the second per try
+    assert err(np.array([True, False])).err == pytest.approx(
+        max(exact[0] * scale, exact[1]), rel=1e-9
+    )
+    assert err(np.array([False, True])).err == pytest.approx(exact[0], rel=1e-9)

@@ -106,6 +106,7 @@ def estimate(
     base=0.0,
     delta=None,
     momenta=None,
+    potentials_over_tmax=True,
 ) -> Estimate:
     """The step-doubling error of one try (module docstring), for the compiled loop
     (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
@@ -132,7 +133,12 @@ def estimate(
     ``c``: :func:`~diracvi.discretization.equations.nodal_momentum`) is judged as a state,
     as the positions are, against its own running peak ``P`` — at least ``M_jj`` times
     its velocity's, ``V`` (:func:`node_momentum_error`): an inductor's flux, with its
-    coupled windings' share."""
+    coupled windings' share.
+
+    ``potentials_over_tmax``: the multipliers' error held to its mean over TMAX, as a
+    rate's (:func:`over_tmax`); ``False`` judges each try's node potentials against the
+    tolerance itself, as a state; a boolean per multiplier chooses (the compiled loop:
+    held to TMAX only where the potential rings, :mod:`.adaptive`)."""
     qc, q1, q2 = steps
     mu_c, mu1, mu2 = mus
     share, rtol, atol_q, atol_v, atol_m = tolerances
@@ -149,7 +155,10 @@ def estimate(
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
     e_m = diff_m / (share * rtol * m_peak + atol_m)
-    e_m = over_tmax(xp, e_m, h_try, hmax)
+    if potentials_over_tmax is True:
+        e_m = over_tmax(xp, e_m, h_try, hmax)
+    elif potentials_over_tmax is not False:  # per multiplier
+        e_m = xp.where(potentials_over_tmax, over_tmax(xp, e_m, h_try, hmax), e_m)
 
     e_p, p_peak = e_m[:0], None
     if momenta is not None:
