@@ -22,6 +22,10 @@ its run's continuous output (:meth:`Result.at`: the quadratic through the step c
 extremes and integrals on the steps' ends and midpoints, a crossing located to 1/32 of the
 step around it, an ``AT`` value exact for that interpolant. The two agree to the runs' own
 accuracy; against a converged ngspice the error is the run's.
+
+A line that does not read (an unknown function, ``VAL`` without ``=``, a vector the circuit
+has not) is noted and skipped, as ngspice prints "measure … failed" for it and runs: it
+stays in the list as a failed measurement with its reason, never a value.
 """
 
 from __future__ import annotations
@@ -33,6 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ._expr import ExprError, compile_expression
+from ._lines import LineError
 
 #: what a crossing's count means: the last one of its kind
 LAST = -1
@@ -111,7 +116,31 @@ class Measurement:
 # ------------------------------------------------------------------ reading
 def read_measure(reader, line) -> None:
     """A ``.meas[ure]`` line: a transient's measurement kept on the reader
-    (``reader.measures``); another analysis's noted."""
+    (``reader.measures``); another analysis's noted.
+
+    A line that does not read is noted (its line, text, what is wrong and the fix) and
+    kept as a :func:`skipped` measure, as ngspice 39 does: it prints "measure … failed"
+    for each such line and still runs the transient and the good measures (its
+    ``examples/measure/buggy-meas-tran.sp``)."""
+    try:
+        _read_measure(reader, line)
+    except LineError as exc:
+        skip(reader.measures, reader.note, line, exc.why)
+
+
+def skip(measures: list, note, line, why: str) -> None:
+    """Note ``line``'s measure as not read (``why`` says what is wrong and the fix) and
+    keep it in ``measures`` as kind ``"skipped"``: a run lists it as failed, with the
+    reason, rather than leaving it out or giving a value."""
+    words = _words(line.text)
+    name = words[2].lower() if len(words) > 2 else "?"
+    note(line, f"{why} — the .measure is skipped (ngspice too runs without it): {line.text}")
+    measures.append(Measure(name, "skipped", line.where, expr=why, source=line))
+
+
+def _read_measure(reader, line) -> None:
+    if sum(1 if ch in "({" else -1 if ch in ")}" else 0 for ch in line.text) != 0:
+        raise line.fail("unbalanced parentheses or braces (close every '(' and '{')")
     words = _words(line.text)[1:]
     if len(words) < 3:
         raise line.fail(
@@ -301,20 +330,26 @@ def _split_condition(word: str):
     return word, "", ""
 
 
-def check_measures(measures, params: dict, funcs: dict, vectors, problems) -> tuple:
+def check_measures(measures, params: dict, funcs: dict, vectors, note) -> tuple:
     """``measures`` whose expressions read only the netlist's parameters and vectors
     (``vectors``: ``(ngspice name, key)`` of what a run can save, ``v(n)`` and
-    ``i(vname)``); each one that reads anything else is added to ``problems`` on its line."""
+    ``i(vname)``); each one that reads anything else is noted on its line (``note(line,
+    text)``) and becomes a skipped measure (:func:`skip`)."""
     known = {name for name, _ in vectors}
     names = dict(params)
+    kept = []
     for m in measures:
+        if m.kind == "skipped":
+            kept.append(m)
+            continue
+        why = None
         texts = [m.expr] + [t for c in (m.trig, m.targ) if c is not None for t in (c.lhs, c.rhs)]
         for text in (t for t in texts if t is not None):
             try:
                 c = compile_expression(text, names, funcs, numparam=m.kind == "param")
             except ExprError as exc:
-                problems.add(m.source.fail(f".measure {m.name}: {exc}"))
-                continue
+                why = f".measure {m.name}: {exc}"
+                break
             missing = [
                 f"v({node})"
                 for pair in c.pairs
@@ -322,15 +357,18 @@ def check_measures(measures, params: dict, funcs: dict, vectors, problems) -> tu
                 if node.lower() not in GROUND and f"v({node.lower()})" not in known
             ] + [f"i({s})" for s in c.currents if f"i({s.lower()})" not in known]
             if missing:
-                problems.add(
-                    m.source.fail(
-                        f".measure {m.name}: no such vector {', '.join(dict.fromkeys(missing))} "
-                        "(a node voltage v(node) or the current i(Vname) of a voltage source "
-                        "or inductor)"
-                    )
+                why = (
+                    f".measure {m.name}: no such vector {', '.join(dict.fromkeys(missing))} "
+                    "(a node voltage v(node) or the current i(Vname) of a voltage source "
+                    "or inductor)"
                 )
-        names[m.name] = 0.0  # a PARAM below may read it
-    return tuple(measures)
+                break
+        if why is None:
+            kept.append(m)
+            names[m.name] = 0.0  # a PARAM below may read it
+        else:  # ngspice: "measure … failed", and the run goes on
+            skip(kept, note, m.source, why)
+    return tuple(kept)
 
 
 # ------------------------------------------------------------------ measuring
@@ -390,6 +428,10 @@ def measure(measures, result) -> tuple[Measurement, ...]:
     traces = Traces(result)
     out = []
     for m in measures:
+        if m.kind == "skipped":  # a line that did not read: its reason, never a value
+            out.append(Measurement(m.name, None, m.line, failed=f"not read: {m.expr}"))
+            traces.params.pop(m.name, None)
+            continue
         try:
             value, extras = _one(m, traces)
         except _Failed as exc:

@@ -305,7 +305,7 @@ class _Reader:
         if self.measures:  # their names against every vector a run can give
             netlist.measures = check_measures(
                 self.measures, netlist.params, self.funcs, select(netlist, [], self.problems),
-                self.problems,
+                self.note,
             )  # fmt: skip
         self.problems.check()
         return netlist

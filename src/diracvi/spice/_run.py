@@ -222,11 +222,16 @@ class Result(Mapping):
 
     def _measure_attrs(self) -> dict:
         """``measure_<name>``: each measurement's value, or why it failed (a later line
-        of the same name wins, as ngspice's last print does)."""
-        return {
-            f"measure_{m.name}": m.value if m.failed is None else f"failed: {m.failed}"
-            for m in self.measurements
-        }
+        of the same name wins, as ngspice's last print does; a later line that did not
+        read does not, as ngspice prints nothing for it)."""
+        out = {}
+        for m in self.measurements:
+            key = f"measure_{m.name}"
+            if m.failed is None:
+                out[key] = m.value
+            elif key not in out or not m.failed.startswith("not read: "):
+                out[key] = f"failed: {m.failed}"
+        return out
 
     def _variable_attrs(self, layout: str) -> dict:
         """A variable-step run's file attributes: the layout, the run and its settings."""
