@@ -226,8 +226,8 @@ a1 (p 0) (m1 0) primary
 REFUSED = {
     "hysteresis": ("a3 (m1 0) iron", " mode=2",
                    "mode=2 (hysteresis) is not supported; diracvi builds the core's PWL mode"),
-    "other model": ("a3 m1 0 amp\n.model amp int(gain=2)", "",
-                    "the XSPICE code model 'int' (model 'amp', line 8) is a code model with "
+    "other model": ("a3 m1 0 amp\n.model amp hyst(in_low=0)", "",
+                    "the XSPICE code model 'hyst' (model 'amp', line 8) is a code model with "
                     "state diracvi does not build"),
     "analog model on an MMF node": ("a3 (m1 0) iron\na4 m1 x amp\nRx x 0 1\n"
                                     ".model amp gain(gain=2)", "",

@@ -1,4 +1,5 @@
-r"""XSPICE's memoryless analog code models and ``d_dt`` on ``A`` lines, as behavioural sources.
+r"""XSPICE's memoryless analog code models, ``d_dt`` and ``int`` on ``A`` lines, as behavioural
+sources.
 
     Aname port… model      .model model KIND(param=value … vector=[v1 v2 …] flag=TRUE)
 
@@ -66,8 +67,21 @@ slope ``s₊`` at ``x₀ + d``):
   differences its input backward (first order) and outputs 0 (not ``out_offset``) at
   ``t = 0``, where diracvi's operating point has ``dx/dt = 0`` and so ``out_offset``.
 
+- ``int`` (``%v``/``%vd`` ports only): ``y = clamp(q)`` with ``q = out_ic + gain ·
+  ∫₀ᵗ (x + in_offset) dt`` (``clamp`` as ``limit``'s, ``out_lower_limit``/``out_upper_limit``
+  required, ``limit_range`` absolute, default 1e-6). The integral ``q`` is the charge of
+  a 1 F capacitor at a hidden node ``<instance>#int`` fed the current ``gain · (x +
+  in_offset)`` by an I-form source: a state of the structure, started at ``out_ic`` (the
+  operating point holds the node there as it holds a ``.ic`` node; ngspice outputs
+  ``out_ic`` at ``t = 0``). ngspice also overwrites its stored integral with the limited
+  value at every step (so its state sticks near a limit, ``U − d`` in the small-step
+  limit, where this ``q`` runs on): the two agree while ``q`` stays in ``[L + d, U − d]``
+  and differ after; a note says so, and ``out_ic`` outside that range is refused.
+  The hidden node has no DC path, so :mod:`._gmin` shunts it with ``GMIN`` (noted): the
+  integral leaks with time constant ``1 F/GMIN`` = 1e12 s, where ngspice's does not.
+
 Iteration aids that do not change the solution (``pwl``'s input stepping, ``zener``'s
-``limit_switch``) are not modelled. Models with other state (``int``, ``hyst``,
+``limit_switch``) are not modelled. Models with other state (``hyst``,
 ``s_xfer``, …), the digital ones and the hybrid bridges are refused by name.
 """
 
@@ -181,6 +195,17 @@ MODELS = {
             "limit_range": 1e-6,
         },
     ),
+    "int": Spec(
+        (Port("in", "v", ("v", "vd")), Port("out", "v", ("v", "vd"))),
+        {
+            "in_offset": 0.0,
+            "gain": 1.0,
+            "out_lower_limit": None,
+            "out_upper_limit": None,
+            "limit_range": 1e-6,
+            "out_ic": 0.0,
+        },
+    ),
     "zener": Spec(
         (Port("z", "gd", ("gd",)),),
         {
@@ -198,7 +223,7 @@ MODELS = {
 
 #: code models ngspice has that are not built, by what each needs (refused by name)
 OTHERS = {
-    "a code model with state": ("int", "hyst", "s_xfer", "slew", "oneshot", "delay",
+    "a code model with state": ("hyst", "s_xfer", "slew", "oneshot", "delay",
                                 "astate", "capacitor", "inductor", "memristor", "ilimit"),
     "a source": ("sine", "square", "triangle", "file_source", "pwlts", "seegenerator"),
     "a table read from a file": ("table2d", "table3d"),
@@ -207,7 +232,7 @@ OTHERS = {
 }  # fmt: skip
 
 READS = (
-    "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, d_dt, "
+    "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, d_dt, int, "
     "aswitch and zener, and the magnetic lcouple and core"
 )
 
@@ -233,6 +258,8 @@ def a_line(ctx, name, pos, kw, line):
     ports = _ports(tokens[1:-1], spec.ports, line, kind)
     params = _params(model, spec, kind)
     *inputs, (out_type, out_nodes) = ports
+    if kind == "int":
+        return _int(ctx, name, line, params, inputs[0], out_type, out_nodes, pos[0])
     return _build(ctx, name, line, kind, spec, params, inputs, out_type, out_nodes, pos[0])
 
 
@@ -389,6 +416,56 @@ def _build(ctx, name, line, kind, spec, params, inputs, out_type, out_nodes, wri
         tau=ctx.tran[1] if ctx.tran else cp.behavioural.TAU,  # TSTOP: see TAU
     )
     return part, nodes
+
+
+def _int(ctx, name, line, p, inp, out_type, out_nodes, written):
+    """``int`` (module docstring): the integral as the charge of a 1 F capacitor at a
+    hidden node ``<instance>#int`` fed the current ``gain·(x + in_offset)``, its output an
+    ideal source of that node's voltage through ``limit``'s smooth clamp."""
+    lo, hi, d = p["out_lower_limit"], p["out_upper_limit"], p["limit_range"]
+    if not d > 0.0 or hi - lo < 2.0 * d:
+        raise line.fail(
+            f"element {written!r}: int needs limit_range > 0 and out_upper_limit − "
+            f"out_lower_limit ≥ 2·limit_range (got L={lo:g}, U={hi:g}, range {d:g})"
+        )
+    if not lo + d <= p["out_ic"] <= hi - d:
+        raise line.fail(
+            f"element {written!r}: int's out_ic={p['out_ic']:g} is not inside "
+            f"[out_lower_limit + limit_range, out_upper_limit − limit_range] = "
+            f"[{lo + d:g}, {hi - d:g}]; move out_ic or the limits"
+        )
+    kind_of, nodes = inp
+    a, b = nodes if kind_of == "vd" else (nodes[0], "0")
+    local = f"{written}#int".lower()  # a node of the line's scope, so its path prefixes it
+    hidden = ctx.node(local)
+    # the hidden node starts at out_ic: held there by the operating point (as a .ic
+    # node is), the capacitor's initial voltage with UIC
+    ctx.reader.ic[hidden] = p["out_ic"]
+    cap = cp.Capacitor(1.0, name=f"{name}#c", v0=p["out_ic"], negative=True)
+    ctx.circuit.add(cap, p=hidden, n="0")
+    feed = cp.BehaviouralSource(
+        "I",
+        lambda v, i, t, dd: p["gain"] * (v[0] + p["in_offset"]),
+        name=f"{name}#i",
+        pairs=1,
+    )  # an I source's current runs from p through it to n: n = the hidden node charges it
+    ctx.circuit.add(feed, p="0", n=hidden, c0p=ctx.node(a), c0n=ctx.node(b))
+    where = f"{line.where} ({ctx.display(written)})"
+    ctx.circuit.origin[f"{name}#c"] = ctx.circuit.origin[f"{name}#i"] = where
+    ctx.reader.name_checks.append((line, ctx, written, [a, b], []))
+    ctx.note(
+        line,
+        f"{written}: int's limits clamp its output; ngspice also clamps its integral "
+        "state there, so once the integral passes a limit ± limit_range the two differ",
+    )
+    out = cp.BehaviouralSource(
+        "V",
+        lambda v, i, t, dd: _clamp(v[0], lo, hi, d),
+        name=name,
+        pairs=1,
+    )
+    po, no = out_nodes if len(out_nodes) == 2 else (out_nodes[0], "0")
+    return out, {"p": po, "n": no, "c0p": local, "c0n": "0"}
 
 
 def corner(x, x0, y0, d, s_lo, s_hi):
