@@ -31,6 +31,8 @@ from __future__ import annotations
 
 import os
 
+from .switches import env_switch
+
 #: ``0`` leaves ``XLA_FLAGS`` as it is; unset or ``1``: the small-loop threshold is raised
 ENV = "DIRACVI_SMALL_LOOPS"
 _KEY = "xla_cpu_small_while_loop_byte_threshold"
@@ -45,14 +47,11 @@ _ADDED: bool | None = None
 
 
 def _wanted() -> bool:
-    value = os.environ.get(ENV, "").strip()
-    if value in ("", "1"):
-        return True
-    if value == "0":
-        return False
-    raise ValueError(
-        f"{ENV}={value!r} is not understood. Fix: set it to 1 or unset (compile small "
-        "loops as one kernel, the default) or 0 (leave XLA_FLAGS as it is)."
+    return env_switch(
+        ENV,
+        on="compile small loops as one kernel, the default",
+        off="leave XLA_FLAGS as it is",
+        default=True,
     )
 
 
