@@ -211,12 +211,7 @@ def test_good_measures_beside_malformed_ones_agree_with_ngspice(tmp_path):
     """Each malformed line (6, 8, 10, 12, 13, 15) noted with its line number and failed; each
     good one equal to what ngspice 39 prints for the same deck (run finely, so its own
     time points do not limit it): times to 2e-7 s, values to 1e-3 of the 1.2 V peak."""
-    fine = GOOD_AND_BAD.replace(".tran 10u 5m", ".tran 10u 5m 0 0.2u\n.options reltol=1e-7")
-    path = tmp_path / "deck.cir"
-    path.write_text(fine)
-    out = subprocess.run(
-        ["ngspice", "-b", str(path)], capture_output=True, text=True, timeout=120, check=True
-    ).stdout
+    out = _ngspice_printout(GOOD_AND_BAD, ".tran 10u 5m", "0.2u", tmp_path)
     block = out.split("Total analysis", 1)[0]
     want = {name: float(v) for name, v in re.findall(r"^(\w+)\s+=\s+(\S+)", block, re.M)}
     assert set(want) == {"tgood", "yeval", "ypp", "ymax"}, out  # ngspice skips the rest
@@ -276,15 +271,21 @@ C1 out 0 2u
 """
 
 
-def _ngspice_measurements(deck: str, tmp_path) -> dict:
-    """What ngspice 39 prints for the deck's measure lines, run at fine settings
-    (reltol 1e-7, TMAX = TSTEP/50) so its own time points do not limit it."""
-    fine = deck.replace(".tran 5u 4m", ".tran 5u 4m 0 0.1u\n.options reltol=1e-7")
+def _ngspice_printout(deck: str, tran: str, tmax: str, tmp_path) -> str:
+    """What ngspice 39 prints for the deck run at fine settings (reltol 1e-7, the deck's
+    ``.tran TSTEP TSTOP`` line, given as ``tran``, with TMAX = TSTEP/50 as ``tmax``), so
+    its own time points do not limit its measurements."""
+    fine = deck.replace(tran, f"{tran} 0 {tmax}\n.options reltol=1e-7")
     path = tmp_path / "deck.cir"
     path.write_text(fine)
-    out = subprocess.run(
+    return subprocess.run(
         ["ngspice", "-b", str(path)], capture_output=True, text=True, timeout=120, check=True
     ).stdout
+
+
+def _ngspice_measurements(deck: str, tmp_path) -> dict:
+    """ngspice 39's printed measurements of the deck (:func:`_ngspice_printout`)."""
+    out = _ngspice_printout(deck, ".tran 5u 4m", "0.1u", tmp_path)
     block = out.split("Measurements for Transient Analysis", 1)[1].split("Total analysis", 1)[0]
     assert "failed" not in block, block
     found = re.findall(r"^(\w+)\s+=\s+(\S+)", block, re.M)
