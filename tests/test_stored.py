@@ -11,6 +11,7 @@ import os
 import subprocess
 import sys
 import time
+from collections import OrderedDict
 
 import equinox as eqx
 import jax
@@ -156,22 +157,51 @@ def _double(x, scale):
     return 2.0 * x * scale
 
 
+def _new_process(monkeypatch):
+    """Forget the executables this process holds, as a new process starts."""
+    monkeypatch.setattr(_stored, "_LOADED", OrderedDict())
+
+
 def test_calls_load_compile_fall_back_and_survive_a_damaged_file(tmp_path, monkeypatch):
     monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
+    _new_process(monkeypatch)
     program = StoredJit(_double, "tests._double", dict)
     x = np.arange(3.0)
     np.testing.assert_array_equal(program(x, 1.5), 3.0 * x)
     (stored,) = tmp_path.glob("*.exe")
     np.testing.assert_array_equal(program(x, 2.0), 4.0 * x)  # a static float: a new key
     assert len(list(tmp_path.glob("*.exe"))) == 2
-    # a new StoredJit (as in a new process) loads the file; a damaged one is recompiled
+    # a new StoredJit in a new process loads the file; a damaged one is recompiled
+    _new_process(monkeypatch)
     np.testing.assert_array_equal(StoredJit(_double, "tests._double", dict)(x, 1.5), 3.0 * x)
     stored.write_bytes(b"not an executable")
+    _new_process(monkeypatch)
     np.testing.assert_array_equal(StoredJit(_double, "tests._double", dict)(x, 1.5), 3.0 * x)
     assert stored.read_bytes() != b"not an executable"  # overwritten by the new program
     # under a transformation the call is traced as before
     grad = jax.grad(lambda y: program(y, 1.5).sum())(x)
     np.testing.assert_array_equal(grad, np.full(3, 3.0))
+
+
+def test_a_program_this_process_holds_is_not_loaded_again(tmp_path, monkeypatch):
+    # a model read again from the same netlist has new StoredJits with the same keys:
+    # the executable compiled (or loaded) for the first is reused, not read from disk
+    monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
+    _new_process(monkeypatch)
+    x = np.arange(3.0)
+    np.testing.assert_array_equal(StoredJit(_double, "tests._double", dict)(x, 1.5), 3.0 * x)
+    loads = []
+    real_load = _stored.load
+    monkeypatch.setattr(_stored, "load", lambda key_: loads.append(key_) or real_load(key_))
+    again = StoredJit(_double, "tests._double", dict)
+    np.testing.assert_array_equal(again(x, 1.5), 3.0 * x)
+    assert loads == []
+    np.testing.assert_array_equal(again(x, 2.0), 4.0 * x)  # another key: looked for on disk
+    assert len(loads) == 1
+    # bounded as the StoredJits' own maps are: the least recently used goes
+    monkeypatch.setattr(_stored, "MEMORY_LIMIT", 1)
+    np.testing.assert_array_equal(again(x, 3.0), 6.0 * x)
+    assert len(_stored._LOADED) == 1
 
 
 def test_the_store_keeps_the_most_recently_used_within_its_bound(tmp_path):
