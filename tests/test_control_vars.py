@@ -152,3 +152,18 @@ def test_what_is_not_applied_or_skipped_is_noted():
     # an unused let with no value before the run is ignored, as the rest of the block
     net = spice.read(deck.replace("let stp = 1n", "let stp = 1n\nlet res = v(1)/i(v1)"))
     assert net.dt == 1e-9
+
+
+def test_the_corpus_tool_reads_the_same_tran():
+    """``tests/_corpus.py``'s ``find_tran`` (the fine reference's tran) resolves the same
+    forms to the same numbers as the reader."""
+    for control in (
+        "let early = 20n\nop\nlet stp = tst/7\ntran $&stp $&tst 0 $&early uic",
+        'set tstep = 1.23456789n\nset tstop = "100n"\ntran $tstep $tstop',
+    ):
+        deck = CIRCUIT + f".control\n{control}\ntran 1n 2n\n.endc\n.end\n"
+        net, tran = spice.read(deck), corpus.find_tran(deck)
+        assert (tran.tmax, tran.uic) == (net.tmax, net.uic)
+        assert (tran.step, tran.stop) == pytest.approx((net.dt, net.stop), rel=3e-16, abs=0.0)
+    with pytest.raises(ValueError, match=r"\$&nope"):
+        corpus.find_tran(CIRCUIT + ".control\ntran $&nope 1n\n.endc\n.end\n")
