@@ -167,3 +167,17 @@ def test_the_corpus_tool_reads_the_same_tran():
         assert (tran.step, tran.stop) == pytest.approx((net.dt, net.stop), rel=3e-16, abs=0.0)
     with pytest.raises(ValueError, match=r"\$&nope"):
         corpus.find_tran(CIRCUIT + ".control\ntran $&nope 1n\n.endc\n.end\n")
+
+
+@pytest.mark.parametrize(
+    ("name", "left"), [("ng_memristor", {"line 27", "line 31"}), ("ng_memristor_x", {"line 30"})]
+)
+def test_the_memristor_decks_tran_and_csparams_are_read(name, left):
+    """ngspice's memristor examples (corpus, unedited): their ``tran $&deltime $&stime uic``
+    is ngspice's first tran, 1e-10 1e-8 uic (``let deltime = stime/100``, ``.csparam
+    stime={stime}``, ``.param stime=10n``); what is left refused is their devices only."""
+    deck = corpus.DATA / f"{name}.sp"
+    assert corpus.find_tran(deck.read_text()) == corpus.Tran(1e-10, 1e-8, 0.0, None, True)
+    with pytest.raises(spice.NetlistError) as err:
+        spice.read(deck)
+    assert {where for where, _, _ in err.value.problems} == left
