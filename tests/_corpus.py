@@ -128,9 +128,11 @@ def logical_lines(text: str) -> list[str]:
 
 
 def find_tran(text: str) -> Tran:
-    """The deck's ``.tran`` line, else the first ``tran`` command in its ``.control`` block."""
+    """The deck's ``.tran`` line, else the first ``tran`` command in its ``.control`` block,
+    its ``$&name`` and ``$name`` written as ngspice 39 writes them (:func:`control_words`)."""
     control = False
     found = None
+    commands: list[str] = []
     for line in logical_lines(text):
         low = line.lower()
         if low.startswith(".control"):
@@ -142,11 +144,124 @@ def find_tran(text: str) -> Tran:
         words = low.replace(",", " ").split()
         if not control and words[0] == ".tran":
             return _tran(words[1:])
-        if control and words[0] == "tran" and found is None:
-            found = _tran(words[1:])
+        if control and found is None:
+            if words[0] == "tran":
+                found = line
+            else:
+                commands.append(line)
     if found is None:
         raise ValueError("the deck has no .tran and no tran command in .control")
-    return found
+    if "$" in found:
+        found = control_words(text, commands, found)
+    return _tran(found.lower().replace(",", " ").split()[1:])
+
+
+#: ngspice's control commands after which a new plot is current (a let made in the plot
+#: before is not seen from it; one made before any, in the const plot, is)
+_NEW_PLOT = set("op ac dc noise tf sens pz disto pss sp run linearize load fft spec".split())
+
+
+def control_words(text: str, commands: list[str], tran: str) -> str:
+    """The ``tran`` command with its variables substituted as ngspice 39 does
+    (``cp_variablesubst``): ``$&name`` a vector — a ``.csparam`` (over the deck's
+    top-level ``.param`` values) or a ``let`` before the tran (over the vectors before it,
+    in the const plot or the current one) — written ``%G``; ``$name`` a ``set`` variable, a
+    number written ``%d`` when whole, else ``%G``, a quoted value as written. A value this
+    reading cannot give (a vector of a run, a ``let`` in an ``if`` block) is a ValueError:
+    the corpus makes no reference of what it cannot read. Independent of diracvi's reader
+    (``spice/_control.py``), which ``tests/test_control_vars.py`` holds to ngspice."""
+    params: dict[str, float] = {}
+    vectors: dict[tuple[int, str], float] = {}
+    depth = 0
+    for line in logical_lines(text):
+        word = line.split()[0].lower()
+        depth += (word == ".subckt") - (word == ".ends")
+        if depth or word not in (".param", ".csparam"):
+            continue
+        for name, expr in re.findall(r"(\w+)\s*=\s*(\{[^}]*\}|'[^']*'|\S+)", line[len(word) :]):
+            value = _number_expr(expr.strip("{}'"), params)
+            if word == ".param":
+                params[name.lower()] = value
+            else:
+                vectors[(0, name.lower())] = value
+    plot, plots, block, sets = 0, 0, 0, {}
+    for command in commands:
+        word = command.split()[0].lower()
+        block += (word in ("if", "while", "repeat", "dowhile", "foreach")) - (word == "end")
+        if word in _NEW_PLOT:
+            plots += 1
+            plot = plots
+        elif word == "setplot":
+            raise ValueError(f"{command!r} before the tran: the plot of a let is not followed")
+        elif word == "let" and not block and "=" in command:
+            name, expr = (x.strip() for x in command[3:].split("=", 1))
+            seen = {n: v for (p, n), v in vectors.items() if p == 0}
+            seen.update({n: v for (p, n), v in vectors.items() if p == plot and plot})
+            try:
+                vectors[(plot, name.lower())] = _number_expr(expr, seen)
+            except ValueError:
+                vectors.pop((plot, name.lower()), None)  # no value: refused if used
+        elif word == "set":
+            for name, value in re.findall(r'(\w+)\s*=\s*("[^"]*"|\S+)', command[3:]):
+                if value.startswith('"'):
+                    sets[name.lower()] = value.strip('"')
+                else:
+                    x = spice_number(value)
+                    sets[name.lower()] = str(int(x)) if x == int(x) else f"{x:G}"
+
+    def one(m: re.Match) -> str:
+        name = m.group(2).lower()
+        if m.group(1):
+            value = vectors.get((plot, name), vectors.get((0, name)))
+            if value is None:
+                raise ValueError(f"{tran!r}: $&{name} has no value before the run")
+            return f"{value:G}"
+        if name not in sets:
+            raise ValueError(f"{tran!r}: ${name} is not set before the tran")
+        return sets[name]
+
+    return re.sub(r"\$(&?)(\w+)", one, tran)
+
+
+_SAFE = {"sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": abs, "pi": np.pi}
+
+
+def _number_expr(expr: str, names: dict[str, float]) -> float:
+    """An arithmetic expression of SPICE numbers (``2n``), ``names`` and a few functions
+    (a ValueError for anything else)."""
+    import ast
+
+    scaled = re.sub(
+        r"(?<![\w.])((?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)(meg|mil|[tgkmuµnpf])?[a-z]*",
+        lambda m: repr(spice_number(m.group(0))),
+        expr.strip(),
+        flags=re.I,
+    ).replace("^", "**")
+
+    def walk(node):
+        if isinstance(node, ast.Expression):
+            return walk(node.body)
+        if isinstance(node, ast.Constant) and isinstance(node.value, int | float):
+            return float(node.value)
+        if isinstance(node, ast.Name) and node.id.lower() in {**_SAFE, **names}:
+            return {**_SAFE, **names}[node.id.lower()]
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, ast.USub | ast.UAdd):
+            return -walk(node.operand) if isinstance(node.op, ast.USub) else walk(node.operand)
+        if isinstance(node, ast.BinOp):
+            ops = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply,
+                   ast.Div: np.divide, ast.Pow: np.power}  # fmt: skip
+            if type(node.op) in ops:
+                return float(ops[type(node.op)](walk(node.left), walk(node.right)))
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and not node.keywords:
+            f = _SAFE.get(node.func.id.lower())
+            if callable(f):
+                return float(f(*(walk(a) for a in node.args)))
+        raise ValueError(f"cannot evaluate {expr!r} here")
+
+    try:
+        return walk(ast.parse(scaled, mode="eval"))
+    except SyntaxError:
+        raise ValueError(f"cannot evaluate {expr!r} here") from None
 
 
 def _tran(words: list[str]) -> Tran:

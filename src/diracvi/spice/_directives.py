@@ -21,7 +21,17 @@ from ._values import KELVIN, NOMINAL_TEMPERATURE, number
 
 
 def _tran(reader, line, pos, kw):
-    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``."""
+    """``.tran TSTEP TSTOP [TSTART [TMAX]] [UIC]``; the ``.control`` block's ``tran``
+    with its ``$&name``/``$name`` written as ngspice writes them (:mod:`._control`)."""
+    if line is reader.control_tran and "$" in line.text:
+        csparams = {
+            key: (where, reader.top.value(token, where, f".csparam {key}"))
+            for key, (where, token) in reader.csparams.items()
+        }
+        text, said = reader.control.resolve(csparams)
+        reader.note(line, f"{line.text[1:]!r} read as {text!r}: " + ", ".join(said))
+        line = line.with_text("." + text)
+        pos, kw = split(line)
     args = [t for t in pos[1:] if t.lower() != "uic"]
     uic = len(args) != len(pos) - 1
     if len(args) < 2 or len(args) > 4 or kw:
@@ -220,6 +230,28 @@ def _noted(what):
     return handler
 
 
+def _csparam(reader, line, pos, kw):
+    """``.csparam name=expr …``: ngspice makes each a vector of the control language
+    (``inp.c``, at load, the value numparam's), which the ``.control`` block's ``tran``
+    may read as ``$&name`` (:mod:`._control`; evaluated there, after every ``.param``). A
+    word that is not ``name=value`` is skipped with the rest of the line, as ngspice
+    warns ("bad csparam definition") and skips it."""
+    if pos[1:]:
+        reader.note(
+            line,
+            f".csparam: {pos[1]!r} is not name=value; the line is skipped "
+            "(ngspice warns 'bad csparam definition' and skips it)",
+        )
+        return
+    for key, token in kw.items():
+        reader.csparams[key] = (line, token)
+    reader.note(
+        line,
+        f".csparam {', '.join(kw)}: the control language's vectors (a "
+        ".control block's tran may read them as $&name)",
+    )
+
+
 def _refused(why):
     def handler(reader, line, pos, kw):
         raise line.fail(f"directive {card(line)!r} is not supported: {why}")
@@ -263,6 +295,6 @@ DIRECTIVES = {
         (".ac", ".dc", ".noise", ".tf", ".disto", ".pz", ".sens", ".sp", ".pss"), _ANALYSIS
     ),
     ".func": _func,
-    ".csparam": _refused("control-language parameters; use .param"),
+    ".csparam": _csparam,
     ".step": _refused("parameter steps; use `diracvi sweep`"),
 }

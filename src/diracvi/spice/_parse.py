@@ -20,6 +20,7 @@ from pathlib import Path
 from .. import components as cp
 from ..errors import ModelError
 from ._behavioural import check_names
+from ._control import first_tran
 from ._directives import DIRECTIVES, circuit_temperatures
 from ._gmin import GMIN, add_shunts
 from ._lines import Line, NetlistError, Problems, card, load, split
@@ -183,6 +184,11 @@ class _Reader:
         self.title = ""
         self.tran: tuple[float, float] | None = None
         self.tran_line: Line | None = None
+        # the .control block's first tran (spice/_control.py), read as the .tran when the
+        # netlist has none, and the .csparam vectors its $&name may read: name -> (line, token)
+        self.control = None
+        self.control_tran: Line | None = None
+        self.csparams: dict[str, tuple[Line, str]] = {}
         self.start, self.tmax, self.uic = 0.0, None, False
         self.ic: dict[str, float] = {}
         self.notes: list[str] = []
@@ -244,10 +250,13 @@ class _Reader:
         self.notes += source.notes
         lines = source.lines
         if not any(card(line) == ".tran" for line in lines):
-            control = [c for c in source.control if card(c) == "tran"]
-            if control:  # a `tran` command of a .control block stands for the .tran
-                lines = [*lines, control[0].with_text("." + control[0].text)]
-                self.note(control[0], "the .control block's 'tran' is used as the .tran")
+            control = first_tran(source.control)
+            if control is not None:  # a `tran` command of a .control block stands for it
+                self.control = control
+                self.control_tran = control.line.with_text("." + control.line.text)
+                lines = [*lines, self.control_tran]
+                self.note(control.line, "the .control block's 'tran' is used as the .tran")
+                self.notes += control.notes
         circuit_temperatures(self, lines)
         # TEMPER in every expression (.param, element values, B sources) is the circuit
         # temperature, as ngspice evaluates it
