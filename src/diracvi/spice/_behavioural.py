@@ -45,12 +45,20 @@ def expression_text(text: str) -> str:
     return _strip(text).replace("{", "(").replace("}", ")")
 
 
+def b_text(text: str) -> str:
+    """A B source's expression as ngspice 39 reads it: every ``{`` and ``}`` in it is a
+    blank (``inpcom.c``'s ``inp_bsource_compat`` → ``inp_modify_exp``, so numparam only
+    substitutes parameters and the B parser reads the rest). A brace is not a
+    parenthesis there: ``V='2*{1+V(a)}'`` is 2*1 + V(a), 3 V at V(a) = 1 V in ngspice 39."""
+    return re.sub(r"[{}]", " ", _strip(text)).strip()
+
+
 def b_line(ctx, name, pos, kw, line):
     m = _OUTPUT.match(line.text)
     if m is None:
         raise line.fail(f"expected '{_FORM}'")
     _, a, b, kind, text = m.groups()
-    return _build(ctx, name, line, kind.upper(), _strip(text), a, b, pos[0])
+    return _build(ctx, name, line, kind.upper(), b_text(text), a, b, pos[0])
 
 
 def value_line(ctx, name, pos, kw, line, kind):
