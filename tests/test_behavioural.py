@@ -478,6 +478,8 @@ B3 o3 0 V={k}*{V(a)+k}
 R4 o3 0 1k
 B4 o4 0 V={f1(V(a))}
 R5 o4 0 1k
+V2 r 0 DC 2
+R6 r 0 r={2*{1+V(a)}}
 X1 a s1 sub
 X2 a s2 sub beta=7 Vt=0.5
 .subckt sub p q PARAMS: beta=5 Vt=0.25
@@ -492,7 +494,8 @@ R2 q 0 1k
 
 def test_braces_in_a_b_expression_are_blanks_and_a_subckt_func_is_its_own():
     """ngspice 39 blanks every brace of a B expression (``inp_bsource_compat``), so
-    ``2*{1+V(a)}`` is 2·1 + V(a), not 2·(1 + V(a)); a ``.func`` inside a ``.subckt`` is
+    ``2*{1+V(a)}`` is 2·1 + V(a), not 2·(1 + V(a)), in a behavioural resistor's value too
+    (ngspice makes it a B source); a ``.func`` inside a ``.subckt`` is
     the subcircuit's (over the top level's ``f1``) and reads each instance's parameters
     (ngspice's examples/memristor/memristor.sp). Values by hand at V(a) = 1 V, and what
     ngspice 39 prints for the same deck."""
@@ -501,10 +504,12 @@ def test_braces_in_a_b_expression_are_blanks_and_a_subckt_func_is_its_own():
     by_hand = {"o1": 3.0, "o2": 4.0, "o3": 2 * 1 + 2, "o4": 100.0, "s1": 5 * 0.75, "s2": 7 * 0.5}
     for node, value in by_hand.items():
         assert op.voltages[node] == pytest.approx(value, rel=1e-12), node
+    assert op.currents["V2"] == pytest.approx(-2.0 / 3.0, rel=1e-12)  # R6 = 2*1 + 1 = 3 Ω
     if ng.available():
         theirs = ng.operating_point(BRACES_AND_FUNCS)
         for node in by_hand:
             assert op.voltages[node] == pytest.approx(theirs[f"v({node})"], rel=1e-12), node
+        assert op.currents["V2"] == pytest.approx(theirs["i(v2)"], rel=1e-12)
 
 
 def test_a_subckt_func_is_scoped_to_its_subcircuit():
