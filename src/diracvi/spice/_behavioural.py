@@ -40,9 +40,13 @@ def _strip(text: str) -> str:
 
 
 def expression_text(text: str) -> str:
-    """A value as written (:func:`_strip`) with the braces inside it (ngspice's parameter
-    substitution, ``{Rload/2}``) read as parentheses: a behavioural resistor's value."""
-    return _strip(text).replace("{", "(").replace("}", ")")
+    """A B source's expression (or a behavioural resistor's value, which ngspice turns into
+    a B source) as ngspice 39 reads it: written (:func:`_strip`) with every ``{`` and
+    ``}`` in it a blank (``inpcom.c``'s ``inp_bsource_compat`` → ``inp_modify_exp``, so
+    numparam only substitutes parameters and the B parser reads the rest). A brace is not
+    a parenthesis there: ``V='2*{1+V(a)}'`` is 2*1 + V(a), 3 V at V(a) = 1 V, and
+    ``R1 a 0 r={2*{1+V(b)}}`` is 3 Ω at V(b) = 1 V, in ngspice 39 (measured)."""
+    return re.sub(r"[{}]", " ", _strip(text)).strip()
 
 
 def b_line(ctx, name, pos, kw, line):
@@ -50,7 +54,7 @@ def b_line(ctx, name, pos, kw, line):
     if m is None:
         raise line.fail(f"expected '{_FORM}'")
     _, a, b, kind, text = m.groups()
-    return _build(ctx, name, line, kind.upper(), _strip(text), a, b, pos[0])
+    return _build(ctx, name, line, kind.upper(), expression_text(text), a, b, pos[0])
 
 
 def value_line(ctx, name, pos, kw, line, kind):

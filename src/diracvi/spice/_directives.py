@@ -16,7 +16,7 @@ import re
 from ._lines import LineError, card, split
 from ._measure import read_measure
 from ._save import probe_tokens
-from ._scope import Scope
+from ._scope import Scope, parse_func
 from ._values import KELVIN, NOMINAL_TEMPERATURE, number
 
 
@@ -205,18 +205,11 @@ def _op(reader, line, pos, kw):
 
 def _func(reader, line, pos, kw):
     """``.func name(a, b) = expr`` or ``.func name(a, b) {expr}``: a user function of the
-    behavioural expressions (:mod:`._expr` inlines it at each call)."""
-    m = re.match(
-        r"^\.func\s+([A-Za-z_]\w*)\s*\(([^()]*)\)\s*=?\s*(.+?)\s*$", line.text, re.I | re.S
-    )
-    if m is None:
-        raise line.fail("expected '.func NAME(arg1, arg2, …) = expr' (or '{expr}')")
-    name, args, body = m.group(1).lower(), m.group(2), m.group(3)
-    names = [a.strip().lower() for a in args.split(",") if a.strip()]
-    if body[:1] + body[-1:] in ("{}", "''"):
-        body = body[1:-1]
+    behavioural expressions (:mod:`._expr` inlines it at each call, its other names read
+    where it is called). One inside a ``.subckt`` is read by :mod:`._scope`."""
+    name, names, body = parse_func(line)
     if name in reader.funcs:
-        raise line.fail(f".func {m.group(1)} is defined twice; keep one")
+        raise line.fail(f".func {name} is defined twice; keep one")
     reader.funcs[name] = (names, body)
 
 

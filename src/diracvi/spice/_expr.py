@@ -260,11 +260,24 @@ FUNCTIONS = {
     # numparam's name for 'c ? a : b' (both branches are evaluated, as in ngspice)
     "ternary_fcn": (3, lambda c, a, b: jnp.where(c != 0, a, b)),
 }
+#: ngspice's ``PTfudge_factor``: GMIN·1e-20 = 1e-32 at its default GMIN (``ifeval.c``)
+FUDGE = 1e-32
+
+
+def _divide(a, b):
+    """``a / (b ± 1e-32)``, the sign of ``b`` (+ at 0), as ngspice's ``PTdivide``
+    divides in a B expression. A divisor of magnitude above ~1e-16 is unchanged (1e-32 is
+    below half its ulp); at 0 the value is a·1e32, not NaN or ±inf: a behavioural
+    resistor ``r={V(x)}`` whose node ``x`` is 0 in a step's first guess (its capacitor
+    charged by UIC) is finite there, as in ngspice, and its Newton iteration can start."""
+    return a / (b + jnp.where(b >= 0, FUDGE, -FUDGE))
+
+
 _BIN = {
     "+": jnp.add,
     "-": jnp.subtract,
     "*": jnp.multiply,
-    "/": jnp.divide,
+    "/": _divide,
     "^": _pow,
     "==": lambda a, b: jnp.where(a == b, 1.0, 0.0),
     "!=": lambda a, b: jnp.where(a != b, 1.0, 0.0),

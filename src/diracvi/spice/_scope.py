@@ -54,6 +54,10 @@ class Scope:
     subckts: dict = field(default_factory=dict)
     names: dict = field(default_factory=dict)  # element name (lower) -> part name
     fixed: frozenset = frozenset()  # parameters the instance set over the body's .param
+    # the .func functions of the enclosing subcircuit bodies and this one (name -> (argument
+    # names, body)), over the top level's; own: the names this body defines
+    local_funcs: dict = field(default_factory=dict)
+    own_funcs: set = field(default_factory=set)
 
     # ---------------------------------------------------------------- for handlers
     @property
@@ -76,8 +80,13 @@ class Scope:
 
     @property
     def funcs(self):
-        """The ``.func`` functions (top level): name -> (argument names, body text)."""
-        return self.reader.funcs
+        """The ``.func`` functions visible here: name -> (argument names, body text). A
+        ``.func`` of a subcircuit's body is its own (ngspice scopes it to the subcircuit,
+        over a top-level one of that name); its names other than its arguments are read
+        where it is called, so the instance's parameters (``beta``) are what it sees."""
+        if not self.local_funcs:
+            return self.reader.funcs
+        return {**self.reader.funcs, **self.local_funcs}
 
     def value(self, token: str, line: Line, what: str) -> float:
         """A number (``4.7k``) or an expression (``{r*2}``, ``'r*2'``, ``r``)."""
@@ -213,6 +222,7 @@ class Scope:
             models=dict(self.models),
             subckts=dict(self.subckts),
             fixed=fixed,
+            local_funcs=dict(self.local_funcs),
         )
         sub.used.append(line)
         read_body(scope, sub.body)
@@ -256,7 +266,10 @@ def conditional(scope: Scope, lines: list[Line]) -> list[Line]:
     An unbalanced or malformed conditional is refused on its line."""
     if not any(_CONDITIONAL.match(line.text) for line in lines):
         return lines
-    params = Scope(scope.reader, scope.path, params=dict(scope.params), fixed=scope.fixed)
+    params = Scope(
+        scope.reader, scope.path, params=dict(scope.params), fixed=scope.fixed,
+        local_funcs=scope.local_funcs,
+    )  # fmt: skip
     kept: list[Line] = []
     # one entry per open .if: [its line, a branch taken so far, this branch is kept]
     stack: list[list] = []
@@ -348,12 +361,34 @@ def _directive(scope: Scope, line: Line) -> None:
             value = scope.value(token, line, f".ic v({node})")
             scope.reader.ic.setdefault(scope.node(node), value)
         return
+    if word == ".func" and scope.path:  # the subcircuit's own (see Scope.funcs)
+        name, names, body = parse_func(line)
+        if name in scope.own_funcs:
+            raise line.fail(f".func {name} is defined twice in this subcircuit; keep one")
+        scope.own_funcs.add(name)
+        scope.local_funcs[name] = (names, body)
+        return
     if scope.path:
         raise line.fail(
-            f"directive {word!r} inside a subcircuit (only .param, .model, .ic and .subckt "
+            f"directive {word!r} inside a subcircuit (only .param, .model, .ic, .func and .subckt "
             "may be there); move it outside the '.subckt … .ends'"
         )
     scope.reader.directive(line)
+
+
+def parse_func(line):
+    """``.func name(a, b) = expr`` or ``.func name(a, b) {expr}`` → ``(name, argument
+    names, body text)`` (lower-case names; the body's outer braces or quotes removed)."""
+    m = re.match(
+        r"^\.func\s+([A-Za-z_]\w*)\s*\(([^()]*)\)\s*=?\s*(.+?)\s*$", line.text, re.I | re.S
+    )
+    if m is None:
+        raise line.fail("expected '.func NAME(arg1, arg2, …) = expr' (or '{expr}')")
+    name, args, body = m.group(1).lower(), m.group(2), m.group(3)
+    names = [a.strip().lower() for a in args.split(",") if a.strip()]
+    if body[:1] + body[-1:] in ("{}", "''"):
+        body = body[1:-1]
+    return name, names, body
 
 
 def _param(scope: Scope, line: Line, quiet: bool = False) -> None:
