@@ -248,3 +248,24 @@ def test_repeated_calls_on_a_model_use_its_own_numbers(tmp_path, monkeypatch):
         for _ in range(2):
             assert float(program(system, q)) == 0.5 * 4.0 - 0.5 * k * 4.0
         del system
+
+
+def test_a_function_lifted_inside_a_trace_leaves_no_tracer_in_the_cache():
+    # a model built inside a function under jit or grad lifts its user functions there;
+    # the lifted constants are cached for later calls, so they must be concrete arrays,
+    # not the trace's own values (the quadrotor's index arrays were: UnexpectedTracerError
+    # on the next gradient)
+    index = np.array([2, 0, 1])
+
+    def user(q):
+        return jnp.sum(q[index] * np.array([1.0, 2.0, 3.0]))
+
+    @jax.jit
+    def build_inside(x):
+        lift(user, [(3,)])
+        return x
+
+    build_inside(1.0)
+    _, consts, _ = lift(user, [(3,)])
+    assert consts and not any(isinstance(c, jax.core.Tracer) for c in consts)
+    assert float(jax.jit(lambda x: build_inside(x) + 1.0)(1.0)) == 2.0

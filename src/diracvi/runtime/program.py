@@ -169,9 +169,13 @@ def _on_device(value):
     """``jnp.asarray(value)``, NumPy data put on the device as it is: JAX's ``asarray``
     of NumPy data is an eager ``stage`` program, compiled once per shape and process
     whatever the disk cache holds (a model's constants: a few of them per deck)."""
-    if isinstance(value, np.ndarray | np.generic):
-        return jax.device_put(value)
-    return jnp.asarray(value)
+    # evaluated now even inside another trace (a model built in a function under
+    # jax.grad or jit): the result is cached across calls (``_LIFTED``), and a staged
+    # device_put would leave a tracer of that trace in the cache for the next call
+    with jax.ensure_compile_time_eval():
+        if isinstance(value, np.ndarray | np.generic):
+            return jax.device_put(value)
+        return jnp.asarray(value)
 
 
 class _Unkeyable(Exception):
