@@ -89,6 +89,8 @@ def _newton_step(system, rule, scheme, solver, h, c, tk, idle=False):
         status = jnp.where((res.status == 0) & ~finite, SolveStatus.NONFINITE, res.status)
         return (q1, p1, mu, res.iterations, res.residual_norm, status), res.state
 
+    advance = solver.step_program(advance)
+
     def frozen(_):
         # μ here is the whole tail of x (with a staged rule's (Q, ν))
         tail = first_guess(system, rule, q, q, mu_prev)[system.n :]

@@ -81,3 +81,10 @@ class StepSolver(eqx.Module):
         """The explicit momentum line at the solved ``x`` (a solver that knows the
         system's structure may evaluate it more cheaply)."""
         return eqs.momentum(x)
+
+    def step_program(self, advance):
+        """How a chunk runs one step: ``advance`` (a function of one ignored operand,
+        closing over the step's inputs, returning its outputs and the new state) as it is, or
+        transformed (the traced driver's reverse mode rematerializes it:
+        :class:`~diracvi.driver.traced.ImplicitStep`)."""
+        return advance
