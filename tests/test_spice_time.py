@@ -365,9 +365,12 @@ def test_variable_steps_keep_kcl_and_the_power_balance_per_step(name):
     t, h, q, p, mu = march.t, march.h, march.q, march.p, march.mu
     assert np.max(h) / np.min(h) > 5.0  # the steps did vary
     rule = get_rule("midpoint")
-    con = jax.vmap(lambda a, b, hh, tt: discrete_constraints(rule, system, "plus", a, b, hh, tt))(
-        q[:-1], q[1:], h, t[:-1]
-    )
+    # each check below is one jitted program: run eagerly, every primitive of the vmapped
+    # maps was dispatched (and compiled) on its own, ~110 small programs per case (the
+    # two cases: 11.4 → 5.5 s CPU); the same arithmetic, checked at the same round-off
+    con = jax.jit(
+        jax.vmap(lambda a, b, hh, tt: discrete_constraints(rule, system, "plus", a, b, hh, tt))
+    )(q[:-1], q[1:], h, t[:-1])
     v = np.diff(q, axis=0) / h[:, None]
     assert np.max(np.abs(con)) <= 1e-12 * max(1.0, np.max(np.abs(v)))
     # impulses c_k from μ_k = ½(c_{k−1} + c_k), c_{−1} = 0
@@ -376,18 +379,20 @@ def test_variable_steps_keep_kcl_and_the_power_balance_per_step(name):
     for k in range(len(h)):
         prev = 2.0 * mu[k] - prev
         c[k] = prev
-    reaction = np.asarray(jax.vmap(lambda a, m: system.multiplier_force(a, m, 0.0))(q[:-1], c))
+    reaction = np.asarray(
+        jax.jit(jax.vmap(lambda a, m: system.multiplier_force(a, m, 0.0)))(q[:-1], c)
+    )
     p_hat = p.copy()
     p_hat[1:] -= 0.5 * reaction  # p̂_{k+1} = p_{k+1} − ½ Bᵀ c_k
     zero = jnp.zeros(system.n)
-    mass = np.asarray(jax.hessian(lambda vv: system.lagrangian(q[0], vv, 0.0))(zero))
+    mass = np.asarray(jax.jit(jax.hessian(lambda vv: system.lagrangian(q[0], vv, 0.0)))(zero))
     inductive = np.flatnonzero(np.abs(np.diag(mass)) > 0)
     m_inv = np.linalg.inv(mass[np.ix_(inductive, inductive)])
     kinetic = 0.5 * np.einsum("ki,ij,kj->k", p_hat[:, inductive], m_inv, p_hat[:, inductive])
-    potential = np.asarray(jax.vmap(lambda a, tt: -system.lagrangian(a, zero, tt))(q, t))
+    potential = np.asarray(jax.jit(jax.vmap(lambda a, tt: -system.lagrangian(a, zero, tt)))(q, t))
     energy = kinetic + potential
     mid = 0.5 * (q[:-1] + q[1:])
-    force = np.asarray(jax.vmap(system.force)(mid, v, t[:-1] + h / 2))
+    force = np.asarray(jax.jit(jax.vmap(system.force))(mid, v, t[:-1] + h / 2))
     work = h * np.sum(force * v, axis=1)
     scale = np.max(np.abs(energy)) + np.max(np.abs(work))
     assert np.max(np.abs(np.diff(energy) - work)) <= 1e-12 * scale
