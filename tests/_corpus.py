@@ -41,6 +41,7 @@ judged exactly as before.
 
 from __future__ import annotations
 
+import ast
 import gzip
 import io
 import re
@@ -229,8 +230,6 @@ _SAFE = {"sqrt": np.sqrt, "exp": np.exp, "log": np.log, "abs": abs, "pi": np.pi}
 def _number_expr(expr: str, names: dict[str, float]) -> float:
     """An arithmetic expression of SPICE numbers (``2n``), ``names`` and a few functions
     (a ValueError for anything else)."""
-    import ast
-
     scaled = re.sub(
         r"(?<![\w.])((?:\d+\.?\d*|\.\d+)(?:e[+-]?\d+)?)(meg|mil|[tgkmuµnpf])?[a-z]*",
         lambda m: repr(spice_number(m.group(0))),
