@@ -56,6 +56,7 @@ _PUBLIC = {
     "Spring": "mechanical",
     "TorqueSource": "mechanical",
     "TorsionSpring": "mechanical",
+    "Memristor": "memristor",
     "MOSFET": "mosfet",
     "MOSFET2": "mosfet2",
     "MOSFET3": "mosfet3",
@@ -119,6 +120,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
         TorqueSource,
         TorsionSpring,
     )
+    from .memristor import Memristor
     from .mosfet import MOSFET
     from .mosfet2 import MOSFET2
     from .mosfet3 import MOSFET3
@@ -175,6 +177,7 @@ __all__ = [
     "Inductor",
     "Inertia",
     "Mass",
+    "Memristor",
     "MotorPropeller",
     "Multibody",
     "MultibodyModel",

@@ -182,8 +182,8 @@ UNSUPPORTED = {
 
 SUPPORTED = (
     "R, C, L, K, V, I, D, B, E, F, G, H, S, W, T, Q, J, M (levels 1, 2, 3 and 6), A (XSPICE's "
-    "analog gain, summer, mult, divide, limit, climit, pwl, d_dt, int, aswitch, zener "
-    "and magnetic lcouple, core) and X (subcircuits)"
+    "analog gain, summer, mult, divide, limit, climit, pwl, d_dt, int, aswitch, zener, "
+    "memristor and magnetic lcouple, core) and X (subcircuits)"
 )
 
 

@@ -1,5 +1,5 @@
-r"""XSPICE's memoryless analog code models, ``d_dt`` and ``int`` on ``A`` lines, as behavioural
-sources.
+r"""XSPICE's memoryless analog code models, ``d_dt``, ``int`` and ``memristor`` on ``A`` lines,
+as behavioural sources (``memristor``: a part of its own).
 
     Aname port… model      .model model KIND(param=value … vector=[v1 v2 …] flag=TRUE)
 
@@ -80,6 +80,16 @@ slope ``s₊`` at ``x₀ + d``):
   The hidden node has no DC path, so :mod:`._gmin` shunts it with ``GMIN`` (noted): the
   integral leaks with time constant ``1 F/GMIN`` = 1e12 s, where ngspice's does not.
 
+- ``memristor`` (``memris %gd`` only): ``i = V/R`` with the state ``dR/dt = f(V)``,
+  ``f(V) = β V + ½(α − β)(|V + v_t| − |V − v_t|)``, stopped at ``rmax`` for ``f > 0`` and
+  at ``rmin`` for ``f < 0``; ``R = rinit`` at ``t = 0`` (and in ngspice's DC and AC).
+  :func:`~diracvi.components.Memristor` on the port (its module says how it enters the
+  structure: the port a resistor of value ``R``, the state the voltage of a hidden node
+  ``<instance>#r`` that a 1 F capacitor ``<instance>#c`` holds, fed ``f`` by the part, the
+  limits two relays whose flips the variable-step driver locates); the operating point
+  holds the node at ``rinit`` as it holds a ``.ic`` node. The hidden node gets the GMIN
+  shunt (noted), a leak of ``GMIN·R``, 1e-8 Ω/s at 10 kΩ.
+
 Iteration aids that do not change the solution (``pwl``'s input stepping, ``zener``'s
 ``limit_switch``) are not modelled. Models with other state (``hyst``,
 ``s_xfer``, …), the digital ones and the hybrid bridges are refused by name.
@@ -94,6 +104,7 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 
 from .. import components as cp
+from ..errors import ModelError
 from . import _magnetic
 from ._magnetic import _TOKEN, _values
 
@@ -206,6 +217,10 @@ MODELS = {
             "out_ic": 0.0,
         },
     ),
+    "memristor": Spec(
+        (Port("memris", "gd", ("gd",)),),
+        {"rmin": 10.0, "rmax": 10000.0, "rinit": 7000.0, "alpha": 0.0, "beta": 1.0, "vt": 0.0},
+    ),
     "zener": Spec(
         (Port("z", "gd", ("gd",)),),
         {
@@ -224,7 +239,7 @@ MODELS = {
 #: code models ngspice has that are not built, by what each needs (refused by name)
 OTHERS = {
     "a code model with state": ("hyst", "s_xfer", "slew", "oneshot", "delay",
-                                "astate", "capacitor", "inductor", "memristor", "ilimit"),
+                                "astate", "capacitor", "inductor", "ilimit"),
     "a source": ("sine", "square", "triangle", "file_source", "pwlts", "seegenerator"),
     "a table read from a file": ("table2d", "table3d"),
     "a code model": ("multi_input_pwl", "ota", "cmeter", "lmeter", "potentiometer",
@@ -233,7 +248,7 @@ OTHERS = {
 
 READS = (
     "XSPICE's analog code models gain, summer, mult, divide, limit, climit, pwl, d_dt, int, "
-    "aswitch and zener, and the magnetic lcouple and core"
+    "aswitch, zener and memristor, and the magnetic lcouple and core"
 )
 
 
@@ -260,6 +275,8 @@ def a_line(ctx, name, pos, kw, line):
     *inputs, (out_type, out_nodes) = ports
     if kind == "int":
         return _int(ctx, name, line, params, inputs[0], out_type, out_nodes, pos[0])
+    if kind == "memristor":
+        return _memristor(ctx, name, line, params, out_nodes, pos[0])
     return _build(ctx, name, line, kind, spec, params, inputs, out_type, out_nodes, pos[0])
 
 
@@ -466,6 +483,27 @@ def _int(ctx, name, line, p, inp, out_type, out_nodes, written):
     )
     po, no = out_nodes if len(out_nodes) == 2 else (out_nodes[0], "0")
     return out, {"p": po, "n": no, "c0p": local, "c0n": "0"}
+
+
+def _memristor(ctx, name, line, p, nodes, written):
+    """``memristor`` (module docstring): :func:`~diracvi.components.Memristor` on the
+    port, its state ``R`` the voltage of a hidden node ``<instance>#r`` held by a 1 F
+    capacitor charged to ``rinit``."""
+    try:
+        part = cp.Memristor(
+            p["rmin"], p["rmax"], p["rinit"], p["alpha"], p["beta"], p["vt"], name=name
+        )
+    except ModelError as exc:
+        raise line.fail(f"element {written!r}: {exc}") from None
+    local = f"{written}#r".lower()  # a node of the line's scope, so its path prefixes it
+    hidden = ctx.node(local)
+    # held at rinit by the operating point (as a .ic node is: ngspice's DC answer is
+    # V/rinit), the capacitor's initial voltage with UIC
+    ctx.reader.ic[hidden] = p["rinit"]
+    ctx.circuit.add(cp.Capacitor(1.0, name=f"{name}#c", v0=p["rinit"]), p=hidden, n="0")
+    ctx.circuit.origin[f"{name}#c"] = f"{line.where} ({ctx.display(written)})"
+    ctx.reader.name_checks.append((line, ctx, written, list(nodes), []))
+    return part, {"p": nodes[0], "n": nodes[1], "h": local, "g": "0"}
 
 
 def corner(x, x0, y0, d, s_lo, s_hi):
