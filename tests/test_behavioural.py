@@ -16,7 +16,6 @@ import _ngspice as ng
 import diracvi as dv
 from diracvi import components as cp
 from diracvi import spice
-from diracvi.errors import StepFailure
 from diracvi.spice import waveforms
 from diracvi.spice._expr import ExprError, compile_expression, evaluate_constant
 
@@ -244,22 +243,21 @@ R2 2 0 1k
 
 
 def test_a_pinned_node_value_is_exact_for_a_quadratic():
-    """``driver/pinned.edge_value``: from its means over three adjacent intervals of any
-    sizes, the node value at the last one's end of a quadratic, to round-off (what makes
-    the re-pinned ``ddt`` second order), and a cubic's is off (the rule is not exact
-    beyond its degree)."""
-    from diracvi.driver.pinned import edge_value
+    """``driver/pinned.centre_value``: from a signal's values at the centres of three
+    adjacent intervals of any sizes, the value at the last one's end of a quadratic, to
+    round-off, and a cubic's is off (the rule is not exact beyond its degree)."""
+    from diracvi.driver.pinned import centre_value
 
     rng = np.random.default_rng(3)
     for _ in range(20):
         sizes = rng.uniform(0.1, 2.0, 3)
         coeffs = rng.normal(size=4)
         ends = np.concatenate([[0.0], np.cumsum(sizes)])
+        centres = 0.5 * (ends[:-1] + ends[1:])
         for degree in (2, 3):
             c = coeffs[: degree + 1]
-            primitive = np.polynomial.polynomial.Polynomial(c).integ()
-            means = np.diff(primitive(ends)) / sizes
-            value = float(edge_value(tuple(means), tuple(sizes)))
+            values = np.polynomial.polynomial.polyval(centres, c)
+            value = float(centre_value(tuple(values), tuple(sizes)))
             exact = float(np.polynomial.polynomial.polyval(ends[-1], c))
             if degree == 2:
                 assert abs(value - exact) <= 1e-12 * (1 + np.sum(np.abs(c)) * ends[-1] ** 2)
@@ -267,17 +265,51 @@ def test_a_pinned_node_value_is_exact_for_a_quadratic():
                 assert abs(value - exact) > 1e-9
 
 
+def test_a_pinned_ddt_is_the_derivative_at_the_step_centre_whatever_the_steps():
+    """The variable-step loop's ``ddt`` (``driver/pinned``, ``driver/tries``): each step's
+    line fixes ``ȳ = g_k``, the sensed value at its centre, and ``ddt = 2(ȳ − y_start)/h``.
+    Started from ``start_value`` — the node value less ``Y'' h²/8`` — it is ``g'`` at the
+    step's centre, exactly for a quadratic ``g``, for a try's coarse step and its two fine
+    ones after steps of any sizes: the step-doubling difference of the ``ddt`` node is then
+    ``O(H³)`` as the step control assumes. Started from the node value itself it is
+    ``g'(t + h/4)``, ``g'' h/4`` off: first order (the ddt of a sine's steps fell to
+    1/250 of TMAX when node potentials came to be judged per try)."""
+    from diracvi.driver.pinned import centre_value, start_value
+
+    rng = np.random.default_rng(5)
+    for _ in range(20):
+        c = rng.normal(size=3)  # g(s) = c₀ + c₁ s + c₂ s²
+        g = np.polynomial.polynomial.Polynomial(c)
+        a, b = rng.uniform(0.1, 2.0, 2)  # the last try's two halves are alike: b, b
+        big = rng.uniform(0.1, 4.0)  # this try's H
+        sizes = (a, b, b)
+        ends = np.concatenate([[-(a + 2 * b)], -(a + 2 * b) + np.cumsum(sizes)])
+        means = tuple(g(0.5 * (ends[:-1] + ends[1:])))
+        node = centre_value(means, sizes)  # at t = 0, the try's start
+
+        def ddt(node, before, spans, t0, h, g=g):
+            return 2.0 * (g(t0 + 0.5 * h) - start_value(node, before, spans, h)) / h
+
+        coarse = ddt(node, means[1:], (b, b), 0.0, big)
+        fine1 = ddt(node, means[1:], (b, b), 0.0, 0.5 * big)
+        mid = centre_value((means[1], means[2], g(0.25 * big)), (b, b, 0.5 * big))
+        fine2 = ddt(mid, (means[2], g(0.25 * big)), (b, 0.5 * big), 0.5 * big, 0.5 * big)
+        scale = 1e-12 * (1 + np.sum(np.abs(c))) * (1 + big + a + b) ** 2 / min(big, b)
+        assert abs(coarse - g.deriv()(0.5 * big)) <= scale
+        assert abs(fine1 - g.deriv()(0.25 * big)) <= scale
+        assert abs(fine2 - g.deriv()(0.75 * big)) <= scale
+        # from the node value itself: first order, g''h/4 off
+        plain = 2.0 * (g(0.5 * big) - node) / big
+        np.testing.assert_allclose(plain - g.deriv()(0.5 * big), -0.5 * c[2] * big, rtol=1e-9)
+
+
 @pytest.mark.slow  # a variable-step simulation (~5 s with its compilation)
-@pytest.mark.xfail(
-    strict=True,
-    raises=StepFailure,
-    reason="a known regression since 7cb865e (node potentials judged per try): v(2)'s "
-    "steps fall to ~4e-8 s (TMAX 10 us) and the run stops at t = 1.81 ms out of step "
-    "tries; docs/circuits.md, 'ddt under per-try potentials'",
-)
 def test_ddt_of_a_sine_under_variable_steps_has_no_growing_alternation():
     """``V = ddt(v(1))`` of a 1 kHz sine under SPICE's variable steps (5 periods, ~9000
-    steps): the output agrees with ``2πf cos`` to 1e-3 of its peak (4.4e-4 measured).
+    steps): the output agrees with ``2πf cos`` to 1e-3 of its peak (2.2e-5 measured,
+    3086 steps, since each step's ``ddt`` is the derivative at its centre; 4.4e-4 before,
+    and from 7cb865e, node potentials judged per try, its steps fell to 1/250 of TMAX
+    on the first-order ``ddt`` and the run stopped at 1.81 ms).
     With the ``ddt`` position carried by the midpoint line alone, its −1 mode driven
     by the sensed voltage's round-off, it was 2.4e-3 off (docs/circuits.md)."""
     text = """ddt of a sine

@@ -165,6 +165,51 @@ def test_the_gap_check_of_a_knee_is_the_larger_quadratic_as_before():
     np.testing.assert_allclose(np.asarray(gap_error(xs, ys)), want, rtol=1e-14)
 
 
+def _plain_gap(xs, ys):
+    """The gap check with nothing left out: the larger quadratic against the line."""
+
+    def second(i):
+        (a, fa), (b, fb), (c, fc) = [(xs[k], ys[k]) for k in (i, i + 1, i + 2)]
+        return ((fc - fb) / (c - b) - (fb - fa) / (b - a)) / (c - a)
+
+    return np.maximum(
+        np.abs(second(0)) * 0.25 * (xs[1] - xs[0]) ** 2,
+        np.abs(second(1)) * 0.25 * (xs[2] - xs[1]) ** 2,
+    )
+
+
+def test_a_corner_followed_by_the_alternation_it_excites_is_judged_plainly():
+    """A current ramping into a corner of its law between the last try's two centres (a
+    Meyer capacitance reaching ``C_ox``), then flat with the small alternation the corner
+    excites: its differences alternate in sign (− + −) and its second differences are
+    opposite, but one is 20 times the others — not one alternation on both sides. It is
+    judged by the plain quadratics (``ng_mosamp``'s ``m10.sgb`` at 5.0024 µs: left out as
+    ringing, its corner was read nowhere and the output was 1.85e-3 of its peak off)."""
+    xs = (5.0024016e-6, 5.0024048e-6, 5.0024078e-6, 5.0024107e-6)  # steps 3.2, 2.9 ps
+    ys = [np.array([y]) for y in (-5.85456e-3, -5.91186e-3, -5.90947e-3, -5.91199e-3)]
+    d = np.diff(np.concatenate(ys))
+    assert d[0] * d[1] < 0.0 and d[1] * d[2] < 0.0  # alternating: the old test left it out
+    got = np.asarray(gap_error(xs, ys))
+    np.testing.assert_allclose(got, _plain_gap(xs, ys), rtol=1e-12)
+    assert got[0] > 1e-3 * 5.9e-3  # above rtol of its peak: the corner is cut
+
+
+@pytest.mark.parametrize("ratio", [0.5, 1.0, 2.0, 5.0])
+def test_an_alternation_across_a_change_of_step_is_still_left_out(ratio):
+    """A stiff mode's alternation ``2δ/h`` (a charge read as a rate) over the last try's
+    steps ``h`` and this one's ``h/ratio`` (the growth law's range: 0.5 to 5) on a small
+    trend: one alternation on both sides once scaled by the steps, left out (0) as before."""
+    h = 2.0e-12
+    xs = (-1.5 * h, -0.5 * h, 0.25 * h / ratio * 2.0, 0.75 * h / ratio * 2.0)
+    steps = (h, h, h / ratio, h / ratio)
+    delta = 1.0e-17
+    ys = [
+        np.array([1.0e3 * x + 2.0 * delta * (-1.0) ** i / s])
+        for i, (x, s) in enumerate(zip(xs, steps, strict=True))
+    ]
+    assert np.asarray(gap_error(xs, ys))[0] == 0.0
+
+
 @pytest.mark.slow
 @needs_ngspice
 def test_a_capacitor_loop_beside_an_edge_runs_to_the_end_and_agrees_with_ngspice():

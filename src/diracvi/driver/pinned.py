@@ -16,15 +16,21 @@ to ±3e-4 V/s in ``ddt`` by 2.7 s, the step control read the alternating output 
 error, cut the step, and ``2δ/h`` grew until the output was off by 3.8 of its peak.
 
 So the variable-step driver does not carry ``y``'s node values from step to step: at
-each step's end it sets ``y_{k+1}`` to the node value of the quadratic whose means over
-the step and the two steps before it are those steps' ``ȳ`` (:func:`edge_value`, the
-cell-average reconstruction: exact for a quadratic ``g``, so the next step's
-``ddt = 2(g_{k+1} − y_{k+1}/τ)/h`` is second order). Nothing of ``y`` is carried but
-the three means, so there is no mode to drive: a round-off ``ε`` in them stays an error
-of ``≈ 9ε/h`` in one step's ``ddt``. Across a source corner (a breakpoint, a switching
-instant) the means before it do not describe ``g`` after it: the steps of the first try
-after one keep the midpoint's own ``y_{k+1} = 2τ g_k − y_k`` (from a node value pinned
-up to the corner from the left, exact for a piecewise linear ``g``).
+each step's end it sets ``y_{k+1}`` to the value there of the quadratic through the
+step's ``ȳ`` and the two steps' before it, each at its step's centre
+(:func:`centre_value`: the sensed ``g_k`` is the value at the step's centre, a source's
+exactly), and each step starts from that node value less ``Y'' h²/8`` of the step's own
+``h`` (:func:`start_value`), so that its ``ddt = 2(ȳ − y_start)/(hτ)`` is the derivative
+at its centre, ``O(h²)``, exact for a quadratic ``g``. (Started from the node value
+itself, as fitted before to the steps' means taken as cell averages, ``ddt`` was
+``Y'(t + h/3)``, first order: a 1 kHz sine's ``ddt`` off by ``g''h/6``, and its
+step-doubling difference, coarse against fine, ``O(H)``, which the step control, judging
+node potentials per try, met with steps 250 times shorter than TMAX.) Nothing of ``y``
+is carried but the three means, so there is no mode to drive: a round-off ``ε`` in them
+stays an error of ``≈ 9ε/h`` in one step's ``ddt``. Across a source corner (a breakpoint,
+a switching instant) the means before it do not describe ``g`` after it: the steps of the
+first try after one keep the midpoint's own ``y_{k+1} = 2τ g_k − y_k`` (from a node value
+pinned up to the corner from the left, exact for a piecewise linear ``g``).
 
 Every step still solves its own equations; only the start of the next one is replaced.
 ``y`` stores no energy (the hold term and its derivatives vanish on its line) and has
@@ -38,23 +44,41 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 
-def edge_value(means, sizes):
-    """The value at the right end of the last of three adjacent intervals of the
-    quadratic whose means over them are ``means = (m_a, m_b, m_c)`` (arrays) for
-    ``sizes = (a, b, c)`` (scalars): the derivative at that end of the cubic through
-    the primitive's values at the four ends (Lagrange, the end at 0)."""
-    m_a, m_b, m_c = means
+def centre_value(means, sizes):
+    """The value at the right end of the last of three adjacent intervals (``sizes =
+    (a, b, c)``) of the quadratic through ``means = (m_a, m_b, m_c)`` at the intervals'
+    centres (Lagrange, extrapolated to that end)."""
     a, b, c = sizes
-    x = (-(a + b + c), -(b + c), -c)  # the three other ends; the last one is 0
-    # the primitive P with P(0) = 0, at the other ends
-    pv = (-(c * m_c + b * m_b + a * m_a), -(c * m_c + b * m_b), -c * m_c)
+    x = (-(c + b + 0.5 * a), -(c + 0.5 * b), -0.5 * c)
     out = 0.0
     for j in range(3):
-        others = [x[i] for i in range(3) if i != j]
-        num = (0.0 - others[0]) * (0.0 - others[1])
-        den = (x[j] - others[0]) * (x[j] - others[1]) * (x[j] - 0.0)
-        out = out + pv[j] * num / den
+        w = 1.0
+        for i in range(3):
+            if i != j:
+                w = w * (0.0 - x[i]) / (x[j] - x[i])
+        out = out + means[j] * w
     return out
+
+
+def start_value(node, means, sizes, h):
+    """The value a pinned position starts a step of ``h`` from: ``node − Y'' h²/8``, with
+    ``Y`` the quadratic through ``node`` at the start and the means ``(m_a, m_b)`` of the
+    two steps before it (``sizes = (a, b)``) at their centres ``s₁ = −b − a/2``,
+    ``s₂ = −b/2``: with ``d_i = m_i − node``,
+
+        Y'' = 2 (d₁/s₁ − d₂/s₂) / (s₁ − s₂).
+
+    The step's line fixes its mean ``ȳ = τ g_k`` (``g_k`` the sensed value at the step's
+    centre ``t + h/2``) and ``ddt = 2(ȳ − y_start)/(hτ)``: from ``Y(t)`` that is
+    ``Y'(t) + Y'' h/4``, first order, and its step-doubling difference, coarse against
+    fine, is ``O(H)``, not the ``O(H³)`` the step control is written for; from
+    ``Y(t) − Y'' h²/8`` it is ``Y'(t + h/2) + O(h²)``, the centre's derivative, exact
+    for a quadratic ``g``."""
+    m_a, m_b = means
+    a, b = sizes
+    s1, s2 = -(b + 0.5 * a), -0.5 * b
+    curvature = 2.0 * ((m_a - node) / s1 - (m_b - node) / s2) / (s1 - s2)
+    return node - curvature * h * h / 8.0
 
 
 def repin(mask, start, end, history, sizes):
@@ -63,8 +87,8 @@ def repin(mask, start, end, history, sizes):
     steps before it, ``sizes = (a, b, c)`` the three steps' sizes. ``mask``: which
     coordinates (booleans, or all False for none)."""
     mean = 0.5 * (start + end)
-    pinned = edge_value((history[0], history[1], mean), sizes)
+    pinned = centre_value((history[0], history[1], mean), sizes)
     return jnp.where(mask, pinned, end), mean
 
 
-__all__ = ["edge_value", "repin"]
+__all__ = ["centre_value", "repin", "start_value"]

@@ -93,6 +93,16 @@ def three_steps(
         h = jnp.where(k == 0, h_try, half)
         # the second fine step starts where the first ended
         start_q, start_p = jnp.where(fine2, qs[1], q), jnp.where(fine2, ps[1], p)
+        if pin is not None:
+            # the pinned positions start the step below their node value by their
+            # curvature's h²/8, so that the step's ddt is the derivative at its centre
+            # (.pinned.start_value): from the last two recorded means, or for the second
+            # fine step from the last one and the first fine step's
+            mask, (m2, m1), h_last, use = pin
+            before = (jnp.where(fine2, m1, m2), jnp.where(fine2, means[1], m1))
+            spans = (h_last, jnp.where(fine2, half, h_last))
+            shifted = pinned_positions.start_value(start_q, before, spans, h)
+            start_q = jnp.where(mask & use, shifted, start_q)
         if predict:
             dq = jnp.where(k == 0, h * vel, jnp.where(fine2, qs[0] - qs[1], half * v_fine1(qs[0])))
         else:  # each from the last velocity, the second fine step on from the first's
