@@ -274,6 +274,27 @@ def test_waveform_breakpoints():
     assert cp.DC(1.0).breakpoints(0.0, 1.0) == ()
 
 
+def test_waveform_cycles_bound_its_oscillations():
+    """``cycles`` (what a run's budget of tries counts) is ``∫ f_max dt``: the sine's
+    periods exactly, and at least half the zero crossings of an FM or AM wave."""
+
+    def half_crossings(wave, t0, t1, centre):
+        u = np.asarray(wave(jnp.linspace(t0, t1, 2_000_001))) - centre
+        return np.count_nonzero(np.signbit(u[1:]) != np.signbit(u[:-1])) / 2
+
+    sine = cp.Sine(0.5, 1, 1e3, 2e-3)
+    assert sine.cycles(0.0, 10e-3) == pytest.approx(8.0)
+    assert half_crossings(sine, 0.0, 10e-3, 0.5) == pytest.approx(8.0, abs=0.5)
+    fm = cp.SFFM(0.1, 2, 200, 45, 10e3)  # ng_v_i_sources_am_ffm's V2: up to 450.2 kHz
+    assert fm.cycles(0.0, 1e-3) == pytest.approx(450.2)
+    assert 0.5 * fm.cycles(0.0, 1e-3) < half_crossings(fm, 0.0, 1e-3, 0.1) <= fm.cycles(0.0, 1e-3)
+    am = cp.AM(2, 0.5, 1e3, 20e3, 1e-3)
+    assert am.cycles(0.0, 3e-3) == pytest.approx(21e3 * 2e-3)
+    assert half_crossings(am, 1e-3 + 1e-9, 3e-3, 0.0) <= am.cycles(0.0, 3e-3)
+    assert cp.DC(1.0).cycles(0.0, 1.0) == 0.0
+    assert cp.Pulse(0, 1, 1.0, 0.1, 0.2, 0.5, 2.0).cycles(0.0, 4.0) == 0.0
+
+
 def test_sampler_is_exact_for_quadratics_at_the_ends_and_at_corners():
     """Step-centred values of a quadratic on each interval are reproduced everywhere,
     including the run's ends and the breakpoints half a step beyond the last centre (a

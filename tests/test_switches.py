@@ -296,10 +296,10 @@ def test_retries_aimed_at_switching_instants_are_not_counted_against_the_tries_b
     free = spice.run(DATA / "relaxation.cir", internal=True).trajectory
     assert free.status == 0 and free.aimed > 0 and len(free.h) > 3 * 256
     ordinary = free.tries - free.aimed
-    monkeypatch.setattr(_run, "tries_budget", lambda settings: ordinary)
+    monkeypatch.setattr(_run, "tries_budget", lambda settings, cycles=0.0: ordinary)
     bounded = spice.run(DATA / "relaxation.cir", internal=True).trajectory
     assert bounded.status == 0 and bounded.tries == free.tries
-    monkeypatch.setattr(_run, "tries_budget", lambda settings: ordinary // 2)
+    monkeypatch.setattr(_run, "tries_budget", lambda settings, cycles=0.0: ordinary // 2)
     with pytest.raises(StepFailure, match="more step tries than its budget"):
         spice.run(DATA / "relaxation.cir", internal=True)
 

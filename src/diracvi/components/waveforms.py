@@ -49,6 +49,12 @@ class Waveform(eqx.Module):
         step across a corner loses the rule's order. None for a smooth waveform."""
         return ()
 
+    def cycles(self, t_start: float, t_stop: float) -> float:
+        """How many periods of the waveform's fastest instantaneous frequency fit in
+        ``[t_start, t_stop]``, ``∫ f_max dt``: the pace a run must keep to follow it,
+        whatever its TMAX (0 for a waveform that does not oscillate)."""
+        return 0.0
+
 
 class DC(Waveform):
     """``u(t) = value``."""
@@ -97,6 +103,9 @@ class Sine(Waveform):
     def breakpoints(self, t_start, t_stop):
         # the delay's end: held value before it, the sine (or its slope) after
         return _within((self.delay,), t_start, t_stop) if self.delay > 0.0 else ()
+
+    def cycles(self, t_start, t_stop):
+        return _running(self.frequency, self.delay, t_start, t_stop)
 
 
 class Pulse(Waveform):
@@ -287,6 +296,11 @@ class SFFM(Waveform):
             2.0 * math.pi * self.carrier * t + phi_c + modulation
         )
 
+    def cycles(self, t_start, t_stop):
+        # the phase's rate is 2π (FC + MDI·FS cos(2π FS t + φ_s)): at most FC + |MDI|·FS
+        fastest = self.carrier + abs(self.index) * self.signal
+        return _running(fastest, 0.0, t_start, t_stop)
+
 
 class AM(Waveform):
     r"""ngspice 39's ``AM(VA VO MF FC TD PHASEC PHASES)``: an amplitude-modulated wave,
@@ -333,6 +347,18 @@ class AM(Waveform):
 
     def breakpoints(self, t_start, t_stop):
         return _within((self.delay,), t_start, t_stop) if self.delay > 0.0 else ()
+
+    def cycles(self, t_start, t_stop):
+        # the product of the two sines holds the frequencies FC ± MF
+        return _running(self.carrier + self.signal, self.delay, t_start, t_stop)
+
+
+def _running(frequency, delay, t_start: float, t_stop: float) -> float:
+    """``frequency ×`` the time of ``[t_start, t_stop]`` after ``delay`` (0 where either
+    is traced: the count only sizes a run's budget of tries, it is not differentiated)."""
+    if isinstance(frequency, jax.core.Tracer) or isinstance(delay, jax.core.Tracer):
+        return 0.0
+    return float(frequency) * max(0.0, t_stop - max(t_start, float(delay)))
 
 
 def _within(times, t_start: float, t_stop: float) -> tuple[float, ...]:

@@ -45,7 +45,7 @@ from ._probe import waveforms
 from ._resample import Sampled, Sampler
 from ._save import differences
 from ._stream import KEEP_MAX, StreamRecord, step_signals
-from ._tran import TranSettings, breakpoints, override, tran_settings
+from ._tran import TranSettings, breakpoints, override, source_cycles, tran_settings
 
 
 @dataclass(frozen=True)
@@ -505,11 +505,20 @@ def _event_atol(netlist: Netlist, settings: TranSettings) -> np.ndarray:
 PACKED_MARCH = True
 
 
-def tries_budget(settings: TranSettings) -> int:
+#: tries allowed per period of the fastest source (:func:`tries_budget`): the FM deck
+#: ``ng_v_i_sources_am_ffm`` (450 kHz at most, 28 800 such periods in its 64 ms) takes 133
+#: steps a period at its own settings, its node potentials judged per try (3.82 million
+#: steps, 2026-12-01); a thousand leaves it seven times that
+TRIES_PER_CYCLE = 1000
+
+
+def tries_budget(settings: TranSettings, cycles: float = 0.0) -> int:
     """How many step tries a variable-step run may take: 10 000, and 10 per TMAX of the
     run (a circuit whose error estimate stalls just below its tolerance at a tiny step —
     a ringing junction — would otherwise creep on for hours; the corpus's diode decks
-    take 250 to 600 at their own .tran), times ``(1e-3/reltol)^(1/3)`` below SPICE's
+    take 250 to 600 at their own .tran), and :data:`TRIES_PER_CYCLE` per period of its
+    fastest source (``cycles``, :func:`._tran.source_cycles`: a source oscillating faster
+    than TMAX sets the run's pace, not TMAX), times ``(1e-3/reltol)^(1/3)`` below SPICE's
     default reltol: the midpoint rule's local error is ``O(h³)``, so a tolerance
     tightened by ``k`` takes ``k^(1/3)`` times the steps (``ng_switch_osc`` at reltol
     1e-5 takes about 14 000 tries besides the aimed ones, its budget 10 500 without). The
@@ -517,7 +526,8 @@ def tries_budget(settings: TranSettings) -> int:
     (:func:`~diracvi.driver.adaptive.adaptive`: a few per event, thousands in a switched
     ring oscillator)."""
     tighter = max(1.0, (1e-3 / settings.reltol) ** (1.0 / 3.0))
-    return math.ceil(tighter * (10_000 + 10 * math.ceil(settings.stop / settings.max_step)))
+    paced = 10 * math.ceil(settings.stop / settings.max_step) + TRIES_PER_CYCLE * cycles
+    return math.ceil(tighter * (10_000 + paced))
 
 
 #: a stop is called a runaway when the largest node voltage at its end is this many
@@ -712,7 +722,7 @@ def _march(
     (:mod:`diracvi.driver.adaptive`); ``march.solver`` says which ran."""
     system = netlist.system
     ctl = controls(netlist, settings)
-    budget = tries_budget(settings)
+    budget = tries_budget(settings, cycles=source_cycles(system, 0.0, settings.stop))
     has_junctions = junctions(system) is not None
     # transmission lines: their waves are carried by the sparse loop alone (at any size)
     with_lines = bool(lines(system))

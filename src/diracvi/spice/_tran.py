@@ -98,6 +98,17 @@ def override(settings: TranSettings, values: dict) -> TranSettings:
     return replace(settings, **given) if given else settings
 
 
+def source_cycles(system, t_start: float, t_stop: float) -> float:
+    """The most periods any source of a circuit runs through in ``[t_start, t_stop]`` at
+    its fastest instantaneous frequency (:meth:`~diracvi.components.Waveform.cycles`): an
+    FM source of ``FC + MDI·FS`` = 450 kHz over 64 ms, 28 800."""
+    parts = getattr(system, "subsystems", (system,))
+    return max(
+        (wave.cycles(t_start, t_stop) for part in parts for wave in getattr(part, "waveforms", ())),
+        default=0.0,
+    )
+
+
 def breakpoints(system, t_start: float, t_stop: float) -> np.ndarray:
     """Every source corner in ``[t_start, t_stop]`` of a circuit's parts (the
     :meth:`~diracvi.components.Waveform.breakpoints` of each part's waveforms), sorted,
