@@ -171,7 +171,7 @@ cl out 0 2f
 
 
 @needs_ngspice
-@SLOW  # a fine ngspice run and an 800-step diracvi transient
+@SLOW  # a fine ngspice run and a 1600-step diracvi transient
 def test_inverter_transient_is_ngspices():
     """An inverter through a rising and a falling edge (intrinsic charges, the overlaps
     with CGSL/CGDL, the junctions' bottom, sidewall and gate-edge charges, the geoMod-0
@@ -182,7 +182,7 @@ def test_inverter_transient_is_ngspices():
     read = spice.read(INVERTER)
     fine = ".options reltol=1e-6 abstol=1e-14 vntol=1e-10 chgtol=1e-17"
     t, ref = ng.ngspice(INVERTER, ("v(out)",), tmax=read.stop / 20000, options=fine)
-    result = spice.run(read, dt=0.5e-12, solver=dv.NewtonSolver(reuse_jacobian=False))
+    result = spice.run(read, dt=0.25e-12, solver=dv.NewtonSolver(reuse_jacobian=False))
     mine = np.interp(t, result.time, result["v(out)"])
     assert np.max(np.abs(mine - ref["v(out)"])) <= 1e-3 * np.max(np.abs(ref["v(out)"]))
 

@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import math
 
+import jax
 import jax.numpy as jnp
 
 from ..errors import ModelError
@@ -211,6 +212,13 @@ def _dexp(a):
 
 def _sqrt(x):
     return jnp.sqrt(jnp.maximum(x, 1e-300))
+
+
+def _zero_at_vds0(x, vds):
+    """``x`` with ngspice's ``V_dseff = 0`` at ``V_DS = 0`` exactly: the value 0 there, its
+    derivative kept (b4v7ld.c zeroes the value and leaves ``∂V_dseff/∂V_DS``, so that the
+    conductance at ``V_DS = 0`` is the one on either side, not 0)."""
+    return jnp.where(vds == 0.0, x - jax.lax.stop_gradient(x), x)
 
 
 def _float(x) -> bool:
@@ -673,7 +681,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False)
     t2d = jnp.sqrt(t1d * t1d + 4.0 * delta * vdsat)
     below = vdsat * (1.0 - 2.0 * delta / jnp.where(t1d >= 0.0, 1.0, t2d - t1d))
     vdseff = jnp.where(t1d >= 0.0, vdsat - 0.5 * (t1d + t2d), below)
-    vdseff = jnp.where(vds == 0.0, 0.0, vdseff)
+    vdseff = _zero_at_vds0(vdseff, vds)
     vdseff = jnp.minimum(vdseff, vds)
     diffvds = vds - vdseff
     # V_Asat
@@ -837,7 +845,7 @@ def _charges(p, form, xpart, vgs_eff, vbseff, vth, n, vgst, abulk0, vds):
         t0 >= 0.0, vdsatcv - 0.5 * (t0 + t1),
         vdsatcv * (1.0 - 2.0 * DELTA_4 / jnp.where(t0 >= 0.0, 1.0, t1 - t0)),
     )  # fmt: skip
-    vdseffcv = jnp.where(vds == 0.0, 0.0, vdseffcv)
+    vdseffcv = _zero_at_vds0(vdseffcv, vds)
     t0 = abulkcv * vdseffcv
     t1 = vgdp
     t2 = 12.0 * (t1 - 0.5 * t0 + 1.0e-20)

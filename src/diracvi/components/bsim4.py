@@ -38,7 +38,7 @@ from ._charge_port import ChargePortPart
 from ._junction import depletion_charge
 from ._mos_part import bulk_limits, pins_and_kcl, polarity
 from ._part import finite, positive, traced
-from .bsim3 import _known, _Lagrangian, _mode, _Named, _overlap
+from .bsim3 import _known, _Lagrangian, _Named, _overlap
 
 __all__ = ["BSIM4", "bsim4_current"]
 
@@ -64,6 +64,16 @@ def _junction(v, form, i_s, nvtm, vjm, is_evjm, gmin):
     )
     above = is_evjm - i_s + is_evjm / nvtm * (v - vjm)
     return jnp.where(v <= vjm, below, above) + gmin * v
+
+
+def _mode(vgs, vds, vbs, sign):
+    """NMOS-oriented ``(V_GS, V_DS, V_BS)`` of the mode and whether it is forward (``V_DS
+    ≥ 0``, ngspice's mode 1 at 0); ``V_DS`` of the mode as ``±V_DS``, whose derivative at 0
+    is +1 (``|V_DS|``'s would be 0 there)."""
+    gs, ds, bs = sign * vgs, sign * vds, sign * vbs
+    forward = ds >= 0.0
+    return (jnp.where(forward, gs, gs - ds), jnp.where(forward, ds, -ds),
+            jnp.where(forward, bs, bs - ds), forward)  # fmt: skip
 
 
 def bsim4_current(params: dict, kind: str, vgs, vds, vbs, mobmod=0):
