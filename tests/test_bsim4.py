@@ -199,7 +199,7 @@ def test_bsim4_cards_refuse_what_is_not_built_every_problem_at_once():
     for part in ("igcmod=1 is not supported; diracvi has igcMod 0", "rbodymod=1", "rgatemod=1",
                  "capmod=1", "lambda=0.1 is not supported", "jtss=1e-06", "'foo'"):  # fmt: skip
         assert part in text, part
-    with pytest.raises(spice.NetlistError, match=r"BSIM4 VERSION=4.6 is not supported"):
+    with pytest.raises(spice.NetlistError, match=r"NMOS level 54 \(BSIM4v4.6\) is not supported"):
         spice.read(base.replace("VERSION=4.7", "VERSION=4.6").format("", ""))
     with pytest.raises(spice.NetlistError, match=r"NF=2 is not supported"):
         spice.read(base.format("NF=2", ""))

@@ -36,8 +36,15 @@ def read_bsim4_model(kind: str, kw: dict, fail, notes: list) -> dict:
     problems = []
     try:
         out["revision"] = b4.version_code(out["version"])
-    except ModelError as exc:
-        problems.append(str(exc))
+    except ModelError:
+        v = out["version"]
+        text = "4.8.3, ngspice's default" if v is None else (
+            f"{v:g}" if isinstance(v, float) else str(v))  # fmt: skip
+        problems.append(
+            f"{kind} level {kw['level']:g} (BSIM4v{text}) is not supported; diracvi's BSIM4 has "
+            "VERSION 4.7 (ngspice's bsim4v7) and 4.0–4.5 (bsim4v5), and ngspice runs 4.6 and "
+            "4.8 (its default when VERSION is absent) with other models"
+        )
     card = {}
     for key, x in kw.items():
         if key in ("level", "version"):
