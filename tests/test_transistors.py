@@ -451,7 +451,7 @@ def test_netlist_lines_build_the_parts_with_ngspice_names_and_defaults():
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=9 VTO=1)",
             r"line 5: model 'nch' \(line 6\): NMOS level 9 \(MOS9\) is not supported; diracvi "
             r"has levels 1 \(Shichman–Hodges\), 2 \(Grove–Frohman\), 3 \(semi-empirical\), "
-            r"6 \(Sakurai–Newton\) and 8/49 \(BSIM3v3\)",
+            r"6 \(Sakurai–Newton\), 8/49 \(BSIM3v3\) and 14/54 \(BSIM4\)",
         ),
         (
             "m1 3 2 0 0 nch\n.model nch NMOS (LEVEL=14 VERSION=4.8)",

@@ -62,6 +62,7 @@ _PUBLIC = {
     "MOSFET3": "mosfet3",
     "MOSFET6": "mosfet6",
     "BSIM3": "bsim3",
+    "BSIM4": "bsim4",
     "Multibody": "multibody",
     "MultibodyModel": "multibody",
     "Assembly": "network",
@@ -92,6 +93,7 @@ if TYPE_CHECKING:  # the same names as type checkers and the API docs (griffe) r
     from .behavioural import BehaviouralSource
     from .bjt import BJT
     from .bsim3 import BSIM3
+    from .bsim4 import BSIM4
     from .controlled import CCCS, CCVS, VCCS, VCVS
     from .diode import SPICE_PARAMETERS, Diode, spice_diode
     from .electrical import (
@@ -141,6 +143,7 @@ __all__ = [
     "AM",
     "BJT",
     "BSIM3",
+    "BSIM4",
     "CCCS",
     "CCVS",
     "DC",

@@ -27,6 +27,8 @@ from ..errors import ModelError
 from ._binning import binned
 from ._bsim3 import LEVELS as BSIM3_LEVELS
 from ._bsim3 import bsim3_line, read_bsim3_model
+from ._bsim4 import LEVELS as BSIM4_LEVELS
+from ._bsim4 import bsim4_line, read_bsim4_model
 from ._cards import NodeIC, built, device_temperature, element_card
 from ._mos2 import law as law2
 from ._mos2 import read_mos2_model
@@ -70,11 +72,13 @@ def read_mos_model(kind: str, kw: dict, fail, notes: list) -> dict:
         return read_mos3_model(kind, kw, fail, notes)
     if level in BSIM3_LEVELS:
         return read_bsim3_model(kind, kw, fail, notes)
+    if level in BSIM4_LEVELS:
+        return read_bsim4_model(kind, kw, fail, notes)
     if level != 1.0:
         raise fail(
             f"{kind} {level_name(level, kw.get('version'))} is not supported; diracvi "
             "has levels 1 (Shichman–Hodges), 2 (Grove–Frohman), 3 (semi-empirical), 6 "
-            "(Sakurai–Newton) and 8/49 (BSIM3v3)"
+            "(Sakurai–Newton), 8/49 (BSIM3v3) and 14/54 (BSIM4)"
         )
     return CARD.read(kind, kw, fail, notes)
 
@@ -177,6 +181,17 @@ def m_line(ctx, name, pos, kw, line):
     notes: list[str] = []
     values = read_mos_model(kind, params, fail, notes)
     level = params.get("level", 1.0)
+    if level in BSIM4_LEVELS:
+        temp = device_temperature(ctx, pos[0], kw, line)
+        kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
+        value = lambda t, what: ctx.value(t, line, what)  # noqa: E731
+        part, nodes = bsim4_line(
+            name, pos, kw, kind.lower(), values, value, line.fail, NodeIC(ctx), notes, temp,
+            ctx.tnom, ctx.reader.options.get("scale", 1.0), ctx.reader.parts,
+        )  # fmt: skip
+        for note in notes:
+            ctx.note(line, note)
+        return part, nodes
     if level in BSIM3_LEVELS:
         temp = device_temperature(ctx, pos[0], kw, line)
         kw = {k: t for k, t in kw.items() if k not in ("temp", "dtemp")}
