@@ -89,60 +89,6 @@ def test_factors_solve_as_the_dense_lu(seed):
     assert jax.tree.map(jnp.shape, empty) == jax.tree.map(jnp.shape, (factors, norms))
 
 
-def grid_with_hub(nx: int, ny: int, seed: int = 0):
-    """A random matrix with a 5-point stencil's pattern on an ``nx × ny`` grid (its RCM
-    band ~``min(nx, ny)`` wide, though each row holds at most 5 entries) and a hub
-    unknown meeting every other, in a shuffled order."""
-    rng = np.random.default_rng(seed)
-    size = nx * ny + 1
-    m = np.zeros((size, size))
-    cell = np.arange(nx * ny).reshape(nx, ny)
-    m[cell, cell] = rng.uniform(4.0, 5.0, (nx, ny))
-    for a, b in ((cell[1:], cell[:-1]), (cell[:, 1:], cell[:, :-1])):
-        m[a, b] = rng.uniform(-1.0, 1.0, a.shape)
-        m[b, a] = rng.uniform(-1.0, 1.0, a.shape)
-    m[-1, :] = rng.uniform(-1.0, 1.0, size)
-    m[:, -1] = rng.uniform(-1.0, 1.0, size)
-    shuffle = rng.permutation(size)
-    return m[np.ix_(shuffle, shuffle)]
-
-
-@pytest.mark.parametrize("seed", [0, 1])
-def test_coloured_tangents_form_the_band_bitwise(seed):
-    """Where a greedy colouring of the core's columns needs fewer colours than the band's
-    ``kl + ku + 1`` (a grid: ≤ 5 entries a row, a band ~12 wide), the Jacobian is formed
-    from those fewer JVPs into the same band storage, bitwise equal to the band's own
-    colouring's, and its factors solve ``J x = b`` as ``numpy.linalg.solve`` does."""
-    m = grid_with_hub(12, 10, seed)
-    size = m.shape[0]
-    perm, k, kl, ku = bordered.structure(m != 0)
-    colours, entries = bordered.colouring(m != 0, perm, k, kl, ku)
-    coloured = bordered.Layout(perm, k, kl, ku, colours, entries)
-    plain = bordered.Layout(perm, k, kl, ku)
-    assert k >= 1 and coloured.tangents < plain.tangents == kl + ku + 1
-    # no two columns of one colour meet a core row in common
-    inner = perm[: size - k]
-    core = (m != 0)[np.ix_(inner, inner)]
-    for c in set(colours):
-        assert core[:, np.asarray(colours) == c].sum(axis=1).max() <= 1
-    rng = np.random.default_rng(seed + 10)
-    x0 = jnp.asarray(rng.uniform(-1.0, 1.0, size))
-
-    def fn(x):  # J = m + diag(cos x)
-        return jnp.asarray(m) @ x + jnp.sin(x)
-
-    (f1, p1), (f2, p2) = (
-        jax.jit(lambda x, lay=lay: bordered.factorize(fn, x, lay))(x0) for lay in (coloured, plain)
-    )
-    for a, b in zip(jax.tree.leaves((f1, p1)), jax.tree.leaves((f2, p2)), strict=True):
-        assert np.array_equal(np.asarray(a), np.asarray(b))
-    b = rng.uniform(-1.0, 1.0, size)
-    x = np.asarray(bordered.solve((f1, p1), jnp.asarray(b), coloured))
-    jac = np.asarray(jax.jacfwd(fn)(x0))
-    exact = np.linalg.solve(jac, b)
-    assert np.max(np.abs(x - exact)) <= 1e-14 * np.linalg.cond(jac) * np.max(np.abs(exact))
-
-
 @pytest.mark.slow
 def test_a_wide_band_keeps_the_dense_newton():
     """The corpus deck es_integrator (284 unknowns) orders as a band of 107 with a border

@@ -19,27 +19,14 @@ complement ``S = D − C A^{-1} B`` (k × k, dense LU), ``J x = b`` is
 
     y = A^{-1} b_1, \quad S x_2 = b_2 − C y, \quad x_1 = y − (A^{-1} B) x_2 .
 
-Forming the Jacobian takes at most ``kl + ku + 1`` compressed JVPs for ``A`` (columns of
-one colour meet disjoint core rows: ``j mod (kl + ku + 1)``, or fewer colours, below) and
-``k`` for the border columns, through one linearization, and ``k`` transposed products
-(VJPs) for the border rows — against ``s`` JVPs of ``jax.jacfwd``; the factorization is
-O(s·kl·(kl+ku) + s·k²) against ``(2/3) s³``. Everything is ``jax`` code inside the
-compiled program (and as differentiable as the dense solve). :class:`BorderedNewtonSolver`
-is :class:`~diracvi.solvers.newton.NewtonSolver` with these factors: the same chord
+Forming the Jacobian takes ``kl + ku + 1`` compressed JVPs for ``A`` (columns of one
+colour ``j mod (kl + ku + 1)`` meet disjoint core rows) and ``k`` for the border columns,
+through one linearization, and ``k`` transposed products (VJPs) for the border rows —
+against ``s`` JVPs of ``jax.jacfwd``; the factorization is O(s·kl·(kl+ku) + s·k²)
+against ``(2/3) s³``. Everything is ``jax`` code inside the compiled program (and as
+differentiable as the dense solve). :class:`BorderedNewtonSolver` is
+:class:`~diracvi.solvers.newton.NewtonSolver` with these factors: the same chord
 iteration, junction limiting, fresh Jacobian before giving up and residual test.
-
-**Fewer tangents** (:func:`colouring`). The band's colouring ``j mod (kl + ku + 1)``
-needs as many JVPs as the band is wide, while a core row of a circuit holds a few entries:
-a greedy colouring of the core's columns (two columns of one colour meet no core row in
-common, read off the pattern) needs about as many colours as the fullest row. On the
-4-bit adder of 144 BSIM3 transistors (``ng_adder_mos``, 1242 unknowns, band 36 + 1 + 36,
-border 7) that is 13 colours against 73, so 27 passes (with the border's 7 columns and 7
-rows) against 87. Each entry the pattern holds is read from its column's colour into the
-same band storage; the others are zero. The sums over a colour add exact zeros, so the
-Jacobian is bitwise the band colouring's (``tests/test_bordered.py``). Where the greedy
-colouring needs the band's width or more, the band's colouring is kept. An entry the
-pattern missed is dropped rather than read (as one outside the band always was): Newton
-is slower, its residual and answer still exact.
 
 **The border** (:func:`plan`, host side, once per system — cached by its content, so a
 netlist read again reuses it): starting from none, the unknown of highest degree whose
@@ -179,32 +166,6 @@ def _nonsingular(pattern: np.ndarray, core: np.ndarray) -> bool:
     return bool(np.all(match >= 0))
 
 
-def colouring(pattern: np.ndarray, perm, k: int, kl: int, ku: int):
-    """``(colours, entries)`` of the core's columns for its compressed JVPs (module
-    documentation, "Fewer tangents"): ``colours[j]`` the colour of the core column at
-    position ``j`` of the RCM order, such that two core columns of one colour meet no core
-    row in common (greedy, columns of most entries first), and ``entries`` the flat
-    positions ``i·(kl + ku + 1) + d`` of the band storage that the pattern holds. ``((),
-    ())`` where the greedy colouring needs as many colours as the band's ``kl + ku + 1``
-    (the band's own colouring, ``j mod (kl + ku + 1)``, is then used)."""
-    size = pattern.shape[0]
-    inner = np.asarray(perm[: size - k])
-    core = np.asarray(pattern, bool)[np.ix_(inner, inner)]
-    width = kl + ku + 1
-    rows_of = [np.flatnonzero(core[:, j]) for j in range(core.shape[1])]
-    cols_of = [np.flatnonzero(core[i]) for i in range(core.shape[0])]
-    colours = np.full(core.shape[1], -1)
-    for j in np.argsort(-core.sum(axis=0), kind="stable"):
-        taken = {int(colours[c]) for i in rows_of[j] for c in cols_of[i]}
-        colours[j] = next(c for c in range(len(taken) + 1) if c not in taken)
-    if colours.max(initial=-1) + 1 >= width:
-        return (), ()
-    i, j = np.nonzero(core)
-    # banded storage: A[i, j] is R[i, j − i + kl]; RCM's bandwidths hold every entry
-    entries = i * width + (j - i + kl)
-    return tuple(int(c) for c in colours), tuple(int(e) for e in np.sort(entries))
-
-
 _PLANS: dict = {}
 _PLANS_SIZE = 64
 
@@ -246,8 +207,7 @@ def plan(system, rule, scheme: str = "plus"):
     perm, k, kl, ku = structure(pattern)
     core = perm[: size - k]
     fits = _cost(kl, ku, k) <= TANGENT_SHARE * size and _nonsingular(pattern, core)
-    found = (tuple(int(i) for i in perm), k, kl, ku, *colouring(pattern, perm, k, kl, ku))
-    found = found if fits else None
+    found = (tuple(int(i) for i in perm), k, kl, ku) if fits else None
     # by identity the system is kept alive (its id is not reused); by content it need not be
     _PLANS[key] = (system if content is None else None, found)
     while len(_PLANS) > _PLANS_SIZE:
@@ -262,10 +222,8 @@ def newton_for(system, rule, scheme: str = "plus", **options) -> NewtonSolver:
     found = plan(system, rule, scheme)
     if found is None:
         return NewtonSolver(**options)
-    perm, k, kl, ku, colours, entries = found
-    return BorderedNewtonSolver(
-        perm=perm, border=k, kl=kl, ku=ku, colours=colours, entries=entries, **options
-    )
+    perm, k, kl, ku = found
+    return BorderedNewtonSolver(perm=perm, border=k, kl=kl, ku=ku, **options)
 
 
 class Layout(NamedTuple):
@@ -275,10 +233,6 @@ class Layout(NamedTuple):
     border: int  # k
     kl: int
     ku: int
-    #: the core columns' colours and the band entries the pattern holds (:func:`colouring`);
-    #: ``()``: the band's colours ``j mod (kl + ku + 1)``
-    colours: tuple = ()
-    entries: tuple = ()
 
     @property
     def size(self) -> int:
@@ -288,52 +242,21 @@ class Layout(NamedTuple):
     def width(self) -> int:
         return self.kl + self.ku + 1
 
-    @property
-    def tangents(self) -> int:
-        """The core's compressed JVPs: its colours."""
-        return max(self.colours) + 1 if self.colours else self.width
-
-    def seeds(self) -> np.ndarray:
-        """The core's seed vectors (colours × core), in the core's order."""
-        core = self.size - self.border
-        if not self.colours:
-            return banded.seeds(core, self.kl, self.ku)
-        out = np.zeros((self.tangents, core))
-        out[np.asarray(self.colours), np.arange(core)] = 1.0
-        return out
-
-    def band_rows(self, products):
-        """The core's band storage ``R`` (core × width, see :mod:`.banded`) from the core
-        rows of its compressed JVPs (colours × core): each entry the pattern holds read
-        from its column's colour, every other entry zero."""
-        if not self.colours:
-            return banded.from_products(products, self.kl, self.ku)
-        core, width = self.size - self.border, self.width
-        entries = np.asarray(self.entries, dtype=np.intp)
-        i, d = entries // width, entries % width
-        colour = np.asarray(self.colours)[i - self.kl + d]
-        # one gather from the products and a trailing zero (every entry not held)
-        source = np.full(core * width, products.size)
-        source[entries] = colour * core + i
-        flat = jnp.concatenate([products.reshape(-1), jnp.zeros(1, products.dtype)])
-        return flat[source].reshape(core, width)
-
 
 def factorize(fn, x, layout: Layout, *, fallback: bool = True):
     """The factors of ``J = ∂fn/∂x`` at ``x`` (see the module documentation) and ``J``'s
     parts ``(A by rows, B, (C D))``, signed (for the residual test's magnitudes and the
     dense fallback). ``fallback``: check the factors on a probe and solve by a dense LU
     where they fail it (see "A singular core"); ``False`` trusts them (tests)."""
-    k, kl, ku, size = layout.border, layout.kl, layout.ku, layout.size
+    k, kl, ku, width, size = layout.border, layout.kl, layout.ku, layout.width, layout.size
     inner, outer = layout.perm[: size - k], layout.perm[size - k :]
-    # the tangents: the core columns' colours, then the border's columns
-    width = layout.tangents
+    # the tangents: the band's colours on the core columns, then the border's columns
     tangents = np.zeros((width + k, size))
-    tangents[:width, inner] = layout.seeds()
+    tangents[:width, inner] = banded.seeds(size - k, kl, ku)
     tangents[width + np.arange(k), outer] = 1.0
     r, jvp = jax.linearize(fn, x)
     products = jax.vmap(jvp)(jnp.asarray(tangents, r.dtype))  # (width + k, s)
-    rows = layout.band_rows(products[:width][:, inner])
+    rows = banded.from_products(products[:width][:, inner], kl, ku)
     lu = banded.lu(rows, kl, ku)
     b = products[width:][:, inner].T  # (s − k, k)
     if k:
@@ -462,8 +385,6 @@ class BorderedNewtonSolver(NewtonSolver):
     border: int = eqx.field(static=True, default=0)
     kl: int = eqx.field(static=True, default=0)
     ku: int = eqx.field(static=True, default=0)
-    colours: tuple = eqx.field(static=True, default=())
-    entries: tuple = eqx.field(static=True, default=())
 
     def layout(self, eqs) -> Layout:
         size = eqs.size
@@ -472,14 +393,7 @@ class BorderedNewtonSolver(NewtonSolver):
                 f"BorderedNewtonSolver(perm=…): must order the step's {size} unknowns, "
                 f"got {len(self.perm)} entries; build it with bordered.newton_for(system, rule)."
             )
-        return Layout(
-            np.asarray(self.perm, dtype=np.intp),
-            self.border,
-            self.kl,
-            self.ku,
-            self.colours,
-            self.entries,
-        )
+        return Layout(np.asarray(self.perm, dtype=np.intp), self.border, self.kl, self.ku)
 
     def init(self, eqs):
         return (*empty_factors(self.layout(eqs), eqs.q.dtype), jnp.asarray(False))
