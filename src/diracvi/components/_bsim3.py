@@ -364,6 +364,41 @@ def branches(p: dict) -> tuple:
     )
 
 
+def saturation_voltage(p, form, vgsteff, vtm, abulk, esatl, wvcoxrds):
+    r"""BSIM3's (and BSIM4's) saturation voltage with its source/drain resistance, the
+    smaller root of
+
+        ½ T₀ V_dsat² − T₁ V_dsat + T₂ = 0,   V_dsat = (T₁ − √(T₁² − 2 T₀ T₂)) / T₀,
+
+    ``T₀ = 2 A_bulk (A_bulk W v_sat C_ox R_ds − 1 + 1/λ)``, ``T₁ = (V_gst + 2v_t)(2/λ − 1) +
+    A_bulk E_sat L_eff + 3 (V_gst + 2v_t) A_bulk W v_sat C_ox R_ds``, ``T₂ = (V_gst + 2v_t)
+    (E_sat L_eff + 2 (V_gst + 2v_t) W v_sat C_ox R_ds)``, with ``λ`` from ``A1``, ``A2`` (the
+    non-saturation factor, smoothed to stay in (0, 1]); where ``R_ds = 0`` and ``λ = 1``
+    (``form["simple"]``) it is ``E_sat L_eff (V_gst + 2v_t)/(A_bulk E_sat L_eff + V_gst +
+    2v_t)``. Returns ``(λ, V_gst + 2v_t, V_dsat)``: the same equations in both models'
+    manuals and in ngspice's ``b3ld.c`` and ``b4v7ld.c``."""
+    a1, a2 = p["a1"], p["a2"]
+    if form["a1"] == "zero":
+        lam = a2 + 0.0 * vgsteff
+    elif form["a1"] == "positive":
+        t0l = 1.0 - a2
+        t1l = t0l - a1 * vgsteff - 0.0001
+        lam = a2 + t0l - 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * t0l))
+    else:
+        t1l = a2 + a1 * vgsteff - 0.0001
+        lam = 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * a2))
+    vgst2vtm = vgsteff + 2.0 * vtm
+    if form["simple"]:
+        vdsat = esatl * vgst2vtm / (abulk * esatl + vgst2vtm)
+    else:
+        t9v = abulk * wvcoxrds
+        t0v = 2.0 * abulk * (t9v - 1.0 + 1.0 / lam)
+        t1v = vgst2vtm * (2.0 / lam - 1.0) + abulk * esatl + 3.0 * vgst2vtm * t9v
+        t2v = vgst2vtm * (esatl + 2.0 * vgst2vtm * wvcoxrds)
+        vdsat = (t1v - jnp.sqrt(t1v * t1v - 2.0 * t0v * t2v)) / t0v
+    return lam, vgst2vtm, vdsat
+
+
 def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charges_only=False):
     r"""``(I_ds, I_sub, (Q_g, Q_b, Q_d))`` of the NMOS-oriented mode (``V_DS ≥ 0``):
     the module docstring's current, the substrate current (ALPHA0, ALPHA1, BETA0, drain to
@@ -488,25 +523,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     wvcoxrds = wvcox * rds
     esat = 2.0 * p["vsattemp"] / ueff
     esatl = esat * leff
-    a1, a2 = p["a1"], p["a2"]
-    if form["a1"] == "zero":
-        lam = a2 + 0.0 * vgsteff
-    elif form["a1"] == "positive":
-        t0l = 1.0 - a2
-        t1l = t0l - a1 * vgsteff - 0.0001
-        lam = a2 + t0l - 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * t0l))
-    else:
-        t1l = a2 + a1 * vgsteff - 0.0001
-        lam = 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * a2))
-    vgst2vtm = vgsteff + 2.0 * vtm
-    if form["simple"]:
-        vdsat = esatl * vgst2vtm / (abulk * esatl + vgst2vtm)
-    else:
-        t9v = abulk * wvcoxrds
-        t0v = 2.0 * abulk * (t9v - 1.0 + 1.0 / lam)
-        t1v = vgst2vtm * (2.0 / lam - 1.0) + abulk * esatl + 3.0 * vgst2vtm * t9v
-        t2v = vgst2vtm * (esatl + 2.0 * vgst2vtm * wvcoxrds)
-        vdsat = (t1v - jnp.sqrt(t1v * t1v - 2.0 * t0v * t2v)) / t0v
+    lam, vgst2vtm, vdsat = saturation_voltage(p, form, vgsteff, vtm, abulk, esatl, wvcoxrds)
     # V_dseff
     delta = p["delta"]
     t1d = vdsat - vds - delta

@@ -40,6 +40,7 @@ import jax
 import jax.numpy as jnp
 
 from ..errors import ModelError
+from ._bsim3 import saturation_voltage
 
 KBOQ = 8.617087e-5
 EPS0 = 8.85418e-12
@@ -656,25 +657,7 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False)
     wvcoxrds = wvcox * rds
     esat = 2.0 * p["vsattemp"] / ueff
     esatl = esat * leff
-    a1, a2 = p["a1"], p["a2"]
-    if form["a1"] == "zero":
-        lam = a2 + 0.0 * vgsteff
-    elif form["a1"] == "positive":
-        t0l = 1.0 - a2
-        t1l = t0l - a1 * vgsteff - 0.0001
-        lam = a2 + t0l - 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * t0l))
-    else:
-        t1l = a2 + a1 * vgsteff - 0.0001
-        lam = 0.5 * (t1l + jnp.sqrt(t1l * t1l + 0.0004 * a2))
-    vgst2vtm = vgsteff + 2.0 * vtm
-    if form["simple"]:
-        vdsat = esatl * vgst2vtm / (abulk * esatl + vgst2vtm)
-    else:
-        t9v = abulk * wvcoxrds
-        t0v = 2.0 * abulk * (t9v - 1.0 + 1.0 / lam)
-        t1v = vgst2vtm * (2.0 / lam - 1.0) + abulk * esatl + 3.0 * vgst2vtm * t9v
-        t2v = vgst2vtm * (esatl + 2.0 * vgst2vtm * wvcoxrds)
-        vdsat = (t1v - jnp.sqrt(t1v * t1v - 2.0 * t0v * t2v)) / t0v
+    lam, vgst2vtm, vdsat = saturation_voltage(p, form, vgsteff, vtm, abulk, esatl, wvcoxrds)
     # V_dseff
     delta = p["delta"]
     t1d = vdsat - vds - delta
