@@ -73,14 +73,9 @@ def pairs(system, q, t) -> Pairs | None:
         return jax.grad(lambda v: system.lagrangian(qq, v, t))(v0)
 
     def row(j):
-        return jax.jvp(momenta, (q,), ((jnp.arange(q.size) == j).astype(q.dtype),))[1]
+        return jax.jvp(momenta, (q,), (jnp.zeros_like(q).at[j].set(1.0),))[1]
 
-    # the indices through an optimization barrier: where ∂L/∂q̇ is linear in q (a diode's
-    # w q̇) the rows do not depend on q, and XLA folded the one-hot tangents, the rows and
-    # their argmax as constants in its interpreter — on ng_adder_mos (288 junctions, 1161
-    # coordinates) 33 s of the loop's compilation, with "Constant folding an instruction
-    # is taking > 1s" on stderr; evaluated in the program they cost one pass per call
-    rows = jax.vmap(row)(jax.lax.optimization_barrier(jnp.asarray(index)))
+    rows = jax.vmap(row)(jnp.asarray(index))
     driven = jnp.argmax(jnp.abs(rows), axis=1)
     gain = jnp.abs(jnp.take_along_axis(rows, driven[:, None], axis=1)[:, 0])
     gain = jnp.where(gain > 0.0, gain, jnp.inf)
