@@ -592,6 +592,38 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=1, capmod=None, xpart=0.0, charge
     return ids, isub, charges
 
 
+def inversion_charges(coxwlc, abulkcv, vdseffcv, vgdp, qac0, qsub0, xpart):
+    r"""capMod 2's terminal charges (BSIM3 and BSIM4 alike) from the inversion charge's
+    drain-end reduction, ``A = A_bulk,CV V_dseff,CV``, ``T₂ = 12 (V_gst − A/2)``:
+
+        Q_g = C (V_gst − A (½ − A/T₂)),   Q_b,inv = C (1 − A_bulk,CV)(½ − A/T₂) V_dseff,CV,
+
+    the channel charge split drain/source by XPART (0/100 above 0.5, 40/60 below it, 50/50
+    at it), then the accumulation and depletion charges ``Q_ac0 + Q_sub0`` added to
+    the gate and taken from the bulk, and ``Q_d = −(Q_g + Q_b + Q_s)``. ``C`` is
+    ``W L C_ox`` (BSIM4: at the charge centroid)."""
+    t0 = abulkcv * vdseffcv
+    t1 = vgdp
+    t2 = 12.0 * (t1 - 0.5 * t0 + 1.0e-20)
+    t3 = t0 / t2
+    qgate = coxwlc * (t1 - t0 * (0.5 - t3))
+    t7 = 1.0 - abulkcv
+    qbulk = coxwlc * t7 * (0.5 * vdseffcv - t0 * vdseffcv / t2)
+    if xpart > 0.5:
+        qsrc = -coxwlc * (t1 / 2.0 + t0 / 4.0 - 0.5 * t0 * t0 / t2)
+    elif xpart < 0.5:
+        t2b = t2 / 12.0
+        t3b = 0.5 * coxwlc / (t2b * t2b)
+        t4b = t1 * (2.0 * t0 * t0 / 3.0 + t1 * (t1 - 4.0 * t0 / 3.0)) - 2.0 * t0 * t0 * t0 / 15.0
+        qsrc = -t3b * t4b
+    else:
+        qsrc = -0.5 * qgate
+    qgate = qgate + qac0 + qsub0 - qbulk
+    qbulk = qbulk - (qac0 + qsub0)
+    qdrn = -(qgate + qbulk + qsrc)
+    return qgate, qbulk, qdrn
+
+
 def _charges(p, form, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0, vds):
     """The intrinsic ``(Q_g, Q_b, Q_d)`` of capMod 2 or 3 (module docstring; ``b3ld.c``)."""
     vtm, cox = p["vtm"], p["cox"]
@@ -686,23 +718,4 @@ def _charges(p, form, capmod, xpart, vgs_eff, vbseff, phis, vth, n, vgst, abulk0
     )  # fmt: skip
     if p["revision"] >= 322:
         vdseffcv = jnp.where(vds == 0.0, 0.0, vdseffcv)
-    t0 = abulkcv * vdseffcv
-    t1 = vgdp
-    t2 = 12.0 * (t1 - 0.5 * t0 + 1.0e-20)
-    t3 = t0 / t2
-    qgate = coxwlc * (t1 - t0 * (0.5 - t3))
-    t7 = 1.0 - abulkcv
-    qbulk = coxwlc * t7 * (0.5 * vdseffcv - t0 * vdseffcv / t2)
-    if xpart > 0.5:
-        qsrc = -coxwlc * (t1 / 2.0 + t0 / 4.0 - 0.5 * t0 * t0 / t2)
-    elif xpart < 0.5:
-        t2b = t2 / 12.0
-        t3b = 0.5 * coxwlc / (t2b * t2b)
-        t4b = t1 * (2.0 * t0 * t0 / 3.0 + t1 * (t1 - 4.0 * t0 / 3.0)) - 2.0 * t0 * t0 * t0 / 15.0
-        qsrc = -t3b * t4b
-    else:
-        qsrc = -0.5 * qgate
-    qgate = qgate + qac0 + qsub0 - qbulk
-    qbulk = qbulk - (qac0 + qsub0)
-    qdrn = -(qgate + qbulk + qsrc)
-    return qgate, qbulk, qdrn
+    return inversion_charges(coxwlc, abulkcv, vdseffcv, vgdp, qac0, qsub0, xpart)

@@ -40,7 +40,7 @@ import jax
 import jax.numpy as jnp
 
 from ..errors import ModelError
-from ._bsim3 import saturation_voltage
+from ._bsim3 import inversion_charges, saturation_voltage
 
 KBOQ = 8.617087e-5
 EPS0 = 8.85418e-12
@@ -829,23 +829,4 @@ def _charges(p, form, xpart, vgs_eff, vbseff, vth, n, vgst, abulk0, vds):
         vdsatcv * (1.0 - 2.0 * DELTA_4 / jnp.where(t0 >= 0.0, 1.0, t1 - t0)),
     )  # fmt: skip
     vdseffcv = _zero_at_vds0(vdseffcv, vds)
-    t0 = abulkcv * vdseffcv
-    t1 = vgdp
-    t2 = 12.0 * (t1 - 0.5 * t0 + 1.0e-20)
-    t3 = t0 / t2
-    qgate = coxwlcen * (t1 - t0 * (0.5 - t3))
-    t7 = 1.0 - abulkcv
-    qbulk = coxwlcen * t7 * (0.5 * vdseffcv - t0 * vdseffcv / t2)
-    if xpart > 0.5:
-        qsrc = -coxwlcen * (t1 / 2.0 + t0 / 4.0 - 0.5 * t0 * t0 / t2)
-    elif xpart < 0.5:
-        t2b = t2 / 12.0
-        t3b = 0.5 * coxwlcen / (t2b * t2b)
-        t4b = t1 * (2.0 * t0 * t0 / 3.0 + t1 * (t1 - 4.0 * t0 / 3.0)) - 2.0 * t0 * t0 * t0 / 15.0
-        qsrc = -t3b * t4b
-    else:
-        qsrc = -0.5 * qgate
-    qgate = qgate + qac0 + qsub0 - qbulk
-    qbulk = qbulk - (qac0 + qsub0)
-    qdrn = -(qgate + qbulk + qsrc)
-    return qgate, qbulk, qdrn
+    return inversion_charges(coxwlcen, abulkcv, vdseffcv, vgdp, qac0, qsub0, xpart)
