@@ -235,6 +235,31 @@ _INSTANCE = {"ad": 0.0, "as_": 0.0, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0
              "delvto": 0.0, "mulu0": 1.0}  # fmt: skip
 
 
+def law_vector(numbers: dict, names) -> object:
+    """The laws' numbers in ``names``' order as one vector: NumPy where every one is a
+    number (so alike devices share a program), a JAX array where a parameter is being
+    differentiated (kept traced)."""
+    values = [numbers[k] for k in names]
+    if any(traced(x) for x in values):
+        return jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
+    return np.array([float(x) for x in values], dtype=np.float64)
+
+
+def initial_velocities(where: str, v0, idx: dict, n: int) -> np.ndarray:
+    """The part's initial velocities from ``v0 = (V_GS, V_GD, V_GB)``: ``wg = V_GS``,
+    ``w = V_GS − V_GD`` (V_DS), ``wbs = V_GS − V_GB``, ``wbd = V_GD − V_GB``, the rest 0;
+    ``v0`` that is not three finite voltages is refused, naming the part."""
+    vg0 = np.asarray(v0, dtype=np.float64).reshape(-1)
+    if vg0.shape != (3,) or not np.all(np.isfinite(vg0)):
+        raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
+    initial_v = np.zeros(n)
+    initial_v[idx["wg"]] = vg0[0]
+    initial_v[idx["w"]] = vg0[0] - vg0[1]
+    initial_v[idx["wbs"]] = vg0[0] - vg0[2]
+    initial_v[idx["wbd"]] = vg0[1] - vg0[2]
+    return initial_v
+
+
 def BSIM3(
     kind="nmos",
     *,
@@ -362,21 +387,10 @@ def BSIM3(
         ("overlap_off", tuple(isinstance(p[c], float) and p[c] == 0.0 for c in ("cgsl", "cgdl"))),
         ("names", names),
     )
-    values = [numbers[k] for k in names]
-    if any(traced(x) for x in values):  # a parameter being differentiated: kept traced
-        vector = jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
-    else:
-        vector = np.array([float(x) for x in values], dtype=np.float64)
+    vector = law_vector(numbers, names)
     pairs = tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2)
 
-    vg0 = np.asarray(v0, dtype=np.float64).reshape(-1)
-    if vg0.shape != (3,) or not np.all(np.isfinite(vg0)):
-        raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
-    initial_v = np.zeros(len(coords))
-    initial_v[idx["wg"]] = vg0[0]
-    initial_v[idx["w"]] = vg0[0] - vg0[1]
-    initial_v[idx["wbs"]] = vg0[0] - vg0[2]
-    initial_v[idx["wbd"]] = vg0[1] - vg0[2]
+    initial_v = initial_velocities(where, v0, idx, len(coords))
     junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
     return ChargePortPart(
         tuple(coords),

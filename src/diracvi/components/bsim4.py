@@ -37,8 +37,8 @@ from . import _bsim4 as b4
 from ._charge_port import ChargePortPart
 from ._junction import depletion_charge
 from ._mos_part import bulk_limits, pins_and_kcl, polarity
-from ._part import finite, positive, traced
-from .bsim3 import _known, _Lagrangian, _Named, _overlap
+from ._part import finite, positive
+from .bsim3 import _known, _Lagrangian, _Named, _overlap, initial_velocities, law_vector
 
 __all__ = ["BSIM4", "bsim4_current"]
 
@@ -294,20 +294,9 @@ def BSIM4(
         ("overlap_off", tuple(isinstance(p[c], float) and p[c] == 0.0 for c in ("cgsl", "cgdl"))),
         ("names", names),
     )
-    values = [numbers[k] for k in names]
-    if any(traced(x) for x in values):
-        vector = jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
-    else:
-        vector = np.array([float(x) for x in values], dtype=np.float64)
+    vector = law_vector(numbers, names)
     pairs = tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2)
-    vg0 = np.asarray(v0, dtype=np.float64).reshape(-1)
-    if vg0.shape != (3,) or not np.all(np.isfinite(vg0)):
-        raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
-    initial_v = np.zeros(len(coords))
-    initial_v[idx["wg"]] = vg0[0]
-    initial_v[idx["w"]] = vg0[0] - vg0[1]
-    initial_v[idx["wbs"]] = vg0[0] - vg0[2]
-    initial_v[idx["wbd"]] = vg0[1] - vg0[2]
+    initial_v = initial_velocities(where, v0, idx, len(coords))
     junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
     return ChargePortPart(
         tuple(coords),
