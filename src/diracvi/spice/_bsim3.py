@@ -63,27 +63,36 @@ def read_bsim3_model(kind: str, kw: dict, fail, notes: list) -> dict:
     return out
 
 
-def bsim3_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature, tnom, parts=None):
-    """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= DELVTO= MULU0= OFF]`` of a
-    BSIM3 card → (part, nodes); ``parts``: the read's parts by their arguments
-    (:func:`~._cards.built`), for alike lines built once."""
+def instance_values(model, defaults, name, pos, kw, values, value, fail, temperature, tnom):
+    """A BSIM M line's instance values (``defaults`` with its ``key=value`` tokens read),
+    after the checks BSIM3 and BSIM4 lines share: the circuit at the card's TNOM (no
+    temperature update is built), six positional tokens besides ``OFF``, and only the
+    ``defaults``' keys — each refusal naming the element, the value and the fix."""
     card_tnom = values.get("tnom", tnom)
     if temperature != card_tnom:
         raise fail(
-            f"element {name!r}: BSIM3 has no temperature update in diracvi yet; the device "
+            f"element {name!r}: {model} has no temperature update in diracvi yet; the device "
             f"would run at {temperature:g} °C with the card's TNOM {card_tnom:g} °C (set the "
             "circuit temperature to TNOM, or drop TNOM/.temp)"
         )
     extra = [t for t in pos[6:] if t.lower() != "off"]
     if len(pos) < 6 or extra:
         raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
-    geo = dict(INSTANCE)
+    geo = dict(defaults)
     for key, token in kw.items():
         if key not in geo:
             raise fail(
-                f"element {name!r}: parameter {key.upper()} is not supported on BSIM3 M lines"
+                f"element {name!r}: parameter {key.upper()} is not supported on {model} M lines"
             )
         geo[key] = value(token, f"{name} {key.upper()}")
+    return geo
+
+
+def bsim3_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature, tnom, parts=None):
+    """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= DELVTO= MULU0= OFF]`` of a
+    BSIM3 card → (part, nodes); ``parts``: the read's parts by their arguments
+    (:func:`~._cards.built`), for alike lines built once."""
+    geo = instance_values("BSIM3", INSTANCE, name, pos, kw, values, value, fail, temperature, tnom)
     if any(t.lower() == "off" for t in pos[6:]):
         notes.append(f"{name} OFF ignored (it only seeds ngspice's DC solve)")
     card = {k: x for k, x in values.items() if k not in ("level", "version", "revision")}

@@ -21,6 +21,7 @@ from .. import components as cp
 from ..components import _bsim4 as b4
 from ..components.bsim4 import check_card
 from ..errors import ModelError
+from ._bsim3 import instance_values
 from ._cards import built
 
 LEVELS = (14.0, 54.0)
@@ -69,23 +70,7 @@ def bsim4_line(name, pos, kw, kind, values, value, fail, ic, notes, temperature,
                parts=None):  # fmt: skip
     """``Mname d g s b model [L= W= M= AD= AS= PD= PS= NRD= NRS= DELVTO= MULU0= NF=1]`` of
     a BSIM4 card → (part, nodes)."""
-    card_tnom = values.get("tnom", tnom)
-    if temperature != card_tnom:
-        raise fail(
-            f"element {name!r}: BSIM4 has no temperature update in diracvi yet; the device "
-            f"would run at {temperature:g} °C with the card's TNOM {card_tnom:g} °C (set the "
-            "circuit temperature to TNOM, or drop TNOM/.temp)"
-        )
-    extra = [t for t in pos[6:] if t.lower() != "off"]
-    if len(pos) < 6 or extra:
-        raise fail("expected 'Mname d g s b model [L=… W=… M=… AD AS PD PS NRD NRS OFF]'")
-    geo = dict(INSTANCE)
-    for key, token in kw.items():
-        if key not in geo:
-            raise fail(
-                f"element {name!r}: parameter {key.upper()} is not supported on BSIM4 M lines"
-            )
-        geo[key] = value(token, f"{name} {key.upper()}")
+    geo = instance_values("BSIM4", INSTANCE, name, pos, kw, values, value, fail, temperature, tnom)
     if geo["nf"] != 1.0:
         raise fail(f"element {name!r}: NF={geo['nf']:g} is not supported (fingers: NF = 1 only)")
     if any(t.lower() == "off" for t in pos[6:]):
