@@ -17,7 +17,13 @@ import pytest
 
 from _ngspice import available, fine_transient
 from diracvi import spice
-from diracvi.driver.step_error import alternating, alternating_from_retry, estimate, gap_error
+from diracvi.driver.step_error import (
+    alternating,
+    alternating_from_retry,
+    estimate,
+    gap_error,
+    impulse_alternation,
+)
 
 needs_ngspice = pytest.mark.skipif(not available(), reason="ngspice is not installed")
 
@@ -279,3 +285,51 @@ def test_node_potentials_are_judged_per_try_or_over_tmax_as_asked_per_multiplier
         max(exact[0] * scale, exact[1]), rel=1e-9
     )
     assert err(np.array([False, True])).err == pytest.approx(exact[0], rel=1e-9)
+
+
+def _potential_try(h, c_bar, eps, k, phi):
+    """One try of ``h`` whose potentials are known: fine φ₁ = φ₂ = ``phi``, the coarse one
+    ``phi + k h²`` (its truncation difference), the multipliers solved from the true
+    carried impulse ``c̄₋₁`` (``μ = (c_k + c_{k−1})/2``, ``c = −φ h``), and the ``c₋₁``
+    the loop carries: ``c̄₋₁ + ε``. ``(mus, c₋₁)``."""
+    half = 0.5 * h
+    c_c, c1, c2 = -(phi + k * h * h) * h, -phi * half, -phi * half
+    mus = (0.5 * (c_c + c_bar), 0.5 * (c1 + c_bar), 0.5 * (c1 + c2))
+    return tuple(np.array([mu]) for mu in mus), np.array([c_bar + eps])
+
+
+def test_the_carried_impulses_alternation_is_fitted_from_two_tries_and_left_out():
+    # The impulses c_k = 2μ_k − c_{k−1} carry an alternation ε(−1)^k that no step damps
+    # and that the μ's (the state) do not have: the coarse potential φ_c = −(2μ_c − c₋₁)/H
+    # reads it as ε/H, the fine ones' mean not at all. Judged per try, that floor grows as
+    # the step shrinks: es_cmos_nand's source node of a BSIM3 part (0.5 mV) carried
+    # ε ≈ 8e-14 V·s and its retries went from 19 ns to hmin (1.3 -> 2000 tolerances).
+    share, rtol, atol_m, hmax = 0.03, 1e-3, 1e-6, 2e-4
+    phi, c_bar, eps, k = 5e-4, -1e-11, 8e-14, 1e9  # k H² = 1e-7 V at H = 10 ns
+    zero = np.zeros(1)
+    tolerances = (share, rtol, np.ones(1), np.ones(1), atol_m * np.ones(1))
+    peaks = (np.ones(1), np.ones(1), np.full(1, phi))
+
+    def judged(h, carried, alternation=None):
+        mus, c_prev = _potential_try(h, c_bar, carried, k, phi)
+        e = estimate(
+            np, zero, (zero, zero, zero), mus, c_prev, h, peaks, tolerances, hmax,
+            potentials_over_tmax=False, c_alternation=alternation,
+        )  # fmt: skip
+        tol = share * rtol * e.m_peak[0] + atol_m
+        return e.err, tol, c_prev + 2.0 * (mus[2] - mus[0])
+
+    h_a, h_b = 2e-8, 1e-8
+    (e_a, tol_a, m_a), (e_b, tol_b, m_b) = judged(h_a, eps), judged(h_b, eps)
+    # the floor: |k H² + ε/H| / (3 tol), larger at the shorter try (no step meets it)
+    for h, e, tol in ((h_a, e_a, tol_a), (h_b, e_b, tol_b)):
+        assert e == pytest.approx(abs(k * h * h + eps / h) / (3.0 * tol), rel=1e-9)
+    assert e_b > e_a > 1.0
+    # two tries of one start: m = ε + K H³ each (K = k here), ε to round-off
+    fitted = impulse_alternation(m_a, m_b, h_a, h_b)
+    assert fitted == pytest.approx(eps, rel=1e-6)
+    # left out, the try is judged as it is without the alternation: its truncation
+    # difference k H² alone, 0.03 tolerances
+    e, tol, _ = judged(h_b, eps, fitted)
+    assert e == pytest.approx(k * h_b * h_b / (3.0 * tol), rel=1e-6)
+    assert e < 0.05

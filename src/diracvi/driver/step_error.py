@@ -111,6 +111,7 @@ def estimate(
     delta=None,
     momenta=None,
     potentials_over_tmax=True,
+    c_alternation=None,
 ) -> Estimate:
     """The step-doubling error of one try (module docstring), for the compiled loop
     (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
@@ -142,7 +143,14 @@ def estimate(
     ``potentials_over_tmax``: the multipliers' error held to its mean over TMAX, as a
     rate's (:func:`over_tmax`); ``False`` judges each try's node potentials against the
     tolerance itself, as a state; a boolean per multiplier chooses (the compiled loop:
-    held to TMAX only where the potential rings, :mod:`.adaptive`)."""
+    held to TMAX only where the potential rings, :mod:`.adaptive`).
+
+    ``c_alternation``: the period-2 part ``ε`` of the carried impulse ``c₋₁``
+    (:func:`impulse_alternation`), or None. The impulses ``c_k = 2μ_k − c_{k−1}`` carry
+    an alternation ``ε(−1)^k`` that no step damps and that is not in the state (the
+    μ's are free of it): it moves the coarse potential ``φ_c`` by ``ε/H`` and leaves the
+    fine ones' mean as it is, a floor that grows as the step shrinks. Given, the coarse
+    potential is read from ``c₋₁ − ε``."""
     qc, q1, q2 = steps
     mu_c, mu1, mu2 = mus
     share, rtol, atol_q, atol_v, atol_m = tolerances
@@ -154,7 +162,8 @@ def estimate(
     # (node potentials of a circuit), coarse against the mean of the two fine ones
     c1 = 2.0 * mu1 - c_prev
     c2 = 2.0 * mu2 - c1
-    phi_c = -(2.0 * mu_c - c_prev) / h_try
+    c_start = c_prev if c_alternation is None else c_prev - c_alternation
+    phi_c = -(2.0 * mu_c - c_start) / h_try
     phi1, phi2 = -c1 / half, -c2 / half
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
@@ -186,6 +195,21 @@ def estimate(
     err = worst(q2 - qc)
     smooth = err if delta is None else worst(q2 - qc - 2.0 * delta)
     return Estimate(err, q_peak, v_peak, m_peak, c2, smooth, p_peak)
+
+
+def impulse_alternation(rejected, this, h_rejected, h_try):
+    """The period-2 part ``ε`` of the carried impulse ``c₋₁`` (one per multiplier), from
+    two tries of one start: a rejected try of ``H_a`` and this one of ``H_b``, each
+    giving ``m = c₋₁ + 2(μ₂ − μ_c)``, its coarse potential's step-doubling difference
+    in impulse units, ``(φ_c − (φ₁ + φ₂)/2)·H``. The alternation of ``c₋₁`` adds ``ε`` to
+    both (:func:`estimate`), the truncation error ``K H³`` (``φ_c − φ̄ = O(H²)``), so
+
+        m_a = ε + K H_a³,   m_b = ε + K H_b³   ⇒   ε = (m_b − ρ m_a) / (1 − ρ),
+
+    ``ρ = (H_b/H_a)³``: :func:`alternating_from_retry`'s fit (used with ``ρ ≤ 3/4``), of
+    the multipliers. Where ``c`` carries no alternation it returns the next order of the
+    truncation error, ``O(H⁴)``."""
+    return 2.0 * alternating_from_retry(rejected, this, h_rejected, h_try)
 
 
 def node_momentum_error(xp, gap, inertia, tolerance):
@@ -303,6 +327,7 @@ __all__ = [
     "gap_error",
     "growth",
     "growth_of",
+    "impulse_alternation",
     "node_momentum_error",
     "over_tmax",
 ]
