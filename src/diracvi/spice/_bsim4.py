@@ -59,7 +59,7 @@ def read_bsim4_model(kind: str, kw: dict, fail, notes: list) -> dict:
         if key in b4.INERT or (key[1:] in b4.INERT_BINNED and key[0] in "lwp"):
             notes.append(f"{kind} {key.upper()} has no effect at TNOM and the default modes")
         card[key] = x
-    problems += check_card(card)
+    problems += check_card(card, out.get("revision"))
     if problems:
         raise fail(f"{kind} BSIM4 (level {kw['level']:g}) card: " + "; ".join(problems))
     out.update(card)
