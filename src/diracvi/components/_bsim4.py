@@ -1,5 +1,6 @@
 r"""BSIM4 (ngspice's ``bsim4v7``, run for a card's VERSION 4.7, and ``bsim4v5``, run for
-4.0–4.5) at the model's TNOM and its default modes: the card's parameters and their
+4.0–4.5) at the model's TNOM and its default modes (bsim4v5's gate tunnelling, igcMod and
+igbMod 1, in :func:`tunnelling`): the card's parameters and their
 size-dependent values (``b4v7set.c``, ``b4v7temp.c``), the drain current, the substrate
 current and GIDL/GISL of an NMOS-oriented device in its mode (``V_DS ≥ 0``; source and
 drain swapped for ``V_DS < 0``), and the intrinsic charges of capMod 2, the

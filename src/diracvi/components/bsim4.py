@@ -1,10 +1,21 @@
 r"""The BSIM4 MOSFET (SPICE ``M`` at ``LEVEL=14`` or ``54``; ngspice's ``bsim4v7`` for
-VERSION 4.7, ``bsim4v5`` for 4.0–4.5) at its default modes, as a Lagrange–Dirac part with
-a charge port — BSIM3's part (:mod:`~diracvi.components.bsim3`) with BSIM4's laws.
+VERSION 4.7, ``bsim4v5`` for 4.0–4.5) at its default modes and, for bsim4v5, igcMod,
+igbMod, rgateMod and rbodyMod 1, as a Lagrange–Dirac part with a charge port — BSIM3's
+part (:mod:`~diracvi.components.bsim3`) with BSIM4's laws.
 
 Branches in flux form (``L = w q̇``; ``ẇ`` the branch voltage): the channel ``d′→s′``, the
 gate ``g→s′``, the bulk junctions ``b→s′`` and ``b→d′`` (rdsMod 0: ``R_ds`` is inside the
 channel law; ``RSH`` times the line's NRD/NRS, when given, are resistors to ``d′``, ``s′``).
+rgateMod 1: the gate branch starts at an internal ``g′``, joined to ``g`` by
+``R_geltd = RSHG (XGW + W_eff,CJ/3NGCON)/(NGCON (L + XL − XGL))``. rbodyMod 1: the
+intrinsic device's bulk is an internal ``b′`` (branches ``b′→s′``, ``b′→d′``), the
+junctions start at internal ``sb``, ``db``, and five resistors ``1/(GBMIN + 1/R)`` join
+``b′–db`` (RBPD), ``b′–b`` (RBPB), ``b′–sb`` (RBPS), ``db–b`` (RBDB), ``sb–b`` (RBSB).
+
+**Gate tunnelling** (igcMod/igbMod 1, :func:`~diracvi.components._bsim4.tunnelling`): a
+force on the gate branch, ``I_gs + I_gd + I_gb``; ``I_gd`` returns to ``d′`` through the
+channel branch and ``I_gb`` to the bulk through ``b′→s′`` — the gate is no longer a pure
+capacitor.
 
 **Currents**: the channel carries ``type·I_ds`` of :func:`~diracvi.components._bsim4.evaluate`
 in the mode (``V_DS < 0``: source and drain swapped); the substrate current ``I_sub`` flows
@@ -220,8 +231,9 @@ def BSIM4(
     its card's **given** parameters ``model`` (ngspice's lower-case names,
     :data:`~diracvi.components._bsim4.NAMES`), ``version`` the card's VERSION (4.7, or
     4.0–4.5), and the line's ``ad``, ``as_``, ``pd``, ``ps`` (m², m; ``None``: not given),
-    ``nrd``, ``nrs``, ``m``, ``delvto``, ``mulu0``. At the card's TNOM, the default
-    modes (:data:`~diracvi.components._bsim4.MODES`); others are refused by name."""
+    ``nrd``, ``nrs``, ``m``, ``delvto``, ``mulu0``. At the card's TNOM, the modes of
+    :data:`~diracvi.components._bsim4.MODES` (igcMod, igbMod, rgateMod, rbodyMod 1 for
+    4.0–4.5 only); others are refused by name."""
     where = f"BSIM4 {name!r}"
     sign = polarity(where, kind)
     unknown = sorted(set(instance) - set(_INSTANCE))
