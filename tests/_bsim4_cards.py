@@ -12,9 +12,10 @@ DECK = Path(__file__).parent / "data" / "netlists" / "ng_ro_17_4.cir"
 MODES_OFF = {"igcmod": "0", "igbmod": "0", "rbodymod": "0", "rgatemod": "0"}
 
 
-def ro_card(name: str) -> str:
+def ro_card(name: str, keep=()) -> str:
     """The ``.model name`` card's parameters as ``key=value`` words (LEVEL dropped, the
-    sweep deck sets it), its modes switched off (module docstring)."""
+    sweep deck sets it), its modes switched off (module docstring) but those named in
+    ``keep`` (e.g. ``("igcmod", "igbmod")``), left as the deck has them."""
     text = DECK.read_text()
     start = text.lower().index(f".model  {name.lower()} ")
     lines = [text[start:].splitlines()[0]]
@@ -23,5 +24,6 @@ def ro_card(name: str) -> str:
             break
         lines.append(line[1:])
     pairs = re.findall(r"(\w+)\s*=\s*(\S+)", " ".join(lines))
-    out = [f"{k}={MODES_OFF.get(k.lower(), v)}" for k, v in pairs if k.lower() != "level"]
+    off = {k: x for k, x in MODES_OFF.items() if k not in keep}
+    out = [f"{k}={off.get(k.lower(), v)}" for k, v in pairs if k.lower() != "level"]
     return " ".join(out)

@@ -19,6 +19,11 @@ CURRENTS = [
     ("ng_ro_17_4 N1 (4.5.0)", "NMOS", ro_card("N1"), "L=0.1u W=5u AD=5p PD=6u AS=5p PS=6u", -0.3),
     ("ng_ro_17_4 P1 (4.5.0)", "PMOS", ro_card("P1"), "L=0.1u W=10u AD=5p PD=6u AS=5p PS=6u", -0.3),
 ]  # fmt: skip
+#: ng_ro_17_4's cards with igcMod and igbMod 1: all four terminal currents
+TUNNELLING = [
+    ("ng_ro_17_4 N1 igc igb", "NMOS", "N1", 5),
+    ("ng_ro_17_4 P1 igc igb", "PMOS", "P1", 10),
+]
 CHARGES = [
     ("n", "W=2u L=0.1u", ".model mm nmos (level=54 version=4.7)"),
     ("p", "W=2u L=0.35u", ".model mm pmos (level=54 version=4.5 xpart=0.5 ngate=5e19 k1=0.5 "
@@ -38,6 +43,21 @@ def main():
         ]
         out["currents"].append({"name": name, "netlist": net, "v": rows,
                                 "i_vd": [float(x) for x in data["i(vd)"]]})  # fmt: skip
+    out["tunnelling"] = []
+    for name, kind, card, w in TUNNELLING:
+        s = -1.0 if kind == "PMOS" else 1.0
+        net = level6.sweep_deck(54).format(
+            kind=kind, card=ro_card(card, ("igcmod", "igbmod")),
+            instance=f"L=0.1u W={w}u AD=5p PD=6u AS=5p PS=6u", vb=-0.3 * s)  # fmt: skip
+        sweep = f"vd {-0.6 * s} {1.2 * s} {0.3 * s} vg {-1.0 * s} {1.2 * s} {0.2 * s}"
+        probes = ("v(g)", "v(d)", "v(b)", "i(vd)", "i(vg)", "i(vb)")
+        data = ng.dc_sweep(net, sweep, probes)
+        n = len(data["i(vd)"])
+        out["tunnelling"].append({
+            "name": name, "netlist": net,
+            "v": [[float(data[p][k]) for p in probes[:3]] for k in range(n)],
+            **{p: [float(x) for x in data[p]] for p in probes[3:]},
+        })  # fmt: skip
     for kind, instance, card in CHARGES:
         s = 1.0 if kind == "n" else -1.0
         grid = itertools.product([-0.5, 0.4, 1.2], [-0.5, 0.0, 0.6], [-0.5, 0.1])

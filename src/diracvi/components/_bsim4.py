@@ -1,5 +1,6 @@
 r"""BSIM4 (ngspice's ``bsim4v7``, run for a card's VERSION 4.7, and ``bsim4v5``, run for
-4.0–4.5) at the model's TNOM and its default modes: the card's parameters and their
+4.0–4.5) at the model's TNOM and its default modes (bsim4v5's gate tunnelling, igcMod and
+igbMod 1, in :func:`tunnelling`): the card's parameters and their
 size-dependent values (``b4v7set.c``, ``b4v7temp.c``), the drain current, the substrate
 current and GIDL/GISL of an NMOS-oriented device in its mode (``V_DS ≥ 0``; source and
 drain swapped for ``V_DS < 0``), and the intrinsic charges of capMod 2, the
@@ -78,7 +79,17 @@ BINNED = {
     "cgisl": None, "egisl": None, "cgsl": 0.0, "cgdl": 0.0, "ckappas": 0.6,
     "ckappad": None, "cf": None, "clc": 0.1e-6, "cle": 0.6, "acde": 1.0, "moin": 15.0,
     "noff": 1.0, "voffcv": 0.0,
+    # gate tunnelling (igcMod/igbMod 1, b4v5set.c's defaults; None: by type)
+    "aigc": None, "bigc": None, "cigc": None, "aigsd": None, "bigsd": None, "cigsd": None,
+    "aigbacc": 1.36e-2, "bigbacc": 1.71e-3, "cigbacc": 0.075, "aigbinv": 1.11e-2,
+    "bigbinv": 9.49e-4, "cigbinv": 0.006, "nigc": 1.0, "nigbacc": 1.0, "nigbinv": 3.0,
+    "ntox": 1.0, "eigbinv": 1.1, "pigcd": 1.0, "poxedge": 1.0, "vfbsdoff": 0.0,
 }  # fmt: skip
+#: ``b4v5set.c``'s type-dependent defaults of the gate-to-channel and edge tunnelling
+#: parameters: ``(NMOS, PMOS)``
+TUNNEL_DEFAULTS = {"aigc": (1.36e-2, 9.80e-3), "bigc": (1.71e-3, 7.59e-4),
+                   "cigc": (0.075, 0.03), "aigsd": (1.36e-2, 9.80e-3),
+                   "bigsd": (1.71e-3, 7.59e-4), "cigsd": (0.075, 0.03)}  # fmt: skip
 #: the model parameters read here that are not binned (``None``: derived)
 MODEL = {
     "mobmod": 0.0, "binunit": 1.0, "capmod": 2.0, "toxe": 30.0e-10, "toxp": None,
@@ -90,6 +101,9 @@ MODEL = {
     "lmin": 0.0, "lmax": 1.0, "wmin": 0.0, "wmax": 1.0, "voffl": 0.0, "ados": 1.0,
     "bdos": 1.0, "pditsl": 0.0, "rdswmin": 0.0, "dmcg": 0.0, "dmci": None, "dmdg": 0.0,
     "dmcgt": 0.0,
+    # gate tunnelling, the gate electrode (rgateMod 1) and the body network (rbodyMod 1)
+    "toxref": 30.0e-10, "dlcig": None, "rshg": 0.1, "xgw": 0.0, "xgl": 0.0, "ngcon": 1.0,
+    "gbmin": 1.0e-12, "rbdb": 50.0, "rbsb": 50.0, "rbpb": 50.0, "rbps": 50.0, "rbpd": 50.0,
     # junctions (diomod 1): source, and the drain's defaulting to the source's
     "jss": 1.0e-4, "jsws": 0.0, "jswgs": 0.0, "njs": 1.0, "ijthsfwd": 0.1,
     "cjs": 5.0e-4, "cjsws": 5.0e-10, "cjswgs": None, "pbs": 1.0, "pbsws": 1.0,
@@ -104,10 +118,11 @@ MODES = {
     "capmod": ((2.0,), "capMod 2, the charge-thickness model (capMod 0 and 1 are not built)"),
     "rdsmod": ((0.0,), "rdsMod 0 (internal bias-dependent R_ds; rdsMod 1's external "
                "source/drain resistors are not built)"),
-    "igcmod": ((0.0,), "igcMod 0 (the gate-to-channel tunnelling current is not built)"),
-    "igbmod": ((0.0,), "igbMod 0 (the gate-to-bulk tunnelling current is not built)"),
-    "rbodymod": ((0.0,), "rbodyMod 0 (the substrate resistance network is not built)"),
-    "rgatemod": ((0.0,), "rgateMod 0 (the gate electrode resistance is not built)"),
+    "igcmod": ((0.0, 1.0), "igcMod 0 and 1 (igcMod 2's V_th-referred current is not built)"),
+    "igbmod": ((0.0, 1.0), "igbMod 0 and 1"),
+    "rbodymod": ((0.0, 1.0), "rbodyMod 0 and 1 (rbodyMod 2's scalable network is not built)"),
+    "rgatemod": ((0.0, 1.0), "rgateMod 0 and 1 (rgateMod 2 and 3, the bias-dependent "
+                 "intrinsic-input resistance, are not built)"),
     "trnqsmod": ((0.0,), "trnqsMod 0 (the transient non-quasi-static charge is not built)"),
     "acnqsmod": ((0.0,), "acnqsMod 0 (the AC non-quasi-static model is not built)"),
     "geomod": ((0.0,), "geoMod 0 (isolated source and drain)"),
@@ -127,21 +142,17 @@ ute ucste kt1 kt1l kt2 ua1 ub1 uc1 ud1 at prt tvoff tnfactor teta0 tvoffcv tvfbs
 xti xtis xtid tpb tpbsw tpbswg tcj tcjsw tcjswg tnjts tnjtssw tnjtsswg tnjtsd
 tnjtsswd tnjtsswgd tku0 kvsat tbgasub tbgbsub bg0sub tempeot
 noia noib noic em ef af kf ntnoi lintnoi tnoia tnoib rnoia rnoib tnoimod fnoimod
-aigc bigc cigc aigsd bigsd cigsd aigs bigs cigs aigd bigd cigd aigbacc bigbacc cigbacc
-aigbinv bigbinv cigbinv nigc nigbacc nigbinv ntox eigbinv pigcd poxedge toxref dlcig dlcigd
-igcmod igbmod xrcrg1 xrcrg2 rshg xgw xgl ngcon gbmin rbdb rbsb rbpb rbps rbpd rbps0
+aigs bigs cigs aigd bigd cigd dlcigd xrcrg1 xrcrg2 rbps0
 rbpd0 rbpbx0 rbpby0 rbsbx0 rbsby0 rbdbx0 rbdby0 rbpsl rbpsw rbpsnf rbpdl rbpdw rbpdnf
 rbpbxl rbpbxw rbpbxnf rbpbyl rbpbyw rbpbynf rbsdbxl rbsdbxw rbsdbxnf rbsdbyl rbsdbyw
-rbsdbynf rdw rsw rdwmin rswmin vfbsdoff vfbcv bvs bvd xjbvs xjbvd ijthsrev ijthdrev
+rbsdbynf rdw rsw rdwmin rswmin vfbcv bvs bvd xjbvs xjbvd ijthsrev ijthdrev
 vgs_max vgd_max vgb_max vds_max vbs_max vbd_max vgsr_max vgdr_max vgbr_max vbsr_max
 vbdr_max paramchk noimod
 """.split())  # fmt: skip
 #: binnable parameters that are inert (their L/W/P forms too)
 INERT_BINNED = frozenset("""
 at kt1 kt1l kt2 ua1 ub1 uc1 ud1 ute prt tvoff tnfactor teta0 tvoffcv tvfbsdoff ucste
-aigc bigc cigc aigsd bigsd cigsd aigs bigs cigs aigd bigd cigd aigbacc bigbacc cigbacc
-bigbinv cigbinv nigc nigbacc nigbinv ntox eigbinv pigcd poxedge xrcrg1 xrcrg2 rdw rsw
-vfbsdoff vfbcv
+aigs bigs cigs aigd bigd cigd xrcrg1 xrcrg2 rdw rsw vfbcv
 """.split())  # fmt: skip
 #: every name of a card accepted (but LEVEL, VERSION and the mode selectors)
 NAMES = (
@@ -253,6 +264,8 @@ def model_values(card: dict, sign: float) -> dict:
             m[base] = m[derived]  # fmt: skip
     if m["dwj"] is None:
         m["dwj"] = m["dwc"]
+    if m["dlcig"] is None:
+        m["dlcig"] = m["lint"]
     if m["dmci"] is None:
         m["dmci"] = m["dmcg"]
     for k, src in (("cjswgs", "cjsws"), ("pbswgs", "pbsws"), ("mjswgs", "mjsws")):
@@ -298,6 +311,8 @@ def size_dependent(card: dict, sign: float, l: float, w: float, delvto=0.0, mulu
             base[k] = 1.0e-15 if mob == 2 else 1.0e-9
         elif k == "uc":
             base[k] = -0.0465 if mob == 1 else -0.0465e-9
+        elif k in TUNNEL_DEFAULTS:
+            base[k] = TUNNEL_DEFAULTS[k][0 if sign > 0 else 1]
         elif k == "ud" and revision == 45:
             base[k] = 1.0e14  # b4v5set.c's default (b4v7set.c's is 0)
         elif k == "eu":
@@ -456,9 +471,29 @@ def size_dependent(card: dict, sign: float, l: float, w: float, delvto=0.0, mulu
     p["cgdo_eff"] = (cgdo + p["cf"]) * weffcv
     p["cgso_eff"] = (cgso + p["cf"]) * weffcv
     p["cgbo_eff"] = cgbo * leffcv
+    p.update(_tunnelling_values(p, m, sign, vtm0))
     p["model"] = m
     p["revision"] = revision
     return p
+
+
+def _tunnelling_values(p: dict, m: dict, sign: float, vtm0: float) -> dict:
+    r"""The gate tunnelling's size-dependent prefactors (``b4v5temp.c``): ``A = A₀ W_eff
+    L_eff R_tox``, ``B = −B₀ TOXE`` (``A₀, B₀`` = 4.97232e-7, 7.45669e11 for NMOS and
+    3.42537e-7, 1.16645e12 for PMOS), ``R_tox = (TOXREF/TOXE)^NTOX / TOXE²``, the edge's
+    ``A_edge = A₀ W_eff DLCIG R_tox,edge`` and ``B_edge = −B₀ TOXE POXEDGE`` with
+    ``R_tox,edge = (TOXREF/(TOXE POXEDGE))^NTOX / (TOXE POXEDGE)²``, and the source/drain
+    flat band ``V_fbsd = V_tm ln(NGATE/NSD)`` (0 for NGATE ≤ 0)."""
+    toxe, ntox, pox = p["toxe"], p["ntox"], p["poxedge"]
+    a0, b0 = (4.97232e-7, 7.45669e11) if sign > 0 else (3.42537e-7, 1.16645e12)
+    ratio = jnp.exp(ntox * jnp.log(m["toxref"] / toxe)) / toxe / toxe
+    edge = jnp.exp(ntox * jnp.log(m["toxref"] / (toxe * pox))) / toxe / toxe / pox / pox
+    ngate = p["ngate"]
+    vfbsd = jnp.where(ngate > 0.0, vtm0 * jnp.log(jnp.where(ngate > 0.0, ngate, 1.0) / p["nsd"]),
+                      0.0)  # fmt: skip
+    return {"toxratio": ratio, "aechvb": a0 * p["weff"] * p["leff"] * ratio,
+            "bechvb": -b0 * toxe, "aechvbedge": a0 * p["weff"] * m["dlcig"] * edge,
+            "bechvbedge": -b0 * toxe * pox, "vfbsd": vfbsd}  # fmt: skip
 
 
 def m_xj(card):
@@ -523,11 +558,12 @@ def _poly(p, vgs):
     return jnp.where(vgs > phi_g, vgs - t5, vgs)
 
 
-def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False):
+def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False, extras=None):
     r"""``(I_ds, I_sub, (Q_g, Q_b, Q_d))`` of the NMOS-oriented mode (``V_DS ≥ 0``; the
     module docstring's current, ALPHA0/ALPHA1/BETA0's substrate current and capMod 2's
     intrinsic charges; ``None`` for the charges with XPART < 0). ``charges_only``: the
-    charges alone (the currents ``None``)."""
+    charges alone (the currents ``None``). ``extras``, a dict, receives ``V_gs,eff``,
+    ``V_bseff``, ``V_gsteff`` and ``V_dseff``, which :func:`tunnelling` reads."""
     if charges_only and xpart < 0.0:
         return None, None, None
     form = dict(p["branches"]) if "branches" in p else dict(branches(p))
@@ -666,6 +702,8 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False)
     vdseff = jnp.where(t1d >= 0.0, vdsat - 0.5 * (t1d + t2d), below)
     vdseff = _zero_at_vds0(vdseff, vds)
     vdseff = jnp.minimum(vdseff, vds)
+    if extras is not None:
+        extras.update(vgs_eff=vgs_eff, vbseff=vbseff, vgsteff=vgsteff, vdseff=vdseff)
     diffvds = vds - vdseff
     # V_Asat
     tmp4 = 1.0 - 0.5 * abulk * vdsat / vgst2vtm
@@ -736,6 +774,99 @@ def evaluate(p: dict, vgs, vds, vbs, *, mobmod=0, xpart=0.0, charges_only=False)
     if xpart < 0.0:
         return ids, isub, None
     return ids, isub, _charges(p, form, xpart, vgs_eff, vbseff, vth, n, vgst, abulk0, vds)
+
+
+def _exp_limited(x):
+    """ngspice's guarded ``e^x`` of the tunnelling: MAX_EXP above 34, MIN_EXP below −34."""
+    inside = jnp.exp(jnp.clip(x, -EXP_THRESHOLD, EXP_THRESHOLD))
+    return jnp.where(x > EXP_THRESHOLD, MAX_EXP, jnp.where(x < -EXP_THRESHOLD, MIN_EXP, inside))
+
+
+def _softplus(x, scale):
+    """``scale·ln(1 + e^{x/scale})``: ``x`` above 34·scale, ``scale·ln(1 + MIN_EXP)``
+    below −34·scale (ngspice's ``V_aux``)."""
+    r = x / scale
+    inside = scale * jnp.log1p(jnp.exp(jnp.clip(r, -EXP_THRESHOLD, EXP_THRESHOLD)))
+    low = scale * math.log(1.0 + MIN_EXP)
+    return jnp.where(r > EXP_THRESHOLD, x, jnp.where(r < -EXP_THRESHOLD, low, inside))
+
+
+def _tunnel(a, b, c, vox, prefactor, exponent):
+    """``prefactor·exp(exponent·(A + (A C − B) V_ox − B C V_ox²))`` with the guarded exp."""
+    return prefactor * _exp_limited(exponent * (a + (a * c - b) * vox - b * c * vox * vox))
+
+
+def tunnelling(p: dict, ex: dict, vgs, vgd, forward, igc: bool, igb: bool, pigcd_given: bool):
+    r"""The gate tunnelling currents of bsim4v5 (``b4v5ld.c``), NMOS-oriented: ``(I_gs,
+    I_gd, I_gb)`` from the gate to the true source, drain and bulk. ``ex`` is
+    :func:`evaluate`'s ``extras`` of the mode, ``vgs``, ``vgd`` the true (type-multiplied)
+    gate voltages, ``forward`` the mode.
+
+    With ``V_fbeff = V_fbzb − ½(V₃ + √(V₃² ± 4δ₃V_fbzb))``, ``V₃ = V_fbzb − V_gs,eff +
+    V_bseff − δ₃``, the oxide voltages ``V_ox,acc = max(V_fbzb − V_fbeff, 0)`` and
+    ``V_ox,depinv = K1ox(√(K1ox²/4 + T) − K1ox/2) + V_gsteff`` (``−T + V_gsteff`` for ``T <
+    0``), ``T = V_gs,eff − V_fbeff − V_bseff − V_gsteff``:
+
+    * igcMod 1: ``I_gc = A V_gs,eff V_aux e^{B(AIGC + (AIGC·CIGC − BIGC)V_ox,depinv −
+      BIGC·CIGC V_ox,depinv²)}``, ``V_aux = NIGC V_t ln(1 + e^{(V_gs,eff − V_th0)/NIGC V_t})``,
+      split by ``T₇ = −PIGCD V_dseff`` into ``I_gcs = I_gc (e^{T₇} − 1 + 10⁻⁴ − T₇)/(T₇² +
+      2·10⁻⁴)`` and ``I_gcd = I_gc (T₇e^{T₇} − e^{T₇} + 1 + 10⁻⁴)/(T₇² + 2·10⁻⁴)`` (PIGCD
+      not given: ``B·TOXE/V_gsteff² (1 − V_dseff/2V_gsteff)``), the mode's source and drain;
+      the edges ``I_gs = A_edge V_gs √((V_gs − V_fbsd)² + 10⁻⁴) e^{B_edge(…AIGSD, BIGSD,
+      CIGSD…)}`` and ``I_gd`` alike;
+    * igbMod 1: ``I_gb = I_gbacc + I_gbinv``, accumulation with ``V_ox,acc`` (NIGBACC,
+      AIGBACC …), inversion with ``V_ox,depinv`` (``V_aux`` of ``V_ox,depinv − EIGBINV``
+      over NIGBINV·V_t; AIGBINV …)."""
+    vgs_eff, vbseff, vgsteff, vdseff = (ex[k] for k in ("vgs_eff", "vbseff", "vgsteff", "vdseff"))
+    vtm = p["vtm"]
+    zero = 0.0 * vgs_eff
+    vfb = p["vfbzb"]
+    v3 = vfb - vgs_eff + vbseff - DELTA_3
+    t0 = jnp.sqrt(v3 * v3 + jnp.where(vfb <= 0.0, -4.0, 4.0) * DELTA_3 * vfb)
+    vfbeff = vfb - 0.5 * (v3 + t0)
+    voxacc = jnp.maximum(vfb - vfbeff, 0.0)
+    k1ox = p["k1ox"]
+    t3 = vgs_eff - vfbeff - vbseff - vgsteff
+    if _float(k1ox) and k1ox == 0.0:
+        voxdepinv = vgsteff
+    else:
+        half = 0.5 * k1ox
+        root = jnp.sqrt(half * half + jnp.maximum(t3, 0.0))
+        voxdepinv = jnp.where(t3 < 0.0, -t3, k1ox * (root - half)) + vgsteff
+    i_gs = i_gd = i_gb = zero
+    if igc:
+        aux = _softplus(vgs_eff - p["sign"] * p["vth0"], vtm * p["nigc"])
+        igc_ = _tunnel(p["aigc"], p["bigc"], p["cigc"], voxdepinv, p["aechvb"] * vgs_eff * aux,
+                       p["bechvb"])  # fmt: skip
+        if pigcd_given:
+            pigcd = p["pigcd"]
+        else:
+            t12 = vgsteff + 1.0e-20
+            pigcd = p["bechvb"] * p["toxe"] / t12 / t12 * (1.0 - 0.5 * vdseff / t12)
+        t7 = -pigcd * vdseff
+        t8 = t7 * t7 + 2.0e-4
+        t9 = _exp_limited(t7)
+        igcs = igc_ * (t9 - 1.0 + 1.0e-4 - t7) / t8
+        igcd = igc_ * (t7 * t9 - (t9 - 1.0 - 1.0e-4)) / t8
+        edge = []
+        for v in (vgs, vgd):
+            t0 = v - (p["vfbsd"] + p["vfbsdoff"])
+            v_eff = jnp.sqrt(t0 * t0 + 1.0e-4)
+            edge.append(_tunnel(p["aigsd"], p["bigsd"], p["cigsd"], v_eff,
+                                p["aechvbedge"] * v * v_eff, p["bechvbedge"]))  # fmt: skip
+        i_gs = edge[0] + jnp.where(forward, igcs, igcd)
+        i_gd = edge[1] + jnp.where(forward, igcd, igcs)
+    if igb:
+        vgb = vgs_eff - vbseff
+        aux = _softplus(-vgs_eff + vbseff + vfb, vtm * p["nigbacc"])
+        t11 = 4.97232e-7 * p["weff"] * p["leff"] * p["toxratio"]
+        t12 = -7.45669e11 * p["toxe"]
+        acc = _tunnel(p["aigbacc"], p["bigbacc"], p["cigbacc"], voxacc, t11 * vgb * aux, t12)
+        aux = _softplus(voxdepinv - p["eigbinv"], vtm * p["nigbinv"])
+        inv = _tunnel(p["aigbinv"], p["bigbinv"], p["cigbinv"], voxdepinv,
+                      0.75610 * t11 * vgb * aux, 1.31724 * t12)  # fmt: skip
+        i_gb = acc + inv
+    return i_gs, i_gd, i_gb
 
 
 def gidl(p: dict, vds, vgs, vbs, form=None):

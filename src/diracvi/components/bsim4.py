@@ -1,10 +1,21 @@
 r"""The BSIM4 MOSFET (SPICE ``M`` at ``LEVEL=14`` or ``54``; ngspice's ``bsim4v7`` for
-VERSION 4.7, ``bsim4v5`` for 4.0–4.5) at its default modes, as a Lagrange–Dirac part with
-a charge port — BSIM3's part (:mod:`~diracvi.components.bsim3`) with BSIM4's laws.
+VERSION 4.7, ``bsim4v5`` for 4.0–4.5) at its default modes and, for bsim4v5, igcMod,
+igbMod, rgateMod and rbodyMod 1, as a Lagrange–Dirac part with a charge port — BSIM3's
+part (:mod:`~diracvi.components.bsim3`) with BSIM4's laws.
 
 Branches in flux form (``L = w q̇``; ``ẇ`` the branch voltage): the channel ``d′→s′``, the
 gate ``g→s′``, the bulk junctions ``b→s′`` and ``b→d′`` (rdsMod 0: ``R_ds`` is inside the
 channel law; ``RSH`` times the line's NRD/NRS, when given, are resistors to ``d′``, ``s′``).
+rgateMod 1: the gate branch starts at an internal ``g′``, joined to ``g`` by
+``R_geltd = RSHG (XGW + W_eff,CJ/3NGCON)/(NGCON (L + XL − XGL))``. rbodyMod 1: the
+intrinsic device's bulk is an internal ``b′`` (branches ``b′→s′``, ``b′→d′``), the
+junctions start at internal ``sb``, ``db``, and five resistors ``1/(GBMIN + 1/R)`` join
+``b′–db`` (RBPD), ``b′–b`` (RBPB), ``b′–sb`` (RBPS), ``db–b`` (RBDB), ``sb–b`` (RBSB).
+
+**Gate tunnelling** (igcMod/igbMod 1, :func:`~diracvi.components._bsim4.tunnelling`): a
+force on the gate branch, ``I_gs + I_gd + I_gb``; ``I_gd`` returns to ``d′`` through the
+channel branch and ``I_gb`` to the bulk through ``b′→s′`` — the gate is no longer a pure
+capacitor.
 
 **Currents**: the channel carries ``type·I_ds`` of :func:`~diracvi.components._bsim4.evaluate`
 in the mode (``V_DS < 0``: source and drain swapped); the substrate current ``I_sub`` flows
@@ -101,25 +112,40 @@ class _Law(eqx.Module):
 
 
 def _force(layout, p, idx, q, v):
-    """``F``: minus the channel, junction (with I_sub, GIDL, GISL) and resistor currents."""
+    """``F``: minus the channel, junction (with I_sub, GIDL, GISL), gate tunnelling and
+    resistor currents. The intrinsic bulk (rbodyMod 1: the internal ``b′``) carries I_sub,
+    GIDL, GISL and I_gb; the junction branches (from ``sb``, ``db`` under rbodyMod 1) the
+    diodes. The gate tunnelling leaves the gate on its branch ``g→s′`` and reaches the
+    drain and the bulk through the channel and bulk branches."""
     sign, mult, g = layout["sign"], p["mult"], p["gmin"]
-    vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
+    bs, bd = layout["bulk"]
+    vgs, vds, vbs = v[idx["wg"]], v[idx["w"]], v[idx[bs]]
     gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
-    ids, isub, _ = b4.evaluate(p, gm, dm, bm, mobmod=layout["mobmod"], xpart=-1.0)
+    extras = {}
+    ids, isub, _ = b4.evaluate(p, gm, dm, bm, mobmod=layout["mobmod"], xpart=-1.0, extras=extras)
     i_ch = sign * jnp.where(fwd, ids, -ids)
     i_sub = sign * isub
     igidl, igisl = b4.gidl(p, sign * vds, sign * vgs, sign * vbs, dict(layout["form"]))
     f = jnp.zeros(len(idx), dtype=v.dtype)
+    igc, igb, pigcd_given = layout["gate"]
+    if igc or igb:
+        i_gs, i_gd, i_gb = (sign * i for i in b4.tunnelling(
+            p, extras, sign * vgs, sign * (vgs - vds), fwd, igc, igb, pigcd_given))  # fmt: skip
+        f = f.at[idx["wg"]].set(-mult * (i_gs + i_gd + i_gb))
+        i_ch = i_ch - i_gd  # I_gd flows s′ → d′ on the channel branch
+    else:
+        i_gb = 0.0
     f = f.at[idx["w"]].set(-mult * i_ch)
-    bulk = {}
     for k, form in layout["junctions"]:
-        vb = sign * (vbs if k == "s" else vbd)
-        bulk[k] = sign * _junction(
-            vb, form, p[f"isat_{k}"], p[f"nvtm_{k}"], p[f"vjm_{k}"], p[f"isevjm_{k}"], g
+        vj = sign * v[idx["wbs" if k == "s" else "wbd"]]
+        junction = sign * _junction(
+            vj, form, p[f"isat_{k}"], p[f"nvtm_{k}"], p[f"vjm_{k}"], p[f"isevjm_{k}"], g
         )
-    # I_sub (from the mode's drain), GIDL (drain) and GISL (source) enter the bulk
-    f = f.at[idx["wbs"]].set(-mult * (bulk["s"] - jnp.where(fwd, 0.0, i_sub) - sign * igisl))
-    f = f.at[idx["wbd"]].set(-mult * (bulk["d"] - jnp.where(fwd, i_sub, 0.0) - sign * igidl))
+        f = f.at[idx["wbs" if k == "s" else "wbd"]].add(-mult * junction)
+    # I_sub (from the mode's drain), GIDL (drain), GISL (source) and I_gb (through s′)
+    # enter the intrinsic bulk
+    f = f.at[idx[bs]].add(mult * (jnp.where(fwd, 0.0, i_sub) + sign * igisl + i_gb))
+    f = f.at[idx[bd]].add(mult * (jnp.where(fwd, i_sub, 0.0) + sign * igidl))
     for k in layout["resistors"]:
         f = f.at[idx[f"qr{k}"]].set(-p[f"r_{k}"] / mult * v[idx[f"qr{k}"]])
     return f
@@ -128,7 +154,9 @@ def _force(layout, p, idx, q, v):
 def _charge(layout, p, idx, q, v):
     """``Q``: the terminal charges on the gate, channel and junction lines (×M)."""
     sign = layout["sign"]
-    vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
+    bs, _ = layout["bulk"]
+    vgs, vds, vbs = v[idx["wg"]], v[idx["w"]], v[idx[bs]]
+    vjs, vjd = v[idx["wbs"]], v[idx["wbd"]]  # the junctions' (rbodyMod 1: from sb, db)
     gm, dm, bm, fwd = _mode(vgs, vds, vbs, sign)
     _, _, intrinsic = b4.evaluate(
         p, gm, dm, bm, mobmod=layout["mobmod"], xpart=layout["xpart"], charges_only=True
@@ -143,22 +171,23 @@ def _charge(layout, p, idx, q, v):
     else:
         qg, qb, qmode = intrinsic
         qd = jnp.where(fwd, qmode, -(qg + qb + qmode))
-    junction = {"s": 0.0 * vbs, "d": 0.0 * vbd}
+    junction = {"s": 0.0 * vjs, "d": 0.0 * vjd}
     for k, j in layout["caps"]:
-        vn = sign * (vbs if k == "s" else vbd)
+        vn = sign * (vjs if k == "s" else vjd)
         junction[k] = junction[k] + depletion_charge(
             vn, p[f"c{j}_{k}"], p[f"pb{j}_{k}"], p[f"mj{j}_{k}"], 0.0
         )
     for k, j in layout["negative_caps"]:
         # b4v5ld.c: a wall of C < 0 is skipped under reverse bias, linear in C forward
-        vn = sign * (vbs if k == "s" else vbd)
+        vn = sign * (vjs if k == "s" else vjd)
         c, pb, mj = p[f"c{j}_{k}"], p[f"pb{j}_{k}"], p[f"mj{j}_{k}"]
         junction[k] = junction[k] + jnp.where(vn > 0.0, c * vn * (1.0 + 0.5 * vn * mj / pb), 0.0)
     out = jnp.zeros(len(idx), dtype=v.dtype)
     out = out.at[idx["wg"]].set(sign * (qg + qgso + qgdo + qgbo))
     out = out.at[idx["w"]].set(sign * (qd - qgdo))
-    out = out.at[idx["wbs"]].set(sign * (qb - qgbo + junction["s"]))
-    return p["mult"] * out.at[idx["wbd"]].set(sign * junction["d"])
+    out = out.at[idx[bs]].add(sign * (qb - qgbo))
+    out = out.at[idx["wbs"]].add(sign * junction["s"])
+    return p["mult"] * out.at[idx["wbd"]].add(sign * junction["d"])
 
 
 _INSTANCE = {"ad": None, "as_": None, "pd": None, "ps": None, "nrd": None, "nrs": None,
@@ -202,8 +231,9 @@ def BSIM4(
     its card's **given** parameters ``model`` (ngspice's lower-case names,
     :data:`~diracvi.components._bsim4.NAMES`), ``version`` the card's VERSION (4.7, or
     4.0–4.5), and the line's ``ad``, ``as_``, ``pd``, ``ps`` (m², m; ``None``: not given),
-    ``nrd``, ``nrs``, ``m``, ``delvto``, ``mulu0``. At the card's TNOM, the default
-    modes (:data:`~diracvi.components._bsim4.MODES`); others are refused by name."""
+    ``nrd``, ``nrs``, ``m``, ``delvto``, ``mulu0``. At the card's TNOM, the modes of
+    :data:`~diracvi.components._bsim4.MODES` (igcMod, igbMod, rgateMod, rbodyMod 1 for
+    4.0–4.5 only); others are refused by name."""
     where = f"BSIM4 {name!r}"
     sign = polarity(where, kind)
     unknown = sorted(set(instance) - set(_INSTANCE))
@@ -211,10 +241,10 @@ def BSIM4(
         raise TypeError(f"BSIM4() got an unexpected keyword argument {unknown[0]!r}")
     inst = _INSTANCE | instance
     card = dict(model or {})
-    problems = check_card(card)
+    revision = b4.version_code(version)
+    problems = check_card(card, revision)
     if problems:
         raise ModelError(f"{where}: " + "; ".join(problems))
-    revision = b4.version_code(version)
     mult = positive(where, "m", inst["m"])
     w, l = positive(where, "w", w), positive(where, "l", l)  # noqa: E741
     p = b4.size_dependent(card, sign, l, w, inst["delvto"], inst["mulu0"], revision)
@@ -264,18 +294,39 @@ def BSIM4(
         if r > 0.0:
             numbers[f"r_{k}"] = r
     inner = {k: k.upper() if res[k] > 0.0 else k for k in "ds"}
+    rgate, rbody = (int(card.get(k, 0.0)) for k in ("rgatemod", "rbodymod"))
+    gate = "G" if rgate else "g"
+    # rbodyMod 1: the intrinsic bulk b′ (B), the junctions' sb (SB) and db (DB)
+    body = {"b": "B", "sb": "SB", "db": "DB"} if rbody else {"b": "b", "sb": "b", "db": "b"}
     branches = {
         "ch": (("q", "w"), inner["d"], inner["s"]),
-        "gs": (("sg", "wg"), "g", inner["s"]),
-        "bs": (("qbs", "wbs"), "b", inner["s"]),
-        "bd": (("qbd", "wbd"), "b", inner["d"]),
+        "gs": (("sg", "wg"), gate, inner["s"]),
+        "bs": (("qbs", "wbs"), body["sb"], inner["s"]),
+        "bd": (("qbd", "wbd"), body["db"], inner["d"]),
     }
+    if rbody:
+        branches["bps"] = (("qbps", "wbps"), "B", inner["s"])
+        branches["bpd"] = (("qbpd", "wbpd"), "B", inner["d"])
     for k in "ds":
         if res[k] > 0.0:
             branches[f"r{k}"] = ((f"qr{k}",), k, inner[k])
+    resistors = [k for k in "ds" if res[k] > 0.0]
+    if rgate:
+        numbers["r_g"] = gate_resistance(m, float(p["weffcj"]), l, where)
+        branches["rg"] = (("qrg",), "g", "G")
+        resistors.append("g")
+    if rbody:
+        # b4v5temp.c: each conductance GBMIN + 1/R (1e3 S below 1 mΩ)
+        for k, plus, minus in (("bpd", "B", "DB"), ("bpb", "B", "b"), ("bps", "B", "SB"),
+                               ("bdb", "DB", "b"), ("bsb", "SB", "b")):  # fmt: skip
+            r = m["rb" + k[1:]]
+            numbers[f"r_{k}"] = 1.0e-3 if r < 1.0e-3 else 1.0 / (m["gbmin"] + 1.0 / r)
+            branches[f"r{k}"] = ((f"qr{k}",), plus, minus)
+            resistors.append(k)
     coords = [c for names, _, _ in branches.values() for c in names]
     idx = {c: j for j, c in enumerate(coords)}
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
+    internal += (["G"] if rgate else []) + (["B", "DB", "SB"] if rbody else [])
     pins, rows = pins_and_kcl(branches, idx, internal)
     names = tuple(numbers)
     model_static = tuple((k, float(m[k])) for k in ("ados", "bdos", "pditsl"))
@@ -290,13 +341,18 @@ def BSIM4(
         ("junctions", tuple(junction_forms)),
         ("caps", tuple(present)),
         ("negative_caps", tuple(negative)),
-        ("resistors", tuple(k for k in "ds" if res[k] > 0.0)),
+        ("resistors", tuple(resistors)),
+        ("bulk", ("wbps", "wbpd") if rbody else ("wbs", "wbd")),
+        ("gate", (bool(card.get("igcmod", 0.0)), bool(card.get("igbmod", 0.0)), "pigcd" in card)),
         ("overlap_off", tuple(isinstance(p[c], float) and p[c] == 0.0 for c in ("cgsl", "cgdl"))),
         ("names", names),
     )
     vector = law_vector(numbers, names)
     pairs = tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2)
     initial_v = initial_velocities(where, v0, idx, len(coords))
+    if rbody:
+        for inner_b, junction in (("wbps", "wbs"), ("wbpd", "wbd")):
+            initial_v[idx[inner_b]] = initial_v[idx[junction]]
     junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
     return ChargePortPart(
         tuple(coords),
@@ -317,11 +373,33 @@ def BSIM4(
     )
 
 
-def check_card(card: dict) -> list[str]:
+def gate_resistance(m: dict, weffcj: float, l: float, where: str) -> float:  # noqa: E741
+    """rgateMod 1's gate electrode resistance (``b4v5temp.c``, NF = 1): ``R_geltd =
+    RSHG (XGW + W_eff,CJ/3NGCON)/(NGCON (L + XL − XGL))``; 1 mΩ (ngspice's 1e3 S) when
+    that is not positive."""
+    r = m["rshg"] * (m["xgw"] + weffcj / 3.0 / m["ngcon"]) / (m["ngcon"] * (l + m["xl"] - m["xgl"]))
+    return r if r > 0.0 else 1.0e-3
+
+
+#: the modes built for bsim4v5 (VERSION 4.0–4.5) only
+V5_MODES = ("igcmod", "igbmod", "rgatemod", "rbodymod")
+
+
+def check_card(card: dict, revision=None) -> list[str]:
     """Every reason the card's **given** values ``card`` (lower-case names, without LEVEL
     and VERSION) are outside what is built: unknown names, modes and fixed parameters
-    (:data:`~._bsim4.MODES`, :data:`~._bsim4.FIXED`), each with its fix."""
+    (:data:`~._bsim4.MODES`, :data:`~._bsim4.FIXED`), each with its fix; ``revision`` 47
+    (bsim4v7) also refuses :data:`V5_MODES` at 1 (built from bsim4v5's equations)."""
     problems = []
+    for key in V5_MODES:
+        if revision == 47 and card.get(key, 0.0) == 1.0:
+            problems.append(
+                f"{key}=1 is not supported at VERSION 4.7 (diracvi builds it as ngspice's "
+                f"bsim4v5 computes it, VERSION 4.0–4.5); set {key}=0 or VERSION=4.5"
+            )
+    ngcon = card.get("ngcon", 1.0)
+    if isinstance(ngcon, float) and ngcon not in (1.0, 2.0):
+        problems.append(f"ngcon={ngcon:g} is not supported (ngspice allows 1 or 2); use 1 or 2")
     for key, x in card.items():
         if key in b4.FIXED:
             default, why = b4.FIXED[key]

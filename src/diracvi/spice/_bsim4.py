@@ -1,15 +1,17 @@
 """NMOS/PMOS ``.model`` cards at ``LEVEL=14`` or ``54``: BSIM4 at its default modes
 (ngspice's ``bsim4v7`` for VERSION 4.7, ``bsim4v5`` for 4.0–4.5; ``inpdomod.c`` picks the
 model by VERSION, and 4.6 and 4.8 — ngspice's default when VERSION is absent — run other
-models, refused here).
+models, refused here), and for 4.0–4.5 igcMod, igbMod, rgateMod and rbodyMod 1 (gate
+tunnelling, the gate electrode resistance, the body resistor network).
 
 The parameters read are :data:`~diracvi.components._bsim4.NAMES`; those absent take
 ngspice's defaults or are derived as ``b4v7set.c``/``b4v7temp.c`` derive them. The
 temperature coefficients, noise, and the refused modes' parameters are read and have no
 effect (at TNOM and the default modes they have none in ngspice either). Refused by
-name, every problem of a card at once, with the fix: a mode other than the default
-(igcMod, igbMod, rbodyMod, rgateMod, rdsMod, trnqsMod, acnqsMod, capMod ≠ 2, mobMod 3,
-dioMod ≠ 1, geoMod ≠ 0, gidlMod 1, mtrlMod …), LAMBDA, VTL and the trap-assisted
+name, every problem of a card at once, with the fix: a mode other than those built
+(igcMod, igbMod, rbodyMod, rgateMod above 1 or, at VERSION 4.7, at 1; rdsMod, trnqsMod,
+acnqsMod, capMod ≠ 2, mobMod 3, dioMod ≠ 1, geoMod ≠ 0, gidlMod 1, mtrlMod …), NGCON other
+than 1 or 2, LAMBDA, VTL and the trap-assisted
 tunnelling (JTSS …) when given, any other parameter, and a device whose temperature is
 not the card's TNOM. ``.option scale`` scales the line's L, W, PS, PD (and AS, AD by its
 square), as ``b4v7par.c`` does.
@@ -59,7 +61,7 @@ def read_bsim4_model(kind: str, kw: dict, fail, notes: list) -> dict:
         if key in b4.INERT or (key[1:] in b4.INERT_BINNED and key[0] in "lwp"):
             notes.append(f"{kind} {key.upper()} has no effect at TNOM and the default modes")
         card[key] = x
-    problems += check_card(card)
+    problems += check_card(card, out.get("revision"))
     if problems:
         raise fail(f"{kind} BSIM4 (level {kw['level']:g}) card: " + "; ".join(problems))
     out.update(card)
