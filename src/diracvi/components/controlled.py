@@ -63,18 +63,35 @@ class ControlledPart(Part):
             (a behavioural source's ``ddt`` position ``y``, ``ȳ = τ g``), whose node
             values a variable-step driver re-pins between steps
             (:mod:`diracvi.driver.pinned`): the midpoint leaves them an undamped −1 mode.
+        law_roundoff: ``E(q, v, t)``, per coordinate of the part, a bound on the
+            absolute round-off of its force (an I-form behavioural source: its law's
+            running error bound, :mod:`diracvi.runtime.roundoff`, on the output flux,
+            whose line sets the output current), or None. Newton accepts a residual at
+            it and a variable step's error control judges no branch current below it
+            (:mod:`diracvi.model.roundoff`).
     """
 
     branch_roles: tuple[tuple[str, str], ...] = eqx.field(static=True)
     senses: tuple[tuple[str, str], ...] = eqx.field(static=True)
     mirrors: tuple[str, ...] = eqx.field(static=True)
     pinned: tuple[str, ...] = eqx.field(static=True)
+    law_roundoff: object = eqx.field(static=True)
 
-    def __init__(self, *args, branch_roles=(), senses=(), mirrors=(), pinned=(), **kwargs):
+    def __init__(
+        self,
+        *args,
+        branch_roles=(),
+        senses=(),
+        mirrors=(),
+        pinned=(),
+        law_roundoff=None,
+        **kwargs,
+    ):
         self.branch_roles = tuple((str(c), str(r)) for c, r in branch_roles)
         self.senses = tuple((str(c), str(e)) for c, e in senses)
         self.mirrors = tuple(str(c) for c in mirrors)
         self.pinned = tuple(str(c) for c in pinned)
+        self.law_roundoff = law_roundoff
         super().__init__(*args, **kwargs)
 
 
