@@ -222,6 +222,11 @@ class StepEquations(eqx.Module):
         r = self.residual(x)[: self.system.n]
         return line - r
 
+    @property
+    def bounds_forces(self) -> bool:
+        """Whether :meth:`force_sizes` has anything to say (a static answer)."""
+        return force_roundoff(self.system) is not None and not self.rule.stages
+
     def force_sizes(self, x):
         r"""Per equation, the size of the force terms a law computes, or None where no
         part bounds its force's round-off (:mod:`diracvi.model.roundoff`): ``h E/u`` on

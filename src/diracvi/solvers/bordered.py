@@ -407,7 +407,7 @@ class BorderedNewtonSolver(NewtonSolver):
         x_ref = eqs.reference()
         known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
         # with the force terms a law computes (StepEquations.force_sizes, as NewtonSolver)
-        with_forces = eqs.force_sizes(x_ref) is not None
+        with_forces = eqs.bounds_forces
 
         def row_scale(both, x):
             linear = known + magnitude(both[1], jnp.abs(x - x_ref), layout)

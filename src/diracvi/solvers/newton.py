@@ -318,7 +318,7 @@ class NewtonSolver(StepSolver):
 
         # with the force terms a law computes, whose Jacobian may cancel to 0
         # (StepEquations.force_sizes; None: no part bounds its force's round-off)
-        with_forces = eqs.force_sizes(x_ref) is not None
+        with_forces = eqs.bounds_forces
 
         def row_scale(factors, x):
             linear = known + factors[2] @ jnp.abs(x - x_ref)
