@@ -33,6 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ..runtime.roundoff import with_bound
 from .controlled import ControlledPart
 
 #: the default ``τ``: ``y_k`` holds ``τ·g_k``. Newton judges all positions by one norm
@@ -107,6 +108,17 @@ def BehaviouralSource(
         f = jnp.zeros(n, dtype=v.dtype)
         return f.at[1 if kind == "I" else 0].set(-value)
 
+    def law_roundoff(q, v, t):
+        # the bound on the output current's round-off (runtime/roundoff.py): a law whose
+        # terms cancel (ng_memristor's 2e12*y - 1e12*(|y+Vt| - |y-Vt|), exactly 0 below
+        # the threshold) computes to u times its terms, which no step judges below
+        # (per coordinate: the output flux's line, index 1, reads q̇ = f)
+        vc, cc = controls(q, v)
+        _, bound = with_bound(
+            lambda a, b, s, e: jnp.asarray(law(a, b, s, e)), vc, cc, t, v[iy] / tau
+        )
+        return jnp.zeros(n, dtype=v.dtype).at[1].set(jnp.reshape(bound, ()))
+
     pins = [("p", "q", 1), ("n", "q", -1)]
     for k in range(pairs):
         pins += [(f"c{k}p", f"s{k}", 1), (f"c{k}n", f"s{k}", -1)]
@@ -124,4 +136,5 @@ def BehaviouralSource(
         senses=tuple((f"c{j}", c) for j, c in enumerate(currents)),
         mirrors=tuple(f"y{k}" for k in range(len(derivatives))),
         pinned=tuple(f"y{k}" for k in range(len(derivatives))),
+        law_roundoff=law_roundoff if kind == "I" else None,
     )

@@ -37,6 +37,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ..model.system import _UserFunction, _wrap
+from ..runtime.program import lift
 from ._part import Part
 
 _OUT = (("p", "q", 1), ("n", "q", -1))
@@ -63,19 +65,49 @@ class ControlledPart(Part):
             (a behavioural source's ``ddt`` position ``y``, ``ȳ = τ g``), whose node
             values a variable-step driver re-pins between steps
             (:mod:`diracvi.driver.pinned`): the midpoint leaves them an undamped −1 mode.
+        law_roundoff: ``E(q, v, t)``, per coordinate of the part, a bound on the
+            absolute round-off of its force (an I-form behavioural source: its law's
+            running error bound, :mod:`diracvi.runtime.roundoff`, on the output flux,
+            whose line sets the output current), or None. Newton accepts a residual at
+            it and a variable step's error control judges no branch current below it
+            (:mod:`diracvi.model.roundoff`).
     """
 
     branch_roles: tuple[tuple[str, str], ...] = eqx.field(static=True)
     senses: tuple[tuple[str, str], ...] = eqx.field(static=True)
     mirrors: tuple[str, ...] = eqx.field(static=True)
     pinned: tuple[str, ...] = eqx.field(static=True)
+    law_roundoff: object = None
 
-    def __init__(self, *args, branch_roles=(), senses=(), mirrors=(), pinned=(), **kwargs):
+    def __init__(
+        self,
+        *args,
+        branch_roles=(),
+        senses=(),
+        mirrors=(),
+        pinned=(),
+        law_roundoff=None,
+        **kwargs,
+    ):
         self.branch_roles = tuple((str(c), str(r)) for c, r in branch_roles)
         self.senses = tuple((str(c), str(e)) for c, e in senses)
         self.mirrors = tuple(str(c) for c in mirrors)
         self.pinned = tuple(str(c) for c in pinned)
         super().__init__(*args, **kwargs)
+        self.law_roundoff = None if law_roundoff is None else _lifted(law_roundoff, self.n)
+
+
+def _lifted(fn, n: int):
+    """``fn(q, v, t)`` traced once to a program with its constants as arrays (as a
+    part's force is, :class:`~diracvi.model.system.LagrangeDiracSystem`): a closure kept
+    whole cannot be printed into the program store's key, and every process would trace
+    and compile the variable-step loop again (measured: es_halfwave_scr 1.5 -> 6.9 s CPU
+    warm). Called as ``law_roundoff(q, v, t=t)``."""
+    lifted = lift(fn, [(n,), (n,), ()])
+    if lifted is None:
+        return _wrap(fn, driven=True)
+    program, consts, _ = lifted
+    return _UserFunction(consts, program, True)
 
 
 def coefficient(where: str, arg: str, value):

@@ -40,7 +40,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 
+from ..model.roundoff import force_roundoff
 from ..model.system import DiracSystem
+from ..runtime.roundoff import UNIT
 from .maps import discrete_constraints, discrete_momenta, reactions
 from .rules import QuadratureRule
 
@@ -219,6 +221,33 @@ class StepEquations(eqx.Module):
             return line
         r = self.residual(x)[: self.system.n]
         return line - r
+
+    @property
+    def bounds_forces(self) -> bool:
+        """Whether :meth:`force_sizes` has anything to say (a static answer)."""
+        return force_roundoff(self.system) is not None and not self.rule.stages
+
+    def force_sizes(self, x):
+        r"""Per equation, the size of the force terms a law computes, or None where no
+        part bounds its force's round-off (:mod:`diracvi.model.roundoff`): ``h E/u`` on
+        each momentum line, ``E`` the bound at the step's centre (``q̄ = (q + q_other)/2``,
+        ``v = ±(q_other − q)/h``), ``u`` the unit round-off. A law whose terms cancel
+        (``β y − ½β(|y + V_t| − |y − V_t|)``, 0 below ``V_t``) computes to ``u`` times its
+        terms, and its Jacobian, ``β − β``, is 0 there: the linearized sizes Newton
+        measures a residual at round-off against (:class:`~diracvi.NewtonSolver`'s
+        ``residual_rtol``) miss those terms, and each iterate's residual, scattered by
+        the law's round-off, was never within them (the step failed, then every step
+        down to the smallest)."""
+        bound = force_roundoff(self.system)
+        if bound is None or self.rule.stages:
+            return None
+        q_other, _ = split(self.system, x)
+        sign = 1.0 if self.scheme == "plus" else -1.0
+        velocity = sign * (q_other - self.q) / self.h
+        t = self.t + 0.5 * self.h  # (t is the step's earlier end in both schemes)
+        forces = self.h * bound(0.5 * (self.q + q_other), velocity, t) / UNIT
+        pad = jnp.zeros(self.size - forces.shape[0], dtype=forces.dtype)
+        return jnp.concatenate([forces, pad])
 
     def scale(self):
         """The size against which Newton's relative tolerance is measured."""

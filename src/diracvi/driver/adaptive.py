@@ -224,6 +224,7 @@ from .algebraic import algebraic_mask
 from .delay import refuse_variable_steps
 from .junction_end import end_error, pairs
 from .rebase import rebase_map
+from .roundoff import current_floor, floors
 from .step_error import (
     _ORDER,
     SAFETY,
@@ -275,6 +276,10 @@ class Controls(NamedTuple):
     #: per coordinate, the inertia ``M_jj`` whose nodal momentum is judged as a state
     #: (:func:`~.step_error.node_momentum_error`; 0: not judged); None: none is
     inertia: np.ndarray | None = None
+    #: per coordinate, whether its current (and charge) is judged no finer than the
+    #: round-off the circuit's current laws compute to (:mod:`.roundoff`: a circuit's
+    #: branch charges); None: none is
+    roundoff: np.ndarray | None = None
 
 
 class AdaptiveRun(NamedTuple):
@@ -366,6 +371,15 @@ def _inertia(controls: Controls, n: int):
     return mass if np.any(mass > 0.0) else None
 
 
+def _roundoff(controls: Controls, system, n: int):
+    """``controls.roundoff`` as the loop takes it: None where no coordinate takes the
+    laws' round-off floor or no part has a law's bound (:mod:`.roundoff`)."""
+    if controls.roundoff is None or current_floor(system) is None:
+        return None
+    mask = np.broadcast_to(np.asarray(controls.roundoff, bool), (n,)).copy()
+    return mask if np.any(mask) else None
+
+
 def _march(system, rule, solver, capacity, x):
     """The compiled loop: ``x`` holds the state and controls (see :func:`adaptive`)."""
     TRACES["count"] += 1
@@ -378,6 +392,8 @@ def _march(system, rule, solver, capacity, x):
     # the junctions and the velocities their laws set, for the check at a try's end
     # (.junction_end; read at the call's start: a diode's pairing is constant)
     end_pair = pairs(system, x["q"], x["t"])
+    # the laws' round-off floor of the currents (.roundoff): None without a law's bound
+    law_floor = current_floor(system) if x["roundoff"] is not None else None
 
     def step(modes, h, t, q, p, dq, mu, atol=None):
         stepped = events.with_modes(system, modes)
@@ -441,6 +457,12 @@ def _march(system, rule, solver, capacity, x):
         )  # fmt: skip
         ok = oks[0] & oks[1] & oks[2]
         c_prev = c["c_last"]
+        # no current judged below the round-off its laws compute to (.roundoff): the
+        # absolute tolerances of this try
+        tol_q, tol_v = atol_q, atol_v
+        if law_floor is not None:
+            nodes = (t, q_abs, base + qc, base + q1, base + q2)
+            tol_q, tol_v = floors(atol_q, atol_v, x["roundoff"], law_floor(nodes, h_try), h_try)
         # the period-2 part at the start (a neutral mode, not truncation error:
         # step_error.alternating), fitted over the last try too unless a corner ended it
         last = (c["u_prev"] * h_last, c["v_last"] * h_last)
@@ -489,7 +511,7 @@ def _march(system, rule, solver, capacity, x):
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]) + ((c["p_peak"],) if judge_p else ()),
-            (x["safety"], rtol, atol_q, atol_v, x["atol_m"]), hmax, base, delta,
+            (x["safety"], rtol, tol_q, tol_v, x["atol_m"]), hmax, base, delta,
             momenta, potentials_over_tmax=rings, c_alternation=eps_c,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2, smooth, p_peak = est
@@ -513,7 +535,7 @@ def _march(system, rule, solver, capacity, x):
             e_end = end_error(
                 events.with_modes(system, modes).force, (t, q_abs, base + q1, base + q2),
                 h_try, hmax, end_pair,
-                x["safety"] * rtol * v_peak + atol_v,
+                x["safety"] * rtol * v_peak + tol_v,
             )  # fmt: skip
             judged = jnp.maximum(judged, e_end)
         aim = ok & (judged <= 1.0) & ~located  # retried at the switching instant
@@ -527,7 +549,7 @@ def _march(system, rule, solver, capacity, x):
         phi1, phi2 = -(2.0 * mu1 - c_prev) / half, -c2 / half
         gap_v = gap_error(xs, (c["u_prev"], c["v_last"], (q1 - q) / half, v2))
         gap_m = gap_error(xs, (c["phi_prev"], phi_last, phi1, phi2))
-        e_gap_v = gap_v / (rtol * v_peak + atol_v)
+        e_gap_v = gap_v / (rtol * v_peak + tol_v)
         e_gap_m = gap_m / (rtol * m_peak + x["atol_m"])
         e_gap = jnp.max(jnp.concatenate([e_gap_v, e_gap_m]), initial=0.0)
         coarse = passes & x["gap_check"] & c["gap_ok"] & ~c["aimed"] & ~(e_gap <= 1.0)
@@ -814,6 +836,7 @@ def adaptive(
         "event_tol": events.tolerances(system, controls.rtol, event_atol),
         "algebraic": algebraic_mask(system, q, p, t0),
         "inertia": _inertia(controls, n),
+        "roundoff": _roundoff(controls, system, n),
         "pinned": np.zeros(n, bool) if pinned is None else np.asarray(pinned, bool).reshape(n),
         "rebase": rebased,
         "gauge": gauge,

@@ -406,6 +406,13 @@ class BorderedNewtonSolver(NewtonSolver):
         # each equation's size: the known momentum and the linearized change over the step
         x_ref = eqs.reference()
         known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
+        # with the force terms a law computes (StepEquations.force_sizes, as NewtonSolver)
+        with_forces = eqs.bounds_forces
+
+        def row_scale(both, x):
+            linear = known + magnitude(both[1], jnp.abs(x - x_ref), layout)
+            return linear + eqs.force_sizes(x) if with_forces else linear
+
         factors, parts, valid = state
         x, status, iterations, res_norm, (factors, parts) = chord_newton(
             self,
@@ -417,7 +424,7 @@ class BorderedNewtonSolver(NewtonSolver):
             valid,
             eqs.scale(),
             limit=junction_limiter(eqs) if self.limit_junctions else None,
-            row_scale=lambda both, x: known + magnitude(both[1], jnp.abs(x - x_ref), layout),
+            row_scale=row_scale,
             reference=x_ref,
             atol=atol,
         )

@@ -316,8 +316,13 @@ class NewtonSolver(StepSolver):
         x_ref = eqs.reference()
         known = jnp.zeros(eqs.size, dtype=eqs.q.dtype).at[: eqs.p.shape[0]].set(jnp.abs(eqs.p))
 
+        # with the force terms a law computes, whose Jacobian may cancel to 0
+        # (StepEquations.force_sizes; None: no part bounds its force's round-off)
+        with_forces = eqs.bounds_forces
+
         def row_scale(factors, x):
-            return known + factors[2] @ jnp.abs(x - x_ref)
+            linear = known + factors[2] @ jnp.abs(x - x_ref)
+            return linear + eqs.force_sizes(x) if with_forces else linear
 
         lu, piv, jnorm, valid = state
         x, status, iterations, res_norm, (lu, piv, jnorm) = chord_newton(

@@ -481,6 +481,9 @@ def controls(netlist: Netlist, settings: TranSettings) -> Controls:
     return Controls(
         settings.reltol, atol_q, atol_v, atol_m, hmax, 1e-13 * span, h_first,
         mass if np.any(mass > 0.0) else None,
+        # the branch currents (and charges) judged no finer than the round-off of the
+        # current laws driving them (driver/roundoff.py; a circuit without one: unused)
+        roundoff=is_charge & ~skip & np.isfinite(atol_v),
     )  # fmt: skip
 
 

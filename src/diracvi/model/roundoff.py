@@ -1,0 +1,57 @@
+r"""The round-off of a system's forces: each part that computes a force by a law bounds it.
+
+A :class:`~diracvi.components.ControlledPart` may carry ``law_roundoff(q, v, t=t)``: per
+coordinate of the part, a bound on the absolute round-off of its force there (an I-form
+behavioural source: its law's running error bound, :mod:`diracvi.runtime.roundoff`, on
+its output flux ``w_o``, whose line reads ``q̇ = f``: a current). :func:`force_roundoff`
+places the parts' bounds in an interconnection's coordinates. Read by Newton's test of a
+residual at round-off (:meth:`~diracvi.discretization.equations.StepEquations.force_sizes`)
+and by the variable-step loop's floor of the branch currents
+(:mod:`diracvi.driver.roundoff`): a quantity is neither solved nor judged below its own
+evaluation's round-off.
+"""
+
+from __future__ import annotations
+
+import jax.numpy as jnp
+
+
+def law_parts(system) -> list:
+    """``(part, offset)`` of each member of ``system`` (an interconnection, packed or not)
+    with a ``law_roundoff``, or ``system`` itself at offset 0; empty where none has one."""
+    if getattr(system, "law_roundoff", None) is not None:
+        return [(system, 0)]
+    subsystems = getattr(system, "subsystems", None)
+    offsets = getattr(system, "_offsets", None)
+    if subsystems is None or offsets is None:
+        return []
+    # a packed system's placeholders hold no arrays (the lifted bound's constants among
+    # them): each such part in full
+    member = getattr(system, "_member", lambda i: subsystems[i])
+    return [
+        (member(i), int(offsets[i]))
+        for i, sub in enumerate(subsystems)
+        if getattr(sub, "law_roundoff", None) is not None
+    ]
+
+
+def force_roundoff(system):
+    """``E(q, v, t)``: per coordinate of ``system``, the bound on its force's round-off
+    (0 where no part bounds it); None where no part has a bound (a static answer: the
+    callers trace nothing more for such a system)."""
+    found = law_parts(system)
+    if not found:
+        return None
+
+    def bound(q, v, t):
+        out = jnp.zeros_like(q)
+        for part, start in found:
+            n = part.n
+            local = part.law_roundoff(q[start : start + n], v[start : start + n], t=t)
+            out = out.at[start : start + n].add(jnp.abs(local))
+        return out
+
+    return bound
+
+
+__all__ = ["force_roundoff", "law_parts"]

@@ -1,0 +1,155 @@
+r"""The round-off of a computed value: a first-order running error bound.
+
+A function ``f`` built of JAX operations is evaluated with a bound ``E`` on each
+intermediate value's absolute round-off carried beside it (Higham, *Accuracy and
+Stability of Numerical Algorithms*, 2nd ed., §3.3, "running error analysis"): the
+inputs are exact (``E = 0``), and each operation ``z = g(x₁, …, x_k)`` gives
+
+    E(z) = Σ_j |∂g/∂x_j| E(x_j)  +  u |z|,        u = 2⁻⁵³,
+
+the first sum the inputs' errors carried through ``g`` (one Jacobian-vector product per
+input, its absolute value: no cancellation of bounds), the last term ``z``'s own rounding —
+left out for the operations that round nothing (a slice, a sign change, ``abs``, a
+select, ``max``/``min``, a comparison). A sum whose terms cancel keeps the bound of its
+terms: ``β y + ½(α − β)(|y + V_t| − |y − V_t|)`` (``ng_memristor``'s memristor law,
+``β`` = 2e12, ``α`` = 0) is exactly 0 for ``|y| < V_t`` and computes as up to ~5e-4,
+either sign; its bound there is ``u`` times the terms, ~1.4e-3 near ``|y| = V_t``.
+
+Used by the variable-step loop (:mod:`diracvi.driver.roundoff`): a quantity is not judged
+below its own evaluation's round-off, which no shorter step lowers. First order: the
+products of two errors are dropped (each ``~u²``).
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.extend
+import jax.numpy as jnp
+
+#: the unit round-off of float64 (half its machine epsilon)
+UNIT = 2.0**-53
+
+#: operations that round nothing: their result's error is their inputs' carried through
+EXACT = frozenset(
+    {
+        "abs",
+        "neg",
+        "sign",
+        "floor",
+        "ceil",
+        "round",
+        "max",
+        "min",
+        "clamp",
+        "select_n",
+        "slice",
+        "squeeze",
+        "reshape",
+        "broadcast_in_dim",
+        "concatenate",
+        "gather",
+        "dynamic_slice",
+        "dynamic_update_slice",
+        "scatter",
+        "convert_element_type",
+        "copy",
+        "copy_p",
+        "stop_gradient",
+        "transpose",
+        "expand_dims",
+        "rev",
+        "pad",
+        "iota",
+    }
+)
+
+#: primitives holding a jaxpr that is interpreted operation by operation (its parameter)
+_NESTED = {
+    "pjit": "jaxpr",
+    "jit": "jaxpr",
+    "closed_call": "call_jaxpr",
+    "custom_jvp_call": "call_jaxpr",
+}
+
+
+def _inexact(x) -> bool:
+    return jnp.issubdtype(jnp.result_type(x), jnp.inexact)
+
+
+def _carried(prim, params, values, errors):
+    """``Σ_j |∂g/∂x_j| E(x_j)`` of one primitive ``g`` (a list, one per output)."""
+
+    def g(*args):
+        out = prim.bind(*args, **params)
+        return list(out) if prim.multiple_results else [out]
+
+    outs = g(*values)
+    total = [jnp.zeros(jnp.shape(o), jnp.result_type(o)) if _inexact(o) else None for o in outs]
+    for j, (x, e) in enumerate(zip(values, errors, strict=True)):
+        if e is None or not _inexact(x):
+            continue
+
+        def of_j(xj, j=j):
+            return g(*values[:j], xj, *values[j + 1 :])
+
+        _, tangent = jax.jvp(of_j, (x,), (jnp.asarray(e, jnp.result_type(x)),))
+        total = [
+            t if t is None or not _inexact(d) else t + jnp.abs(d)
+            for t, d in zip(total, tangent, strict=True)
+        ]
+    return outs, total
+
+
+def _run(jaxpr, consts, args, errors):
+    """Evaluate ``jaxpr`` on ``args`` with each value's error bound beside it."""
+    env = {}
+
+    def read(var):
+        if isinstance(var, jax.extend.core.Literal):
+            return var.val, None
+        return env[var]
+
+    for var, value in zip(jaxpr.constvars, consts, strict=True):
+        env[var] = (value, None)
+    for var, value, error in zip(jaxpr.invars, args, errors, strict=True):
+        env[var] = (value, error)
+    for eqn in jaxpr.eqns:
+        pairs = [read(v) for v in eqn.invars]
+        values = [p[0] for p in pairs]
+        errs = [p[1] for p in pairs]
+        name = eqn.primitive.name
+        if name in _NESTED and _NESTED[name] in eqn.params:
+            inner = eqn.params[_NESTED[name]]
+            closed = getattr(inner, "jaxpr", inner)
+            outs, total = _run(closed, getattr(inner, "consts", ()), values, errs)
+        elif all(e is None for e in errs):
+            out = eqn.primitive.bind(*values, **eqn.params)
+            outs = list(out) if eqn.primitive.multiple_results else [out]
+            total = [None] * len(outs)
+        else:
+            outs, total = _carried(eqn.primitive, eqn.params, values, errs)
+        if name not in EXACT and not (name in _NESTED and _NESTED[name] in eqn.params):
+            total = [
+                (UNIT * jnp.abs(o) if t is None else t + UNIT * jnp.abs(o)) if _inexact(o) else t
+                for o, t in zip(outs, total, strict=True)
+            ]
+        for var, o, t in zip(eqn.outvars, outs, total, strict=True):
+            env[var] = (o, t)
+    results = [read(v) for v in jaxpr.outvars]
+    return [r[0] for r in results], [r[1] for r in results]
+
+
+def with_bound(fn, *args):
+    """``(f(args), E)``: the value of ``fn`` (one array output) and the first-order bound
+    ``E`` on its absolute round-off (module docstring), the inputs taken as exact.
+    Traceable (``args`` may be tracers: the function is traced to a jaxpr once per call)."""
+    args = [jnp.asarray(a) for a in args]
+    shapes = [jax.ShapeDtypeStruct(jnp.shape(a), jnp.result_type(a)) for a in args]
+    closed = jax.make_jaxpr(fn)(*shapes)
+    outs, errs = _run(closed.jaxpr, closed.consts, args, [None] * len(args))
+    value = outs[0]
+    error = errs[0]
+    return value, jnp.zeros(jnp.shape(value), jnp.result_type(value)) if error is None else error
+
+
+__all__ = ["EXACT", "UNIT", "with_bound"]
