@@ -141,7 +141,7 @@ def test_the_module_computes_the_closure_over_floats_bit_for_bit(level):
             return jnp.stack([f[lay.terminals[1]], *(f[a] for a, _ in lay.meyer)])
 
         n = len(part.coords)
-        for _ in range(16):
+        for _ in range(8):
             q = jnp.asarray(rng.normal(size=n) * 2e-12)  # Meyer's y = τ V: volts
             v = jnp.asarray(rng.normal(size=n) * 2.0)
             _equal(lines(q, v), reference(q, v), (part.name, "values"))

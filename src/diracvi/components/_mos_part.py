@@ -268,7 +268,7 @@ class MosLagrangian(eqx.Module):
                 )
             out = out + stored
         for a, y in lay.meyer:  # −½ C_ox (ẇ − y/τ)²: its y-line is y = τ ẇ, where it is 0
-            out = out - 0.5 * p["c_ox"] * (v[a] - q[y] / TAU) ** 2
+            out = out - 0.5 * p["c_ox"] * (v[a] - q[y] / p["tau"]) ** 2
         return out + 0.0 * v[0]
 
 
@@ -289,10 +289,10 @@ class MosForce(eqx.Module):
         vgs, vds, vbs, vbd = v[ig], v[iw], v[ibs], v[ibd]
         f = jnp.zeros(lay.n, dtype=v.dtype)
         if lay.meyer:  # Meyer's currents i_x = C_x(y) ẏ_x: a port on each gate flux
-            y = [q[j] / TAU for _, j in lay.meyer]
+            y = [q[j] / p["tau"] for _, j in lay.meyer]
             i_ch, cs = channel_and_gates(vgs, vds, vbs, y, sign, self.law, p["phi"], p["c_ox"])
             for (a, j), c in zip(lay.meyer, cs, strict=True):
-                f = f.at[a].add(-c * v[j] / TAU)
+                f = f.at[a].add(-c * v[j] / p["tau"])
         else:
             i_ch = channel_current(vgs, vds, vbs, sign, self.law)
         f = f.at[iw].set(-i_ch)
@@ -402,8 +402,11 @@ def _assemble(
     flux = {k: branches[k][0][1] for k in branches if len(branches[k][0]) == 2}
 
     # every number one vector (its names in order), every choice the static layout
-    numbers = {"sign": sign, "phi": phi, "c_ox": c_ox, "i_sd": i_sd, "i_ss": i_ss, "g": g,
-               "emission": emission, "pb": pb, "mj": mj, "mjsw": mjsw, "fc": fc}  # fmt: skip
+    # (τ too: as a literal of the code, XLA fuses x/τ otherwise than the closure's lifted
+    # constant did, one ulp off in the compiled Meyer lines)
+    numbers = {"sign": sign, "tau": TAU, "phi": phi, "c_ox": c_ox, "i_sd": i_sd, "i_ss": i_ss,
+               "g": g, "emission": emission, "pb": pb, "mj": mj, "mjsw": mjsw,
+               "fc": fc}  # fmt: skip
     numbers.update({f"c_{k}": c for k, c in caps.items()})
     numbers.update({f"r_{k}": r for k, r in res.items()})
     for k, (bottom, side) in bulk.items():
