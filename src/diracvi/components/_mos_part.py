@@ -21,6 +21,7 @@ from collections.abc import Callable
 from typing import Any, NamedTuple
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -197,6 +198,17 @@ def law_vector(numbers: dict, names) -> object:
     return np.array([float(x) for x in values], dtype=np.float64)
 
 
+def _on_device(vector):
+    """:func:`law_vector` put on the device: a part called outside a trace (eagerly, or
+    differentiated by ``jax.jacfwd``) then computes with JAX's operations throughout, as
+    the closures' constants did — NumPy scalars would compute a power in a junction's
+    depletion charge with C's ``pow``, one ulp off XLA's in the Jacobians."""
+    if isinstance(vector, np.ndarray):
+        with jax.ensure_compile_time_eval():
+            return jax.device_put(vector)
+    return vector
+
+
 class Law(eqx.Module):
     r"""A level's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, vdsat)`` as data:
     ``make(**numbers, **flags)`` is the law, where ``make`` is a top-level function of the
@@ -222,7 +234,7 @@ def law(make: Callable, flags: dict | None = None, **numbers) -> Law:
     """The :class:`Law` ``make(**numbers, **flags)``: ``numbers`` are its constants (floats,
     or traced values that ``jax.grad`` reaches), ``flags`` its static choices."""
     names = tuple(numbers)
-    return Law(make, names, tuple((flags or {}).items()), law_vector(numbers, names))
+    return Law(make, names, tuple((flags or {}).items()), _on_device(law_vector(numbers, names)))
 
 
 class Layout(NamedTuple):
@@ -427,7 +439,7 @@ def _assemble(
         reverse=reverse,
         names=names,
     )
-    vector = law_vector(numbers, names)
+    vector = _on_device(law_vector(numbers, names))
 
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
     if v0.shape != (3,) or not np.all(np.isfinite(v0)):
