@@ -51,7 +51,10 @@ from ._quartic import baum_root
 
 class Level2(NamedTuple):
     """Level 2's law constants (per device; lengths in m, ``u0`` in m²/V·s). The flags
-    are ngspice's branches on the card: NFS ≠ 0, VMAX > 0, NSUB given, XJ > 0."""
+    are ngspice's branches on the card: NFS ≠ 0, VMAX > 0, NSUB given, XJ > 0, and
+    ``lambda_set`` LAMBDA > 0 (``None``: a traced LAMBDA, which decides in the program).
+    They are decided when the part is built, so that the numbers may be traced or array
+    elements (:func:`law`: the part's :class:`~._mos_part.Law`)."""
 
     vbi: float  # type·VTO − γ√Φ
     beta: float  # KP·W·M/L_eff
@@ -73,6 +76,8 @@ class Level2(NamedTuple):
     has_nfs: bool
     has_vmax: bool
     has_nsub: bool
+    has_xj: bool
+    lambda_set: bool | None
 
 
 def _side(phi, v):
@@ -85,7 +90,7 @@ def _side(phi, v):
 
 def _short_channel_gamma(p: Level2, s, ds, b, db):
     """``γ_sd`` and ``∂γ_sd/∂V_BS`` (junction depth XJ sharing the depletion charge)."""
-    if not p.xj > 0.0:
+    if not p.has_xj:
         return p.gamma + 0.0 * s, 0.0 * s
     arg_s = jnp.sqrt(1.0 + 2.0 * p.xd * s / p.xj)
     arg_d = jnp.sqrt(1.0 + 2.0 * p.xd * b / p.xj)
@@ -119,7 +124,7 @@ def _baum_vdsat(p: Level2, over, v2, gammad, s, ueff, fallback):
 
 def _shortening(p: Level2, vds, vdsat, ueff):
     """``ΔL/L``, the channel shortening ``λ V_DS`` (module docstring)."""
-    computed = p.has_nsub and not (isinstance(p.lambda_, float) and p.lambda_ > 0.0)
+    computed = p.has_nsub and p.lambda_set is not True
     given = p.lambda_ * vds
     if not computed:
         return given
@@ -130,7 +135,7 @@ def _shortening(p: Level2, vds, vdsat, ueff):
         xdv = p.xd / jnp.sqrt(p.neff)
         xlv = p.vmax * xdv / (2.0 * ueff)
         out = xdv / p.leff * (jnp.sqrt(xlv * xlv + jnp.maximum(vds - vdsat, 0.0)) - xlv)
-    if isinstance(p.lambda_, float):
+    if p.lambda_set is not None:
         return out
     return jnp.where(p.lambda_ > 0.0, given, out)  # a traced LAMBDA decides as ngspice
 
@@ -197,3 +202,9 @@ def level2(p: Level2):
         return current, von, vdsat
 
     return forward
+
+
+def law(**fields):
+    """:func:`level2` of the :class:`Level2` of ``fields``: the maker of the part's
+    :class:`~diracvi.components._mos_part.Law` (its numbers and its flags as keywords)."""
+    return level2(Level2(**fields))

@@ -17,15 +17,18 @@ described in :mod:`~diracvi.components.mosfet`.
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from collections.abc import Callable
+from typing import Any, NamedTuple
 
+import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
-from ._part import array_module, finite, positive
+from ._part import array_module, finite, positive, traced
 from .controlled import ControlledPart
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
@@ -185,6 +188,138 @@ def build(device: Device, forward, phi, params: dict, **override) -> ControlledP
     )  # fmt: skip
 
 
+def law_vector(numbers: dict, names) -> object:
+    """The numbers ``numbers[k]`` in ``names``' order as one vector: NumPy where every one
+    is a number (so alike devices share a program), a JAX array where a parameter is
+    being differentiated (kept traced)."""
+    values = [numbers[k] for k in names]
+    if any(traced(x) for x in values):
+        return jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
+    return np.array([float(x) for x in values], dtype=np.float64)
+
+
+def _on_device(vector):
+    """:func:`law_vector` put on the device: a part called outside a trace (eagerly, or
+    differentiated by ``jax.jacfwd``) then computes with JAX's operations throughout, as
+    the closures' constants did — NumPy scalars would compute a power in a junction's
+    depletion charge with C's ``pow``, one ulp off XLA's in the Jacobians."""
+    if isinstance(vector, np.ndarray):
+        with jax.ensure_compile_time_eval():
+            return jax.device_put(vector)
+    return vector
+
+
+class Law(eqx.Module):
+    r"""A level's forward law ``(V_GS, V_DS, V_BS) -> (I_D, von, vdsat)`` as data:
+    ``make(**numbers, **flags)`` is the law, where ``make`` is a top-level function of the
+    law's constants (:func:`~diracvi.components.mosfet.level1`,
+    :func:`~diracvi.components.mosfet6.sakurai_newton`, …), ``flags`` its choices made
+    in Python when the part is built (ngspice's branches on the card: NFS ≠ 0, VMAX > 0,
+    …; static) and ``numbers`` the constants as one float64 vector (leaves). Devices
+    whose laws have one ``make`` and equal flags compute one function of different
+    numbers: its form is read once (:func:`~diracvi.model.system._user_function`), not
+    traced per device, and they stack into one ``vmap``."""
+
+    make: Callable = eqx.field(static=True)
+    names: tuple[str, ...] = eqx.field(static=True)
+    flags: tuple = eqx.field(static=True)
+    numbers: Any
+
+    def __call__(self, vgs, vds, vbs):
+        values = {k: self.numbers[j] for j, k in enumerate(self.names)}
+        return self.make(**values, **dict(self.flags))(vgs, vds, vbs)
+
+
+def law(make: Callable, flags: dict | None = None, **numbers) -> Law:
+    """The :class:`Law` ``make(**numbers, **flags)``: ``numbers`` are its constants (floats,
+    or traced values that ``jax.grad`` reaches), ``flags`` its static choices."""
+    names = tuple(numbers)
+    return Law(make, names, tuple((flags or {}).items()), _on_device(law_vector(numbers, names)))
+
+
+class Layout(NamedTuple):
+    """What a MOSFET part's Lagrangian and force compute, decided in Python when the part
+    is built (static: parts of equal layouts are one function of their numbers)."""
+
+    n: int  # the part's coordinate count
+    pairs: tuple  # (charge, flux) indices of the two-coordinate branches: L's Σ w q̇
+    flux_caps: tuple  # (flux index, number) of the linear gate capacitors (the overlaps)
+    junction_caps: tuple  # (junction, flux index, bottom on, sidewall on): depletion charges
+    meyer: tuple  # (flux index, y index) of Meyer's gate branches (empty: no oxide)
+    terminals: tuple  # the indices of w_g, w, w_bs, w_bd (V_GS, V_DS, V_BS, V_BD)
+    resistors: tuple  # (charge index, number) of RD, RS
+    reverse: str  # the bulk junctions' reverse branch (pn_current's)
+    names: tuple  # the numbers' names, in the vector's order
+
+
+def _named(layout: Layout, numbers) -> dict:
+    return {k: numbers[j] for j, k in enumerate(layout.names)}
+
+
+class MosLagrangian(eqx.Module):
+    r"""``L = Σ w_b q̇_b + Σ ½ C_x ẇ_x² + Σ C*_J(type·ẇ_J) − Σ ½ C_ox (ẇ_x − y_x/τ)²`` of
+    the module docstring of :mod:`~diracvi.components.mosfet` (the flux-form branches,
+    the overlap capacitors, the bulk junctions' depletion co-energies, Meyer's ties), its
+    structure the static :class:`Layout`, its numbers one vector."""
+
+    layout: Layout = eqx.field(static=True)
+    numbers: Any
+
+    def __call__(self, q, v):
+        lay, p = self.layout, _named(self.layout, self.numbers)
+        out = sum(q[w] * v[c] for c, w in lay.pairs)
+        out = out + sum(0.5 * p[c] * v[a] ** 2 for a, c in lay.flux_caps)
+        for k, a, bottom, side in lay.junction_caps:  # NMOS-oriented junction voltage
+            vn = p["sign"] * v[a]
+            stored = 0.0 * vn
+            if bottom:
+                stored = stored + depletion_coenergy(vn, p[f"cj_{k}"], p["pb"], p["mj"], p["fc"])
+            if side:
+                stored = stored + depletion_coenergy(
+                    vn, p[f"cjsw_{k}"], p["pb"], p["mjsw"], p["fc"]
+                )
+            out = out + stored
+        for a, y in lay.meyer:  # −½ C_ox (ẇ − y/τ)²: its y-line is y = τ ẇ, where it is 0
+            out = out - 0.5 * p["c_ox"] * (v[a] - q[y] / p["tau"]) ** 2
+        return out + 0.0 * v[0]
+
+
+class MosForce(eqx.Module):
+    r"""``F``: minus the channel current (the level's :class:`Law`, the polarity and the
+    source/drain swap), the bulk junctions' currents with ``G_min``, the resistors'
+    ``R q̇``, and Meyer's port currents ``C_x(y/τ) ẏ_x/τ`` on the gate fluxes; its
+    structure the static :class:`Layout`, its numbers one vector beside the law's."""
+
+    layout: Layout = eqx.field(static=True)
+    numbers: Any
+    law: Callable
+
+    def __call__(self, q, v):
+        lay, p = self.layout, _named(self.layout, self.numbers)
+        sign = p["sign"]
+        ig, iw, ibs, ibd = lay.terminals
+        vgs, vds, vbs, vbd = v[ig], v[iw], v[ibs], v[ibd]
+        f = jnp.zeros(lay.n, dtype=v.dtype)
+        if lay.meyer:  # Meyer's currents i_x = C_x(y) ẏ_x: a port on each gate flux
+            y = [q[j] / p["tau"] for _, j in lay.meyer]
+            i_ch, cs = channel_and_gates(vgs, vds, vbs, y, sign, self.law, p["phi"], p["c_ox"])
+            for (a, j), c in zip(lay.meyer, cs, strict=True):
+                f = f.at[a].add(-c * v[j] / p["tau"])
+        else:
+            i_ch = channel_current(vgs, vds, vbs, sign, self.law)
+        f = f.at[iw].set(-i_ch)
+        emission, g, reverse = p["emission"], p["g"], lay.reverse
+        f = f.at[ibs].set(
+            -(sign * pn_current(sign * vbs, p["i_ss"], emission, reverse=reverse) + g * vbs)
+        )
+        f = f.at[ibd].set(
+            -(sign * pn_current(sign * vbd, p["i_sd"], emission, reverse=reverse) + g * vbd)
+        )
+        for a, r in lay.resistors:
+            f = f.at[a].set(-p[r] * v[a])
+        return f
+
+
 def _assemble(
     where,
     kind,
@@ -216,7 +351,13 @@ def _assemble(
     emission=1.0,
     reverse="constant",
 ) -> ControlledPart:
-    """The part of a MOSFET with pins ``d g s b`` (:func:`build`'s)."""
+    """The part of a MOSFET with pins ``d g s b`` (:func:`build`'s).
+
+    Everything decided in Python (which branches exist, Meyer on or off, RD/RS, the
+    junctions' charges) is the static :class:`Layout` of its :class:`MosLagrangian` and
+    :class:`MosForce`, every number one vector: devices that differ only in their
+    numbers (W, L, the card's values) are one function of different numbers, read once
+    and stacked, not traced per device."""
     sign = KINDS[kind]
     pair = is_ if isinstance(is_, (tuple, list)) else (is_, is_)  # (bulk–drain, bulk–source)
     i_sd, i_ss = (mult * finite(where, "is_", x) for x in pair)
@@ -264,56 +405,41 @@ def _assemble(
             branches[f"r{k}"] = ((f"qr{k}",), k, inner[k])
     coords = [c for names, _, _ in branches.values() for c in names]
     meyer_branches = ("gs", "gd", "gb") if meyer_on else ()
-    for k in meyer_branches:  # the gate voltages as positions: y = ẇ (see lagrangian)
+    for k in meyer_branches:  # the gate voltages as positions: y = ẇ (see MosLagrangian)
         coords.append(f"y{k}")
     idx = {c: j for j, c in enumerate(coords)}
     internal = [inner[k] for k in "ds" if res[k] > 0.0]
     pins, rows = pins_and_kcl(branches, idx, internal)
     roles = [("sg", "current")] + [(f"s{k}", "capacitor") for k in gate]
     flux = {k: branches[k][0][1] for k in branches if len(branches[k][0]) == 2}
-    flux_caps = [(flux[k], caps[k]) for k in ("gs", *gate) if caps[k] > 0.0]
-    junction_caps = {k: c for k, c in bulk.items() if c[0] > 0.0 or c[1] > 0.0}
 
-    def stored(vn, k):  # the bulk junction's depletion co-energy (NMOS-oriented V)
-        bottom, side = junction_caps[k]
-        out = 0.0 * vn
-        if bottom > 0.0:
-            out = out + depletion_coenergy(vn, bottom, pb, mj, fc)
-        if side > 0.0:
-            out = out + depletion_coenergy(vn, side, pb, mjsw, fc)
-        return out
-
-    def lagrangian(q, v):
-        out = sum(q[idx[w_]] * v[idx[names[0]]] for names, _, _ in branches.values()
-                  for w_ in names[1:])  # fmt: skip
-        out = out + sum(0.5 * c * v[idx[a]] ** 2 for a, c in flux_caps)
-        for k in junction_caps:
-            out = out + stored(sign * v[idx[flux[k]]], k)
-        for k in meyer_branches:  # −½ C_ox (ẇ − y/τ)²: its y-line is y = τ ẇ, where it is 0
-            out = out - 0.5 * c_ox * (v[idx[flux[k]]] - q[idx[f"y{k}"]] / TAU) ** 2
-        return out + 0.0 * v[0]
-
-    def force(q, v):
-        vgs, vds, vbs, vbd = v[idx["wg"]], v[idx["w"]], v[idx["wbs"]], v[idx["wbd"]]
-        f = jnp.zeros(len(coords), dtype=v.dtype)
-        if meyer_on:  # Meyer's currents i_x = C_x(y) ẏ_x: a port on each gate flux
-            y = [q[idx[f"y{k}"]] / TAU for k in meyer_branches]
-            i_ch, cs = channel_and_gates(vgs, vds, vbs, y, sign, forward, phi, c_ox)
-            for k, c in zip(meyer_branches, cs, strict=True):
-                f = f.at[idx[flux[k]]].add(-c * v[idx[f"y{k}"]] / TAU)
-        else:
-            i_ch = channel_current(vgs, vds, vbs, sign, forward)
-        f = f.at[idx["w"]].set(-i_ch)
-        f = f.at[idx["wbs"]].set(
-            -(sign * pn_current(sign * vbs, i_ss, emission, reverse=reverse) + g * vbs)
-        )
-        f = f.at[idx["wbd"]].set(
-            -(sign * pn_current(sign * vbd, i_sd, emission, reverse=reverse) + g * vbd)
-        )
-        for k in "ds":
-            if res[k] > 0.0:
-                f = f.at[idx[f"qr{k}"]].set(-res[k] * v[idx[f"qr{k}"]])
-        return f
+    # every number one vector (its names in order), every choice the static layout
+    # (τ too: as a literal of the code, XLA fuses x/τ otherwise than the closure's lifted
+    # constant did, one ulp off in the compiled Meyer lines)
+    numbers = {"sign": sign, "tau": TAU, "phi": phi, "c_ox": c_ox, "i_sd": i_sd, "i_ss": i_ss,
+               "g": g, "emission": emission, "pb": pb, "mj": mj, "mjsw": mjsw,
+               "fc": fc}  # fmt: skip
+    numbers.update({f"c_{k}": c for k, c in caps.items()})
+    numbers.update({f"r_{k}": r for k, r in res.items()})
+    for k, (bottom, side) in bulk.items():
+        numbers.update({f"cj_{k}": bottom, f"cjsw_{k}": side})
+    names = tuple(numbers)
+    layout = Layout(
+        n=len(coords),
+        pairs=tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2),
+        flux_caps=tuple((idx[flux[k]], f"c_{k}") for k in ("gs", *gate) if caps[k] > 0.0),
+        junction_caps=tuple(
+            (k, idx[flux[k]], c[0] > 0.0, c[1] > 0.0)
+            for k, c in bulk.items()
+            if c[0] > 0.0 or c[1] > 0.0
+        ),
+        meyer=tuple((idx[flux[k]], idx[f"y{k}"]) for k in meyer_branches),
+        terminals=(idx["wg"], idx["w"], idx["wbs"], idx["wbd"]),
+        resistors=tuple((idx[f"qr{k}"], f"r_{k}") for k in "ds" if res[k] > 0.0),
+        reverse=reverse,
+        names=names,
+    )
+    vector = _on_device(law_vector(numbers, names))
 
     v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
     if v0.shape != (3,) or not np.all(np.isfinite(v0)):
@@ -328,8 +454,8 @@ def _assemble(
     junctions, limits = bulk_limits(sign, {"wbs": i_ss, "wbd": i_sd})
     return ControlledPart(
         tuple(coords),
-        lagrangian,
-        force=force,
+        MosLagrangian(layout, vector),
+        force=MosForce(layout, vector, forward),
         junctions=junctions,
         junction_limits=limits,
         constraints=np.array(rows) if rows else None,

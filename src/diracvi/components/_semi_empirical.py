@@ -53,7 +53,10 @@ _C0, _C1, _C2 = 0.0631353, 0.8013292, -0.01110777
 
 class Level3(NamedTuple):
     """Level 3's law constants (per device; lengths in m, ``u0`` in m²/V·s). The flags are
-    ngspice's branches on the card: NFS ≠ 0, VMAX > 0."""
+    ngspice's branches on the card: NFS ≠ 0, VMAX > 0, NSUB given (``α ≠ 0``), and
+    ``short``: XJ ≠ 0 with NSUB (the short-channel factor). They are decided when the part
+    is built, so that the numbers may be traced or array elements (:func:`law`: the
+    part's :class:`~._mos_part.Law`)."""
 
     vbi: float  # type·(VTO + DELVTO) − γ√Φ
     beta: float  # KP·W·M/L (effective W, L)
@@ -73,6 +76,8 @@ class Level3(NamedTuple):
     vt: float  # kT/q at the device's temperature (V)
     has_nfs: bool
     has_vmax: bool
+    has_alpha: bool
+    short: bool
 
 
 def _sqrt0(x):
@@ -84,7 +89,7 @@ def _sqrt0(x):
 
 def _short_channel(p: Level3, s):
     """ngspice's ``fshort``: the share of the depletion charge the gate controls."""
-    if not (p.xj != 0.0 and p.alpha != 0.0):
+    if not p.short:
         return 1.0 + 0.0 * s
     w = jnp.sqrt(p.alpha) * s / p.xj
     corner = _C0 + _C1 * w + _C2 * w * w + p.ld / p.xj
@@ -99,12 +104,12 @@ def _shortening(p: Level3, vds, vdsat, current, vdsx, vdsc):
     safe_sat = jnp.where(vdsat > 0.0, vdsat, 1.0)
     if not p.has_vmax:
         sat = _sqrt0(kappa * alpha * (vds - vdsat + vdsat / 8.0))
-        if alpha == 0.0:
+        if not p.has_alpha:
             return jnp.where(saturated, sat, 0.0)
         ratio = jnp.minimum(vds / safe_sat, 1.0)
         lin = _sqrt0(kappa * alpha * vdsat / 8.0) * ratio**4
         return jnp.where(saturated, sat, lin)
-    if alpha == 0.0:
+    if not p.has_alpha:
         return 0.0 * vds
     fdrain = 1.0 / (1.0 + vdsx / vdsc)
     safe_i = jnp.where(current > 0.0, current, 1.0)
@@ -157,3 +162,9 @@ def level3(p: Level3):
         return current, von, jnp.where(on, vdsat, 0.0)
 
     return forward
+
+
+def law(**fields):
+    """:func:`level3` of the :class:`Level3` of ``fields``: the maker of the part's
+    :class:`~diracvi.components._mos_part.Law` (its numbers and its flags as keywords)."""
+    return level3(Level3(**fields))

@@ -43,7 +43,7 @@ from ..errors import ModelError
 from . import _bsim3 as b3
 from ._charge_port import ChargePortPart
 from ._junction import depletion_charge
-from ._mos_part import bulk_limits, pins_and_kcl, polarity
+from ._mos_part import bulk_limits, law_vector, pins_and_kcl, polarity
 from ._part import array_module, finite, positive, traced
 
 __all__ = ["BSIM3", "bsim3_current"]
@@ -233,16 +233,6 @@ def _charge(layout, p, idx, q, v):
 
 _INSTANCE = {"ad": 0.0, "as_": 0.0, "pd": 0.0, "ps": 0.0, "nrd": 1.0, "nrs": 1.0, "m": 1.0,
              "delvto": 0.0, "mulu0": 1.0}  # fmt: skip
-
-
-def law_vector(numbers: dict, names) -> object:
-    """The laws' numbers in ``names``' order as one vector: NumPy where every one is a
-    number (so alike devices share a program), a JAX array where a parameter is being
-    differentiated (kept traced)."""
-    values = [numbers[k] for k in names]
-    if any(traced(x) for x in values):
-        return jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
-    return np.array([float(x) for x in values], dtype=np.float64)
 
 
 def initial_velocities(where: str, v0, idx: dict, n: int) -> np.ndarray:

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 
-from ._mos_part import KINDS, TAU, build, channel_current, device, gate_capacitances
+from ._mos_part import KINDS, TAU, build, channel_current, device, gate_capacitances, law
 from ._part import positive
 from .controlled import ControlledPart, coefficient
 
@@ -139,6 +139,7 @@ def MOSFET(
     gamma = coefficient(where, "gamma", gamma)
     phi = positive(where, "phi", phi)
     beta = kp * dev.mult * dev.width / dev.leff
-    law = level1(KINDS[kind] * vto, beta, gamma, phi, lambda_)
+    # the law as data (its numbers a vector): devices of other sizes share one program
+    forward = law(level1, vto=KINDS[kind] * vto, beta=beta, gamma=gamma, phi=phi, lambda_=lambda_)
     params = {"kp": kp, "vto": vto, "lambda": lambda_, "gamma": gamma, "phi": phi}
-    return build(dev, law, phi, params)
+    return build(dev, forward, phi, params)

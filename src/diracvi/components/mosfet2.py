@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 
 from ..errors import ModelError
-from ._grove_frohman import Level2, level2
+from . import _grove_frohman
 from ._junction import THERMAL_VOLTAGE
 from ._mos1 import CHARGE, EPS_OX, EPS_SI
-from ._mos_part import KINDS, SHARED, build, device
+from ._mos_part import KINDS, SHARED, build, device, law
 from ._part import finite, positive
 from .controlled import ControlledPart, coefficient
 
@@ -86,7 +86,19 @@ def MOSFET2(
     cox = EPS_OX / tox
     kp = u0 * 1e-4 * cox if kp is None else coefficient(where, "kp", kp)
     sign = KINDS[kind]
-    law = Level2(
+    # the law as data (:class:`~._grove_frohman.Level2`'s numbers a vector, its flags
+    # static): devices of other sizes share one program
+    lambda_ = traced["lambda_"]
+    flags = {
+        "has_nfs": _nonzero(traced["nfs"]),
+        "has_vmax": not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
+        "has_nsub": nsub > 0.0,
+        "has_xj": xj > 0.0,
+        "lambda_set": lambda_ > 0.0 if isinstance(lambda_, float) else None,
+    }
+    forward = law(
+        _grove_frohman.law,
+        flags,
         vbi=sign * traced["vto"] - traced["gamma"] * math.sqrt(phi),
         beta=kp * mult * width / leff,
         gamma=traced["gamma"],
@@ -106,13 +118,10 @@ def MOSFET2(
         pb=positive(where, "pb", dev.shared["pb"]),
         # the bulk junctions' V_T(T)/V_T(27 °C) is the law's too (mos2load: vt at T)
         vt=THERMAL_VOLTAGE * dev.shared["emission"],
-        has_nfs=_nonzero(traced["nfs"]),
-        has_vmax=not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
-        has_nsub=nsub > 0.0,
     )
     params = {"kp": kp, "vto": traced["vto"], "lambda": traced["lambda_"], "phi": phi,
               "gamma": traced["gamma"], "tox": tox, "u0": u0, "nsub": nsub, "xj": xj,
               "delta": traced["delta"], "ucrit": ucrit, "uexp": traced["uexp"],
               "vmax": traced["vmax"], "neff": neff, "nfs": traced["nfs"]}  # fmt: skip
     # mos2load's junctions add GMIN unscaled by M (mos1load scales it)
-    return build(dev, level2(law), phi, params, cox=cox, gmin=dev.shared["gmin"] / mult)
+    return build(dev, forward, phi, params, cox=cox, gmin=dev.shared["gmin"] / mult)

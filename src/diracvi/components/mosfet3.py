@@ -17,11 +17,11 @@ from __future__ import annotations
 import math
 
 from ..errors import ModelError
+from . import _semi_empirical
 from ._junction import THERMAL_VOLTAGE
 from ._mos1 import CHARGE, EPS_OX, EPS_SI
-from ._mos_part import KINDS, build, device
+from ._mos_part import KINDS, build, device, law
 from ._part import finite, positive
-from ._semi_empirical import Level3, level3
 from .controlled import ControlledPart, coefficient
 from .mosfet2 import SHARED2, _nonzero
 
@@ -102,14 +102,25 @@ def MOSFET3(
     kp = u0 * 1e-4 * cox if kp is None else coefficient(where, "kp", kp)
     sign = KINDS[kind]
     leff, width = dev.leff, dev.width
-    law = Level3(
+    # the law as data (:class:`~._semi_empirical.Level3`'s numbers a vector, its flags
+    # static): devices of other sizes share one program
+    alpha = 2.0 * EPS_SI / (CHARGE * nsub * 1e6) if nsub > 0.0 else 0.0
+    flags = {
+        "has_nfs": _nonzero(traced["nfs"]),
+        "has_vmax": not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
+        "has_alpha": alpha != 0.0,
+        "short": xj != 0.0 and alpha != 0.0,
+    }
+    forward = law(
+        _semi_empirical.law,
+        flags,
         vbi=sign * (traced["vto"] + traced["delvto"]) - traced["gamma"] * math.sqrt(phi),
         beta=kp * dev.mult * width / leff,
         gamma=traced["gamma"],
         phi=phi,
         narrow=traced["delta"] * 0.5 * math.pi * EPS_SI / (cox * width),
         sigma=traced["eta"] * ETA_SCALE / (cox * leff**3),
-        alpha=2.0 * EPS_SI / (CHARGE * nsub * 1e6) if nsub > 0.0 else 0.0,
+        alpha=alpha,
         xj=xj,
         ld=0.5 * (length - leff),  # LD, which device() consumed
         leff=leff,
@@ -120,8 +131,6 @@ def MOSFET3(
         vmax=traced["vmax"],
         # the bulk junctions' V_T(T)/V_T(27 °C) is the law's too (mos3load: vt at T)
         vt=THERMAL_VOLTAGE * dev.shared["emission"],
-        has_nfs=_nonzero(traced["nfs"]),
-        has_vmax=not isinstance(traced["vmax"], float) or traced["vmax"] > 0.0,
     )
     params = {"kp": kp, "vto": traced["vto"], "phi": phi, "gamma": traced["gamma"],
               "tox": tox, "u0": u0, "nsub": nsub, "xj": xj, "delta": traced["delta"],
@@ -131,6 +140,6 @@ def MOSFET3(
     # mos3load's junctions add GMIN unscaled by M (mos1load scales it), and below −3 V_T
     # follow the cubic reverse branch (mos1load and mos2load hold −I_S there)
     return build(
-        dev, level3(law), phi, params, cox=cox, gmin=dev.shared["gmin"] / dev.mult,
+        dev, forward, phi, params, cox=cox, gmin=dev.shared["gmin"] / dev.mult,
         reverse="cubic",
     )  # fmt: skip

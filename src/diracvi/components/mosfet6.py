@@ -23,7 +23,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 from ..errors import ModelError
-from ._mos_part import KINDS, build, device
+from ._mos_part import KINDS, build, device, law
 from ._part import positive
 from .controlled import ControlledPart, coefficient
 
@@ -84,18 +84,20 @@ def MOSFET6(
     """
     dev = device("MOSFET6", kind, w, l, name, shared)
     where = dev.where
-    law = {
+    card = {
         k: coefficient(where, k, x)
         for k, x in (("vto", vto), ("kc", kc), ("nc", nc), ("kv", kv), ("nv", nv),
                      ("gamma", gamma), ("gamma1", gamma1), ("sigma", sigma),
                      ("lambda0", lambda0), ("lambda1", lambda1))
     }  # fmt: skip
-    if isinstance(law["kv"], float) and law["kv"] <= 0.0:
+    if isinstance(card["kv"], float) and card["kv"] <= 0.0:
         raise ModelError(f"{where}: kv={kv!r} must be > 0 (V_DSAT = KV·V_GON^NV).")
     phi = positive(where, "phi", phi)
-    forward = sakurai_newton(
-        KINDS[kind] * law["vto"], law["kc"] * dev.mult * dev.width / dev.leff, law["kv"],
-        law["nv"], law["nc"], law["gamma"], law["gamma1"], law["sigma"], phi, law["lambda0"],
-        law["lambda1"],
+    # the law as data (its numbers a vector): devices of other sizes share one program
+    betac = card["kc"] * dev.mult * dev.width / dev.leff
+    forward = law(
+        sakurai_newton, vto=KINDS[kind] * card["vto"], betac=betac, kv=card["kv"],
+        nv=card["nv"], nc=card["nc"], gamma=card["gamma"], gamma1=card["gamma1"],
+        sigma=card["sigma"], phi=phi, lambda0=card["lambda0"], lambda1=card["lambda1"],
     )  # fmt: skip
-    return build(dev, forward, phi, law | {"phi": phi})
+    return build(dev, forward, phi, card | {"phi": phi})

@@ -49,7 +49,7 @@ import jax.numpy as jnp
 
 from ..errors import ModelError
 from ._charge_port import ChargePortPart
-from ._mos_part import KINDS, build, channel_current, device, polarity
+from ._mos_part import KINDS, build, channel_current, device, law, polarity
 from ._part import finite, positive
 
 __all__ = ["VDMOS", "GateDrainCapacitance", "gate_drain_capacitance", "gate_drain_charge"]
@@ -190,6 +190,10 @@ def VDMOS(
             "channel's own source); put RS in series as a Resistor, as the netlist does."
         )
     mtr = positive(where, "mtriode", mtriode)
-    law = vdmos_law(KINDS[kind] * vto, kp, ksub, finite(where, "subshift", subshift), lam, th, mtr)
+    # the law as data (its numbers a vector): devices of other values share one program
+    forward = law(
+        vdmos_law, vto=KINDS[kind] * vto, kp=kp, ksubthres=ksub,
+        subshift=finite(where, "subshift", subshift), lambda_=lam, theta=th, mtriode=mtr,
+    )  # fmt: skip
     params = dict(vto=vto, kp=kp, ksubthres=ksub, mtriode=mtr)
-    return build(dev, law, 0.6, params | {"lambda": lam, "theta": th})
+    return build(dev, forward, 0.6, params | {"lambda": lam, "theta": th})
