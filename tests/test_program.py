@@ -219,8 +219,10 @@ def test_a_subcircuits_alike_devices_are_traced_once_and_build_the_same_system(t
     with_cache = traces[0]
     monkeypatch.setattr(program, "trace_key", lambda fn, shapes: None)
     traced = spice.read(_NAND_PAIR)
-    # the second gate's four transistors and diode (two functions each) are not traced
-    assert traces[0] - with_cache >= with_cache + 10
+    # the second gate's diode (two functions) is not traced: with the content key one
+    # diode's functions are traced, without it both gates' (the level-1 MOSFETs are
+    # Modules read once per class and traced by neither: tests/test_mos_module.py)
+    assert with_cache > 0 and traces[0] - with_cache >= 2 * with_cache
     a, b = cached.system, traced.system
     assert jax.tree.structure(a) == jax.tree.structure(b)
     for x, y in zip(jax.tree.leaves(a), jax.tree.leaves(b), strict=True):
