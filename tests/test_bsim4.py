@@ -27,7 +27,7 @@ from _bsim4_cards import ro_card
 from diracvi import spice
 from diracvi.components import _bsim4 as b4
 from diracvi.components.bsim3 import _mode
-from test_bsim3 import _charges_deck, _ngspice_charges
+from test_bsim3 import _charges_deck, _fixed_step_error, _ngspice_charges
 from test_mosfet_level6 import _excess, needs_ngspice, terminal_currents
 
 SLOW = pytest.mark.slow
@@ -213,14 +213,7 @@ def test_inverter_transient_is_ngspices():
     with CGSL/CGDL, the junctions' bottom, sidewall and gate-edge charges, the geoMod-0
     perimeters of the NMOS without PS/AS): ``v(out)`` within 1e-3 of its peak of a fine
     ngspice run."""
-    import diracvi as dv
-
-    read = spice.read(INVERTER)
-    fine = ".options reltol=1e-6 abstol=1e-14 vntol=1e-10 chgtol=1e-17"
-    t, ref = ng.ngspice(INVERTER, ("v(out)",), tmax=read.stop / 20000, options=fine)
-    result = spice.run(read, dt=0.25e-12, solver=dv.NewtonSolver(reuse_jacobian=False))
-    mine = np.interp(t, result.time, result["v(out)"])
-    assert np.max(np.abs(mine - ref["v(out)"])) <= 1e-3 * np.max(np.abs(ref["v(out)"]))
+    assert _fixed_step_error(INVERTER, 0.25e-12) <= 1e-3
 
 
 ALL_MODES = ("igcmod", "igbmod", "rgatemod", "rbodymod")
@@ -268,15 +261,7 @@ def test_inverter_with_the_four_modes_is_ngspices(raised):
     resistance raised (:data:`RAISED`, where turning rgateMod off moves ngspice's output by
     far more than 1e-3 of its peak; measured: 1.9e-4): ``v(out)`` within 1e-3 of its
     peak of a fine ngspice run."""
-    import diracvi as dv
-
-    net = ro_inverter(raised)
-    read = spice.read(net)
-    fine = ".options reltol=1e-6 abstol=1e-14 vntol=1e-10 chgtol=1e-17"
-    t, ref = ng.ngspice(net, ("v(out)",), tmax=read.stop / 20000, options=fine)
-    result = spice.run(read, dt=0.25e-12, solver=dv.NewtonSolver(reuse_jacobian=False))
-    mine = np.interp(t, result.time, result["v(out)"])
-    assert np.max(np.abs(mine - ref["v(out)"])) <= 1e-3 * np.max(np.abs(ref["v(out)"]))
+    assert _fixed_step_error(ro_inverter(raised), 0.25e-12) <= 1e-3
 
 
 def four_currents(part, vgs, vds, vbs):
