@@ -202,8 +202,13 @@ def test_agrees_with_the_compiled_loop_to_its_tolerance():
         peak = np.max(np.abs(z))
         assert np.max(np.abs(x - z)) <= 5e-4 * peak, key
         assert np.max(np.abs(y - z)) <= 5e-4 * peak, key
-    # the sizes are the compiled loop's rounded down to the grid: a few more tries
-    assert reference.tries <= march.tries <= 2 * reference.tries
+    # The sparse path sizes its steps by the same law on a 2^-k grid, so it takes no more
+    # than twice the compiled loop's tries. It is not held to take at least as many: since
+    # the compiled loop judges node potentials per try (7cb865e, session 33) and the sparse
+    # loop still holds them to their mean over TMAX, the compiled loop takes more here
+    # (measured 2026-12-01: 918 tries against the sparse path's 777), and both agree with
+    # ngspice above.
+    assert march.tries <= 2 * reference.tries
 
 
 def test_a_circuit_it_cannot_step_is_refused_with_the_reason():
