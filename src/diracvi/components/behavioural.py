@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..runtime.roundoff import with_bound
+from ..runtime.roundoff import corner_arguments, with_bound
 from .controlled import ControlledPart
 
 #: the default ``τ``: ``y_k`` holds ``τ·g_k``. Newton judges all positions by one norm
@@ -119,6 +119,25 @@ def BehaviouralSource(
         )
         return jnp.zeros(n, dtype=v.dtype).at[1].set(jnp.reshape(bound, ()))
 
+    def corner_law(a, b, s, e):
+        return jnp.asarray(law(a, b, s, e))
+
+    def law_corners(q, v, dv, t):
+        # the law's corners (runtime/roundoff.py: corner_arguments): each argument g,
+        # how far the inputs' absolute tolerances move it, and its terms
+        vc, cc = controls(q, v)
+        args = (vc, cc, t, v[iy] / tau)
+        g, terms = corner_arguments(corner_law, args, [jnp.abs(a) for a in args])
+        # (a tolerance not set — inf on a coordinate the step control leaves out —
+        # moves nothing here: the corner is then known to its terms only)
+        dv = jnp.where(jnp.isfinite(dv), dv, 0.0)
+        seeds = (dv[iw], dv[ic], 0.0 * t, dv[iy] / tau)
+        _, atol = corner_arguments(corner_law, args, seeds)
+        return jnp.stack([g, atol, terms])
+
+    zeros = (np.zeros(pairs), np.zeros(len(currents)), 0.0, np.zeros(len(derivatives)))
+    has_corners = corner_arguments(corner_law, zeros, zeros)[0].shape[0] > 0
+
     pins = [("p", "q", 1), ("n", "q", -1)]
     for k in range(pairs):
         pins += [(f"c{k}p", f"s{k}", 1), (f"c{k}n", f"s{k}", -1)]
@@ -137,4 +156,5 @@ def BehaviouralSource(
         mirrors=tuple(f"y{k}" for k in range(len(derivatives))),
         pinned=tuple(f"y{k}" for k in range(len(derivatives))),
         law_roundoff=law_roundoff if kind == "I" else None,
+        law_corners=law_corners if has_corners else None,
     )

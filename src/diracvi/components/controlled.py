@@ -71,6 +71,13 @@ class ControlledPart(Part):
             whose line sets the output current), or None. Newton accepts a residual at
             it and a variable step's error control judges no branch current below it
             (:mod:`diracvi.model.roundoff`).
+        law_corners: ``K(q, v, dv, t)``, a ``(3, k)`` array: the arguments ``g`` of the
+            ``k`` corners of the part's law (an ``abs``, a comparison, a ``max`` … of
+            :data:`~diracvi.runtime.roundoff.CORNERS`: the law has a kink or a jump where
+            ``g`` changes sign), the bound by which the velocities' absolute tolerances
+            ``dv`` move each, and its terms (the scale it is known to relative to); or
+            None for a law without corners. A variable step locates a corner's instant
+            as a switch's (:mod:`diracvi.driver.law_corners`).
     """
 
     branch_roles: tuple[tuple[str, str], ...] = eqx.field(static=True)
@@ -78,6 +85,7 @@ class ControlledPart(Part):
     mirrors: tuple[str, ...] = eqx.field(static=True)
     pinned: tuple[str, ...] = eqx.field(static=True)
     law_roundoff: object = None
+    law_corners: object = None
 
     def __init__(
         self,
@@ -87,6 +95,7 @@ class ControlledPart(Part):
         mirrors=(),
         pinned=(),
         law_roundoff=None,
+        law_corners=None,
         **kwargs,
     ):
         self.branch_roles = tuple((str(c), str(r)) for c, r in branch_roles)
@@ -95,15 +104,21 @@ class ControlledPart(Part):
         self.pinned = tuple(str(c) for c in pinned)
         super().__init__(*args, **kwargs)
         self.law_roundoff = None if law_roundoff is None else _lifted(law_roundoff, self.n)
+        self.law_corners = (
+            None
+            if law_corners is None
+            else _lifted(law_corners, self.n, [(self.n,), (self.n,), (self.n,), ()])
+        )
 
 
-def _lifted(fn, n: int):
+def _lifted(fn, n: int, shapes=None):
     """``fn(q, v, t)`` traced once to a program with its constants as arrays (as a
     part's force is, :class:`~diracvi.model.system.LagrangeDiracSystem`): a closure kept
     whole cannot be printed into the program store's key, and every process would trace
     and compile the variable-step loop again (measured: es_halfwave_scr 1.5 -> 6.9 s CPU
-    warm). Called as ``law_roundoff(q, v, t=t)``."""
-    lifted = lift(fn, [(n,), (n,), ()])
+    warm). Called as ``law_roundoff(q, v, t=t)`` (``shapes``: the arguments', the time's
+    last)."""
+    lifted = lift(fn, [(n,), (n,), ()] if shapes is None else shapes)
     if lifted is None:
         return _wrap(fn, driven=True)
     program, consts, _ = lifted

@@ -139,6 +139,10 @@ fine steps' rate error, and it is judged as one, beside the step error (acceptin
 sizing alike). A half-wave rectifier on a pulse train had its try 510 → 520 µs accepted
 with the diode off at every centre (it turns on at 517.8 µs): 0.23 of its peak off,
 5.0e-5 with the end judged.
+A behavioural law's corners (its ``abs``, comparisons) are blind spots of the same kind,
+where the law's other piece is missed and the output's interpolant crosses a kink; they
+are located as switching instants (:mod:`.law_corners`: a parabola of each corner's
+argument through the three centres, a crossing inside the try retried aimed at it).
 
 **The coarse step's Newton.** The coarse step is never recorded: it is read only
 through the step-doubling difference (``q₂ − q_c`` for the positions and their rates,
@@ -208,6 +212,7 @@ import numpy as np
 
 from ..discretization.rules import get_rule
 from ..errors import ModelError
+from ..model.roundoff import force_corners
 from ..runtime.compile import (
     LOOP_REQUESTED,
     RUN_ONCE_REQUESTED,
@@ -223,6 +228,7 @@ from . import events
 from .algebraic import algebraic_mask
 from .delay import refuse_variable_steps
 from .junction_end import end_error, pairs
+from .law_corners import locate
 from .rebase import rebase_map
 from .roundoff import current_floor, floors
 from .step_error import (
@@ -394,6 +400,8 @@ def _march(system, rule, solver, capacity, x):
     end_pair = pairs(system, x["q"], x["t"])
     # the laws' round-off floor of the currents (.roundoff): None without a law's bound
     law_floor = current_floor(system) if x["roundoff"] is not None else None
+    # the corners of the parts' laws, located as switching instants (.law_corners)
+    corner_fn = force_corners(system)
 
     def step(modes, h, t, q, p, dq, mu, atol=None):
         stepped = events.with_modes(system, modes)
@@ -521,6 +529,13 @@ def _march(system, rule, solver, capacity, x):
             found, modes, (q, q1, q2, qc), (p, p1, p2, pc), c["e_last"], h_try, x["event_tol"],
             hmin,
         )  # fmt: skip
+        landed = False
+        if corner_fn is not None:
+            # a law's corner crossed inside the try: retried aimed at it (.law_corners)
+            nodes = (t, q_abs, base + qc, base + q1, base + q2)
+            at_corner, h_corner, landed = locate(corner_fn, nodes, h_try, rtol, x["atol_v"], hmin)
+            located = located & at_corner
+            h_event = jnp.minimum(h_event, h_corner)
         # a try whose error is mostly the period-2 part, which no shorter step lowers
         # (step_error.estimate), is sized by the rest (only where it holds the step back:
         # below 0.091 the growth is at its cap, 2), and accepted on the whole; in a
@@ -576,7 +591,7 @@ def _march(system, rule, solver, capacity, x):
         # the growth law sizes a try from the step error), and the next try ``H'`` is held
         # to it in both checks it meets: ``(H + H')/4 ≤ s`` (the next one's gap) and
         # ``H'/2 ≤ s`` (its own two centres, in the check after)
-        plain = ~land & jnp.all(modes_new == modes)
+        plain = ~land & jnp.all(modes_new == modes) & ~landed
         sized = accept & plain & x["gap_check"] & c["gap_ok"] & ~c["aimed"]
         spacing = jnp.maximum(h_last, 0.5 * h_last + 0.25 * h_try)
         allowed = 0.9 * spacing * jnp.maximum(e_gap, 1e-12) ** -0.5

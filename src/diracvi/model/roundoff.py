@@ -9,6 +9,10 @@ residual at round-off (:meth:`~diracvi.discretization.equations.StepEquations.fo
 and by the variable-step loop's floor of the branch currents
 (:mod:`diracvi.driver.roundoff`): a quantity is neither solved nor judged below its own
 evaluation's round-off.
+
+:func:`force_corners` gathers the parts' ``law_corners`` alike: the corners of their laws
+(an ``abs``, a comparison), which the variable-step loop locates
+(:mod:`diracvi.driver.law_corners`).
 """
 
 from __future__ import annotations
@@ -16,10 +20,11 @@ from __future__ import annotations
 import jax.numpy as jnp
 
 
-def law_parts(system) -> list:
+def law_parts(system, attribute: str = "law_roundoff") -> list:
     """``(part, offset)`` of each member of ``system`` (an interconnection, packed or not)
-    with a ``law_roundoff``, or ``system`` itself at offset 0; empty where none has one."""
-    if getattr(system, "law_roundoff", None) is not None:
+    with a ``law_roundoff`` (or another ``attribute``), or ``system`` itself at offset 0;
+    empty where none has one."""
+    if getattr(system, attribute, None) is not None:
         return [(system, 0)]
     subsystems = getattr(system, "subsystems", None)
     offsets = getattr(system, "_offsets", None)
@@ -31,7 +36,7 @@ def law_parts(system) -> list:
     return [
         (member(i), int(offsets[i]))
         for i, sub in enumerate(subsystems)
-        if getattr(sub, "law_roundoff", None) is not None
+        if getattr(sub, attribute, None) is not None
     ]
 
 
@@ -54,4 +59,25 @@ def force_roundoff(system):
     return bound
 
 
-__all__ = ["force_roundoff", "law_parts"]
+def force_corners(system):
+    """``K(q, v, dv, t)``: the corners of the parts' laws in ``system``'s coordinates, a
+    ``(3, k)`` array — each corner's argument ``g``, the bound by which the velocities'
+    absolute tolerances ``dv`` (per coordinate) move it, and its terms — gathered over
+    the parts with a ``law_corners``
+    (:class:`~diracvi.components.ControlledPart`); None where no part has one."""
+    found = law_parts(system, "law_corners")
+    if not found:
+        return None
+
+    def corners(q, v, dv, t):
+        out = []
+        for part, start in found:
+            n = part.n
+            span = slice(start, start + n)
+            out.append(part.law_corners(q[span], v[span], dv[span], t=t))
+        return jnp.concatenate(out, axis=1)
+
+    return corners
+
+
+__all__ = ["force_corners", "force_roundoff", "law_parts"]

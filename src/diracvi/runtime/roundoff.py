@@ -100,8 +100,11 @@ def _carried(prim, params, values, errors):
     return outs, total
 
 
-def _run(jaxpr, consts, args, errors):
-    """Evaluate ``jaxpr`` on ``args`` with each value's error bound beside it."""
+def _run(jaxpr, consts, args, errors, corners=None, rounding=True):
+    """Evaluate ``jaxpr`` on ``args`` with each value's error bound beside it; with a list
+    ``corners``, each corner's argument and its carried bound appended to it
+    (:func:`corner_arguments`); ``rounding=False`` adds no operation's own rounding (the
+    inputs' bounds carried through only)."""
     env = {}
 
     def read(var):
@@ -118,17 +121,22 @@ def _run(jaxpr, consts, args, errors):
         values = [p[0] for p in pairs]
         errs = [p[1] for p in pairs]
         name = eqn.primitive.name
+        if corners is not None and name in CORNERS:
+            corners.extend(_corner(name, values, errs))
         if name in _NESTED and _NESTED[name] in eqn.params:
             inner = eqn.params[_NESTED[name]]
             closed = getattr(inner, "jaxpr", inner)
-            outs, total = _run(closed, getattr(inner, "consts", ()), values, errs)
+            outs, total = _run(
+                closed, getattr(inner, "consts", ()), values, errs, corners, rounding
+            )
         elif all(e is None for e in errs):
             out = eqn.primitive.bind(*values, **eqn.params)
             outs = list(out) if eqn.primitive.multiple_results else [out]
             total = [None] * len(outs)
         else:
             outs, total = _carried(eqn.primitive, eqn.params, values, errs)
-        if name not in EXACT and not (name in _NESTED and _NESTED[name] in eqn.params):
+        nested = name in _NESTED and _NESTED[name] in eqn.params
+        if rounding and name not in EXACT and not nested:
             total = [
                 (UNIT * jnp.abs(o) if t is None else t + UNIT * jnp.abs(o)) if _inexact(o) else t
                 for o, t in zip(outs, total, strict=True)
@@ -152,4 +160,55 @@ def with_bound(fn, *args):
     return value, jnp.zeros(jnp.shape(value), jnp.result_type(value)) if error is None else error
 
 
-__all__ = ["EXACT", "UNIT", "with_bound"]
+#: operations with a corner (a kink or a jump of their result) where an argument, or the
+#: difference of their two arguments, is 0: ``abs``, ``sign``, ``max``/``min``, the
+#: comparisons (a select's predicate), ``clamp`` (its value against either limit)
+CORNERS = frozenset({"abs", "sign", "max", "min", "gt", "ge", "lt", "le", "clamp"})
+
+
+def _corner(name, values, errors):
+    """The arguments ``g`` (one or two) whose sign change is this operation's corner,
+    each with its carried bound (a difference's: the sum of its operands'), as
+    ``(g, bound)`` pairs of flat arrays; none for operands that are not floats."""
+    if not all(_inexact(v) for v in values):
+        return []
+
+    def err(j):
+        e = errors[j]
+        return jnp.zeros(jnp.shape(values[j])) if e is None else e
+
+    def flat(g, e):
+        g = jnp.ravel(jnp.asarray(g, jnp.float64))
+        return g, jnp.broadcast_to(jnp.ravel(jnp.asarray(e, jnp.float64)), g.shape)
+
+    if name in ("abs", "sign"):
+        return [flat(values[0], err(0))]
+    if name == "clamp":  # clamp(lo, x, hi)
+        lo, x, hi = values
+        return [flat(x - lo, err(1) + err(0)), flat(x - hi, err(1) + err(2))]
+    a, b = values
+    return [flat(jnp.asarray(a) - jnp.asarray(b), err(0) + err(1))]
+
+
+def corner_arguments(fn, args, seeds):
+    """``(g, B)``: the corner arguments of ``fn`` at ``args`` (per operation of
+    :data:`CORNERS` met in its evaluation, its argument or the difference of its two;
+    flat, in the jaxpr's order, a static count per function) and beside each the bound
+    ``B = Σ |∂g/∂x_j| seed_j`` by which inputs perturbed by ``seeds`` (one per argument,
+    its shape) can move it, carried operation by operation without cancellation (as
+    :func:`with_bound` carries round-off, with no rounding of its own). Seeded with the
+    inputs' magnitudes ``|x|``, ``B`` is the argument's *terms*: the scale it is known
+    to relative to (``y − V_t``: ``|y|``); seeded with their absolute tolerances, how far
+    it is known at all. Traceable."""
+    args = [jnp.asarray(a) for a in args]
+    shapes = [jax.ShapeDtypeStruct(jnp.shape(a), jnp.result_type(a)) for a in args]
+    closed = jax.make_jaxpr(fn)(*shapes)
+    found: list = []
+    seeds = [jnp.asarray(s, jnp.result_type(a)) for s, a in zip(seeds, args, strict=True)]
+    _run(closed.jaxpr, closed.consts, args, seeds, corners=found, rounding=False)
+    if not found:
+        return jnp.zeros(0), jnp.zeros(0)
+    return jnp.concatenate([g for g, _ in found]), jnp.concatenate([e for _, e in found])
+
+
+__all__ = ["CORNERS", "EXACT", "UNIT", "corner_arguments", "with_bound"]

@@ -31,9 +31,11 @@ from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.algebraic import inertia
 from ..driver.delay import lines, simulate_lines
 from ..driver.events import relays
+from ..driver.law_corners import corner_nodes
 from ..driver.sparse_lines import line_breakpoints, line_hmax
 from ..errors import ModelError, StepFailure
 from ..model.interconnect import InterconnectedSystem
+from ..model.roundoff import force_corners
 from ..solvers.limiting import junctions
 from ..solvers.sparse_affine import NotSparseAffine
 from . import _netcdf
@@ -616,6 +618,14 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
         # a switching instant is a corner too: the nodes where a switch's state changes
         changed = np.any(np.diff(march.modes, axis=0) != 0.0, axis=1)
         bounds = np.unique(np.concatenate([bounds, march.t[1:-1][changed]]))
+    corners = force_corners(netlist.system)
+    if corners is not None and getattr(march, "q", None) is not None:
+        # so is a located corner of a part's law (driver/law_corners.py)
+        at = corner_nodes(
+            corners, march.t, march.q, march.h, settings.reltol,
+            controls(netlist, settings).atol_v,
+        )  # fmt: skip
+        bounds = np.unique(np.concatenate([bounds, march.t[at]]))
     sampler = Sampler(march.t, march.h, np.append(bounds, settings.stop))
     signals = step_signals(netlist, march)
 
