@@ -16,9 +16,9 @@ on while, at the pace of its last :data:`WINDOW` · ``base`` tries,
    \qquad L = \text{LIMIT},
 
 and stops at ``N ≥ L·base`` whatever its pace. A stuck run's recent ``Δt`` is a few
-tiny steps (``ng_inv_vdmos`` crept at 7e-14 s a step, ``ng_memristor`` at 5e-15 s over
-a 1e-8 s run: projected totals 10⁴ to 10⁶ times its budget), so it stops at ``base`` as
-it did under the plain count; a run making steady progress that needs up to ``L`` times
+tiny steps (``ng_memristor``, before its law's round-off was left unjudged, crept at
+5e-15 s a step with 1e-8 s to go: 2·10⁶ more tries, 120 times its count), so it stops at
+``base`` as it did under the plain count; a run making steady progress that needs up to ``L`` times
 its guess finishes. The run is seen only where the compiled loop returns to the host
 (each chunk of :func:`~.adaptive.buffer_size` steps), so ``ΔN`` spans at least a chunk.
 """
@@ -31,10 +31,10 @@ import math
 #: times its base (15 436 of 10 510); a stuck run projects 10⁴ times or more
 LIMIT = 4.0
 
-#: the pace is judged over the last ``WINDOW · base`` ordinary tries (at least one chunk):
-#: long enough to span several switching events of an oscillator (``ng_switch_osc``: 2 600
-#: tries, ~10 ns, two periods), short enough that a run which was fast and then got
-#: stuck is judged by where it is stuck
+#: the pace is judged from the last check at least ``WINDOW · base`` ordinary tries back:
+#: long enough to span several switching events of an oscillator (``ng_switch_osc``: 2 628
+#: tries; at 62.4 ns, checks a chunk apart, it reached back to 37.0 ns, five periods),
+#: short enough that a run which was fast and then got stuck is judged by where it is stuck
 WINDOW = 0.25
 
 
