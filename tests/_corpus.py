@@ -537,7 +537,17 @@ def kept(name: str) -> bool:
 def reference_from_run(
     deck: Path, timeout: float = 900
 ) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
-    """The fine ngspice run of ``deck`` at its own (thinned) time points:
+    """The fine ngspice run of ``deck`` (:func:`fine_run`) at its own time points thinned
+    from TSTART by :func:`thin`, each signal's min and max kept: ``(t, {vector: values},
+    s)``."""
+    t, signals, seconds = fine_run(deck, timeout)
+    tran = find_tran(deck.read_text(errors="replace"))
+    keep = thin(t, tran.start, list(signals.values()))
+    return t[keep], {n: values[keep] for n, values in signals.items()}, seconds
+
+
+def fine_run(deck: Path, timeout: float = 900) -> tuple[np.ndarray, dict[str, np.ndarray], float]:
+    """The fine ngspice run of ``deck`` at every one of its own time points, unthinned:
     ``(t, {vector: values}, s)``.
 
     A deck with several :func:`reference_reltols` (an odd number ``≥ 3``) has for
@@ -563,9 +573,45 @@ def reference_from_run(
                 resampled[:, j] = np.interp(t, other[:, 0], other[:, column[n]])
             stack.append(resampled)
         data = np.median(np.stack(stack), axis=0)
-    tran = find_tran(deck.read_text(errors="replace"))
-    keep = thin(data[:, 0], tran.start, [data[:, j] for j in range(1, len(names))])
-    return data[keep, 0], {n: data[keep, j] for j, n in enumerate(names) if j}, seconds
+    return data[:, 0], {n: data[:, j] for j, n in enumerate(names) if j}, seconds
+
+
+#: a committed reference point and a fresh run's point this close (of the time itself)
+#: are one point of ngspice's: the references made before times were written to 17
+#: digits hold 10 (``es_rc``'s 0.0005017170139 for 0.0005017170139023744), and a run's
+#: times differ in their last bits (``xy_vsin``'s end at 9.999999999999999e-06 against
+#: 1e-05); across a source's jump (``xy_inductor``'s points 1.3e-12 s apart at 12 ms) such
+#: a shift, interpolated, moves a value by 2.6e-6 of peak. The nearest point is taken.
+SAME_POINT = 1e-9
+
+
+def reference_gap(
+    t: np.ndarray, committed: dict[str, np.ndarray], fine_t: np.ndarray, fine: dict
+) -> dict[str, float]:
+    """How far a committed reference ``(t, committed)`` is from a fine run ``(fine_t,
+    fine)`` of the same deck, per vector, in its peak (the agreement measure's: ``max
+    |committed|``, at least :data:`VNTOL`/:data:`ABSTOL`): at each committed time the fine
+    run's own point there (within :data:`SAME_POINT` of the time), else the fine run
+    linearly interpolated, as :func:`compare_ngspice` reads a run between its points (a
+    kept point of another run, moved). A committed time outside the fine run's span is
+    ``inf``; a vector either lacks, ``nan``."""
+    close = SAME_POINT * np.abs(t)
+    if t[0] < fine_t[0] - close[0] or t[-1] > fine_t[-1] + close[-1]:
+        return {vector: np.inf for vector in set(committed) | set(fine)}
+    j = np.clip(np.searchsorted(fine_t, t), 1, len(fine_t) - 1)
+    nearest = np.where(np.abs(fine_t[j - 1] - t) <= np.abs(fine_t[j] - t), j - 1, j)
+    same = np.abs(fine_t[nearest] - t) <= close
+    gaps = {}
+    for vector in set(committed) | set(fine):
+        if vector not in committed or vector not in fine:
+            gaps[vector] = np.nan
+            continue
+        values = committed[vector]
+        floor = ABSTOL if vector.lower().startswith("i(") else VNTOL
+        peak = max(float(np.max(np.abs(values))), floor)
+        read = np.where(same, fine[vector][nearest], np.interp(t, fine_t, fine[vector]))
+        gaps[vector] = float(np.max(np.abs(read - values))) / peak
+    return gaps
 
 
 def write_reference(path: Path, grid: np.ndarray, signals: dict[str, np.ndarray]) -> None:

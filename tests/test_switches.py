@@ -287,21 +287,36 @@ def test_retries_aimed_at_switching_instants_are_not_counted_against_the_tries_b
     the retries that place each flip on its instant (a few per event: a ring oscillator
     of switches has thousands of events, ng_switch_osc stopped on the budget with 3755 of
     them). The relaxation oscillator in chunks of 256 steps, so the budget is checked
-    between chunks: with exactly its ordinary tries as the budget it runs to the end,
-    with half of them it stops on the budget."""
+    between chunks: given as a plain count, with exactly its ordinary tries it runs to the
+    end, with half of them it stops on the budget. As ``spice.run`` gives it, judged by
+    the run's pace (``driver/budget.py``: on while the last tries project the end within
+    ``LIMIT`` = 4 times the count), half of them are enough — its steady pace needs twice
+    that — and an eighth are not: the end is 8 times that away, and the run stops."""
     from diracvi.driver import adaptive as adaptive_module
+    from diracvi.driver.budget import LIMIT
     from diracvi.spice import _run
 
+    assert LIMIT == 4.0  # (the fractions below bracket it)
     monkeypatch.setattr(adaptive_module, "buffer_size", lambda n: 256)
     free = spice.run(DATA / "relaxation.cir", internal=True).trajectory
     assert free.status == 0 and free.aimed > 0 and len(free.h) > 3 * 256
     ordinary = free.tries - free.aimed
-    monkeypatch.setattr(_run, "tries_budget", lambda settings, cycles=0.0: ordinary)
-    bounded = spice.run(DATA / "relaxation.cir", internal=True).trajectory
+
+    paced_type = _run.TriesBudget
+
+    def given(count, paced):
+        monkeypatch.setattr(_run, "tries_budget", lambda settings, cycles=0.0: count)
+        monkeypatch.setattr(_run, "TriesBudget", paced_type if paced else (lambda base: base))
+        return lambda: spice.run(DATA / "relaxation.cir", internal=True).trajectory
+
+    bounded = given(ordinary, paced=False)()
     assert bounded.status == 0 and bounded.tries == free.tries
-    monkeypatch.setattr(_run, "tries_budget", lambda settings, cycles=0.0: ordinary // 2)
     with pytest.raises(StepFailure, match="more step tries than its budget"):
-        spice.run(DATA / "relaxation.cir", internal=True)
+        given(ordinary // 2, paced=False)()
+    paced = given(ordinary // 2, paced=True)()
+    assert paced.status == 0 and paced.tries == free.tries
+    with pytest.raises(StepFailure, match=r"more step tries than its budget.*steps .* s on"):
+        given(ordinary // 8, paced=True)()
 
 
 RING7 = """A ring of seven switch inverters (ng_switch_osc's stage, tests/_switch_ring.py)

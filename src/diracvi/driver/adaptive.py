@@ -226,6 +226,7 @@ from ..solvers.bordered import newton_for
 from ..solvers.newton import NewtonSolver
 from . import events
 from .algebraic import algebraic_mask
+from .budget import TriesBudget
 from .delay import refuse_variable_steps
 from .junction_end import end_error, pairs
 from .law_corners import locate
@@ -784,7 +785,8 @@ def adaptive(
     steps in exact arithmetic, their round-off ``ulp(q)/h`` grows with the run).
     ``gap_check``: judge the output in the gap between tries (for a junction turning on).
     ``max_tries``: the budget of tries, the retries aimed at a switching instant left out
-    (each event takes a few, and their number is bounded by the events'). Returns an
+    (each event takes a few, and their number is bounded by the events'): a count, or a
+    :class:`~.budget.TriesBudget` judged by the run's pace. Returns an
     :class:`AdaptiveRun`; a run that cannot meet the tolerance stops with
     ``status != 0`` and what it recorded until then.
     """
@@ -864,6 +866,7 @@ def adaptive(
     tries = rejected = newton = 0
     tries = rejected = aims = 0
     status = OK
+    budget = TriesBudget.of(max_tries, t0)  # (.budget: a count, or judged by the pace)
     while True:
         out = _program(system, rule, solver, capacity, {**state, **fixed})
         out = jax.tree.map(np.asarray, out)
@@ -884,7 +887,7 @@ def adaptive(
         # a retry aimed at a switching instant is not counted: each event takes a few
         # (the secant on the crossing), and a switched oscillator has thousands of events
         # (ng_switch_osc: 1191 flips and 3755 aimed retries in 78 ns, against 10 500 tries)
-        if tries - aims >= max_tries:
+        if budget.spent(float(out["t"]), tries - aims, t_stop):
             status = TOO_MANY
             break
         state = {key: out[key] for key in state}

@@ -26,9 +26,10 @@ import jax
 import numpy as np
 
 from ..driver import events
-from ..driver.adaptive import Controls, adaptive
+from ..driver.adaptive import TOO_MANY, Controls, adaptive
 from ..driver.adaptive_sparse import DEFAULT_ERROR, ERRORS, adaptive_sparse
 from ..driver.algebraic import inertia
+from ..driver.budget import TriesBudget
 from ..driver.delay import lines, simulate_lines
 from ..driver.events import relays
 from ..driver.law_corners import corner_nodes
@@ -529,7 +530,11 @@ def tries_budget(settings: TranSettings, cycles: float = 0.0) -> int:
     1e-5 takes about 14 000 tries besides the aimed ones, its budget 10 500 without). The
     retries that place a switch's flip on its instant are not counted
     (:func:`~diracvi.driver.adaptive.adaptive`: a few per event, thousands in a switched
-    ring oscillator)."""
+    ring oscillator). In the compiled loop the count is a base judged by the run's pace
+    (:class:`~diracvi.driver.budget.TriesBudget`): a run whose last tries would reach its
+    end within :data:`~diracvi.driver.budget.LIMIT` times the count goes on (a switched
+    ring oscillator is paced by its events, not by TMAX: ``ng_switch_osc`` needs 1.47
+    times its count), a stuck one stops at the count."""
     tighter = max(1.0, (1e-3 / settings.reltol) ** (1.0 / 3.0))
     paced = 10 * math.ceil(settings.stop / settings.max_step) + TRIES_PER_CYCLE * cycles
     return math.ceil(tighter * (10_000 + paced))
@@ -538,6 +543,10 @@ def tries_budget(settings: TranSettings, cycles: float = 0.0) -> int:
 #: a stop is called a runaway when the largest node voltage at its end is this many
 #: times the largest one over the first nine tenths of the run's time
 RUNAWAY = 100.0
+
+
+#: a run stopped on its budget of tries says the mean size of this many last steps
+PACE_STEPS = 1000
 
 
 def _runaway(netlist: Netlist, march) -> str | None:
@@ -604,9 +613,17 @@ def _variable(netlist: Netlist, discretization, internal: bool, kwargs, override
             if runaway
             else " Fix: a fixed step (dt=…), or looser .options reltol/abstol."
         )
+        pace = ""
+        if march.status == TOO_MANY and len(march.h):
+            # how stuck it is: a creeping run's last steps against what is left
+            last = float(np.mean(march.h[-PACE_STEPS:]))
+            pace = (
+                f" (its last {min(len(march.h), PACE_STEPS)} steps {last:.3g} s on average, "
+                f"{(settings.stop - at) / last:.3g} more such steps to TSTOP)"
+            )
         raise StepFailure(
             f"netlist {netlist.title!r}: the variable-step run stopped at t = {at:g} after "
-            f"{len(march.h)} steps: {march.message}.{fix}",
+            f"{len(march.h)} steps: {march.message}{pace}.{fix}",
             march,
         )
     start = _start_values(netlist)
@@ -776,7 +793,9 @@ def _march(
         breakpoints=breaks,
         event_atol=_event_atol(netlist, settings),
         modes=netlist.initial_modes(),
-        max_tries=budget,
+        # judged by the run's pace past its count (driver/budget.py): a ring oscillator's
+        # switching events, not TMAX, pace it
+        max_tries=TriesBudget(budget),
         pinned=_pinned(netlist),
         # the gap between tries is judged for a junction turning on (driver/adaptive.py);
         # without one, every corner is a breakpoint or a switching instant, which the
