@@ -85,6 +85,12 @@ unfitted, was rejected from 1.5 ps down to 0.1 fs (13 tries per flip on average,
 a step). Nor is ``δ`` taken out of a switched circuit's nodes: the mode lives on (in the
 momenta: the next try fits the same amplitude), and the moved nodes spoil the next fit
 from the last try's nodes.
+Not built: a non-switched circuit's retry judged by its rest with ``δ`` fitted from the
+rejected try, and ``δ`` taken out of the carried momenta too (the second fine step's
+discrete momentum at the moved nodes). Tried on the all-default BSIM4 decks, whose floor is
+this mode in the branch charges (capMod 2's bulk-charge corner at ``V_DS = 0``), it took
+them further but not through: the gap check then read the same alternation on the try's
+centres as solved (docs/circuits.md, "The mode damped, tried").
 
 **The gap between tries.** The output is a quadratic through the step centres
 (:mod:`diracvi.spice._resample`); step doubling checks it inside a try (the coarse
