@@ -227,7 +227,8 @@ def test_a_capacitor_loop_beside_an_edge_runs_to_the_end_and_agrees_with_ngspice
     result = spice.run(LOOP_DECK)
     march = result.trajectory
     assert march.t[-1] == pytest.approx(2e-6, rel=1e-12)
-    # the alternation taken out of the nodes keeps KCL on every recorded step, to the
+    # every recorded step is a solved one (nothing moved out of the nodes since session
+    # 37: the move ratcheted the charges, see the last test), and keeps KCL, to the
     # round-off of the recorded charges: each is rounded to within eps/2 of its own
     # magnitude, so a row's sum over the step's difference q_{k+1} − q_k is off zero by at
     # most ‖row‖₁·eps·Q_k (Q_k the step's largest |q|), which v = Δq/h divides by h. The
