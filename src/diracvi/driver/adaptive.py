@@ -83,9 +83,15 @@ C, 7.7 tolerances, through the whole run), so a try after a flip, its estimate
 unfitted, was rejected from 1.5 ps down to 0.1 fs (13 tries per flip on average, up to
 80), and between flips a try whose floor took its error over 1 was rejected (in
 ``ng_switch_osc``, error 1.06 against 0.69 without the floor: its retry passed, two tries
-a step). Nor is ``δ`` taken out of a switched circuit's nodes: the mode lives on (in the
-momenta: the next try fits the same amplitude), and the moved nodes spoil the next fit
-from the last try's nodes.
+a step). ``δ`` is not taken out of the recorded nodes, in any circuit: the mode lives on in
+the momenta (the next try fits the same amplitude; a branch charge's gauge ``G`` is 0, so
+a move of its nodes does not reach them), and moving a try's ends to the alternation's
+centre only moved the centre the next try alternates about. Where the floor test passed
+every other try — the steps growing by 2 after a source's corner — that was a ratchet of
+``δ`` per two tries: ``es_cmos_nand``'s gate charges drifted 1.1e-12 C by 100 ms
+(``q_v2`` 5.3e-13 C apart at 40 and 80 ms, the same inputs), their ``±2δ`` on the 9 ns
+steps after each corner read as 5.5e-7 A against ngspice's pA. The output is read past
+the alternation instead (:mod:`diracvi.spice._smooth`).
 Not built: a non-switched circuit's retry judged by its rest with ``δ`` fitted from the
 rejected try, and ``δ`` taken out of the carried momenta too (the second fine step's
 discrete momentum at the moved nodes). Tried on the all-default BSIM4 decks, whose floor is
@@ -582,12 +588,11 @@ def _march(system, rule, solver, capacity, x):
         back = coarse & ~own & c["back_ok"] & (c["i"] >= 2)
         accept = passes & ~own & ~back
         grow = growth(jnp, judged)
-        # and taken out of the nodes (not the pinned ones: .pinned): the two steps are
-        # kept as solved, their ends moved along an alternation that keeps KCL (B δ = 0);
-        # not in a switched circuit, where the mode outlives it (the module doc)
-        fix = jnp.where(floor & ~x["pinned"] & ~switched, delta, 0.0)
-        q1, q2, p1, p2 = q1 + fix, q2 - fix, p1 + x["gauge"] @ fix, p2 - x["gauge"] @ fix
-        v2 = (q2 - q1) / half
+        # the two steps are kept as solved, the period-2 part too: it lives on in the
+        # momenta (a branch charge's gauge G is 0), so moving the nodes to its centre
+        # only shifted the centre the next try alternates about — by δ a fix, a
+        # ratchet (the module doc, "A floor no step lowers"); the output is read past it
+        # (spice/_smooth.py)
         h_next = jnp.where(ok, h_try * grow, 0.25 * h_try)
         # a step shortened to land on a breakpoint says little about the next one
         h_next = jnp.where(accept & (h_try < h0), jnp.maximum(h_next, h0), h_next)
