@@ -220,21 +220,24 @@ ALL_MODES = ("igcmod", "igbmod", "rgatemod", "rbodymod")
 #: the gate electrode's sheet resistance raised (RSHG 0.4 → 40 Ω/sq: R_geltd 6.7 Ω → 667 Ω)
 #: so that the gate's RC delay shows at 1e-3 of the output's swing: with the deck's values,
 #: turning rgateMod off moves ngspice's v(out) by 5e-5 of its peak (rbodyMod: 7.4e-4);
-#: with this, by 0.75 (measured 2026-12-01, ngspice 39). The body resistors raised
-#: ×100 as well (rbodyMod off then moves it by 0.026) make diracvi's first fixed step fail
-#: Newton (residual 1.7e-13, not converged in 40 iterations; not traced), so rbodyMod is
-#: checked at the deck's values only.
+#: with this, by 0.75 (measured 2026-12-01, ngspice 39).
 RAISED = {"rshg": "40"}
+#: and the body resistors raised ×100 as well (RBPB 5 → 500 Ω, the other four 15 → 1500
+#: Ω), so that the body network's own transient shows: turning rbodyMod off then moves
+#: ngspice's v(out) by 0.026 of its peak. (Before b′ was limited as b4v5ld.c limits
+#: V_BS, this inverter's first fixed step failed Newton: b′ swung by ±100 V, cycling.)
+RAISED_BODY = RAISED | {"rbpb": "500", "rbpd": "1500", "rbps": "1500", "rbdb": "1500",
+                        "rbsb": "1500"}  # fmt: skip
 
 
-def ro_inverter(raised=False) -> str:
+def ro_inverter(raised=None) -> str:
     """An inverter of ng_ro_17_4's N1 and P1 (its widths, AD/AS/PD/PS) with all four of
-    their modes on (``raised``: with :data:`RAISED`), a 5 fF load, driven through a rising
-    and a falling edge."""
+    their modes on (``raised``: card values replaced, e.g. :data:`RAISED`), a 5 fF load,
+    driven through a rising and a falling edge."""
     cards = {}
     for name in ("N1", "P1"):
         card = ro_card(name, ALL_MODES)
-        for key, value in (RAISED if raised else {}).items():
+        for key, value in (raised or {}).items():
             card, n = re.subn(rf"\b{key}=\S+", f"{key}={value}", card)
             assert n == 1, key
         cards[name] = card
@@ -253,14 +256,15 @@ cl out 0 5f
 
 @needs_ngspice
 @SLOW  # a fine ngspice run and a 1600-step diracvi transient each (~75 CPU s)
-@pytest.mark.parametrize("raised", [False, True])
+@pytest.mark.parametrize("raised", [None, RAISED, RAISED_BODY], ids=["deck", "rgate", "rbody"])
 def test_inverter_with_the_four_modes_is_ngspices(raised):
     """ng_ro_17_4's cards with igcMod, igbMod, rgateMod and rbodyMod 1 (the internal gate
     ``g′``, the body nodes ``b′``, ``sb``, ``db`` and their resistors, the gate
-    tunnelling) in an inverter, as the deck has them (measured: 5.1e-4) and with the gate
+    tunnelling) in an inverter, as the deck has them (measured: 5.1e-4), with the gate
     resistance raised (:data:`RAISED`, where turning rgateMod off moves ngspice's output by
-    far more than 1e-3 of its peak; measured: 1.9e-4): ``v(out)`` within 1e-3 of its
-    peak of a fine ngspice run."""
+    far more than 1e-3 of its peak; measured: 1.9e-4) and with the body resistors raised
+    too (:data:`RAISED_BODY`, where turning rbodyMod off does; measured: 4.1e-5): ``v(out)``
+    within 1e-3 of its peak of a fine ngspice run."""
     assert _fixed_step_error(ro_inverter(raised), 0.25e-12) <= 1e-3
 
 

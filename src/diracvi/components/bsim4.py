@@ -353,7 +353,14 @@ def BSIM4(
     if rbody:
         for inner_b, junction in (("wbps", "wbs"), ("wbpd", "wbd")):
             initial_v[idx[inner_b]] = initial_v[idx[junction]]
-    junctions, limits = bulk_limits(sign, {"wbs": 1.0e-14, "wbd": 1.0e-14})
+    # Newton limits the bulk junctions (pnjlim at b4v5ld.c's V_crit of 1e-14 A) and, under
+    # rbodyMod 1, the intrinsic bulk b′ too, as b4v5ld.c limits V_BS (and V_DBS, V_SBS):
+    # unlimited, the first step of ng_ro_17_4's inverter (body resistors ×100) from V = 0
+    # swung the PMOS's b′ to +40 V, −112 V, +2.5 V, … (Newton cycling with period 4 at a
+    # residual of 1e-13, its scaled Jacobian's condition ~300: not a singular step); with
+    # b′ limited it converges in 4 iterations
+    bulk = ("wbs", "wbd", "wbps", "wbpd") if rbody else ("wbs", "wbd")
+    junctions, limits = bulk_limits(sign, dict.fromkeys(bulk, 1.0e-14))
     return ChargePortPart(
         tuple(coords),
         _Lagrangian(pairs),
