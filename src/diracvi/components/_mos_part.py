@@ -18,6 +18,7 @@ described in :mod:`~diracvi.components.mosfet`.
 from __future__ import annotations
 
 import functools
+import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -30,7 +31,7 @@ from ..errors import ModelError
 from ..model.validate import check_name
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
-from ._part import array_module, copy_with, fields, finite, positive, traced
+from ._part import array_module, fields, finite, positive, traced
 from .controlled import ControlledPart
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
@@ -200,11 +201,16 @@ def build(device: Device, forward, phi, params: dict, **override) -> ControlledP
     )  # fmt: skip
 
 
+_HOST_NUMBERS = frozenset((float, int, np.float64))
+
+
 def law_vector(numbers: dict, names) -> object:
     """The numbers ``numbers[k]`` in ``names``' order as one vector: NumPy where every one
     is a number (so alike devices share a program), a JAX array where a parameter is
     being differentiated (kept traced)."""
     values = [numbers[k] for k in names]
+    if all(type(x) in _HOST_NUMBERS for x in values):  # (the common case, without a scan)
+        return np.array(values, dtype=np.float64)
     if any(traced(x) for x in values):
         return jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
     return np.array([float(x) for x in values], dtype=np.float64)
@@ -432,8 +438,9 @@ def _assemble(
     )
     vector = law_vector(numbers, shape.layout.names)
 
-    v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
-    if v0.shape != (3,) or not np.all(np.isfinite(v0)):
+    if not (type(v0) is tuple and len(v0) == 3 and all(type(x) is float for x in v0)):
+        v0 = np.asarray(v0, dtype=np.float64).reshape(-1)  # (a tuple of floats as it is)
+    if len(v0) != 3 or not all(math.isfinite(x) for x in v0):
         raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
     start = {"gs": float(v0[0]), "gd": float(v0[1]), "gb": float(v0[2])}
     initial_v = [0.0] * shape.layout.n
@@ -551,6 +558,14 @@ def _structure(caps_on, meyer_on, res_on, bulk_on, reverse, names) -> _Structure
     )
 
 
+def _replaced(obj, **changes):
+    """A shallow copy of the Module ``obj`` with the fields ``changes`` (as
+    :func:`~._part.copy_with`, several fields at once)."""
+    out = object.__new__(type(obj))
+    fields(out).update(fields(obj), **changes)
+    return out
+
+
 def _template_key(kind, shape, junctions, limits, vector, forward):
     """What a MOSFET part is made of besides its numbers, name and initial state — its
     :class:`_Structure` (layout, coordinates, pins, KCL rows), the junctions Newton
@@ -577,22 +592,27 @@ def _from_template(template, name, vector, forward, limits, initial_q, initial_v
     name, the two number vectors (in the wrapped Lagrangian's and force's array leaves),
     the junctions' limits, the initial state and the recorded parameters replaced.
 
-    Equal to the constructed part field for field (``tests/test_read_alike.py``): every
+    Equal to the constructed part field for field (``tests/test_mos_module.py``): every
     other field — the coordinates, pins, KCL rows, the wrapped functions' static parts
     and the forms the constructor read from them (their output shapes and signatures) —
     is a function of the structure alone. Building a ControlledPart (Equinox's
     construction of the part and its wrapped functions, their forms' keys) was ≈ 2/3 of
     a distinct transistor's reading."""
     own = fields(template)
-    lagrangian = copy_with(own["_lagrangian"], ("arrays", "numbers"), vector)
-    force = copy_with(own["_force"], ("arrays", "numbers"), vector)
-    force = copy_with(force, ("arrays", "law", "numbers"), fields(forward)["numbers"])
+    lagrangian, force = own["_lagrangian"], own["_force"]
+    arrays = fields(force)["arrays"]  # (MosForce's arrays: its vector, its law's)
+    law_numbers = fields(forward)["numbers"]
+    arrays = _replaced(
+        arrays, numbers=vector, law=_replaced(fields(arrays)["law"], numbers=law_numbers)
+    )
     part = object.__new__(type(template))
     fields(part).update(
         own,
         name=check_name("name", name),
-        _lagrangian=lagrangian,
-        _force=force,
+        _lagrangian=_replaced(
+            lagrangian, arrays=_replaced(fields(lagrangian)["arrays"], numbers=vector)
+        ),
+        _force=_replaced(force, arrays=arrays),
         junction_limits=limits,
         initial_q=tuple(float(x) for x in initial_q),
         initial_v=tuple(float(x) for x in initial_v),

@@ -216,6 +216,8 @@ def array_module(*values):
 def positive(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it
     (a traced value passes through unchecked, so parts are differentiable)."""
+    if type(value) is float and value > 0.0 and value - value == 0.0:
+        return value  # (the common case first: a netlist's 10⁴ devices check 10⁵ numbers)
     if traced(value):
         return value
     try:
@@ -242,6 +244,8 @@ def nonzero(part: str, arg: str, value) -> float:
 def finite(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite, else a :class:`ModelError` naming it (a traced
     value passes through unchecked)."""
+    if type(value) is float and value - value == 0.0:
+        return value  # (the common case first, as in positive)
     if traced(value):
         return value
     try:
