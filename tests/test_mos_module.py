@@ -167,3 +167,83 @@ def test_a_traced_kp_reaches_the_force():
     i = float(current(kp))
     assert i == pytest.approx(0.5 * kp * 2.0 * 0.8**2, rel=1e-12)
     assert float(jax.grad(current)(kp)) == pytest.approx(i / kp, rel=1e-12)
+
+
+VDMOS_CHAIN = """VDMOS chain, each device its own size
+vdd dd 0 5
+vin n0 0 pulse 0 5 10n 10n 10n 140n 300n
+{stages}
+cl n{n} 0 10f
+.model n1 vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p
+.model p1 vdmos cgdmin=0.2p cgdmax=1p a=2 cgs=0.5p rg=5k rb=1e9 cjo=0.1p pchan
+.tran 1n 10n
+.end
+"""
+
+
+def _distinct_decks():
+    """Decks of devices all of their own size, of levels 1, 2, 3, 6 (each card pair:
+    Meyer, overlaps, RD or RS, junction charges; W, L and M) and VDMOS, with ``.ic`` voltages that
+    give the gate capacitors their own initial charges per device."""
+    decks = {}
+    for level in sorted(CARDS):
+        text = chain(level, 5)
+        for k in range(5):  # each its own multiplier too: its own junctions' I_S, limits
+            for kind in ("mn", "mp"):
+                at = text.index(f"\n{kind}{k} ")
+                end = text.index("\n", at + 1)
+                text = text[:end] + f" m={1 + 0.5 * k:g}" + text[end:]
+        ic = " ".join(f"v(n{k})={0.3 * k:g}" for k in range(1, 6))
+        decks[level] = text.replace(".tran", f".ic {ic}\n.tran")
+    stages = "\n".join(
+        f"mp{k} n{k + 1} n{k} dd p1 m={1 + 0.5 * k:g}\nmn{k} n{k + 1} n{k} 0 n1 m={1 + 0.25 * k:g}"
+        for k in range(5)
+    )
+    decks["vdmos"] = VDMOS_CHAIN.format(stages=stages, n=5)
+    return decks
+
+
+@pytest.mark.parametrize("kind", [1, 2, 3, 6, "vdmos"])
+def test_parts_copied_from_a_template_equal_parts_constructed(monkeypatch, kind):
+    """A transistor of a structure already built is that part's copy with its own name,
+    numbers, junction limits, initial state and parameters
+    (``_mos_part._from_template``): it must equal, field for field and leaf for leaf,
+    the part ``ControlledPart`` constructs — and so must the assembled system. Only the
+    first device of each structure is constructed."""
+    from diracvi.components._part import fields
+
+    source = _distinct_decks()[kind]
+    _mos_part._TEMPLATES.clear()
+    constructed = count_calls(monkeypatch, _mos_part, "ControlledPart")
+    copied = spice.read(source)
+    monkeypatch.undo()
+    monkeypatch.setattr(_mos_part, "_template_key", lambda *a, **k: None)
+    each = spice.read(source)
+    monkeypatch.undo()
+    parts_a = [p for p, _ in copied.circuit._parts if fields(p)["role"] == "transistor"]
+    parts_b = [p for p, _ in each.circuit._parts if fields(p)["role"] == "transistor"]
+    assert len(parts_a) == len(parts_b) == 10
+    assert len(constructed) == 2  # one NMOS and one PMOS structure
+    # the devices differ: a copy that kept its template's numbers would fail below
+    numbers = {np.asarray(p._force.arrays.numbers).tobytes() for p in parts_a}
+    assert len(numbers) == 10
+    for a, b in zip(parts_a, parts_b, strict=True):
+        assert type(a) is type(b) and fields(a).keys() == fields(b).keys()
+        for key in fields(a):
+            if key in ("_lagrangian", "_force", "junction_limits", "_forms_const"):
+                continue
+            assert fields(a)[key] == fields(b)[key], (fields(a)["name"], key)
+        _assert_same_tree(a, b, fields(a)["name"])
+    _assert_same_tree(copied.system, each.system, "system")
+
+
+def _assert_same_tree(a, b, where: str):
+    """Equal static structure (names, pins, programs…) and equal leaves, bit for bit."""
+    leaves_a, tree_a = jax.tree.flatten(a)
+    leaves_b, tree_b = jax.tree.flatten(b)
+    assert tree_a == tree_b, where
+    assert len(leaves_a) == len(leaves_b), where
+    for x, y in zip(leaves_a, leaves_b, strict=True):
+        x, y = np.asarray(x), np.asarray(y)
+        assert x.dtype == y.dtype and x.shape == y.shape, where
+        assert x.tobytes() == y.tobytes(), where

@@ -17,6 +17,8 @@ described in :mod:`~diracvi.components.mosfet`.
 
 from __future__ import annotations
 
+import functools
+import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
@@ -26,9 +28,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
+from ..model.validate import check_name
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
-from ._part import array_module, finite, positive, traced
+from ._part import array_module, fields, finite, positive, traced
 from .controlled import ControlledPart
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
@@ -119,6 +122,16 @@ def bulk_limits(sign, saturation: dict):
     ``V_DS = 0``). A junction with ``I_S = 0`` (a VDMOS's) is GMIN alone, linear: not
     declared."""
     names, rows = [], []
+    if not any(traced(x) for x in (sign, *saturation.values())):
+        # host numbers (every device but one differentiated): one NumPy array from a
+        # list, the same values as the branch below (≈ 0.1 ms a transistor less)
+        for name, i_s in saturation.items():
+            if i_s <= 0.0:
+                continue
+            vcrit = THERMAL_VOLTAGE * np.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
+            names.append(name)
+            rows.append([THERMAL_VOLTAGE, float(vcrit), np.inf, float(sign), -1.0])
+        return tuple(names), (np.array(rows, dtype=np.float64) if rows else None)
     for name, i_s in saturation.items():
         if isinstance(i_s, float) and i_s <= 0.0:
             continue
@@ -188,21 +201,29 @@ def build(device: Device, forward, phi, params: dict, **override) -> ControlledP
     )  # fmt: skip
 
 
+_HOST_NUMBERS = frozenset((float, int, np.float64))
+
+
 def law_vector(numbers: dict, names) -> object:
     """The numbers ``numbers[k]`` in ``names``' order as one vector: NumPy where every one
     is a number (so alike devices share a program), a JAX array where a parameter is
     being differentiated (kept traced)."""
     values = [numbers[k] for k in names]
+    if all(type(x) in _HOST_NUMBERS for x in values):  # (the common case, without a scan)
+        return np.array(values, dtype=np.float64)
     if any(traced(x) for x in values):
         return jnp.stack([jnp.asarray(x, dtype=jnp.float64) for x in values])
     return np.array([float(x) for x in values], dtype=np.float64)
 
 
 def _on_device(vector):
-    """:func:`law_vector` put on the device: a part called outside a trace (eagerly, or
-    differentiated by ``jax.jacfwd``) then computes with JAX's operations throughout, as
-    the closures' constants did — NumPy scalars would compute a power in a junction's
-    depletion charge with C's ``pow``, one ulp off XLA's in the Jacobians."""
+    """A number vector as a part computes with it: a NumPy vector put on the device (an
+    eager call, or one differentiated by ``jax.jacfwd``, then computes with JAX's
+    operations throughout, as the closures' constants did — NumPy scalars would compute
+    a power in a junction's depletion charge with C's ``pow``, one ulp off XLA's in the
+    Jacobians); a traced one (inside a compiled or stacked program) as it is. Done when
+    the part is called, not when it is built: a ``device_put`` per vector was ≈ 0.2 ms
+    of every transistor's reading, and a stacked run never reads a member's own vector."""
     if isinstance(vector, np.ndarray):
         with jax.ensure_compile_time_eval():
             return jax.device_put(vector)
@@ -226,7 +247,8 @@ class Law(eqx.Module):
     numbers: Any
 
     def __call__(self, vgs, vds, vbs):
-        values = {k: self.numbers[j] for j, k in enumerate(self.names)}
+        numbers = _on_device(self.numbers)
+        values = {k: numbers[j] for j, k in enumerate(self.names)}
         return self.make(**values, **dict(self.flags))(vgs, vds, vbs)
 
 
@@ -234,7 +256,15 @@ def law(make: Callable, flags: dict | None = None, **numbers) -> Law:
     """The :class:`Law` ``make(**numbers, **flags)``: ``numbers`` are its constants (floats,
     or traced values that ``jax.grad`` reaches), ``flags`` its static choices."""
     names = tuple(numbers)
-    return Law(make, names, tuple((flags or {}).items()), _on_device(law_vector(numbers, names)))
+    flags = tuple((flags or {}).items())
+    vector = law_vector(numbers, names)
+    if isinstance(vector, jax.Array):  # traced: Equinox's construction, as any Module
+        return Law(make, names, flags, vector)
+    # its fields set directly (as renamed() sets a part's): Equinox's construction of a
+    # Module costs ≈ 0.1 ms, and a deck of 10⁴ distinct transistors builds 10⁴ laws
+    out = object.__new__(Law)
+    fields(out).update(make=make, names=names, flags=flags, numbers=vector)
+    return out
 
 
 class Layout(NamedTuple):
@@ -253,6 +283,7 @@ class Layout(NamedTuple):
 
 
 def _named(layout: Layout, numbers) -> dict:
+    numbers = _on_device(numbers)
     return {k: numbers[j] for j, k in enumerate(layout.names)}
 
 
@@ -387,32 +418,6 @@ def _assemble(
             f"{where}: mj={mj}, mjsw={mjsw} must lie in [0, 2) but not be 1, fc={fc} in [0, 1)."
         )
 
-    # branches: name -> (coordinates, + node, − node); "D", "S" are the internal drain
-    # and source behind RD and RS (the outer pins themselves when those are 0)
-    inner = {k: k.upper() if res[k] > 0.0 else k for k in "ds"}
-    meyer_on = c_ox > 0.0
-    gate = [k for k in ("gd", "gb") if caps[k] > 0.0 or meyer_on]
-    branches = {
-        "ch": (("q", "w"), inner["d"], inner["s"]),
-        "gs": (("sg", "wg"), "g", inner["s"]),
-        "bs": (("qbs", "wbs"), "b", inner["s"]),
-        "bd": (("qbd", "wbd"), "b", inner["d"]),
-    }
-    for k in gate:
-        branches[k] = ((f"s{k}", f"w{k}"), "g", {"gd": inner["d"], "gb": "b"}[k])
-    for k in "ds":
-        if res[k] > 0.0:
-            branches[f"r{k}"] = ((f"qr{k}",), k, inner[k])
-    coords = [c for names, _, _ in branches.values() for c in names]
-    meyer_branches = ("gs", "gd", "gb") if meyer_on else ()
-    for k in meyer_branches:  # the gate voltages as positions: y = ẇ (see MosLagrangian)
-        coords.append(f"y{k}")
-    idx = {c: j for j, c in enumerate(coords)}
-    internal = [inner[k] for k in "ds" if res[k] > 0.0]
-    pins, rows = pins_and_kcl(branches, idx, internal)
-    roles = [("sg", "current")] + [(f"s{k}", "capacitor") for k in gate]
-    flux = {k: branches[k][0][1] for k in branches if len(branches[k][0]) == 2}
-
     # every number one vector (its names in order), every choice the static layout
     # (τ too: as a literal of the code, XLA fuses x/τ otherwise than the closure's lifted
     # constant did, one ulp off in the compiled Meyer lines)
@@ -423,50 +428,194 @@ def _assemble(
     numbers.update({f"r_{k}": r for k, r in res.items()})
     for k, (bottom, side) in bulk.items():
         numbers.update({f"cj_{k}": bottom, f"cjsw_{k}": side})
-    names = tuple(numbers)
-    layout = Layout(
-        n=len(coords),
-        pairs=tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2),
-        flux_caps=tuple((idx[flux[k]], f"c_{k}") for k in ("gs", *gate) if caps[k] > 0.0),
-        junction_caps=tuple(
-            (k, idx[flux[k]], c[0] > 0.0, c[1] > 0.0)
-            for k, c in bulk.items()
-            if c[0] > 0.0 or c[1] > 0.0
-        ),
-        meyer=tuple((idx[flux[k]], idx[f"y{k}"]) for k in meyer_branches),
-        terminals=(idx["wg"], idx["w"], idx["wbs"], idx["wbd"]),
-        resistors=tuple((idx[f"qr{k}"], f"r_{k}") for k in "ds" if res[k] > 0.0),
-        reverse=reverse,
-        names=names,
+    shape = _structure(
+        tuple(caps[k] > 0.0 for k in ("gs", "gd", "gb")),
+        c_ox > 0.0,
+        tuple(res[k] > 0.0 for k in "ds"),
+        tuple((c[0] > 0.0, c[1] > 0.0) for c in bulk.values()),
+        reverse,
+        tuple(numbers),
     )
-    vector = _on_device(law_vector(numbers, names))
+    vector = law_vector(numbers, shape.layout.names)
 
-    v0 = np.asarray(v0, dtype=np.float64).reshape(-1)
-    if v0.shape != (3,) or not np.all(np.isfinite(v0)):
+    if not (type(v0) is tuple and len(v0) == 3 and all(type(x) is float for x in v0)):
+        v0 = np.asarray(v0, dtype=np.float64).reshape(-1)  # (a tuple of floats as it is)
+    if len(v0) != 3 or not all(math.isfinite(x) for x in v0):
         raise ModelError(f"{where}: v0={v0!r} must be three finite voltages (V_GS, V_GD, V_GB).")
-    start = {"gs": v0[0], "gd": v0[1], "gb": v0[2]}
-    initial_v = np.zeros(len(coords))
-    initial_q = np.zeros(len(coords))
-    for k in ("gs", *gate):
-        initial_v[idx[flux[k]]] = start[k]
-    for k in meyer_branches:
-        initial_q[idx[f"y{k}"]] = TAU * start[k]
+    start = {"gs": float(v0[0]), "gd": float(v0[1]), "gb": float(v0[2])}
+    initial_v = [0.0] * shape.layout.n
+    initial_q = [0.0] * shape.layout.n
+    for j, k in shape.start_v:
+        initial_v[j] = start[k]
+    for j, k in shape.start_q:
+        initial_q[j] = TAU * start[k]
     junctions, limits = bulk_limits(sign, {"wbs": i_ss, "wbd": i_sd})
-    return ControlledPart(
-        tuple(coords),
-        MosLagrangian(layout, vector),
-        force=MosForce(layout, vector, forward),
+    parameters = {k: x for k, x in params.items() if isinstance(x, float)}
+    key = _template_key(kind, shape, junctions, limits, vector, forward)
+    template = _TEMPLATES.get(key) if key is not None else None
+    if template is not None:
+        return _from_template(
+            template, name, vector, forward, limits, initial_q, initial_v, parameters
+        )
+    part = ControlledPart(
+        shape.coords,
+        MosLagrangian(shape.layout, vector),
+        force=MosForce(shape.layout, vector, forward),
         junctions=junctions,
         junction_limits=limits,
-        constraints=np.array(rows) if rows else None,
-        constraint_names=tuple(f"KCL({n.lower()}')" for n in internal) if rows else None,
+        constraints=np.array(shape.rows) if shape.rows else None,
+        constraint_names=shape.constraint_names,
         name=name,
-        pins=tuple(pins),
+        pins=shape.pins,
         currents=(),
         initial_q=initial_q,
         initial_v=initial_v,
         role="transistor",
-        branch_roles=tuple(roles),
-        mirrors=tuple(f"y{k}" for k in meyer_branches),
-        parameters={k: x for k, x in params.items() if isinstance(x, float)},
+        branch_roles=shape.roles,
+        mirrors=shape.mirrors,
+        parameters=parameters,
     )
+    if key is not None:
+        if len(_TEMPLATES) >= _TEMPLATES_LIMIT:
+            _TEMPLATES.clear()
+        _TEMPLATES[key] = part
+    return part
+
+
+#: the first MOSFET part of each structure (:func:`_template_key`): later ones are its
+#: copies with their own name, numbers and initial state (:func:`_from_template`)
+_TEMPLATES: dict = {}
+_TEMPLATES_LIMIT = 256
+
+
+class _Structure(NamedTuple):
+    """A MOSFET part's form, decided by which of its branches exist (:func:`_structure`)."""
+
+    layout: Layout
+    coords: tuple  # coordinate names
+    pins: tuple  # (pin, charge, ±1)
+    rows: tuple  # the internal nodes' KCL rows over the coordinates (tuples: hashable)
+    constraint_names: tuple | None
+    roles: tuple  # (coordinate, role) for the topology checks
+    mirrors: tuple  # Meyer's voltage coordinates
+    start_v: tuple  # (index, "gs" | "gd" | "gb"): velocities set from v0
+    start_q: tuple  # (index, …): Meyer's y = τ·v0
+
+
+@functools.lru_cache(maxsize=256)
+def _structure(caps_on, meyer_on, res_on, bulk_on, reverse, names) -> _Structure:
+    """The coordinates, pins, KCL rows and :class:`Layout` of a MOSFET part whose overlap
+    capacitors ``gs, gd, gb``, oxide (Meyer), RD, RS and bulk junctions' bottom and
+    sidewall charges (``bd``, ``bs``) are on or off as given: the same for every device
+    of one structure, so worked out once (a deck of 10⁴ transistors has a few)."""
+    caps = dict(zip(("gs", "gd", "gb"), caps_on, strict=True))
+    res = dict(zip("ds", res_on, strict=True))
+    bulk = dict(zip(("bd", "bs"), bulk_on, strict=True))
+    # branches: name -> (coordinates, + node, − node); "D", "S" are the internal drain
+    # and source behind RD and RS (the outer pins themselves when those are 0)
+    inner = {k: k.upper() if res[k] else k for k in "ds"}
+    gate = [k for k in ("gd", "gb") if caps[k] or meyer_on]
+    branches = {
+        "ch": (("q", "w"), inner["d"], inner["s"]),
+        "gs": (("sg", "wg"), "g", inner["s"]),
+        "bs": (("qbs", "wbs"), "b", inner["s"]),
+        "bd": (("qbd", "wbd"), "b", inner["d"]),
+    }
+    for k in gate:
+        branches[k] = ((f"s{k}", f"w{k}"), "g", {"gd": inner["d"], "gb": "b"}[k])
+    for k in "ds":
+        if res[k]:
+            branches[f"r{k}"] = ((f"qr{k}",), k, inner[k])
+    coords = [c for names_, _, _ in branches.values() for c in names_]
+    meyer_branches = ("gs", "gd", "gb") if meyer_on else ()
+    for k in meyer_branches:  # the gate voltages as positions: y = ẇ (see MosLagrangian)
+        coords.append(f"y{k}")
+    idx = {c: j for j, c in enumerate(coords)}
+    internal = [inner[k] for k in "ds" if res[k]]
+    pins, rows = pins_and_kcl(branches, idx, internal)
+    flux = {k: branches[k][0][1] for k in branches if len(branches[k][0]) == 2}
+    layout = Layout(
+        n=len(coords),
+        pairs=tuple((idx[ns[0]], idx[ns[1]]) for ns, _, _ in branches.values() if len(ns) == 2),
+        flux_caps=tuple((idx[flux[k]], f"c_{k}") for k in ("gs", *gate) if caps[k]),
+        junction_caps=tuple((k, idx[flux[k]], c[0], c[1]) for k, c in bulk.items() if c[0] or c[1]),
+        meyer=tuple((idx[flux[k]], idx[f"y{k}"]) for k in meyer_branches),
+        terminals=(idx["wg"], idx["w"], idx["wbs"], idx["wbd"]),
+        resistors=tuple((idx[f"qr{k}"], f"r_{k}") for k in "ds" if res[k]),
+        reverse=reverse,
+        names=names,
+    )
+    return _Structure(
+        layout=layout,
+        coords=tuple(coords),
+        pins=tuple(pins),
+        rows=tuple(tuple(float(x) for x in row) for row in rows),
+        constraint_names=tuple(f"KCL({n.lower()}')" for n in internal) if rows else None,
+        roles=(("sg", "current"), *((f"s{k}", "capacitor") for k in gate)),
+        mirrors=tuple(f"y{k}" for k in meyer_branches),
+        start_v=tuple((idx[flux[k]], k) for k in ("gs", *gate)),
+        start_q=tuple((idx[f"y{k}"], k) for k in meyer_branches),
+    )
+
+
+def _replaced(obj, **changes):
+    """A shallow copy of the Module ``obj`` with the fields ``changes`` (as
+    :func:`~._part.copy_with`, several fields at once)."""
+    out = object.__new__(type(obj))
+    fields(out).update(fields(obj), **changes)
+    return out
+
+
+def _template_key(kind, shape, junctions, limits, vector, forward):
+    """What a MOSFET part is made of besides its numbers, name and initial state — its
+    :class:`_Structure` (layout, coordinates, pins, KCL rows), the junctions Newton
+    limits, the law's maker, names and flags, and the shapes of the numbers — or
+    ``None`` when a number is traced (``jax.grad`` through a parameter: the part is
+    built)."""
+    if not (
+        isinstance(vector, np.ndarray)
+        and isinstance(forward, Law)
+        and isinstance(fields(forward)["numbers"], np.ndarray)
+        and (limits is None or isinstance(limits, np.ndarray))
+    ):
+        return None
+    law_ = fields(forward)
+    return (
+        kind, shape, junctions, None if limits is None else limits.shape, vector.shape,
+        law_["make"], law_["names"], law_["flags"], law_["numbers"].shape,
+    )  # fmt: skip
+
+
+def _from_template(template, name, vector, forward, limits, initial_q, initial_v, parameters):
+    r"""The part :class:`ControlledPart` would build for a device of ``template``'s
+    structure (:func:`_template_key`) with these numbers: the template's fields with the
+    name, the two number vectors (in the wrapped Lagrangian's and force's array leaves),
+    the junctions' limits, the initial state and the recorded parameters replaced.
+
+    Equal to the constructed part field for field (``tests/test_mos_module.py``): every
+    other field — the coordinates, pins, KCL rows, the wrapped functions' static parts
+    and the forms the constructor read from them (their output shapes and signatures) —
+    is a function of the structure alone. Building a ControlledPart (Equinox's
+    construction of the part and its wrapped functions, their forms' keys) was ≈ 2/3 of
+    a distinct transistor's reading."""
+    own = fields(template)
+    lagrangian, force = own["_lagrangian"], own["_force"]
+    arrays = fields(force)["arrays"]  # (MosForce's arrays: its vector, its law's)
+    law_numbers = fields(forward)["numbers"]
+    arrays = _replaced(
+        arrays, numbers=vector, law=_replaced(fields(arrays)["law"], numbers=law_numbers)
+    )
+    part = object.__new__(type(template))
+    fields(part).update(
+        own,
+        name=check_name("name", name),
+        _lagrangian=_replaced(
+            lagrangian, arrays=_replaced(fields(lagrangian)["arrays"], numbers=vector)
+        ),
+        _force=_replaced(force, arrays=arrays),
+        junction_limits=limits,
+        initial_q=tuple(float(x) for x in initial_q),
+        initial_v=tuple(float(x) for x in initial_v),
+        parameters=tuple((str(k), float(x)) for k, x in parameters.items()),
+    )
+    return part

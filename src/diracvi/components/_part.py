@@ -141,6 +141,21 @@ def fields(part) -> dict:
     return object.__getattribute__(part, "__dict__")
 
 
+def copy_with(obj, path: tuple[str, ...], value):
+    """A shallow copy of the dataclass ``obj`` whose attribute chain ``path`` ends in
+    ``value`` (each object on the chain copied, everything else shared)."""
+    if not path:
+        return value
+    copy = object.__new__(type(obj))
+    # the dictionaries read past equinox's __getattribute__ (a Python hook per read);
+    # a dataclass keeps every field there, so one update copies them all
+    own = fields(obj)
+    copy_fields = object.__getattribute__(copy, "__dict__")
+    copy_fields.update(own)
+    copy_fields[path[0]] = copy_with(own[path[0]], path[1:], value)
+    return copy
+
+
 def renamable(part: Part) -> bool:
     """Whether :func:`renamed` gives ``part`` under another name: no field but ``name``
     depends on the name (:class:`Part`'s default currents for several branches,
@@ -201,6 +216,8 @@ def array_module(*values):
 def positive(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite and > 0, else a :class:`ModelError` naming it
     (a traced value passes through unchecked, so parts are differentiable)."""
+    if type(value) is float and value > 0.0 and value - value == 0.0:
+        return value  # (the common case first: a netlist's 10⁴ devices check 10⁵ numbers)
     if traced(value):
         return value
     try:
@@ -227,6 +244,8 @@ def nonzero(part: str, arg: str, value) -> float:
 def finite(part: str, arg: str, value) -> float:
     """``float(value)`` if it is finite, else a :class:`ModelError` naming it (a traced
     value passes through unchecked)."""
+    if type(value) is float and value - value == 0.0:
+        return value  # (the common case first, as in positive)
     if traced(value):
         return value
     try:

@@ -22,7 +22,7 @@ from jax.tree_util import GetAttrKey
 from ..errors import ModelError
 from ..model.stacked import ALIKE
 from ..model.validate import check_name
-from ._part import Part, finite, nonzero, positive, traced
+from ._part import Part, copy_with, finite, nonzero, positive, traced
 from .waveforms import as_waveform
 
 _TWO_PINS = (("p", "q", 1), ("n", "q", -1))
@@ -111,7 +111,7 @@ def _like(kind: str, name, value: float, build, **statics) -> Part:
     # copies of the objects on the path to the leaf only (a flatten and unflatten of the
     # whole part cost ~50 µs per element, most of a 10⁴-element netlist's reading)
     leaf = _value(value)
-    part = _copy_with(template, path, leaf)
+    part = copy_with(template, path, leaf)
     fields = object.__getattribute__(part, "__dict__")
     fields["name"] = check_name("name", name)
     fields.update(statics)
@@ -140,21 +140,6 @@ def template_momentum(part_fields: dict, velocity: float) -> float | None:
     if kind == "inductor":
         return float(alike[1]) * velocity
     return 0.0 if kind in ("resistor", "capacitor") else None
-
-
-def _copy_with(obj, path: tuple[str, ...], value):
-    """A shallow copy of the dataclass ``obj`` whose attribute chain ``path`` ends in
-    ``value`` (each object on the chain copied, everything else shared)."""
-    if not path:
-        return value
-    copy = object.__new__(type(obj))
-    # the dictionaries read past equinox's __getattribute__ (a Python hook per read);
-    # a dataclass keeps every field there, so one update copies them all
-    fields = object.__getattribute__(copy, "__dict__")
-    own = object.__getattribute__(obj, "__dict__")
-    fields.update(own)
-    fields[path[0]] = _copy_with(own[path[0]], path[1:], value)
-    return copy
 
 
 def _any_traced(values) -> bool:

@@ -127,7 +127,10 @@ _KEYWORDS = re.compile(
 _KEYWORD_PREFIX = "_spice_name_"
 
 
+@functools.lru_cache(maxsize=4096)
 def _tree(text: str):
+    """The parsed expression ``text`` (remembered: a subcircuit's ``W={2*w}`` is one
+    text for 10⁴ instances, each of its own ``w``; ``_walk`` only reads the tree)."""
     source = _IN_EXPR.sub(lambda m: repr(_scaled(m.group(1), m.group(2))), _micro(text.strip()))
     source = _KEYWORDS.sub(lambda m: _KEYWORD_PREFIX + m.group(1), source.replace("^", "**"))
     try:
