@@ -29,6 +29,7 @@ from diracvi.components import _mos_part
 from diracvi.driver import events
 from diracvi.model import system as system_module
 from diracvi.runtime import program
+from test_read_alike import assert_same
 
 CARDS = {
     1: ("level=1 vto=0.7 kp=1e-4 cbd=1f cgso=1e-10 tox=2e-8 gamma=0.4 lambda=0.02",
@@ -233,17 +234,5 @@ def test_parts_copied_from_a_template_equal_parts_constructed(monkeypatch, kind)
             if key in ("_lagrangian", "_force", "junction_limits", "_forms_const"):
                 continue
             assert fields(a)[key] == fields(b)[key], (fields(a)["name"], key)
-        _assert_same_tree(a, b, fields(a)["name"])
-    _assert_same_tree(copied.system, each.system, "system")
-
-
-def _assert_same_tree(a, b, where: str):
-    """Equal static structure (names, pins, programs…) and equal leaves, bit for bit."""
-    leaves_a, tree_a = jax.tree.flatten(a)
-    leaves_b, tree_b = jax.tree.flatten(b)
-    assert tree_a == tree_b, where
-    assert len(leaves_a) == len(leaves_b), where
-    for x, y in zip(leaves_a, leaves_b, strict=True):
-        x, y = np.asarray(x), np.asarray(y)
-        assert x.dtype == y.dtype and x.shape == y.shape, where
-        assert x.tobytes() == y.tobytes(), where
+        assert_same(a, b, fields(a)["name"])
+    assert_same(copied.system, each.system, "system")
