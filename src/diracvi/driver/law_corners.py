@@ -38,6 +38,7 @@ centres only (:func:`corner_nodes`, read by :mod:`diracvi.spice._run`).
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -99,6 +100,12 @@ def locate(corners, nodes, h, rtol, dv, hmin):
     return located, h_event, landed
 
 
+@eqx.filter_jit
+def _at_centres(corners, mid, vel, dv, tc):
+    """``corners`` at each step centre ``(mid, vel, tc)``, stacked."""
+    return jax.vmap(lambda a, b, c: corners(a, b, dv, c))(mid, vel, tc)
+
+
 def corner_nodes(corners, t, q, h, rtol, dv) -> np.ndarray:
     """The interior nodes of a run (indices into ``t``) between two step centres on
     opposite sides of a corner, each beyond its window: where the waveforms are not read
@@ -109,9 +116,16 @@ def corner_nodes(corners, t, q, h, rtol, dv) -> np.ndarray:
     mid = 0.5 * (q[1:] + q[:-1])
     vel = (q[1:] - q[:-1]) / h[:, None]
     tc = t[:-1] + 0.5 * h
-    ks = np.asarray(
-        jax.jit(jax.vmap(lambda a, b, c: corners(a, b, jnp.asarray(dv), c)))(mid, vel, tc)
-    )
+    # padded to a power of two (the last row repeated): one program per law and size
+    # class, not per run (a fresh compile was half of ng_memristor's warm run, 0.17 s)
+    n = len(h)
+    size = 1 << (n - 1).bit_length()
+
+    def pad(x):
+        return np.concatenate([x, np.repeat(x[-1:], size - n, axis=0)])
+
+    dv = np.broadcast_to(np.asarray(dv, dtype=np.float64), q.shape[1:])
+    ks = np.asarray(_at_centres(corners, pad(mid), pad(vel), dv, pad(tc)))[:n]
     g = ks[:, 0, :]
     w = np.asarray(window(np.moveaxis(ks, 1, 0), rtol))
     out = np.abs(g) > w

@@ -17,6 +17,7 @@ evaluation's round-off.
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 
 
@@ -59,25 +60,38 @@ def force_roundoff(system):
     return bound
 
 
+class Corners(eqx.Module):
+    """``K(q, v, dv, t)`` of :func:`force_corners`: each part's ``law_corners`` on its
+    span of the coordinates, concatenated. A Module, so that its programs (static, keyed
+    by what they compute) and their constants (array leaves) split: a program built on it
+    is compiled once per kind of law, not per netlist read
+    (:func:`diracvi.driver.law_corners.corner_nodes`)."""
+
+    functions: tuple
+    spans: tuple = eqx.field(static=True)  # (start, n) of each part
+
+    def __call__(self, q, v, dv, t):
+        out = [
+            fn(q[s : s + n], v[s : s + n], dv[s : s + n], t=t)
+            for fn, (s, n) in zip(self.functions, self.spans, strict=True)
+        ]
+        return jnp.concatenate(out, axis=1)
+
+
 def force_corners(system):
     """``K(q, v, dv, t)``: the corners of the parts' laws in ``system``'s coordinates, a
     ``(3, k)`` array — each corner's argument ``g``, the bound by which the velocities'
     absolute tolerances ``dv`` (per coordinate) move it, and its terms — gathered over
     the parts with a ``law_corners``
-    (:class:`~diracvi.components.ControlledPart`); None where no part has one."""
+    (:class:`~diracvi.components.ControlledPart`), as a :class:`Corners`; None where no
+    part has one."""
     found = law_parts(system, "law_corners")
     if not found:
         return None
-
-    def corners(q, v, dv, t):
-        out = []
-        for part, start in found:
-            n = part.n
-            span = slice(start, start + n)
-            out.append(part.law_corners(q[span], v[span], dv[span], t=t))
-        return jnp.concatenate(out, axis=1)
-
-    return corners
+    return Corners(
+        tuple(part.law_corners for part, _ in found),
+        tuple((start, part.n) for part, start in found),
+    )
 
 
-__all__ = ["force_corners", "force_roundoff", "law_parts"]
+__all__ = ["Corners", "force_corners", "force_roundoff", "law_parts"]
