@@ -31,7 +31,7 @@ from ..errors import ModelError
 from ..model.validate import check_name
 from ._junction import THERMAL_VOLTAGE, depletion_coenergy, pn_current
 from ._mos1 import meyer_half, mode_weight
-from ._part import array_module, fields, finite, positive, traced
+from ._part import array_module, fields, finite, positive, replaced, traced
 from .controlled import ControlledPart
 
 KINDS = {"nmos": 1.0, "pmos": -1.0}
@@ -558,14 +558,6 @@ def _structure(caps_on, meyer_on, res_on, bulk_on, reverse, names) -> _Structure
     )
 
 
-def _replaced(obj, **changes):
-    """A shallow copy of the Module ``obj`` with the fields ``changes`` (as
-    :func:`~._part.copy_with`, several fields at once)."""
-    out = object.__new__(type(obj))
-    fields(out).update(fields(obj), **changes)
-    return out
-
-
 def _template_key(kind, shape, junctions, limits, vector, forward):
     """What a MOSFET part is made of besides its numbers, name and initial state — its
     :class:`_Structure` (layout, coordinates, pins, KCL rows), the junctions Newton
@@ -602,20 +594,18 @@ def _from_template(template, name, vector, forward, limits, initial_q, initial_v
     lagrangian, force = own["_lagrangian"], own["_force"]
     arrays = fields(force)["arrays"]  # (MosForce's arrays: its vector, its law's)
     law_numbers = fields(forward)["numbers"]
-    arrays = _replaced(
-        arrays, numbers=vector, law=_replaced(fields(arrays)["law"], numbers=law_numbers)
+    arrays = replaced(
+        arrays, numbers=vector, law=replaced(fields(arrays)["law"], numbers=law_numbers)
     )
-    part = object.__new__(type(template))
-    fields(part).update(
-        own,
+    return replaced(
+        template,
         name=check_name("name", name),
-        _lagrangian=_replaced(
-            lagrangian, arrays=_replaced(fields(lagrangian)["arrays"], numbers=vector)
+        _lagrangian=replaced(
+            lagrangian, arrays=replaced(fields(lagrangian)["arrays"], numbers=vector)
         ),
-        _force=_replaced(force, arrays=arrays),
+        _force=replaced(force, arrays=arrays),
         junction_limits=limits,
         initial_q=tuple(float(x) for x in initial_q),
         initial_v=tuple(float(x) for x in initial_v),
         parameters=tuple((str(k), float(x)) for k, x in parameters.items()),
     )
-    return part

@@ -141,19 +141,22 @@ def fields(part) -> dict:
     return object.__getattribute__(part, "__dict__")
 
 
-def copy_with(obj, path: tuple[str, ...], value):
-    """A shallow copy of the dataclass ``obj`` whose attribute chain ``path`` ends in
-    ``value`` (each object on the chain copied, everything else shared)."""
-    if not path:
-        return value
+def replaced(obj, **changes):
+    """A shallow copy of the dataclass ``obj`` (a Module: no construction, no checks) with
+    the fields ``changes``; everything else shared."""
     copy = object.__new__(type(obj))
     # the dictionaries read past equinox's __getattribute__ (a Python hook per read);
     # a dataclass keeps every field there, so one update copies them all
-    own = fields(obj)
-    copy_fields = object.__getattribute__(copy, "__dict__")
-    copy_fields.update(own)
-    copy_fields[path[0]] = copy_with(own[path[0]], path[1:], value)
+    fields(copy).update(fields(obj), **changes)
     return copy
+
+
+def copy_with(obj, path: tuple[str, ...], value):
+    """A shallow copy of ``obj`` whose attribute chain ``path`` ends in ``value`` (each
+    object on the chain copied by :func:`replaced`, everything else shared)."""
+    if not path:
+        return value
+    return replaced(obj, **{path[0]: copy_with(fields(obj)[path[0]], path[1:], value)})
 
 
 def renamable(part: Part) -> bool:
