@@ -122,25 +122,21 @@ def bulk_limits(sign, saturation: dict):
     ``V_DS = 0``). A junction with ``I_S = 0`` (a VDMOS's) is GMIN alone, linear: not
     declared."""
     names, rows = [], []
-    if not any(traced(x) for x in (sign, *saturation.values())):
-        # host numbers (every device but one differentiated): one NumPy array from a
-        # list, the same values as the branch below (≈ 0.1 ms a transistor less)
-        for name, i_s in saturation.items():
-            if i_s <= 0.0:
-                continue
-            vcrit = THERMAL_VOLTAGE * np.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
-            names.append(name)
-            rows.append([THERMAL_VOLTAGE, float(vcrit), np.inf, float(sign), -1.0])
-        return tuple(names), (np.array(rows, dtype=np.float64) if rows else None)
     for name, i_s in saturation.items():
-        if isinstance(i_s, float) and i_s <= 0.0:
+        if not traced(i_s) and i_s <= 0.0:
             continue
         xp = array_module(i_s, sign)
         vcrit = THERMAL_VOLTAGE * xp.log(THERMAL_VOLTAGE / (np.sqrt(2.0) * i_s))
         names.append(name)
-        rows.append(xp.stack([xp.asarray(x, float) for x in
-                              (THERMAL_VOLTAGE, vcrit, np.inf, sign, -1.0)]))  # fmt: skip
-    return tuple(names), (array_module(*rows).stack(rows) if rows else None)
+        rows.append((THERMAL_VOLTAGE, vcrit, np.inf, sign, -1.0))
+    if not rows:
+        return tuple(names), None
+    xp = array_module(sign, *saturation.values())
+    if xp is np:
+        # host numbers (every device but one differentiated): one NumPy array from the
+        # rows (≈ 0.1 ms a transistor less than stacking each row)
+        return tuple(names), np.array(rows, dtype=np.float64)
+    return tuple(names), xp.stack([xp.stack([xp.asarray(x, float) for x in r]) for r in rows])
 
 
 class Device(NamedTuple):
