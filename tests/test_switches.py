@@ -350,7 +350,11 @@ sn out dgnd in dgnd swswitch
     "2026-12-01): the ring's steps are shorter, so the decay bias this test measures is "
     "3.0e-15 s at the median, below the 5e-15 s it needs to tell the bias from the event "
     "tolerance (the advance still equals the predicted sum to 10 % + 1 fs, measured with "
-    "that premise removed). Not fixed: it needs the run at steps where the bias shows.",
+    "that premise removed). Traced (session 38, branch ringstep): the steps are set by the "
+    "output nodes' potentials judged per try, an O(H^2) error (x4 per doubling, no floor), "
+    "and shorter they put the instants 3.3x closer to the exact ones (rms 1.66e-13 against "
+    "5.5e-13 s held to TMAX): warranted. Run at reltol 3e-3 (its event and instant "
+    "tolerances with it) the test passes as written (median bias 8.9e-15 s); a proposal.",
 )
 def test_a_switch_ring_s_instants_err_only_by_the_midpoint_rule_s_decay_bias():
     """Where ng_switch_osc's period error comes from, on a 7-stage ring of its inverters
@@ -432,7 +436,12 @@ def _ring_instants_error(reltol):
     reason="failing on main since bd5d10c (node potentials judged per try; bisected "
     "2026-12-01): at reltol 1e-5 the run's shortest step is 1.9e-15 s (9242 steps), "
     "against the 3.6e-14 s (> 1e-14) recorded when the floor fit landed; its other "
-    "assertions pass. Not traced.",
+    "assertions pass. Traced (session 38, branch ringstep): that step is the landing of "
+    "retries aimed at a crossing that fell 3.8e-15 s past an accepted try (each retry at "
+    "least a quarter of the last), not a rejection cascade (no non-aimed rejection below "
+    "5.9e-14 s; away from flips the shortest step is 1.7e-13 s); bd5d10c's first parent "
+    "60ff820 fails it too under the tests' compile (1.4e-15 s). The assertion reads where "
+    "a crossing falls in the grid of tries; a change of it is proposed, not made.",
 )
 def test_a_switch_ring_tightened_finishes_and_its_instants_converge():
     """A switch ring at reltol 1e-5 runs to its end and its switching instants come
