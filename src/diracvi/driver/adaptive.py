@@ -71,18 +71,9 @@ Dirac step, no extrapolated value), ``e > 1`` retries from the same state with a
 (so that no recorded step is longer than ``hmax``). That law assumes ``e ∝ H³``; an
 alternation ``δ(−1)^k`` the midpoint rule does not damp (a loop of capacitors and voltage
 sources) adds ``2δ`` to ``q_f − q_c`` at every ``H``, a floor. So the period-2 part is
-fitted from the last try's nodes and this one's (:func:`~.step_error.alternating`) — or,
-on a retry whose start ends a corner (no try of this law before it), from the rejected try
-of the same start (:func:`~.step_error.alternating_from_retry`) — and a try whose error
-without it is below half its error is judged — accepted and sized — by that smaller
-error (``ng_inv_vdmos``: the floor at 0.73–0.8 held its step at 7e-14 s), above 1 too:
-the all-default BSIM4 decks carry it in their branch charges, born where a device law's
-corner (capMod 2's bulk charge at ``V_DS = 0``) falls between two step centres, at 5–7
-tolerances in the PMOS's bulk–source charge of ``ng_inv_meas_tran``, and rejected on the
-whole error each went down to ``hmin`` there. Such a try's rates are read by the gap
-check without the part too (the last try's and its own, ``∓2δ/h``): read as they are, the
-alternation a corner starts at this try's start has no counterpart in the last try, so
-the ringing rule does not leave it out, and as a "corner" it grew as ``1/H``.
+fitted from the last try's nodes and this one's (:func:`~.step_error.alternating`), and an
+accepted try whose error without it is below half its error is sized by that smaller
+error (``ng_inv_vdmos``: the floor at 0.73–0.8 held its step at 7e-14 s).
 In a circuit with switches every try with ``δ`` fitted is judged — accepted and sized —
 by the error without it, and where the nodes before the start are on another law (the
 try after a switching instant) ``δ`` is fitted from a rejected try of the same start
@@ -101,9 +92,12 @@ every other try — the steps growing by 2 after a source's corner — that was 
 (``q_v2`` 5.3e-13 C apart at 40 and 80 ms, the same inputs), their ``±2δ`` on the 9 ns
 steps after each corner read as 5.5e-7 A against ngspice's pA. The output is read past
 the alternation instead (:mod:`diracvi.spice._smooth`).
-The mode is carried, not damped: taking ``δ`` out of the carried momenta too (the second
-fine step's discrete momentum at the moved nodes) took those decks further but not through
-(docs/circuits.md, "The mode damped, tried"), and is not built.
+Not built: a non-switched circuit's retry judged by its rest with ``δ`` fitted from the
+rejected try, and ``δ`` taken out of the carried momenta too (the second fine step's
+discrete momentum at the moved nodes). Tried on the all-default BSIM4 decks, whose floor is
+this mode in the branch charges (capMod 2's bulk-charge corner at ``V_DS = 0``), it took
+them further but not through: the gap check then read the same alternation on the try's
+centres as solved (docs/circuits.md, "The mode damped, tried").
 
 **The gap between tries.** The output is a quadratic through the step centres
 (:mod:`diracvi.spice._resample`); step doubling checks it inside a try (the coarse
@@ -499,12 +493,7 @@ def _march(system, rule, solver, capacity, x):
         # two tries instead (step_error.alternating_from_retry): after a switching instant
         # the nodes before the start are on another law, and the fit above is off
         switched = bool(found)
-        # a circuit without switches fits it so only where the fit above has no last try
-        # of this law (a breakpoint ended it): there the part carried across the corner
-        # is otherwise read whole (an all-default BSIM4 deck's bulk charge: 5.9
-        # tolerances at every H after a source's corner, down to hmin)
-        refit = switched | ~c["gap_ok"]
-        retried = c["rej_ok"] & ((h_try / c["rej_h"]) ** 3 <= 0.75) & refit
+        retried = c["rej_ok"] & ((h_try / c["rej_h"]) ** 3 <= 0.75) & switched
         d_raw = q2 - qc
         delta = jnp.where(
             retried, alternating_from_retry(c["rej_d"], d_raw, c["rej_h"], h_try), delta
@@ -562,11 +551,11 @@ def _march(system, rule, solver, capacity, x):
             located = located & at_corner
             h_event = jnp.minimum(h_event, h_corner)
         # a try whose error is mostly the period-2 part, which no shorter step lowers
-        # (step_error.estimate), is judged — accepted and sized — by the rest (only where
-        # it holds the step back: below 0.091 the growth is at its cap, 2), above 1 too
-        # (the module doc: an all-default BSIM4 deck's branch charges carry it at 5–7
-        # tolerances); in a switched circuit every try with the part fitted is
-        plain_floor = (err > 0.091) & (smooth < 0.5 * err)
+        # (step_error.estimate), is sized by the rest (only where it holds the step back:
+        # below 0.091 the growth is at its cap, 2), and accepted on the whole; in a
+        # switched circuit every try with the part fitted is judged by the rest (the
+        # module doc)
+        plain_floor = (err <= 1.0) & (err > 0.091) & (smooth < 0.5 * err)
         floor = jnp.where(switched, c["gap_ok"] | retried, plain_floor)
         judged = jnp.where(floor, smooth, err)
         if end_pair is not None:
@@ -587,22 +576,7 @@ def _march(system, rule, solver, capacity, x):
         xs = (t - 1.5 * h_last, t - 0.5 * h_last, t + 0.25 * h_try, t + 0.75 * h_try)
         phi_last = -c["c_last"] / h_last
         phi1, phi2 = -(2.0 * mu1 - c_prev) / half, -c2 / half
-        # a try judged without the period-2 part has its rates read without it too, the
-        # last try's and its own (the fit's nodes alternate q₀ + δ, q₁ − δ, q₂ + δ: each
-        # rate is off by ∓2δ/h); read whole, a part born at this try's start (a corner
-        # between the centres) has no counterpart in the last try, so the ringing rule
-        # does not leave it out, and it grew as 1/H down to hmin (switched circuits as
-        # they were)
-        d_g = jnp.where(floor & ~switched, delta, 0.0)
-        gap_v = gap_error(
-            xs,
-            (
-                c["u_prev"] + 2.0 * d_g / h_last,
-                c["v_last"] - 2.0 * d_g / h_last,
-                (q1 - q + 2.0 * d_g) / half,
-                (q2 - q1 - 2.0 * d_g) / half,
-            ),
-        )
+        gap_v = gap_error(xs, (c["u_prev"], c["v_last"], (q1 - q) / half, v2))
         gap_m = gap_error(xs, (c["phi_prev"], phi_last, phi1, phi2))
         e_gap_v = gap_v / (rtol * v_peak + tol_v)
         e_gap_m = gap_m / (rtol * m_peak + x["atol_m"])
