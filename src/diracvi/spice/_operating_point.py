@@ -47,6 +47,7 @@ from ..driver import delay, events
 from ..errors import ModelError
 from ..runtime.compile import run_once_jit
 from ..solvers.limiting import junctions, limit_rows, start_voltages
+from . import _op_jacobian
 from ._magnetic import mmf_values
 
 
@@ -127,6 +128,30 @@ def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, s
 _linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._linearized")
 
 
+def _compressed_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, source, gmin, seeds,
+                   cotangents):  # fmt: skip
+    """The static equations of :func:`_linearized_fn` at ``(v, μ, q, i_hold)``, their
+    Jacobian read as :mod:`._op_jacobian` plans: the products ``J s`` for the ``seeds``
+    (each a tuple of tangents in ``v``, ``μ``, ``q``, ``i_hold``, stacked) and the rows
+    ``cᵀ J`` for the ``cotangents`` (stacked), and ``p = ∂L/∂v``."""
+    stepped = events.with_modes(system, modes)
+
+    def equations(v, mu, q, hold_i):
+        balance, velocity = _static(stepped, t, q, v, mu)
+        velocity = velocity.at[kcl].add(gmin * mu[kcl])
+        velocity = velocity.at[held].add(hold_i)
+        fixed = mu[held] - source * held_values
+        return jnp.concatenate([balance, velocity, fixed])
+
+    r, jvp = jax.linearize(equations, v, mu, q, hold_i)
+    jvps = jax.vmap(jvp)(*seeds)
+    vjps = jax.vmap(jax.linear_transpose(jvp, v, mu, q, hold_i))(cotangents)
+    return r, jvps, vjps, stepped.momentum(q, v, t)
+
+
+_compressed = run_once_jit(_compressed_fn, "diracvi.spice._operating_point._compressed")
+
+
 class _Equations:
     """The static equations of ``assembly.system`` at ``t₀`` as functions of ``x``."""
 
@@ -154,7 +179,9 @@ class _Equations:
             )
         self.held = np.asarray([rows[assembly.kcl_rows[node]] for node in hold], dtype=np.int64)
         self.held_values = np.asarray(list(hold.values()), dtype=np.float64)
-        self.dep = self._dependent()
+        self.dep, probes = self._dependent()
+        # the Jacobian read through its pattern where that pays (._op_jacobian)
+        self.plan = self._plan(probes)
         self.size = self.n + self.m + len(self.dep) + len(self.held)
         found = junctions(self.stepped)
         self.junction_index, self.junction_limits = (
@@ -190,17 +217,39 @@ class _Equations:
                 "the DC analysis."
             ) from None
 
-    def _dependent(self) -> np.ndarray:
+    def _plan(self, probes):
+        """The compressed Jacobian's plan (:mod:`._op_jacobian`) from the circuit's
+        structure, or ``None`` (dense): also where an entry seen at a probe falls outside
+        that structure (a coupling the structure does not know of)."""
+        if not probes:
+            return None
+        mask = _op_jacobian.structural(self.system, self.dep, self.held)
+        if mask is None or np.any(_op_jacobian.pattern(probes) & ~mask):
+            return None
+        return _op_jacobian.plan(mask)
+
+    def _dependent(self):
         """The coordinates whose value enters the static equations (a capacitor's charge):
-        nonzero columns of their Jacobian in ``q`` at a generic probe."""
-        rng = np.random.default_rng(0)
-        v = rng.standard_normal(self.n)
-        mu = rng.standard_normal(self.m)
-        q = self.q0 + rng.standard_normal(self.n) * 1e-3
+        nonzero columns of their Jacobian in ``q`` at a generic probe; and, for a circuit
+        of :data:`._op_jacobian.MIN_SIZE` unknowns or more, the Jacobian in ``x`` (the
+        program's rows) at that probe, to check the structure's pattern (else ``[]``)."""
         modes = events.initial_modes(self.system)
-        _, _, _, jac_q, _, _ = self._program(modes, v, mu, q, np.zeros(len(self.held)), 1.0, 0.0)
-        rows = self.n + self.m  # the balance and the one-forms (the held rows are φ's)
-        return np.nonzero(np.any(np.abs(jac_q[:rows]) > 0.0, axis=0))[0]
+        hold_i = np.zeros(len(self.held))
+        jacobians = []
+        for seed in (0,):
+            rng = np.random.default_rng(seed)
+            v = rng.standard_normal(self.n)
+            mu = rng.standard_normal(self.m)
+            q = self.q0 + rng.standard_normal(self.n) * 1e-3
+            _, j_v, j_mu, j_q, j_h, _ = self._program(modes, v, mu, q, hold_i, 1.0, 0.0)
+            if seed == 0:
+                rows = self.n + self.m  # the balance and the one-forms (held rows: φ's)
+                dep = np.nonzero(np.any(np.abs(j_q[:rows]) > 0.0, axis=0))[0]
+                size = self.n + self.m + len(dep) + len(self.held)
+                if size < _op_jacobian.MIN_SIZE:
+                    return dep, []
+            jacobians.append(np.concatenate([j_v, j_mu, j_q[:, dep], j_h], axis=1))
+        return dep, jacobians
 
     def linearized(self, modes):
         """``x, source, gmin ↦ (r, ∂r/∂x, q, p)`` as NumPy arrays, the switches in the
@@ -211,6 +260,9 @@ class _Equations:
         rows = n + m
         pick = np.zeros((len(dep), n))  # the rows v_j = 0 of the position-dependent j
         pick[np.arange(len(dep)), dep] = 1.0
+
+        if self.plan is not None:
+            return self._compressed_call(modes)
 
         def call(x, source, gmin):
             v, mu, qd, hold_i = self.split(np.asarray(x, np.float64))
@@ -226,6 +278,45 @@ class _Equations:
                 ]
             )
             return r, jac, q, p
+
+        return call
+
+    def _compressed_call(self, modes):
+        """:meth:`linearized` with the Jacobian read as :mod:`._op_jacobian` plans and
+        assembled sparse (CSC)."""
+        n, m, dep, found = self.n, self.m, self.dep, self.plan
+        d, h = len(dep), len(self.held)
+        rows = n + m
+        seeds = found.seeds()
+        seeds_q = np.zeros((len(seeds), n))
+        seeds_q[:, dep] = seeds[:, n + m : n + m + d]
+        tangents = (seeds[:, :n], seeds[:, n : n + m], seeds_q, seeds[:, n + m + d :])
+        cotangents = found.cotangents()
+        # the program's rows (balance, one-forms, held) → the Jacobian's, the rows
+        # v_j = 0 of the position-dependent j between the one-forms and the held rows
+        place = np.concatenate([np.arange(rows), rows + d + np.arange(h)])
+        pick = (rows + np.arange(d), dep, np.ones(d))
+        data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
+        from scipy import sparse  # (scipy is imported at first use)
+
+        def call(x, source, gmin):
+            v, mu, qd, hold_i = self.split(np.asarray(x, np.float64))
+            q = self.q0.copy()
+            q[dep] = qd
+            r, jvps, vjps, p = _compressed(
+                self.stepped, self.t0, *data,
+                *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+                np.float64(source), np.float64(gmin), tangents, cotangents,
+            )  # fmt: skip
+            r = np.asarray(r)
+            vjps = [np.asarray(a) for a in vjps]
+            vjps = np.concatenate([vjps[0], vjps[1], vjps[2][:, dep], vjps[3]], axis=1)
+            i, j, values = found.assemble(np.asarray(jvps), vjps)
+            i = np.concatenate([place[i], pick[0]])
+            j = np.concatenate([j, pick[1]])
+            values = np.concatenate([values, pick[2]])
+            jac = sparse.csc_matrix((values, (i, j)), shape=(self.size, self.size))
+            return np.concatenate([r[:rows], v[dep], r[rows:]]), jac, q, np.asarray(p)
 
         return call
 
@@ -262,11 +353,17 @@ def _newton(eqs, linearized, x, max_iterations=100):
     polish = 0
     for it in range(1, max_iterations + 1):
         r, jac = linearized(x)
-        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac))):
+        dense = isinstance(jac, np.ndarray)  # else a large circuit's CSC (._op_jacobian)
+        if not (np.all(np.isfinite(r)) and np.all(np.isfinite(jac if dense else jac.data))):
             return x, False, it
         try:
-            dx = np.linalg.solve(jac, -r)
-        except np.linalg.LinAlgError:
+            if dense:
+                dx = np.linalg.solve(jac, -r)
+            else:
+                from scipy.sparse.linalg import splu  # (scipy is imported at first use)
+
+                dx = splu(jac).solve(-r)
+        except (np.linalg.LinAlgError, RuntimeError):  # (SuperLU: "exactly singular")
             return x, False, it
         if not np.all(np.isfinite(dx)):
             return x, False, it
@@ -384,7 +481,7 @@ def _singular(jac) -> bool:
     entry: the unknowns differ in units by many orders (a MOSFET's Meyer coordinates hold
     ``τ·V`` with ``τ = 10⁻¹²``, their rows read ``y/τ``), and an unscaled rank test calls
     a matrix whose singular values span 10²⁷ singular when it is not."""
-    a = np.asarray(jac, dtype=np.float64)
+    a = np.asarray(jac if isinstance(jac, np.ndarray) else jac.toarray(), dtype=np.float64)
     for axis in (1, 0):
         peak = np.max(np.abs(a), axis=axis, keepdims=True)
         a = a / np.where(peak > 0.0, peak, 1.0)
