@@ -235,21 +235,16 @@ class _Equations:
         program's rows) at that probe, to check the structure's pattern (else ``[]``)."""
         modes = events.initial_modes(self.system)
         hold_i = np.zeros(len(self.held))
-        jacobians = []
-        for seed in (0,):
-            rng = np.random.default_rng(seed)
-            v = rng.standard_normal(self.n)
-            mu = rng.standard_normal(self.m)
-            q = self.q0 + rng.standard_normal(self.n) * 1e-3
-            _, j_v, j_mu, j_q, j_h, _ = self._program(modes, v, mu, q, hold_i, 1.0, 0.0)
-            if seed == 0:
-                rows = self.n + self.m  # the balance and the one-forms (held rows: φ's)
-                dep = np.nonzero(np.any(np.abs(j_q[:rows]) > 0.0, axis=0))[0]
-                size = self.n + self.m + len(dep) + len(self.held)
-                if size < _op_jacobian.MIN_SIZE:
-                    return dep, []
-            jacobians.append(np.concatenate([j_v, j_mu, j_q[:, dep], j_h], axis=1))
-        return dep, jacobians
+        rng = np.random.default_rng(0)
+        v = rng.standard_normal(self.n)
+        mu = rng.standard_normal(self.m)
+        q = self.q0 + rng.standard_normal(self.n) * 1e-3
+        _, j_v, j_mu, j_q, j_h, _ = self._program(modes, v, mu, q, hold_i, 1.0, 0.0)
+        rows = self.n + self.m  # the balance and the one-forms (held rows: φ's)
+        dep = np.nonzero(np.any(np.abs(j_q[:rows]) > 0.0, axis=0))[0]
+        if self.n + self.m + len(dep) + len(self.held) < _op_jacobian.MIN_SIZE:
+            return dep, []
+        return dep, [np.concatenate([j_v, j_mu, j_q[:, dep], j_h], axis=1)]
 
     def linearized(self, modes):
         """``x, source, gmin ↦ (r, ∂r/∂x, q, p)`` as NumPy arrays, the switches in the
