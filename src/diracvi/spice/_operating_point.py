@@ -102,6 +102,17 @@ def _static(system, t, q, v, mu):
     return balance, velocity
 
 
+def _held_rows(stepped, t, kcl, held, held_values, source, gmin, v, mu, q, hold_i):
+    """The static equations at ``(v, μ, q)`` with the held nodes' currents ``hold_i``: the
+    balance, the one-forms' rows with ``gmin·μ`` on the KCL rows (the gmin homotopy) and
+    the held nodes' currents added, and the held rows ``φ_n − s·V_ic``."""
+    balance, velocity = _static(stepped, t, q, v, mu)
+    velocity = velocity.at[kcl].add(gmin * mu[kcl])
+    velocity = velocity.at[held].add(hold_i)
+    fixed = mu[held] - source * held_values
+    return jnp.concatenate([balance, velocity, fixed])
+
+
 def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, source, gmin):
     """The static equations at ``(v, μ, q)`` with the held nodes' currents ``hold_i`` and
     the homotopies' ``source`` and ``gmin`` — the balance, the one-forms' rows and the
@@ -111,11 +122,7 @@ def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, s
     stepped = events.with_modes(system, modes)
 
     def equations(v, mu, q, hold_i):
-        balance, velocity = _static(stepped, t, q, v, mu)
-        velocity = velocity.at[kcl].add(gmin * mu[kcl])
-        velocity = velocity.at[held].add(hold_i)
-        fixed = mu[held] - source * held_values
-        r = jnp.concatenate([balance, velocity, fixed])
+        r = _held_rows(stepped, t, kcl, held, held_values, source, gmin, v, mu, q, hold_i)
         return r, r
 
     jac, r = jax.jacfwd(equations, argnums=(0, 1, 2, 3), has_aux=True)(v, mu, q, hold_i)
@@ -137,11 +144,7 @@ def _compressed_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, s
     stepped = events.with_modes(system, modes)
 
     def equations(v, mu, q, hold_i):
-        balance, velocity = _static(stepped, t, q, v, mu)
-        velocity = velocity.at[kcl].add(gmin * mu[kcl])
-        velocity = velocity.at[held].add(hold_i)
-        fixed = mu[held] - source * held_values
-        return jnp.concatenate([balance, velocity, fixed])
+        return _held_rows(stepped, t, kcl, held, held_values, source, gmin, v, mu, q, hold_i)
 
     r, jvp = jax.linearize(equations, v, mu, q, hold_i)
     jvps = jax.vmap(jvp)(*seeds)
