@@ -476,8 +476,8 @@ def test_a_switch_ring_tightened_finishes_and_its_instants_converge():
     ``ℓ`` to ``B`` (one more for the first try after a flip, sized on the new law, down to
     0.6 of the landing), no step is below ``B = 5e-14 s``. A floor collapse or a
     rejection cascade (the 6.5e-17 s above) puts steps there; measured 1.67e-13 s, a
-    margin of 3.3 (2026-12-02, session 39; 1.85e-13 s outside 2 steps before to 16 after
-    each flip, session 38's 1.7e-13)."""
+    margin of 3.3 (1.38e-13 s, 2.8, under the default compile; 2026-12-02, session 39;
+    1.85e-13 s outside 2 steps before to 16 after each flip, session 38's 1.7e-13)."""
     loose, _ = _ring_instants_error(1e-4)
     tight, run = _ring_instants_error(1e-5)
     march = run.trajectory
