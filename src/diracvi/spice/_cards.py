@@ -132,24 +132,6 @@ def device_temperature(ctx, element, kw, line) -> float:
     return ctx.temperature + dtemp
 
 
-#: ngspice's default temperature and TNOM (°C)
-NOMINAL = 27.0
-
-
-def nominal_only(ctx, element, kw, line, what: str) -> None:
-    """Refuse a device whose model has no temperature update in diracvi yet (its part
-    is written for ``V_T`` at 27 °C and its parameters at TNOM = 27 °C) anywhere but at
-    27 °C with TNOM = 27 °C, naming the device kind and the fix."""
-    temp = device_temperature(ctx, element, kw, line)
-    if temp != NOMINAL or ctx.tnom != NOMINAL:
-        raise line.fail(
-            f"element {element!r}: {what} has no temperature dependence in diracvi yet; "
-            f"it would run at {temp:g} °C with TNOM {ctx.tnom:g} °C, and diracvi simulates "
-            "this device only at ngspice's nominal 27 °C (drop .temp, .options temp=/tnom= "
-            "and the line's TEMP=/DTEMP=, or set them to 27 °C)"
-        )
-
-
 def built(parts: dict | None, build: Callable, *args, name: str, **kwargs):
     """``build(*args, name=name, **kwargs)``, a part constructor called with a netlist's
     numbers, or the part ``parts`` (one read's memory, ``None``: none) holds from an
