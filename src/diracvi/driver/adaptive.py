@@ -254,6 +254,7 @@ from .step_error import (
     gap_error,
     growth,
     impulse_alternation,
+    mode_amplitude,
 )
 from .tries import one_step, three_steps
 
@@ -530,11 +531,18 @@ def _march(system, rule, solver, capacity, x):
             eps_c = jnp.where(
                 fitted_m, impulse_alternation(c["rej_m"], m_raw, c["rej_h"], h_try), 0.0
             )
+        # a potential growing as an unstable mode (its centres' slopes of one sign, each
+        # larger than the last) judged against its growing part, not its running peak:
+        # its errors add up undamped (step_error.mode_amplitude); not on the first try
+        # after a corner (no centres of this law before it)
+        centres = (t - 1.5 * h_last, t - 0.5 * h_last, t + 0.25 * h_try, t + 0.75 * h_try)
+        amplitude = mode_amplitude(jnp, centres, (c["phi_prev"], phi_0, phi_a, phi_b))
+        amplitude = jnp.where(c["gap_ok"], amplitude, jnp.inf)
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]) + ((c["p_peak"],) if judge_p else ()),
             (x["safety"], rtol, tol_q, tol_v, x["atol_m"]), hmax, base, delta,
-            momenta, potentials_over_tmax=rings, c_alternation=eps_c,
+            momenta, potentials_over_tmax=rings, c_alternation=eps_c, m_amplitude=amplitude,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2, smooth, p_peak = est
         v2 = (q2 - q1) / half
