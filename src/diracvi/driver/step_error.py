@@ -55,7 +55,14 @@ class Estimate(NamedTuple):
     p_peak: object = None
 
 
-def mode_amplitude(xp, xs, ys):
+#: how many e-foldings of its rate ``λ`` a potential must have been seen growing for
+#: :func:`mode_amplitude` to take it for an unstable mode: a waveform leaving a turn,
+#: its slope ``∝ (t − t₀)^k``, reads ``λ = k/(t − t₀)``, i.e. ``k`` e-foldings since
+#: its slope began to grow whatever the time (``k = 1`` past a sinusoid's peak)
+OBSERVED = 3.0
+
+
+def mode_amplitude(xp, xs, ys, since=None):
     r"""The amplitude of each node potential's growing part where it grows as an unstable
     mode, ``φ = b + a e^{λt}`` with ``λ > 0`` (``inf`` elsewhere): :func:`estimate` judges
     such a potential against it rather than against its running peak.
@@ -92,18 +99,29 @@ def mode_amplitude(xp, xs, ys):
     the amplitude ``|s₃|/λ``: for ``b + a e^{λt}`` on evenly spaced centres ``λ`` is
     exact and ``|s₃|/λ`` the growing part's mean over the last spacing ``d``,
     ``|a| e^{λ m₃} sinh(λd/2)/(λd/2)`` (off by ``O((λH)²)`` where the spacings differ).
+    Returns the amplitudes and the mask of the potentials that grow this try, with or
+    without the e-foldings asked for.
     The potential's absolute tolerance ``atol_m`` (``vntol``) still floors it: a flat
     potential's noise that reads as a growth is not judged below it. A waveform that
     merely accelerates reads as a mode too — a sinusoid ``cos θ`` approaching its zero
     crossing reads an amplitude ``sin²θ/|cos θ|``, below its peak where ``|cos θ| > 0.62``
-    — and is judged tighter there (measured on the guard decks: docs/circuits.md)."""
+    — and is judged tighter there, the more so the nearer the turn (``θ²`` of its peak
+    just past it: ``ng_mosamp`` took 7.5 times the steps). So where ``since`` is given
+    (per potential, when its growth began: the end of the last try that did not read
+    one) a potential counts as a mode only once it has grown over :data:`OBSERVED`
+    e-foldings of its rate, ``λ (t − since) ≥ 3``: a power law leaving a turn, slope
+    ``∝ (t − t₀)^k``, reads ``λ (t − t₀) = k`` forever, an exponential's count grows."""
     s = [(ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]) for i in range(3)]
     mid = [0.5 * (xs[i] + xs[i + 1]) for i in range(3)]
     same = (s[0] * s[1] > 0.0) & (s[1] * s[2] > 0.0)
     growing = same & (xp.abs(s[1]) > xp.abs(s[0])) & (xp.abs(s[2]) > xp.abs(s[1]))
     ratio = xp.where(growing, s[2] / xp.where(growing, s[1], 1.0), 2.0)
     lam = xp.log(ratio) / (mid[2] - mid[1])
-    return xp.where(growing, xp.abs(s[2]) / lam, xp.inf)
+    if since is not None:
+        growing_long = growing & (lam * (xs[3] - since) >= OBSERVED)
+    else:
+        growing_long = growing
+    return xp.where(growing_long, xp.abs(s[2]) / lam, xp.inf), growing
 
 
 def alternating(xp, last, this, h_last, half):
