@@ -254,7 +254,6 @@ from .step_error import (
     gap_error,
     growth,
     impulse_alternation,
-    mode_amplitude,
 )
 from .tries import one_step, three_steps
 
@@ -274,10 +273,7 @@ MESSAGES = {
 }
 
 #: the loop's state at a try's start, kept to take an accepted try again (gap_error)
-_UNDO = (
-    "t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last",
-    "m_since",
-)  # fmt: skip
+_UNDO = ("t", "q", "p", "v_last", "u_prev", "mu_last", "h_last", "c_last", "phi_prev", "e_last")
 
 #: the coarse step's Newton stops within this share of what the step-doubling estimate
 #: can notice (module doc): the estimate moves by at most this many tolerances
@@ -534,21 +530,11 @@ def _march(system, rule, solver, capacity, x):
             eps_c = jnp.where(
                 fitted_m, impulse_alternation(c["rej_m"], m_raw, c["rej_h"], h_try), 0.0
             )
-        # a potential growing as an unstable mode (its centres' slopes of one sign, each
-        # larger than the last) judged against its growing part, not its running peak:
-        # its errors add up undamped (step_error.mode_amplitude); not on the first try
-        # after a corner (no centres of this law before it)
-        centres = (t - 1.5 * h_last, t - 0.5 * h_last, t + 0.25 * h_try, t + 0.75 * h_try)
-        amplitude, grows = mode_amplitude(
-            jnp, centres, (c["phi_prev"], phi_0, phi_a, phi_b), c["m_since"]
-        )
-        grows = grows & c["gap_ok"]
-        amplitude = jnp.where(grows, amplitude, jnp.inf)
         est = estimate(
             jnp, q, (qc, q1, q2), (mu_c, mu1, mu2), c_prev, h_try,
             (c["q_peak"], c["v_peak"], c["m_peak"]) + ((c["p_peak"],) if judge_p else ()),
             (x["safety"], rtol, tol_q, tol_v, x["atol_m"]), hmax, base, delta,
-            momenta, potentials_over_tmax=rings, c_alternation=eps_c, m_amplitude=amplitude,
+            momenta, potentials_over_tmax=rings, c_alternation=eps_c,
         )  # fmt: skip
         err, q_peak, v_peak, m_peak, c2, smooth, p_peak = est
         v2 = (q2 - q1) / half
@@ -657,9 +643,6 @@ def _march(system, rule, solver, capacity, x):
         new["v_last"] = jnp.where(accept, v2, c["v_last"])
         new["u_prev"] = jnp.where(accept, (q1 - q) / half, c["u_prev"])
         new["phi_prev"] = jnp.where(accept, phi1, c["phi_prev"])
-        # when each potential's growth began (step_error.mode_amplitude): kept while it
-        # grows, this try's end where it does not
-        new["m_since"] = jnp.where(accept & ~grows, t_new, c["m_since"])
         new["mu_last"] = jnp.where(accept, mu2, c["mu_last"])
         new["y_mean2"] = jnp.where(accept, means[1], c["y_mean2"])
         new["y_mean1"] = jnp.where(accept, means[2], c["y_mean1"])
@@ -738,7 +721,6 @@ def _march(system, rule, solver, capacity, x):
         "aimed": jnp.asarray(False),
         "u_prev": x["u_prev"],
         "phi_prev": x["phi_prev"],
-        "m_since": x["m_since"],
         "y_mean1": x["y_mean1"],
         "y_mean2": x["y_mean2"],
         "back_ok": jnp.asarray(False),  # a new chunk cannot rewrite the last one's rows
@@ -867,7 +849,6 @@ def adaptive(
         "aimed": np.asarray(False),
         "u_prev": np.zeros(n),
         "phi_prev": np.zeros(m),
-        "m_since": np.full(m, np.float64(t0)),
         "y_mean1": np.zeros(n),
         "y_mean2": np.zeros(n),
     }

@@ -55,75 +55,6 @@ class Estimate(NamedTuple):
     p_peak: object = None
 
 
-#: how many e-foldings of its rate ``λ`` a potential must have been seen growing for
-#: :func:`mode_amplitude` to take it for an unstable mode: a waveform leaving a turn,
-#: its slope ``∝ (t − t₀)^k``, reads ``λ = k/(t − t₀)``, i.e. ``k`` e-foldings since
-#: its slope began to grow whatever the time (``k = 1`` past a sinusoid's peak)
-OBSERVED = 3.0
-
-
-def mode_amplitude(xp, xs, ys, since=None):
-    r"""The amplitude of each node potential's growing part where it grows as an unstable
-    mode, ``φ = b + a e^{λt}`` with ``λ > 0`` (``inf`` elsewhere): :func:`estimate` judges
-    such a potential against it rather than against its running peak.
-
-    An unstable mode damps nothing. A local error ``ε_k`` made at ``t_k`` is carried
-    forward as ``ε_k e^{λ(t − t_k)}``, so relative to the mode itself the tries' errors
-    add up, undamped, until the mode is over (a regenerative switch's firing, at
-    ``δt = (δa/a)/λ``):
-
-        δ(t) / (a e^{λt}) = Σ_k ε_k / (a e^{λ t_k}).
-
-    The midpoint rule's own error of the mode is ``z³/12`` of it a step (the
-    amplification ``(1 + z/2)/(1 − z/2)`` against ``e^z``); a try records two steps,
-    ``z = λH/2``: ``(λH)³/48`` a try, and one e-folding time ``1/λ`` takes ``1/(λH)``
-    tries, ``(λH)²/48`` of the mode per e-folding. The node potential's step-doubling
-    estimate (the coarse step's centred value against the mean of the fine ones,
-    ``|φ_c − φ̄|/3 = |φ''| H²/48``) reads, for that mode, ``(λH)²/48`` of it per try —
-    the same number: judged per try *against the mode's own amplitude* ``|a e^{λt}|``,
-    it holds the mode's error to the tolerance per e-folding, ``N`` tolerances over
-    ``N`` e-foldings, whatever the steps (measured on a capacitor with a negative
-    resistance, ``tests/test_unstable_mode.py``: 1.4 tolerances per e-folding at the
-    output's points, on 0 V and on 1000 V alike). Judged against the potential's running peak
-    ``|b + a e^{λt}|`` (as every other potential) it is that much looser, ``|b|/|a
-    e^{λt}|`` times where the mode rides on an offset: the control node of
-    ``es_halfwave_scr``'s switch, ``x1.9``, rises 0.64 → 0.70 V over the regeneration.
-    (Dividing the per-try error by ``λH`` instead, an error "per e-folding" for an
-    estimate of the state's local error ``O(H³)``, counts the e-folding twice for the
-    potentials: docs/circuits.md, "The unstable mode judged against itself".)
-
-    The mode is read from the four step centres ``xs`` around the try (the last try's
-    two and this one's) and their values ``ys``: three slopes ``s_i`` of one sign, each
-    larger than the one before (a growing mode, not a decaying one nor a turn),
-    ``λ = ln(s₃/s₂)/(m₃ − m₂)`` from the last two (``m_i`` the slopes' midpoints) and
-    the amplitude ``|s₃|/λ``: for ``b + a e^{λt}`` on evenly spaced centres ``λ`` is
-    exact and ``|s₃|/λ`` the growing part's mean over the last spacing ``d``,
-    ``|a| e^{λ m₃} sinh(λd/2)/(λd/2)`` (off by ``O((λH)²)`` where the spacings differ).
-    Returns the amplitudes and the mask of the potentials that grow this try, with or
-    without the e-foldings asked for.
-    The potential's absolute tolerance ``atol_m`` (``vntol``) still floors it: a flat
-    potential's noise that reads as a growth is not judged below it. A waveform that
-    merely accelerates reads as a mode too — a sinusoid ``cos θ`` approaching its zero
-    crossing reads an amplitude ``sin²θ/|cos θ|``, below its peak where ``|cos θ| > 0.62``
-    — and is judged tighter there, the more so the nearer the turn (``θ²`` of its peak
-    just past it: ``ng_mosamp`` took 7.5 times the steps). So where ``since`` is given
-    (per potential, when its growth began: the end of the last try that did not read
-    one) a potential counts as a mode only once it has grown over :data:`OBSERVED`
-    e-foldings of its rate, ``λ (t − since) ≥ 3``: a power law leaving a turn, slope
-    ``∝ (t − t₀)^k``, reads ``λ (t − t₀) = k`` forever, an exponential's count grows."""
-    s = [(ys[i + 1] - ys[i]) / (xs[i + 1] - xs[i]) for i in range(3)]
-    mid = [0.5 * (xs[i] + xs[i + 1]) for i in range(3)]
-    same = (s[0] * s[1] > 0.0) & (s[1] * s[2] > 0.0)
-    growing = same & (xp.abs(s[1]) > xp.abs(s[0])) & (xp.abs(s[2]) > xp.abs(s[1]))
-    ratio = xp.where(growing, s[2] / xp.where(growing, s[1], 1.0), 2.0)
-    lam = xp.log(ratio) / (mid[2] - mid[1])
-    if since is not None:
-        growing_long = growing & (lam * (xs[3] - since) >= OBSERVED)
-    else:
-        growing_long = growing
-    return xp.where(growing_long, xp.abs(s[2]) / lam, xp.inf), growing
-
-
 def alternating(xp, last, this, h_last, half):
     """The period-2 part ``δ`` of each coordinate at a try's start (:func:`estimate`):
     with the last try's two fine increments ``last = (b₁, b₂)`` (steps of ``h_last``)
@@ -137,13 +68,7 @@ def alternating(xp, last, this, h_last, half):
     the fourth derivative's, ``O(h⁴)``, a step below the truncation error's ``O(h³)``)."""
     (b1, b2), (a1, a2) = last, this
     x = (-2.0 * h_last, -h_last, 0.0, half, 2.0 * half)
-    values = (
-        -(b1 + b2),
-        -b2,
-        0.0 * a1,
-        a1,
-        a1 + a2,
-    )  # relative to q₀ (the weights sum to 0)
+    values = (-(b1 + b2), -b2, 0.0 * a1, a1, a1 + a2)  # relative to q₀ (the weights sum to 0)
     num, den = 0.0, 0.0
     for i in range(5):
         weight = 1.0
@@ -187,7 +112,6 @@ def estimate(
     momenta=None,
     potentials_over_tmax=True,
     c_alternation=None,
-    m_amplitude=None,
 ) -> Estimate:
     """The step-doubling error of one try (module docstring), for the compiled loop
     (``xp = jax.numpy``) and the sparse host loop (``xp = numpy``) alike.
@@ -226,11 +150,7 @@ def estimate(
     an alternation ``ε(−1)^k`` that no step damps and that is not in the state (the
     μ's are free of it): it moves the coarse potential ``φ_c`` by ``ε/H`` and leaves the
     fine ones' mean as it is, a floor that grows as the step shrinks. Given, the coarse
-    potential is read from ``c₋₁ − ε``.
-
-    ``m_amplitude``: per multiplier, the amplitude of the potential's growing part where
-    it grows as an unstable mode (:func:`mode_amplitude`; ``inf`` elsewhere), or None:
-    such a potential is judged against it where it is below the running peak."""
+    potential is read from ``c₋₁ − ε``."""
     qc, q1, q2 = steps
     mu_c, mu1, mu2 = mus
     share, rtol, atol_q, atol_v, atol_m = tolerances
@@ -247,8 +167,7 @@ def estimate(
     phi1, phi2 = -c1 / half, -c2 / half
     diff_m = xp.abs(phi_c - 0.5 * (phi1 + phi2)) / (2.0**_ORDER - 1.0)
     m_peak = xp.maximum(peaks[2], xp.maximum(xp.abs(phi1), xp.abs(phi2)))
-    m_scale = m_peak if m_amplitude is None else xp.minimum(m_peak, m_amplitude)
-    e_m = diff_m / (share * rtol * m_scale + atol_m)
+    e_m = diff_m / (share * rtol * m_peak + atol_m)
     if potentials_over_tmax is True:
         e_m = over_tmax(xp, e_m, h_try, hmax)
     elif potentials_over_tmax is not False:  # per multiplier
@@ -409,7 +328,6 @@ __all__ = [
     "growth",
     "growth_of",
     "impulse_alternation",
-    "mode_amplitude",
     "node_momentum_error",
     "over_tmax",
 ]
