@@ -33,7 +33,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..runtime.roundoff import corner_arguments, with_bound
+from ..runtime.roundoff import corner_arguments, corner_rows, with_bound
 from .controlled import ControlledPart
 
 #: the default ``τ``: ``y_k`` holds ``τ·g_k``. Newton judges all positions by one norm
@@ -123,17 +123,11 @@ def BehaviouralSource(
         return jnp.asarray(law(a, b, s, e))
 
     def law_corners(q, v, dv, t):
-        # the law's corners (runtime/roundoff.py: corner_arguments): each argument g,
-        # how far the inputs' absolute tolerances move it, and its terms
+        # the law's corners (runtime/roundoff.py: corner_rows): each argument g, how far
+        # the inputs' absolute tolerances move it, and its terms
         vc, cc = controls(q, v)
         args = (vc, cc, t, v[iy] / tau)
-        g, terms = corner_arguments(corner_law, args, [jnp.abs(a) for a in args])
-        # (a tolerance not set — inf on a coordinate the step control leaves out —
-        # moves nothing here: the corner is then known to its terms only)
-        dv = jnp.where(jnp.isfinite(dv), dv, 0.0)
-        seeds = (dv[iw], dv[ic], 0.0 * t, dv[iy] / tau)
-        _, atol = corner_arguments(corner_law, args, seeds)
-        return jnp.stack([g, atol, terms])
+        return corner_rows(corner_law, args, (dv[iw], dv[ic], 0.0 * t, dv[iy] / tau))
 
     zeros = (np.zeros(pairs), np.zeros(len(currents)), 0.0, np.zeros(len(derivatives)))
     has_corners = corner_arguments(corner_law, zeros, zeros)[0].shape[0] > 0

@@ -32,7 +32,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..errors import ModelError
-from ..runtime.roundoff import corner_arguments
+from ..runtime.roundoff import corner_arguments, corner_rows
 from ._part import Part, finite, positive, traced
 from .controlled import ControlledPart
 
@@ -261,8 +261,6 @@ def _core_corners(coenergy: _Coenergy):
         # a tolerance not set (inf on a coordinate the step control leaves out) moves
         # nothing: the corner is then known to its terms only
         dmmf = jnp.dot(jnp.abs(turns), jnp.where(jnp.isfinite(dv), dv, 0.0))
-        g, terms = corner_arguments(core.flux, (mmf,), (jnp.abs(mmf),))
-        _, atol = corner_arguments(core.flux, (mmf,), (dmmf,))
-        return jnp.stack([g, atol, terms])
+        return corner_rows(core.flux, (mmf,), (dmmf,))
 
     return law_corners

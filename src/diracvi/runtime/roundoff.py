@@ -211,4 +211,19 @@ def corner_arguments(fn, args, seeds):
     return jnp.concatenate([g for g, _ in found]), jnp.concatenate([e for _, e in found])
 
 
-__all__ = ["CORNERS", "EXACT", "UNIT", "corner_arguments", "with_bound"]
+def corner_rows(fn, args, tolerances):
+    """``K = [g; A; T]``, the ``(3, k)`` rows of a part's ``law_corners``
+    (:class:`~diracvi.components.ControlledPart`): the corner arguments ``g`` of ``fn`` at
+    ``args``, the bound ``A`` by which the inputs' absolute ``tolerances`` (one per
+    argument, its shape) move each, and each argument's terms ``T`` (the bound seeded
+    with ``|args|``), by :func:`corner_arguments`. A tolerance not set — ``inf`` on a
+    coordinate the step control leaves out — moves nothing: that corner is then known to
+    its terms only. Traceable."""
+    args = [jnp.asarray(a) for a in args]
+    g, terms = corner_arguments(fn, args, [jnp.abs(a) for a in args])
+    seeds = [jnp.where(jnp.isfinite(s), s, 0.0) for s in tolerances]
+    _, atol = corner_arguments(fn, args, seeds)
+    return jnp.stack([g, atol, terms])
+
+
+__all__ = ["CORNERS", "EXACT", "UNIT", "corner_arguments", "corner_rows", "with_bound"]
