@@ -21,6 +21,7 @@ import pytest
 
 import diracvi as dv
 from diracvi.runtime import fingerprint as _fingerprint
+from diracvi.runtime import mappings as _mappings
 from diracvi.runtime import store as _stored
 from diracvi.runtime.fingerprint import Unstorable, canonical
 from diracvi.runtime.program import lift
@@ -269,3 +270,42 @@ def test_a_function_lifted_inside_a_trace_leaves_no_tracer_in_the_cache():
     _, consts, _ = lift(user, [(3,)])
     assert consts and not any(isinstance(c, jax.core.Tracer) for c in consts)
     assert float(jax.jit(lambda x: build_inside(x) + 1.0)(1.0)) == 2.0
+
+
+def _solve_shifted(a):
+    # an LU and a loop: an executable with several kernels, each in mappings of its own
+    n = a.shape[0]
+    x = jnp.linalg.solve(2.0 * jnp.eye(n) + a, a[0])
+    return jax.lax.fori_loop(0, 3, lambda i, y: 1.5 * y, x)
+
+
+def test_executables_are_dropped_before_the_processs_mappings_run_out(tmp_path, monkeypatch):
+    # Linux allows vm.max_map_count mappings a process and every live XLA executable holds
+    # dozens (diracvi.runtime.mappings): a process that compiled ~1400 programs died in
+    # serialize_executable at 65 433 mappings. With the budget set just above this
+    # process's count, programs of 16 shapes would pass it by ~800 mappings; the relief
+    # keeps the count within one program of the budget, and a dropped program still
+    # answers (loaded again from disk) with the same bits.
+    if _mappings.count() is None:
+        pytest.skip("no /proc/self/maps here: no mapping limit to keep under")
+    monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
+    _new_process(monkeypatch)
+    program = StoredJit(_solve_shifted, "tests._solve_shifted", dict)
+    first = program(np.full((2, 2), 0.1))
+    one_program = _mappings.count()
+    program(np.full((3, 3), 0.1))
+    one_program = _mappings.count() - one_program  # what one more program takes
+    assert one_program > 10  # premise: an executable's mappings are counted here
+    budget = _mappings.count() + 5 * one_program
+    monkeypatch.setattr(_mappings, "BUDGET", budget)
+    drops = []
+    real_drop = _stored._drop_programs
+    monkeypatch.setattr(_stored, "_drop_programs", lambda: drops.append(1) or real_drop())
+    counts = []
+    for n in range(4, 20):
+        a = np.full((n, n), 0.1)
+        np.testing.assert_allclose(program(a), _solve_shifted(jnp.asarray(a)), rtol=1e-14)
+        counts.append(_mappings.count())
+    assert drops  # the budget was reached ...
+    assert max(counts) <= budget + 3 * one_program  # ... and the count held near it
+    np.testing.assert_array_equal(program(np.full((2, 2), 0.1)), first)  # a dropped one

@@ -33,6 +33,7 @@ import jax
 import numpy as np
 
 from . import cache as _cache
+from . import mappings as _mappings
 from .fingerprint import Unstorable, canonical, key
 
 log = logging.getLogger(__name__)
@@ -50,6 +51,8 @@ MEMORY_LIMIT = 256
 #: disk again, ≈ 0.1 s a program (the bridge rectifier's four: a warm `spice.run` of a
 #: fresh `spice.read` 0.24 CPU s against 0.062 on the deck read once).
 _LOADED: OrderedDict = OrderedDict()
+#: every StoredJit alive, so that :func:`_drop_programs` reaches the programs each holds
+_INSTANCES: weakref.WeakSet = weakref.WeakSet()
 
 
 def _recall(key_: str):
@@ -70,6 +73,15 @@ def _keep(key_: str, compiled) -> None:
             _LOADED.popitem(last=False)
     except KeyError:  # another thread evicted it first
         pass
+
+
+def _drop_programs() -> None:
+    """Forget every executable this process holds (they are loaded or compiled again when
+    next called): the memory mappings' relief (:mod:`diracvi.runtime.mappings`)."""
+    _LOADED.clear()
+    for stored in list(_INSTANCES):
+        stored._programs.clear()
+        stored._by_object.clear()
 
 
 def folder() -> Path | None:
@@ -196,6 +208,7 @@ class StoredJit:
         self._make_plain = plain or self._filter_jit
         self._plain = None
         functools.update_wrapper(self, fn)
+        _INSTANCES.add(self)
 
     def _filter_jit(self):
         """``eqx.filter_jit(fn)`` with the options; inside another trace (a part's
@@ -218,6 +231,11 @@ class StoredJit:
     def plain(self, *args, **kwargs):
         """The call as it is without the store (made at its first use)."""
         if self._plain is None:
+            # a model's first plain call compiles (the store off, an unstorable call): its
+            # executables will take mappings too (not inside another trace: JAX's caches
+            # are in use there)
+            if not any(isinstance(x, jax.core.Tracer) for x in jax.tree.leaves((args, kwargs))):
+                _mappings.relieve(_drop_programs)
             self._plain = self._make_plain()
         return self._plain(*args, **kwargs)
 
@@ -250,7 +268,10 @@ class StoredJit:
             if len(self._programs) > MEMORY_LIMIT:  # the least recently used goes
                 self._programs.popitem(last=False)
         else:
-            self._programs.move_to_end(signature)
+            try:
+                self._programs.move_to_end(signature)
+            except KeyError:  # dropped by another thread's relief meanwhile
+                pass
         if program and fast is not None:
             self._remember(fast, args[0], program)
         return (program or None), leaves
@@ -284,6 +305,8 @@ class StoredJit:
         key_ = key(self._identity, arguments, requested)
         compiled = _recall(key_)
         if compiled is None:
+            # a new executable is about to take its mappings: make room first
+            _mappings.relieve(_drop_programs)
             compiled = load(key_)
         if compiled is not None:
             _keep(key_, compiled)
