@@ -289,20 +289,43 @@ class StoredJit:
         if len(self._by_object) > MEMORY_LIMIT:
             self._by_object.popitem(last=False)
 
-    def _resolve(self, args, kwargs, leaves, treedef):
-        """Load or compile (and store) the program of a new signature; ``False`` if the
-        key cannot represent it or tracing fails (``eqx.filter_jit`` then reports)."""
+    def held(self, *args, **kwargs) -> bool:
+        """Whether the program of this call is at hand without compiling it: in this
+        process or in the store on disk (a call then loads it)."""
+        if not enabled():
+            return False
+        leaves, treedef = jax.tree.flatten((args, kwargs))
+        try:
+            if self._programs.get((treedef, *(_signature(leaf) for leaf in leaves))):
+                return True
+        except TypeError:
+            return False
+        key_ = self._key(args, kwargs)
+        where = folder()
+        return key_ is not None and (
+            _recall(key_) is not None or (where is not None and (where / f"{key_}.exe").exists())
+        )
+
+    def _key(self, args, kwargs):
+        """The store's key of a call, or ``None`` where the key cannot represent it."""
         try:
             arguments = canonical((args, kwargs))
             if self._context is not None:
                 arguments += "|" + canonical(self._context, values=True)
         except Unstorable as why:
             log.debug("%s not stored: %s", self._identity, why)
-            return False
+            return None
         # the options as requested: what this jaxlib accepts of them follows from its
         # version (in the key), and asking it would compile a probe
         requested = self._options_key if self._options_key is not None else self._options()
-        key_ = key(self._identity, arguments, requested)
+        return key(self._identity, arguments, requested)
+
+    def _resolve(self, args, kwargs, leaves, treedef):
+        """Load or compile (and store) the program of a new signature; ``False`` if the
+        key cannot represent it or tracing fails (``eqx.filter_jit`` then reports)."""
+        key_ = self._key(args, kwargs)
+        if key_ is None:
+            return False
         compiled = _recall(key_)
         if compiled is None:
             # a new executable is about to take its mappings: make room first

@@ -45,7 +45,8 @@ import numpy as np
 
 from ..driver import delay, events
 from ..errors import ModelError
-from ..runtime.compile import run_once_jit
+from ..runtime.compile import LOOP_REQUESTED, loop_options, run_once_jit
+from ..runtime.store import StoredJit
 from ..solvers.limiting import junctions, limit_rows, start_voltages
 from . import _op_jacobian
 from ._magnetic import mmf_values
@@ -133,6 +134,20 @@ def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, s
 # on-disk store, so a later process loads it untraced (the eager JAX calls it replaces
 # compiled a program per operation: ~120 for an RC circuit)
 _linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._linearized")
+#: the same program with XLA's optimization (the variable-step loop's options): a point
+#: that takes many Newton iterates (gmin or source stepping: 184 on ten level-1
+#: inverters) runs it ~10× faster (17.4 → 1.8 ms a call there) for ~1.1 s more to
+#: compile (0.53 → 1.67 s); the same numbers, bit for bit, measured on that deck
+_linearized_optimized = StoredJit(
+    _linearized_fn, "diracvi.spice._operating_point._linearized", loop_options,
+    options_key=LOOP_REQUESTED,
+)  # fmt: skip
+#: calls of the unoptimized program after which a point switches to the optimized one
+#: (unless that one is at hand from the start: compiled earlier, or in the store). At
+#: 17 ms a call against 1.1 s more to compile, the switch pays after ~70 calls; waiting
+#: for half that bounds what is lost either way (a point found by plain Newton, in
+#: fewer calls, never compiles the optimized one)
+OPTIMIZE_AFTER = 32
 
 
 def _compressed_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, source, gmin, seeds,
@@ -182,6 +197,7 @@ class _Equations:
             )
         self.held = np.asarray([rows[assembly.kcl_rows[node]] for node in hold], dtype=np.int64)
         self.held_values = np.asarray(list(hold.values()), dtype=np.float64)
+        self.calls = 0  # of the static equations' program (._tier)
         self.dep, probes = self._dependent()
         # the Jacobian read through its pattern where that pays (._op_jacobian)
         self.plan = self._plan(probes)
@@ -198,12 +214,13 @@ class _Equations:
 
     def _program(self, modes, v, mu, q, hold_i, source, gmin):
         data = (self.kcl, self.held, self.held_values, np.asarray(modes, np.float64))
+        args = (
+            self.stepped, self.t0, *data,
+            *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
+            np.float64(source), np.float64(gmin),
+        )  # fmt: skip
         try:
-            out = _linearized(
-                self.stepped, self.t0, *data,
-                *(np.asarray(a, np.float64) for a in (v, mu, q, hold_i)),
-                np.float64(source), np.float64(gmin),
-            )  # fmt: skip
+            out = self._tier(args)(*args)
             return tuple(np.asarray(a) for a in out)
         except jax.errors.JaxRuntimeError as err:
             if "RESOURCE_EXHAUSTED" not in str(err):
@@ -219,6 +236,14 @@ class _Equations:
                 ".tran line UIC (with .ic for the node voltages it should start from) to skip "
                 "the DC analysis."
             ) from None
+
+    def _tier(self, args):
+        """The program to call: the optimized one once :data:`OPTIMIZE_AFTER` calls were
+        made on the unoptimized one, or from the first call where it is at hand."""
+        if self.calls == 0 and _linearized_optimized.held(*args):
+            self.calls = OPTIMIZE_AFTER
+        self.calls += 1
+        return _linearized_optimized if self.calls > OPTIMIZE_AFTER else _linearized
 
     def _plan(self, probes):
         """The compressed Jacobian's plan (:mod:`._op_jacobian`) from the circuit's
