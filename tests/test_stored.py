@@ -205,23 +205,6 @@ def test_a_program_this_process_holds_is_not_loaded_again(tmp_path, monkeypatch)
     assert len(_stored._LOADED) == 1
 
 
-def test_held_says_whether_a_call_would_compile(tmp_path, monkeypatch):
-    # held() is how a caller picks between two compilations of one function (the
-    # operating point's unoptimized and optimized program): true only for a program in
-    # this process or on disk, never compiling one itself
-    monkeypatch.setattr(_stored, "folder", lambda: tmp_path)
-    _new_process(monkeypatch)
-    x = np.arange(3.0)
-    program = StoredJit(_double, "tests._double", dict)
-    assert not program.held(x, 1.5)
-    assert list(tmp_path.glob("*.exe")) == []
-    program(x, 1.5)
-    assert program.held(x, 1.5) and not program.held(x, 2.0)
-    _new_process(monkeypatch)  # in a new process: on disk
-    assert StoredJit(_double, "tests._double", dict).held(x, 1.5)
-    assert not StoredJit(_double, "tests._double", lambda: {}, options_key={"o": 1}).held(x, 1.5)
-
-
 def test_the_store_keeps_the_most_recently_used_within_its_bound(tmp_path):
     for i, size in enumerate((100, 200, 300)):
         path = tmp_path / f"{i}.exe"

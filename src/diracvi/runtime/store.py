@@ -289,23 +289,6 @@ class StoredJit:
         if len(self._by_object) > MEMORY_LIMIT:
             self._by_object.popitem(last=False)
 
-    def held(self, *args, **kwargs) -> bool:
-        """Whether the program of this call is at hand without compiling it: in this
-        process or in the store on disk (a call then loads it)."""
-        if not enabled():
-            return False
-        leaves, treedef = jax.tree.flatten((args, kwargs))
-        try:
-            if self._programs.get((treedef, *(_signature(leaf) for leaf in leaves))):
-                return True
-        except TypeError:
-            return False
-        key_ = self._key(args, kwargs)
-        where = folder()
-        return key_ is not None and (
-            _recall(key_) is not None or (where is not None and (where / f"{key_}.exe").exists())
-        )
-
     def _key(self, args, kwargs):
         """The store's key of a call, or ``None`` where the key cannot represent it."""
         try:

@@ -137,16 +137,17 @@ _linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._line
 #: the same program with XLA's optimization (the variable-step loop's options): a point
 #: that takes many Newton iterates (gmin or source stepping: 184 on ten level-1
 #: inverters) runs it ~10× faster (17.4 → 1.8 ms a call there) for ~1.1 s more to
-#: compile (0.53 → 1.67 s); the same numbers, bit for bit, measured on that deck
+#: compile (0.53 → 1.67 s). Its numbers differ from the unoptimized program's by an ulp
+#: in some entries (175 of 187 calls there, ≤ 2e-16 relative), so which program a call
+#: takes must not depend on what the store holds: see ``_Equations._tier``
 _linearized_optimized = StoredJit(
     _linearized_fn, "diracvi.spice._operating_point._linearized", loop_options,
     options_key=LOOP_REQUESTED,
 )  # fmt: skip
-#: calls of the unoptimized program after which a point switches to the optimized one
-#: (unless that one is at hand from the start: compiled earlier, or in the store). At
-#: 17 ms a call against 1.1 s more to compile, the switch pays after ~70 calls; waiting
-#: for half that bounds what is lost either way (a point found by plain Newton, in
-#: fewer calls, never compiles the optimized one)
+#: calls of the unoptimized program after which a point switches to the optimized one.
+#: At 17 ms a call against 1.1 s more to compile, the switch pays after ~70 calls;
+#: waiting for half that bounds what is lost either way (a point found by plain Newton,
+#: in fewer calls, never compiles the optimized one)
 OPTIMIZE_AFTER = 32
 
 
@@ -239,9 +240,9 @@ class _Equations:
 
     def _tier(self, args):
         """The program to call: the optimized one once :data:`OPTIMIZE_AFTER` calls were
-        made on the unoptimized one, or from the first call where it is at hand."""
-        if self.calls == 0 and _linearized_optimized.held(*args):
-            self.calls = OPTIMIZE_AFTER
+        made on the unoptimized one — by the count alone, not by which program is already
+        compiled or stored, so that a deck's operating point has the same bits in a first
+        process and a later one (the two programs differ by ulps)."""
         self.calls += 1
         return _linearized_optimized if self.calls > OPTIMIZE_AFTER else _linearized
 
