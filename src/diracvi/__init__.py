@@ -15,7 +15,9 @@ from .runtime import cache as _cache
 from .runtime import config as _config  # noqa: F401  (float64 on)
 from .runtime import dispatch as _dispatch  # noqa: F401  (CPU dispatch on the caller)
 from .runtime import small_loops as _small_loops  # noqa: F401  (small loops: one kernel)
+from .runtime import typed_ffi as _typed_ffi
 
+_typed_ffi.install()  # LAPACK calls as typed FFI: one-CPU processes compile them (XLA bug)
 _cache.enable()  # the on-disk compilation cache (DIRACVI_CACHE_DIR; "" switches it off)
 
 __version__ = "0.1.0"
