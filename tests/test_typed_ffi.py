@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import diracvi as dv
+from conftest import run
 from diracvi import problems
 from diracvi.runtime import typed_ffi
 
@@ -76,13 +77,8 @@ def test_one_cpu_process_compiles_lapack_newton_program_to_the_same_trajectory(t
     )
     assert proc.returncode == 0, proc.stderr[-2000:]
 
-    p = problems.get("spring-chain")
-    here = dv.simulate(
-        p.system,
-        p.q0,
-        p.p0,
-        dt=p.dt,
-        steps=p.steps,
+    here = run(
+        problems.get("spring-chain"),
         discretization="midpoint",
         solver=dv.NewtonSolver(reuse_jacobian=False),
     )

@@ -226,15 +226,8 @@ import numpy as np
 from ..discretization.rules import get_rule
 from ..errors import ModelError
 from ..model.roundoff import force_corners
-from ..runtime.compile import (
-    LOOP_REQUESTED,
-    RUN_ONCE_REQUESTED,
-    fast_compile,
-    loop_options,
-    run_once_options,
-)
+from ..runtime.compile import stored_loop_jit
 from ..runtime.config import ensure_float64
-from ..runtime.store import StoredJit
 from ..solvers.bordered import newton_for
 from ..solvers.newton import NewtonSolver
 from . import events
@@ -747,12 +740,7 @@ def _march(system, rule, solver, capacity, x):
 #: the compilation, the same step speed: runtime/compile.py: loop_options), or the
 #: run-once options under DIRACVI_FAST_COMPILE=1, and kept in the program store: a
 #: later process loads it
-_program = StoredJit(
-    _march,
-    "diracvi.driver.adaptive._march",
-    run_once_options if fast_compile() else loop_options,
-    options_key=RUN_ONCE_REQUESTED if fast_compile() else LOOP_REQUESTED,
-)
+_program = stored_loop_jit(_march, "diracvi.driver.adaptive._march")
 
 
 def buffer_size(n: int) -> int:

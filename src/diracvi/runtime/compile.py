@@ -112,6 +112,22 @@ def stored_chunk_jit(fn, identity: str, context):
     )
 
 
+def stored_loop_jit(fn, identity: str):
+    """``jax.jit(fn)`` compiled with :func:`loop_options` — or :func:`run_once_options`
+    under ``DIRACVI_FAST_COMPILE=1``, as the chunks are — its programs kept in the store
+    under ``identity``: a program that runs long enough for XLA's optimization to pay
+    (the variable-step loop; the operating point's Newton past its first calls)."""
+    from .store import StoredJit
+
+    fast = fast_compile()
+    return StoredJit(
+        fn,
+        identity,
+        run_once_options if fast else loop_options,
+        options_key=RUN_ONCE_REQUESTED if fast else LOOP_REQUESTED,
+    )
+
+
 def fast_compile() -> bool:
     """Whether ``DIRACVI_FAST_COMPILE`` asks for chunks compiled without optimization."""
     return env_switch(

@@ -45,8 +45,7 @@ import numpy as np
 
 from ..driver import delay, events
 from ..errors import ModelError
-from ..runtime.compile import LOOP_REQUESTED, loop_options, run_once_jit
-from ..runtime.store import StoredJit
+from ..runtime.compile import run_once_jit, stored_loop_jit
 from ..solvers.limiting import junctions, limit_rows, start_voltages
 from . import _op_jacobian
 from ._magnetic import mmf_values
@@ -134,16 +133,16 @@ def _linearized_fn(system, t, kcl, held, held_values, modes, v, mu, q, hold_i, s
 # on-disk store, so a later process loads it untraced (the eager JAX calls it replaces
 # compiled a program per operation: ~120 for an RC circuit)
 _linearized = run_once_jit(_linearized_fn, "diracvi.spice._operating_point._linearized")
-#: the same program with XLA's optimization (the variable-step loop's options): a point
+#: the same program with XLA's optimization (the variable-step loop's options; under
+#: DIRACVI_FAST_COMPILE=1 the run-once ones, so the same program as above): a point
 #: that takes many Newton iterates (gmin or source stepping: 184 on ten level-1
 #: inverters) runs it ~10× faster (17.4 → 1.8 ms a call there) for ~1.1 s more to
 #: compile (0.53 → 1.67 s). Its numbers differ from the unoptimized program's by an ulp
 #: in some entries (175 of 187 calls there, ≤ 2e-16 relative), so which program a call
 #: takes must not depend on what the store holds: see ``_Equations._tier``
-_linearized_optimized = StoredJit(
-    _linearized_fn, "diracvi.spice._operating_point._linearized", loop_options,
-    options_key=LOOP_REQUESTED,
-)  # fmt: skip
+_linearized_optimized = stored_loop_jit(
+    _linearized_fn, "diracvi.spice._operating_point._linearized"
+)
 #: calls of the unoptimized program after which a point switches to the optimized one.
 #: At 17 ms a call against 1.1 s more to compile, the switch pays after ~70 calls;
 #: waiting for half that bounds what is lost either way (a point found by plain Newton,
@@ -221,7 +220,7 @@ class _Equations:
             np.float64(source), np.float64(gmin),
         )  # fmt: skip
         try:
-            out = self._tier(args)(*args)
+            out = self._tier()(*args)
             return tuple(np.asarray(a) for a in out)
         except jax.errors.JaxRuntimeError as err:
             if "RESOURCE_EXHAUSTED" not in str(err):
@@ -238,7 +237,7 @@ class _Equations:
                 "the DC analysis."
             ) from None
 
-    def _tier(self, args):
+    def _tier(self):
         """The program to call: the optimized one once :data:`OPTIMIZE_AFTER` calls were
         made on the unoptimized one — by the count alone, not by which program is already
         compiled or stored, so that a deck's operating point has the same bits in a first
