@@ -323,3 +323,27 @@ def test_output_holds_the_saved_vectors_proportionately(monkeypatch):
         np.testing.assert_array_equal(ds["vectors"].sel(vector=name).values, result[name])
     assert "q" not in ds.data_vars and "energy" in ds.data_vars
     assert ds.attrs["vectors"] == "vectors(time, vector)"
+
+
+def test_host_waveforms_equal_the_traced_path():
+    """``spice.waveforms`` forms a host trajectory's signals all at once (one gather per
+    kind) and a traced one signal by signal in JAX: two codings of the same formulas
+    (node voltages from the KCL multipliers, currents from the charges, both ends
+    extrapolated), which must agree to round-off on every signal, ends included."""
+    import jax
+
+    import diracvi as dv
+    from diracvi.bench.ladders import ladder
+    from diracvi.spice import waveforms
+
+    netlist = spice.read(ladder(4, steps=20))
+    traj = dv.simulate(
+        netlist.system, netlist.q0, netlist.p0, dt=netlist.dt, steps=netlist.steps,
+        discretization="midpoint",
+    )  # fmt: skip
+    host = waveforms(netlist, traj)
+    traced = jax.jit(lambda tr: waveforms(netlist, tr))(traj)
+    assert sorted(host) == sorted(traced) and len(host) == 9 + 13  # 9 nodes, 13 currents
+    for key, values in host.items():
+        peak = float(np.max(np.abs(values)))
+        np.testing.assert_allclose(values, traced[key], rtol=0, atol=1e-13 * peak, err_msg=key)
