@@ -141,6 +141,19 @@ def test_child_processes_report_json_or_fail_cleanly():
         )
 
 
+def test_bench_help_names_every_benchmark():
+    """``--only``'s help lists the names literally (the CLI does not import the
+    benchmarks to start): every benchmark there is must be named, in the table's order."""
+    import re
+
+    from diracvi.bench import BENCHMARKS
+
+    result = CliRunner().invoke(app, ["bench", "--help"], terminal_width=400)
+    text = " ".join(re.sub("[│╭╮╰╯─]", " ", result.output).split())  # rich's box drawn
+    listed = re.search(r"repeatable\):(.*?)\.\s", text).group(1)
+    assert [name.strip() for name in listed.split(",")] == list(BENCHMARKS)
+
+
 def test_bench_rejects_an_unknown_benchmark():
     result = CliRunner().invoke(app, ["bench", "--only", "nope"])
     assert result.exit_code == EXIT_USAGE

@@ -32,7 +32,8 @@ def bench(
             "--only",
             metavar="NAME",
             help="Run only this benchmark (repeatable): spring-chain, rlc, chain-scaling, "
-            "pendulum, ensemble, sweep, compile.",
+            "pendulum, ensemble, gradients, sweep, compile, first-call, cache, "
+            "closure-chain, driven, work-precision, circuits.",
         ),
     ] = None,
     json_path: Annotated[
