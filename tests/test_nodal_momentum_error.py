@@ -198,3 +198,27 @@ def test_the_inertia_of_a_packed_circuit_is_the_part_by_part_one():
     a, b = inertia(plain, q), inertia(packed, q)
     assert np.count_nonzero(a) >= 1  # its inductor
     assert np.array_equal(a, b)
+
+
+def test_the_inertia_read_by_part_position_is_each_coordinates_own():
+    # an interconnection's mass matrix is block diagonal by part, so one product per
+    # position in a part reads every diagonal entry (one product on a ladder): the same
+    # masses, bit for bit, as one product per coordinate — on coupled windings (a part
+    # of two coordinates with the mutual inductance off its diagonal, which a colouring
+    # across a part would add in) and on a torn pendulum (a mass matrix in q)
+    import diracvi as dv
+    from diracvi.driver import algebraic
+
+    netlist = spice.read(RLC.parent / "xy_minductors.cir")  # K1 L1 L2 0.75
+    pendulum = dv.problems.double_pendulum_torn()
+    for system, q in (
+        (netlist.system, np.random.default_rng(3).standard_normal(netlist.system.n)),
+        (pendulum.system, np.asarray(pendulum.q0) + 0.3),
+    ):
+        colour = algebraic.block_colours(system)
+        assert colour is not None and colour.max() + 1 < system.n
+        which = np.arange(system.n, dtype=np.int32)
+        one_each = np.asarray(algebraic._inertia(system, q, np.float64(0.0), which))
+        assert np.count_nonzero(one_each) >= 2
+        assert np.array_equal(algebraic.inertia(system, q), one_each)
+    assert len(set(algebraic.block_colours(netlist.system)[_windings(netlist)])) == 2

@@ -103,12 +103,43 @@ def _inertia(system, q, t0, which):
     return jax.lax.map(entry, which)
 
 
+@run_once_jit
+def _inertia_coloured(system, q, t0, seeds):
+    """``(∂²L/∂v²) s`` at ``(q, v = 0)`` for each seed ``s`` (rows of ``seeds``): one
+    Hessian-vector product a seed, in a loop."""
+    zero = jnp.zeros(q.shape[0], q.dtype)
+
+    def momentum(v):
+        return jax.grad(lambda b: system.lagrangian(q, b, t0))(v)
+
+    return jax.lax.map(lambda seed: jax.jvp(momentum, (zero,), (seed,))[1], seeds)
+
+
+def block_colours(system) -> np.ndarray | None:
+    """Per coordinate of an interconnection ``L = Σ_i L^i(q_i, v_i)``, its position in
+    its part's block (the blocks are ``system._offsets``), or ``None`` for a system that
+    is not one. ``∂²L/∂v²`` is block diagonal by part, so coordinates of one position
+    in different parts meet in no entry: one product along the sum of their unit
+    vectors reads each one's diagonal entry, ``(M s_c)_j = M_jj``."""
+    offsets = getattr(system, "_offsets", None)
+    if offsets is None or not getattr(system, "subsystems", None):
+        return None
+    offsets = np.asarray(offsets, dtype=np.int64)
+    sizes = np.diff(offsets)
+    return np.arange(system.n, dtype=np.int64) - np.repeat(offsets[:-1], sizes)
+
+
 def inertia(system, q0, t0=0.0, which=None) -> np.ndarray:
     """Per coordinate, its inertia ``M_jj = ∂²L/∂v_j²`` at ``q0`` and rest (an inductor's
     inductance; 0 for a coordinate the Lagrangian reads no velocity of), probed for the
     coordinates ``which`` (indices; default all) and 0 for the others: the scale of a
     nodal momentum's error in the step control
-    (:func:`~diracvi.driver.step_error.node_momentum_error`)."""
+    (:func:`~diracvi.driver.step_error.node_momentum_error`).
+
+    An interconnection's are read by part position (:func:`block_colours`): as many
+    products as its largest part has coordinates (one on a ladder of R, L and C),
+    where one a coordinate made the probe O(n²) — 0.6 s at 9001 coordinates, 70 s
+    projected at 10⁵."""
     n = system.n
     which = np.arange(n) if which is None else np.asarray(which, dtype=np.int32).reshape(-1)
     out = np.zeros(n)
@@ -116,8 +147,15 @@ def inertia(system, q0, t0=0.0, which=None) -> np.ndarray:
         # NumPy arguments, as the program takes them: jnp.asarray of NumPy data is an
         # eager program per shape, compiled in every process
         q = np.asarray(q0, dtype=np.float64).reshape(n)
-        out[which] = np.asarray(_inertia(system, q, np.float64(t0), which))
+        colour = block_colours(system)
+        if colour is None:
+            out[which] = np.asarray(_inertia(system, q, np.float64(t0), which))
+            return out
+        used = np.unique(colour[which])
+        seeds = (colour[None, :] == used[:, None]).astype(np.float64)
+        products = np.asarray(_inertia_coloured(system, q, np.float64(t0), seeds))
+        out[which] = products[np.searchsorted(used, colour[which]), which]
     return out
 
 
-__all__ = ["algebraic_mask", "inertia"]
+__all__ = ["algebraic_mask", "block_colours", "inertia"]
