@@ -138,8 +138,8 @@ def inertia(system, q0, t0=0.0, which=None) -> np.ndarray:
 
     An interconnection's are read by part position (:func:`block_colours`): as many
     products as its largest part has coordinates (one on a ladder of R, L and C),
-    where one a coordinate made the probe O(n²) — 0.6 s at 9001 coordinates, 70 s
-    projected at 10⁵."""
+    where one a coordinate made the probe O(n²) — 0.6 s at 9001 coordinates, 5.1 s at
+    30 001 (``docs/performance.md``)."""
     n = system.n
     which = np.arange(n) if which is None else np.asarray(which, dtype=np.int32).reshape(-1)
     out = np.zeros(n)

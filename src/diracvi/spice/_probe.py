@@ -90,7 +90,7 @@ def _host_signals(assembly, traj, h, midpoint, row, index, display) -> dict:
     """The node voltages and branch currents of a host trajectory, every signal of a
     kind at once: the columns gathered into one ``(signals, times)`` array, the same
     formulas as :func:`_traced_signals` applied to all rows (a large circuit's thousands
-    of signals one at a time were ~80 µs each, mostly strided column reads)."""
+    of signals one at a time were ~40 µs each, mostly strided column reads)."""
     out: dict[str, np.ndarray] = {}
     steps = traj.multipliers.shape[0]
     nodes = [n for n in assembly.nodes if assembly.kcl_rows[n] in row]
