@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 
-import diracvi as dv
 from diracvi import problems
+from diracvi.bench._core import simulate_problem
 from diracvi.discretization.base import QuadratureRule
 from diracvi.discretization.rules import register_rule
 
@@ -79,14 +79,7 @@ def main() -> None:
         problem = problems.get(name)
 
         def call(rule, problem=problem):
-            return dv.simulate(
-                problem.system,
-                problem.q0,
-                problem.p0,
-                dt=problem.dt,
-                steps=problem.steps,
-                discretization=rule,
-            )
+            return simulate_problem(problem, rule)
 
         q = {rule: np.asarray(call(rule).q) for rule in rules}
         cpu = {rule: [] for rule in rules}

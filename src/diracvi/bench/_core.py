@@ -186,6 +186,21 @@ def interleaved(
     return times
 
 
+def simulate_problem(problem, discretization: str):
+    """``dv.simulate`` of a built-in problem (:mod:`diracvi.problems`) at its own step,
+    length and initial state under ``discretization``: the call the benchmarks time."""
+    import diracvi as dv
+
+    return dv.simulate(
+        problem.system,
+        problem.q0,
+        problem.p0,
+        dt=problem.dt,
+        steps=problem.steps,
+        discretization=discretization,
+    )
+
+
 def summary(times: np.ndarray) -> dict:
     """``{min_s, median_s, repeats}`` of a sample of times."""
     return {

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 
-from ._core import Result, Row, Settings
+from ._core import Result, Row, Settings, simulate_problem
 from ._worker import WorkerFailed, run_child
 
 NAME = "compile"
@@ -38,7 +38,6 @@ print(json.dumps(measure(sys.argv[1], import_s)))
 
 def measure(name: str, import_s: float) -> dict:
     """In a fresh process (after ``import diracvi``): build, first call, warm calls (s)."""
-    import diracvi as dv
     from diracvi import problems
 
     t1 = time.perf_counter()
@@ -46,14 +45,7 @@ def measure(name: str, import_s: float) -> dict:
     t2 = time.perf_counter()
 
     def call():
-        return dv.simulate(
-            problem.system,
-            problem.q0,
-            problem.p0,
-            dt=problem.dt,
-            steps=problem.steps,
-            discretization=problem.discretizations[0],
-        )
+        return simulate_problem(problem, problem.discretizations[0])
 
     traj = call()
     t3 = time.perf_counter()

@@ -25,7 +25,7 @@ import time
 
 import numpy as np
 
-from ._core import Result, Row, Settings, Target
+from ._core import Result, Row, Settings, Target, simulate_problem
 from ._worker import WorkerFailed, run_child
 
 NAME = "first-call"
@@ -120,7 +120,6 @@ def scipy_route(problem, t_end: float) -> np.ndarray:
 def measure(side: str, name: str, rule: str) -> dict:
     """In a fresh process: the first call of ``side`` (``diracvi`` or ``scipy``) on the
     problem ``name`` (wall and CPU s) and its ``q`` at the horizon (reduced coordinates)."""
-    import diracvi as dv
     from diracvi import problems
 
     problem = problems.get(name)
@@ -130,14 +129,7 @@ def measure(side: str, name: str, rule: str) -> dict:
 
     wall, cpu = time.perf_counter(), _cpu()
     if side == "diracvi":
-        traj = dv.simulate(
-            problem.system,
-            problem.q0,
-            problem.p0,
-            dt=problem.dt,
-            steps=problem.steps,
-            discretization=rule,
-        )
+        traj = simulate_problem(problem, rule)
         q_end = np.asarray(traj.q[-1])[pick]
     else:
         q_end = scipy_route(problem, t_end)
