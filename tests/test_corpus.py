@@ -713,3 +713,31 @@ def test_the_reference_audit_reads_a_run_that_ngspice_dies_after_writing():
     t, ref = corpus.load_reference("xy_tra_bug1284_baseline")
     worst, _, missing = corpus.compare_ngspice(names, data, t, ref)
     assert not missing and worst <= 1e-8
+
+
+def test_the_time_shift_of_an_edge_is_its_delay_less_the_band():
+    # benchmarks/deck_worst.py --shift reads the corpus's 1e-3 of peak along the time
+    # axis (docs/circuits.md, "What the disagreements are in time"): a tanh edge of
+    # slope 1/τ at its centre, late by s, needs s less the band's half-width
+    # 1e-3·τ there; an early one the same; on time, none. An edge 1 % too tall is a
+    # value error, not a time: its plateaus reach the reference's only on the edge, so
+    # the shift is the run's end points' distance to where the edge passes -1.001
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[1] / "benchmarks" / "deck_worst.py"
+    spec = importlib.util.spec_from_file_location("deck_worst", path)
+    worst = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(worst)
+    t = np.linspace(0.0, 1.0, 2001)
+    grid = np.union1d(np.linspace(0.0, 1.0, 100_001), t)
+    tau = 0.01
+    reference = np.tanh((t - 0.5) / tau)
+    for late in (0.0, 1e-4, -1e-3, 5e-3):
+        waveform = np.tanh((grid - 0.5 - late) / tau)
+        expected = max(abs(late) - 1e-3 * tau, 0.0)
+        assert worst.time_shift(grid, waveform, t, reference, 1.0) == pytest.approx(
+            expected, rel=1e-4, abs=1e-12
+        )
+    taller = 1.01 * np.tanh((grid - 0.5) / tau)
+    expected = 0.5 + tau * np.arctanh(-1.001 / 1.01)
+    assert worst.time_shift(grid, taller, t, reference, 1.0) == pytest.approx(expected, rel=1e-4)
