@@ -44,20 +44,25 @@ import numpy as np  # noqa: E402  (after the environment above)
 import _corpus as corpus  # noqa: E402
 
 
+def matched(have: dict, ref: dict):
+    """``(vector, diracvi, ngspice, peak)`` per reference signal that ``have`` reports
+    (names as :func:`_corpus.compare_sampled` matches them, the peak with its floor)."""
+    have = {k.lower(): np.asarray(v, dtype=float) for k, v in have.items()}
+    for vector, values in ref.items():
+        key = next((k for k in corpus.diracvi_keys(vector) if k in have), None)
+        if key is not None:
+            floor = corpus.ABSTOL if vector.lower().startswith("i(") else corpus.VNTOL
+            yield vector, have[key], values, max(float(np.max(np.abs(values))), floor)
+
+
 def worst_points(have: dict, t: np.ndarray, ref: dict) -> list[tuple]:
     """``(error, vector, time, diracvi, ngspice, peak)`` per reference signal, worst first
     (the error as :func:`_corpus.compare_sampled` measures it)."""
-    have = {k.lower(): np.asarray(v, dtype=float) for k, v in have.items()}
     rows = []
-    for vector, values in ref.items():
-        key = next((k for k in corpus.diracvi_keys(vector) if k in have), None)
-        if key is None:
-            continue
-        floor = corpus.ABSTOL if vector.lower().startswith("i(") else corpus.VNTOL
-        peak = max(float(np.max(np.abs(values))), floor)
-        error = np.abs(have[key] - values) / peak
+    for vector, mine, values, peak in matched(have, ref):
+        error = np.abs(mine - values) / peak
         j = int(np.argmax(error))
-        rows.append((float(error[j]), vector, float(t[j]), have[key][j], values[j], peak))
+        rows.append((float(error[j]), vector, float(t[j]), mine[j], values[j], peak))
     return sorted(rows, key=lambda row: -row[0])
 
 
@@ -100,16 +105,10 @@ def time_shift(grid, sampled, t, values, peak, window=512):
 def shifts(have_at, grid, t, ref) -> dict:
     """:func:`time_shift` per reference signal (``have_at(times)`` the waveforms)."""
     grid = np.union1d(grid, t)
-    have = {k.lower(): np.asarray(v, dtype=float) for k, v in have_at(grid).items()}
-    out = {}
-    for vector, values in ref.items():
-        key = next((k for k in corpus.diracvi_keys(vector) if k in have), None)
-        if key is None:
-            continue
-        floor = corpus.ABSTOL if vector.lower().startswith("i(") else corpus.VNTOL
-        peak = max(float(np.max(np.abs(values))), floor)
-        out[vector] = time_shift(grid, have[key], t, values, peak)
-    return out
+    return {
+        vector: time_shift(grid, mine, t, values, peak)
+        for vector, mine, values, peak in matched(have_at(grid), ref)
+    }
 
 
 def _print_shifts(label, found, tstep) -> None:
